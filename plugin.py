@@ -1,0 +1,56 @@
+"""QGIS plugin object: installs the translation and registers the Processing provider."""
+from pathlib import Path
+
+from qgis.core import QgsApplication
+from qgis.PyQt.QtCore import QCoreApplication, QLocale, QSettings, QTranslator
+
+from .processing_provider.provider import WitProvider
+
+PLUGIN_DIR = Path(__file__).resolve().parent
+
+
+def user_locale() -> str:
+    """The two-letter language QGIS runs in (its own setting, else the system's)."""
+    settings = QSettings()
+    if settings.value("locale/overrideFlag", False, type=bool):
+        name = settings.value("locale/userLocale", "", type=str)
+    else:
+        name = QLocale.system().name()
+    return (name or "en")[:2]
+
+
+def install_translator(locale: str) -> "QTranslator | None":
+    """Load i18n/wit_citymodel_<locale>.qm if it exists; English needs none."""
+    qm = PLUGIN_DIR / "i18n" / f"wit_citymodel_{locale}.qm"
+    if not qm.exists():
+        return None
+    translator = QTranslator()
+    if not translator.load(str(qm)):
+        return None
+    QCoreApplication.installTranslator(translator)
+    return translator
+
+
+class WitCityModelPlugin:
+    """Loaded by QGIS (classFactory); qgis_process calls initProcessing() only."""
+
+    def __init__(self, iface):
+        self.iface = iface
+        self.provider = None
+        self.translator = install_translator(user_locale())
+
+    def initProcessing(self):  # noqa: N802 (QGIS API name)
+        if self.provider is None:
+            self.provider = WitProvider()
+            QgsApplication.processingRegistry().addProvider(self.provider)
+
+    def initGui(self):  # noqa: N802 (QGIS API name)
+        self.initProcessing()
+
+    def unload(self):
+        if self.provider is not None:
+            QgsApplication.processingRegistry().removeProvider(self.provider)
+            self.provider = None
+        if self.translator is not None:
+            QCoreApplication.removeTranslator(self.translator)
+            self.translator = None

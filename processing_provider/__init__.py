@@ -1,0 +1,1 @@
+"""QGIS Processing glue: the ``wit`` provider and one thin algorithm per file."""

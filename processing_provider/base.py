@@ -1,0 +1,100 @@
+"""Shared behaviour of every ``wit`` algorithm: translation, help, dependency check, errors.
+
+Subclasses declare parameters and implement ``execute`` (``run`` is QGIS API); ``processAlgorithm``
+turns core exceptions into ``QgsProcessingException`` so the user sees a message, never a traceback.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from qgis.core import QgsProcessingAlgorithm, QgsProcessingException, QgsProcessingFeedback
+from qgis.PyQt.QtCore import QCoreApplication
+from qgis.PyQt.QtGui import QIcon
+
+from ..wit_plugin import deps
+from ..wit_plugin.errors import CanceledError, WitError
+from ..wit_plugin.feedback import Feedback
+
+PLUGIN_DIR = Path(__file__).resolve().parents[1]
+HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
+
+
+def tr(text: str) -> str:
+    """Translate in the plugin's single translation context."""
+    return QCoreApplication.translate("WitCityModel", text)
+
+
+class QgisFeedback(Feedback):
+    """Core ``Feedback`` that reports to a ``QgsProcessingFeedback``."""
+
+    def __init__(self, feedback: QgsProcessingFeedback | None):
+        self._feedback = feedback or QgsProcessingFeedback()
+
+    def progress(self, percent: float) -> None:
+        self._feedback.setProgress(percent)
+
+    def is_canceled(self) -> bool:
+        return self._feedback.isCanceled()
+
+    def info(self, message: str) -> None:
+        self._feedback.pushInfo(message)
+
+    def warning(self, message: str) -> None:
+        self._feedback.pushWarning(message)
+
+
+class WitAlgorithm(QgsProcessingAlgorithm):
+    """Base class: subclasses set the class attributes and implement ``initAlgorithm``/``execute``."""
+
+    #: algorithm id without the provider prefix
+    algorithm_id = ""
+    #: untranslated display name, group and help text (translated through ``tr``)
+    display_name = ""
+    group_name = ""
+    help_text = ""
+    #: import names of the optional packages the core step needs (see wit_plugin.deps)
+    requirements: tuple[str, ...] = ()
+
+    def tr(self, text: str) -> str:
+        return tr(text)
+
+    def createInstance(self):  # noqa: N802
+        return type(self)()
+
+    def name(self) -> str:
+        return self.algorithm_id
+
+    def displayName(self) -> str:  # noqa: N802
+        return self.tr(self.display_name)
+
+    def group(self) -> str:
+        return self.tr(self.group_name)
+
+    def groupId(self) -> str:  # noqa: N802
+        return self.group_name.lower().replace(" ", "")
+
+    def icon(self) -> QIcon:
+        return QIcon(str(PLUGIN_DIR / "icon.svg"))
+
+    def helpUrl(self) -> str:  # noqa: N802
+        return f"{HELP_URL}-{self.algorithm_id}"
+
+    def shortHelpString(self) -> str:  # noqa: N802
+        text = self.tr(self.help_text)
+        absent = deps.missing(self.requirements)
+        if absent:
+            text = deps.install_hint(absent).replace("\n", "<br>") + "<br><br>" + text
+        return text
+
+    def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
+        try:
+            deps.require(self.requirements)
+            return self.execute(parameters, context, QgisFeedback(feedback))
+        except CanceledError as exc:
+            raise QgsProcessingException(self.tr("Cancelled: no output was written.")) from exc
+        except WitError as exc:
+            raise QgsProcessingException(str(exc)) from exc
+
+    def execute(self, parameters, context, feedback: QgisFeedback) -> dict:
+        """Convert the parameters, call the core, return the outputs."""
+        raise NotImplementedError

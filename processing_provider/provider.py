@@ -1,0 +1,26 @@
+"""The ``wit`` Processing provider."""
+from qgis.core import QgsProcessingProvider
+from qgis.PyQt.QtGui import QIcon
+
+from .base import PLUGIN_DIR, tr
+from .generatesample import GenerateSample
+
+ALGORITHMS = (GenerateSample,)
+
+
+class WitProvider(QgsProcessingProvider):
+    def id(self) -> str:
+        return "wit"
+
+    def name(self) -> str:
+        return tr("WIT City Model")
+
+    def longName(self) -> str:  # noqa: N802
+        return tr("WIT City Model: textured CityGML 3.0 from Korean national GIS data")
+
+    def icon(self) -> QIcon:
+        return QIcon(str(PLUGIN_DIR / "icon.svg"))
+
+    def loadAlgorithms(self):  # noqa: N802
+        for algorithm in ALGORITHMS:
+            self.addAlgorithm(algorithm())

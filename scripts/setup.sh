@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Idempotent set-up for a fresh Debian 12 machine: system packages (QGIS, GDAL, xmllint, lrelease),
+# a .venv on QGIS's Python with the few extra packages, and compiled translations.
+# Every step checks whether it is already done, so running it again costs a second or two.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+SYS_PY=/usr/bin/python3
+log() { printf '[setup] %s\n' "$*" >&2; }
+
+as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
+
+need_apt=()
+"$SYS_PY" -c 'import qgis.core' 2>/dev/null || need_apt+=(qgis python3-qgis qgis-providers)
+"$SYS_PY" -c 'from osgeo import gdal' 2>/dev/null || need_apt+=(python3-gdal)
+command -v gdal_translate >/dev/null || need_apt+=(gdal-bin)
+command -v qgis_process.bin >/dev/null || need_apt+=(qgis-providers)
+command -v xmllint >/dev/null || need_apt+=(libxml2-utils)
+command -v lrelease >/dev/null || need_apt+=(qttools5-dev-tools)
+"$SYS_PY" -c 'import venv, ensurepip' 2>/dev/null || need_apt+=(python3-venv)
+if [ ${#need_apt[@]} -gt 0 ]; then
+    log "installing system packages: ${need_apt[*]}"
+    as_root apt-get update -qq
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need_apt[@]}" >/dev/null
+fi
+
+# Python environment: QGIS's interpreter, system site-packages visible (qgis, osgeo, numpy).
+if [ ! -x .venv/bin/python ]; then
+    log "creating .venv"
+    "$SYS_PY" -m venv --system-site-packages .venv
+fi
+NUMPY_VERSION="$("$SYS_PY" -c 'import numpy; print(numpy.__version__)')"
+STAMP=".venv/.wit-requirements"
+WANT="$(cat requirements.txt requirements-dev.txt; echo "numpy==$NUMPY_VERSION")"
+if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
+    log "installing Python packages (numpy pinned to the system's $NUMPY_VERSION)"
+    printf 'numpy==%s\n' "$NUMPY_VERSION" > .venv/constraints.txt
+    .venv/bin/python -m pip install -q --disable-pip-version-check \
+        -c .venv/constraints.txt -r requirements-dev.txt
+    printf '%s' "$WANT" > "$STAMP"
+fi
+
+# Translations: .ts (source, committed) -> .qm (compiled, ignored by git).
+shopt -s nullglob
+for ts in i18n/*.ts; do
+    qm="${ts%.ts}.qm"
+    if [ ! -f "$qm" ] || [ "$ts" -nt "$qm" ]; then
+        lrelease -silent "$ts" -qm "$qm"
+    fi
+done
+log "ready"

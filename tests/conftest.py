@@ -1,0 +1,35 @@
+"""Test set-up: the core importable as ``wit_plugin``; the plugin importable as ``wit_citymodel``.
+
+The checkout folder may have any name (CI clones into an arbitrary one), so the plugin package
+is registered under its installed name from the repository root.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
+
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+if "wit_citymodel" not in sys.modules:
+    _spec = importlib.util.spec_from_file_location(
+        "wit_citymodel", ROOT / "__init__.py", submodule_search_locations=[str(ROOT)])
+    _module = importlib.util.module_from_spec(_spec)
+    sys.modules["wit_citymodel"] = _module
+    _spec.loader.exec_module(_module)
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> Path:
+    """The shared fixture data beside the checkout (present in CI)."""
+    if not SHARED.is_dir():
+        pytest.fail(f"{SHARED} is missing: the tests need ../shared beside the checkout")
+    return SHARED

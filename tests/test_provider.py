@@ -1,0 +1,108 @@
+"""The plugin and its provider inside QGIS: registration, unloading, help, translation, deps."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+from qgis.core import QgsApplication
+
+import wit_citymodel
+from wit_citymodel import plugin as plugin_module
+from wit_citymodel.processing_provider.base import tr
+from wit_citymodel.processing_provider.provider import ALGORITHMS
+
+from conftest import ROOT
+
+EXPECTED_IDS = {"wit:generatesample"}
+
+
+@pytest.fixture
+def loaded_plugin(qgis_iface, qgis_processing):
+    plugin = wit_citymodel.classFactory(qgis_iface)
+    plugin.initProcessing()
+    yield plugin
+    plugin.unload()
+
+
+def test_plugin_registers_provider_and_unloads_cleanly(qgis_iface, qgis_processing):
+    registry = QgsApplication.processingRegistry()
+    plugin = wit_citymodel.classFactory(qgis_iface)
+    plugin.initProcessing()
+    plugin.initGui()  # QGIS calls both; the provider must be registered once
+    provider = registry.providerById("wit")
+    assert provider is not None
+    assert {a.id() for a in provider.algorithms()} >= EXPECTED_IDS
+    assert registry.algorithmById("wit:generatesample").displayName() == "Generate sample data"
+    plugin.unload()
+    assert registry.providerById("wit") is None
+    assert registry.algorithmById("wit:generatesample") is None
+
+
+def test_every_algorithm_is_documented(loaded_plugin):
+    provider = QgsApplication.processingRegistry().providerById("wit")
+    for algorithm in provider.algorithms():
+        assert len(algorithm.shortHelpString()) > 80, algorithm.id()
+        assert algorithm.group() and algorithm.groupId()
+        for parameter in algorithm.parameterDefinitions():
+            assert parameter.name() == parameter.name().upper(), (algorithm.id(), parameter.name())
+            assert parameter.description(), (algorithm.id(), parameter.name())
+    assert len(ALGORITHMS) == len(provider.algorithms())
+
+
+def test_korean_locale_translates_labels(loaded_plugin):
+    translator = plugin_module.install_translator("ko")
+    assert translator is not None, "i18n/wit_citymodel_ko.qm missing: run scripts/setup.sh"
+    try:
+        assert tr("Generate sample data") == "샘플 데이터 생성"
+        algorithm = QgsApplication.processingRegistry().algorithmById("wit:generatesample").create()
+        assert algorithm.displayName() == "샘플 데이터 생성"
+        assert algorithm.parameterDefinition("OUTPUT").description() == "출력 폴더"
+    finally:
+        QgsApplication.removeTranslator(translator)
+    assert tr("Generate sample data") == "Generate sample data"
+
+
+def test_every_user_string_has_a_korean_translation():
+    result = subprocess.run([sys.executable, str(ROOT / "scripts" / "i18n.py"), "--check"],
+                            capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout
+
+
+def test_plugin_loads_without_optional_packages_and_explains_how_to_install(tmp_path):
+    """QGIS's own Python without .venv's packages: no triangle and no shapely 2."""
+    script = textwrap.dedent(f"""
+        import importlib.util, sys
+        sys.modules["shapely"] = None   # as on a QGIS without shapely 2
+        sys.modules["triangle"] = None
+        spec = importlib.util.spec_from_file_location(
+            "wit_citymodel", r"{ROOT / '__init__.py'}", submodule_search_locations=[r"{ROOT}"])
+        module = importlib.util.module_from_spec(spec); sys.modules["wit_citymodel"] = module
+        spec.loader.exec_module(module)
+        from qgis.core import QgsApplication, QgsProcessingContext, QgsProcessingFeedback
+        app = QgsApplication([], False); app.initQgis()
+        from wit_citymodel.processing_provider.provider import WitProvider
+        provider = WitProvider()
+        assert QgsApplication.processingRegistry().addProvider(provider)
+        print("ALGS", sorted(a.id() for a in provider.algorithms()))
+        algorithm = QgsApplication.processingRegistry().algorithmById("wit:generatesample")
+        print("HELP", "pip install" in algorithm.shortHelpString())
+        class Recorder(QgsProcessingFeedback):
+            def reportError(self, error, fatalError=False):
+                print("ERROR", error.replace(chr(10), " | "))
+        results, ok = algorithm.run({{"OUTPUT": r"{tmp_path / 'out'}"}}, QgsProcessingContext(), Recorder())
+        print("OK", ok)
+    """)
+    env = {"QT_QPA_PLATFORM": "offscreen", "PATH": "/usr/bin:/bin", "HOME": str(tmp_path),
+           "XDG_RUNTIME_DIR": str(tmp_path), "QGIS_CUSTOM_CONFIG_PATH": str(tmp_path / "profile")}
+    result = subprocess.run(["/usr/bin/python3", "-c", script], capture_output=True, text=True,
+                            env=env, timeout=120)
+    assert "ALGS ['wit:generatesample']" in result.stdout, result.stdout + result.stderr
+    assert "HELP True" in result.stdout
+    assert "OK False" in result.stdout
+    error = next(line for line in result.stdout.splitlines() if line.startswith("ERROR"))
+    assert 'Missing Python package(s): shapely>=2' in error
+    assert '/usr/bin/python3 -m pip install --user --break-system-packages "shapely>=2"' in error
+    assert "OSGeo4W Shell" in error
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
