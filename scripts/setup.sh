@@ -6,7 +6,8 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 SYS_PY=/usr/bin/python3
-log() { printf '[setup] %s\n' "$*" >&2; }
+log() { printf '[setup] %s\n' "$*" >&2; did=1; }
+did=0
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
 
@@ -48,4 +49,4 @@ for ts in i18n/*.ts; do
         lrelease -silent "$ts" -qm "$qm"
     fi
 done
-log "ready"
+[ "$did" = 0 ] || printf '[setup] ready\n' >&2

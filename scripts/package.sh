@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# make package: dist/wit_citymodel-<version>.zip, installable with QGIS's "Install from ZIP".
+# Holds the plugin only (tracked files of the plugin folders + compiled translations);
+# no tests, CI, scripts, benchmarks or outputs.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+bash scripts/setup.sh >/dev/null
+.venv/bin/python - <<'PY'
+import configparser, subprocess, zipfile
+from pathlib import Path
+
+INCLUDE = ["metadata.txt", "__init__.py", "plugin.py", "icon.svg", "LICENSE", "README.md",
+           "requirements.txt", "wit_plugin", "processing_provider", "i18n"]
+version = configparser.ConfigParser()
+version.read("metadata.txt", encoding="utf-8")
+version = version["general"]["version"]
+tracked = subprocess.run(["git", "ls-files", "-z", "--", *INCLUDE], capture_output=True,
+                         check=True).stdout.decode().split("\0")
+files = sorted({f for f in tracked if f and Path(f).is_file()} | {str(p) for p in Path("i18n").glob("*.qm")})
+dist = Path("dist")
+dist.mkdir(exist_ok=True)
+target = dist / f"wit_citymodel-{version}.zip"
+tmp = target.with_suffix(".zip.tmp")
+with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as archive:
+    for name in files:
+        archive.write(name, f"wit_citymodel/{name}")
+tmp.replace(target)
+print(target)
+PY
