@@ -39,3 +39,14 @@ HEIGHT = "height"
 HEIGHT_SOURCE = "height_src"  # "floors", "field", "expression" or "default"
 STOREYS_ABOVE = "storeys_above"
 STOREYS_BELOW = "storeys_below"
+
+# -- wit:wittexture output: images + a texture-coordinate table --------------------------------
+# A folder of images (atlases) and a GeoPackage attribute table (no geometry) TEXCOORD_TABLE with
+# one row per textured surface ring. Rings are the exterior rings as stored in the TIN / LoD1
+# layers (closing point included), so the writer pairs them without re-deriving geometry.
+TEXCOORD_TABLE = "texcoords"
+TEX_TARGET = "target"  # "roof" (LoD1 face), "tin" (TIN triangle) or "road" (TIN triangle)
+TEX_FEATURE = "feature"  # wit_id of the building for "roof"; tri_id (as text) for "tin"/"road"
+TEX_FACE = "face_no"  # FACE_NUMBER of the roof face; NULL for triangles
+TEX_IMAGE = "image"  # image path relative to the texture folder
+TEX_COORDS = "uv"  # "u1 v1 u2 v2 …", one pair per ring point, closing point included
