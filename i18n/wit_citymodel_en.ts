@@ -84,6 +84,106 @@
       <translation>Orthoimage tiles written</translation>
     </message>
     <message>
+      <source>Georeference map-sheet orthoimages</source>
+      <translation>Georeference map-sheet orthoimages</translation>
+    </message>
+    <message>
+      <source>Rasters</source>
+      <translation>Rasters</translation>
+    </message>
+    <message>
+      <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
+      <translation>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</translation>
+    </message>
+    <message>
+      <source>Orthoimage TIFs or folders</source>
+      <translation>Orthoimage TIFs or folders</translation>
+    </message>
+    <message>
+      <source>Target CRS</source>
+      <translation>Target CRS</translation>
+    </message>
+    <message>
+      <source>Datum of the sheet degrees</source>
+      <translation>Datum of the sheet degrees</translation>
+    </message>
+    <message>
+      <source>Margin around the sheet (m)</source>
+      <translation>Margin around the sheet (m)</translation>
+    </message>
+    <message>
+      <source>Output format</source>
+      <translation>Output format</translation>
+    </message>
+    <message>
+      <source>Footprint index</source>
+      <translation>Footprint index</translation>
+    </message>
+    <message>
+      <source>Georeferenced rasters</source>
+      <translation>Georeferenced rasters</translation>
+    </message>
+    <message>
+      <source>Sheets georeferenced</source>
+      <translation>Sheets georeferenced</translation>
+    </message>
+    <message>
+      <source>Files skipped</source>
+      <translation>Files skipped</translation>
+    </message>
+    <message>
+      <source>Files failed</source>
+      <translation>Files failed</translation>
+    </message>
+    <message>
+      <source>GeoTIFF</source>
+      <translation>GeoTIFF</translation>
+    </message>
+    <message>
+      <source>VRT</source>
+      <translation>VRT</translation>
+    </message>
+    <message>
+      <source>Merge tiles (WIT seam feathering)</source>
+      <translation>Merge tiles (WIT seam feathering)</translation>
+    </message>
+    <message>
+      <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Gain equalises the tiles' brightness from their overlaps (every pixel of a tile is scaled by its gain). NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning.</source>
+      <translation>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Gain equalises the tiles' brightness from their overlaps (every pixel of a tile is scaled by its gain). NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning.</translation>
+    </message>
+    <message>
+      <source>Input rasters</source>
+      <translation>Input rasters</translation>
+    </message>
+    <message>
+      <source>Overlap</source>
+      <translation>Overlap</translation>
+    </message>
+    <message>
+      <source>Equalise tile brightness (gain; with feather)</source>
+      <translation>Equalise tile brightness (gain; with feather)</translation>
+    </message>
+    <message>
+      <source>NoData value of the inputs (empty = as declared)</source>
+      <translation>NoData value of the inputs (empty = as declared)</translation>
+    </message>
+    <message>
+      <source>Mosaic</source>
+      <translation>Mosaic</translation>
+    </message>
+    <message>
+      <source>Blended pixels</source>
+      <translation>Blended pixels</translation>
+    </message>
+    <message>
+      <source>Overwrite (paper)</source>
+      <translation>Overwrite (paper)</translation>
+    </message>
+    <message>
+      <source>Feather (WIT)</source>
+      <translation>Feather (WIT)</translation>
+    </message>
+    <message>
       <source>WIT City Model</source>
       <translation>WIT City Model</translation>
     </message>

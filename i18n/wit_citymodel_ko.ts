@@ -84,6 +84,106 @@
       <translation>생성된 정사영상 타일 수</translation>
     </message>
     <message>
+      <source>Georeference map-sheet orthoimages</source>
+      <translation>도엽 정사영상 좌표 부여</translation>
+    </message>
+    <message>
+      <source>Rasters</source>
+      <translation>래스터</translation>
+    </message>
+    <message>
+      <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
+      <translation>각 TIF 파일 이름의 어느 위치에서든 NGII 도엽번호(1:50,000~1:1,000)를 읽고, 원본 측지계(기본: Korea 2000 / GRS80, EPSG:4737)의 도엽 경위도 범위로부터 대상 좌표계에서의 도엽 범위를 계산한 뒤 여백(NGII 타일은 도엽 + 약 50 m)을 더해, 좌표가 부여된 타일·압축 GeoTIFF 또는 원본 픽셀을 그대로 가리키는 VRT를 씁니다. 유효한 도엽번호가 없는 이름과 GDAL이 열 수 없는 파일은 건너뛰고 그 이유를 로그와 도엽 색인에 남깁니다. 추측하지 않습니다. 입력: TIF 파일 및/또는 폴더(그 안의 *.tif, 하위 폴더 제외).</translation>
+    </message>
+    <message>
+      <source>Orthoimage TIFs or folders</source>
+      <translation>정사영상 TIF 또는 폴더</translation>
+    </message>
+    <message>
+      <source>Target CRS</source>
+      <translation>대상 좌표계</translation>
+    </message>
+    <message>
+      <source>Datum of the sheet degrees</source>
+      <translation>도엽 경위도의 측지계</translation>
+    </message>
+    <message>
+      <source>Margin around the sheet (m)</source>
+      <translation>도엽 주변 여백 (m)</translation>
+    </message>
+    <message>
+      <source>Output format</source>
+      <translation>출력 형식</translation>
+    </message>
+    <message>
+      <source>Footprint index</source>
+      <translation>도엽 범위 색인</translation>
+    </message>
+    <message>
+      <source>Georeferenced rasters</source>
+      <translation>좌표 부여된 래스터</translation>
+    </message>
+    <message>
+      <source>Sheets georeferenced</source>
+      <translation>좌표 부여된 도엽 수</translation>
+    </message>
+    <message>
+      <source>Files skipped</source>
+      <translation>건너뛴 파일 수</translation>
+    </message>
+    <message>
+      <source>Files failed</source>
+      <translation>실패한 파일 수</translation>
+    </message>
+    <message>
+      <source>GeoTIFF</source>
+      <translation>GeoTIFF</translation>
+    </message>
+    <message>
+      <source>VRT</source>
+      <translation>VRT</translation>
+    </message>
+    <message>
+      <source>Merge tiles (WIT seam feathering)</source>
+      <translation>타일 병합 (WIT 경계 보간)</translation>
+    </message>
+    <message>
+      <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Gain equalises the tiles' brightness from their overlaps (every pixel of a tile is scaled by its gain). NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning.</source>
+      <translation>좌표가 부여된 타일들을 블록 단위로 처리해(모자이크 크기와 무관한 메모리) 내부 피라미드가 있는 하나의 타일·압축 GeoTIFF로 병합합니다. 출력 격자는 gdal_merge.py와 같습니다(전체 범위, 첫 입력의 픽셀 크기). 겹침 '덮어쓰기'는 나중 타일이 앞 타일을 덮어씁니다(논문의 방법). '페더링'(WIT)은 겹침 픽셀을 각 타일 가장자리까지의 거리로 가중 평균합니다. 게인은 겹침 영역으로부터 타일 밝기를 맞춥니다(타일의 모든 픽셀에 그 게인을 곱함). NoData 픽셀은 섞지 않습니다. 좌표계나 픽셀 크기가 다른 입력은 경고와 함께 첫 입력의 격자로 재배열합니다.</translation>
+    </message>
+    <message>
+      <source>Input rasters</source>
+      <translation>입력 래스터</translation>
+    </message>
+    <message>
+      <source>Overlap</source>
+      <translation>겹침 처리</translation>
+    </message>
+    <message>
+      <source>Equalise tile brightness (gain; with feather)</source>
+      <translation>타일 밝기 맞춤 (게인, 페더링과 함께)</translation>
+    </message>
+    <message>
+      <source>NoData value of the inputs (empty = as declared)</source>
+      <translation>입력의 NoData 값 (비우면 파일에 선언된 값)</translation>
+    </message>
+    <message>
+      <source>Mosaic</source>
+      <translation>모자이크</translation>
+    </message>
+    <message>
+      <source>Blended pixels</source>
+      <translation>보간된 픽셀 수</translation>
+    </message>
+    <message>
+      <source>Overwrite (paper)</source>
+      <translation>덮어쓰기 (논문)</translation>
+    </message>
+    <message>
+      <source>Feather (WIT)</source>
+      <translation>페더링 (WIT)</translation>
+    </message>
+    <message>
       <source>WIT City Model</source>
       <translation>WIT 도시모델</translation>
     </message>

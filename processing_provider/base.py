@@ -7,7 +7,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from qgis.core import QgsProcessingAlgorithm, QgsProcessingException, QgsProcessingFeedback
+from qgis.core import (
+    QgsCoordinateReferenceSystem,
+    QgsProcessingAlgorithm,
+    QgsProcessingException,
+    QgsProcessingFeedback,
+)
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
@@ -17,6 +22,11 @@ from ..wit_plugin.feedback import Feedback
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1]
 HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
+
+
+def crs_string(crs: QgsCoordinateReferenceSystem) -> str:
+    """A CRS as the core takes it: the authority id when there is one, else WKT."""
+    return crs.authid() or crs.toWkt()
 
 
 def tr(text: str) -> str:

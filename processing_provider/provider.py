@@ -4,8 +4,10 @@ from qgis.PyQt.QtGui import QIcon
 
 from .base import PLUGIN_DIR, tr
 from .generatesample import GenerateSample
+from .georeferencemapsheets import GeoreferenceMapSheets
+from .mergetiles import MergeTiles
 
-ALGORITHMS = (GenerateSample,)
+ALGORITHMS = (GenerateSample, GeoreferenceMapSheets, MergeTiles)
 
 
 class WitProvider(QgsProcessingProvider):

@@ -33,3 +33,29 @@ def shared_dir() -> Path:
     if not SHARED.is_dir():
         pytest.fail(f"{SHARED} is missing: the tests need ../shared beside the checkout")
     return SHARED
+
+
+@pytest.fixture(scope="session")
+def wit_provider(qgis_processing):
+    """The ``wit`` provider registered in the test QGIS, as the plugin does it."""
+    from qgis.core import QgsApplication
+
+    from wit_citymodel.processing_provider.provider import WitProvider
+
+    registry = QgsApplication.processingRegistry()
+    provider = registry.providerById("wit")
+    if provider is None:
+        provider = WitProvider()
+        registry.addProvider(provider)
+    yield provider
+
+
+@pytest.fixture
+def run_algorithm(wit_provider):
+    """Run a Processing algorithm like a user (processing.run) and return its results."""
+    import processing
+
+    def run(algorithm_id: str, parameters: dict) -> dict:
+        return processing.run(algorithm_id, parameters)
+
+    return run

@@ -4,4 +4,4 @@ Pure Python on GDAL, numpy, shapely, triangle, lxml and pyproj. Nothing here imp
 so the core runs in tests, scripts and worker processes without QGIS.
 """
 
-__all__ = ["deps", "errors", "feedback", "fileio", "mapsheet", "model", "sample"]
+__all__ = ["deps", "errors", "feedback", "fileio", "georef", "mapsheet", "model", "mosaic", "sample"]

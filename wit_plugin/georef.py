@@ -1,0 +1,283 @@
+"""Georeference NGII orthoimage TIFs from the sheet number in their file names (wit:georeferencemapsheets).
+
+NGII hands out orthoimage tiles without any georeferencing; each covers its map sheet's projected
+envelope plus about 50 m, pixels aligned with the target CRS axes (SPEC §3). So the geotransform
+follows from the name alone: origin at the envelope's top-left corner, pixel size = extent / pixels.
+
+Outputs go to a staging folder inside the output folder and are moved into place only when the
+whole batch has run, so a cancelled or crashed run leaves the output folder as it was. A file
+that cannot be used (no sheet number, unreadable, duplicate sheet) is reported and skipped; the
+batch goes on.
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, Sequence
+
+from osgeo import gdal, ogr, osr
+
+from .errors import InputError
+from .feedback import SILENT, Feedback
+from .fileio import atomic_file, atomic_files, ensure_writable_dir
+from .mapsheet import find_sheet_in_name, projected_envelope
+
+OK, SKIPPED, FAILED = "ok", "skipped", "failed"
+FORMATS = {"GTiff": ".tif", "VRT": ".vrt"}
+TIF_SUFFIXES = (".tif", ".tiff")
+INDEX_LAYER = "footprints"
+
+
+@dataclass
+class SheetResult:
+    """What happened to one input file; one row of the footprint index."""
+
+    source: str
+    sheet: str | None = None
+    scale: int | None = None
+    status: str = SKIPPED
+    reason: str = ""
+    output: str | None = None
+    bounds: tuple[float, float, float, float] | None = None  # xmin, ymin, xmax, ymax incl. margin
+
+
+def list_tifs(folder_or_files: str | os.PathLike | Sequence[str | os.PathLike]) -> list[str]:
+    """The TIFs to process: a folder's *.tif/*.tiff (not recursive, sorted) and/or explicit files."""
+    items = [folder_or_files] if isinstance(folder_or_files, (str, os.PathLike)) else list(folder_or_files)
+    found: list[str] = []
+    for item in items:
+        path = Path(item)
+        if path.is_dir():
+            found += sorted(str(p) for p in path.iterdir() if p.is_file() and p.suffix.lower() in TIF_SUFFIXES)
+        elif path.is_file():
+            found.append(str(path))
+        else:
+            raise InputError(f"Input {path} does not exist.")
+    if not found:
+        raise InputError(f"No .tif or .tiff files in {', '.join(map(str, items)) or 'the input list'}.")
+    return list(dict.fromkeys(found))
+
+
+@contextlib.contextmanager
+def _gdal_errors() -> Iterator[None]:
+    """Silence GDAL's stderr output; callers read the message (works with or without UseExceptions)."""
+    gdal.ErrorReset()
+    gdal.PushErrorHandler("CPLQuietErrorHandler")
+    try:
+        yield
+    finally:
+        gdal.PopErrorHandler()
+
+
+def _srs(crs: str) -> osr.SpatialReference:
+    srs = osr.SpatialReference()
+    try:
+        with _gdal_errors():
+            failed = srs.SetFromUserInput(crs) != 0
+    except RuntimeError:
+        failed = True
+    if failed:
+        raise InputError(f"Unknown coordinate reference system '{crs}'.")
+    srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    return srs
+
+
+def _open(path: str) -> tuple[gdal.Dataset | None, str]:
+    try:
+        with _gdal_errors():
+            ds = gdal.OpenEx(path, gdal.OF_RASTER | gdal.OF_VERBOSE_ERROR)
+            message = gdal.GetLastErrorMsg()
+    except RuntimeError as exc:
+        return None, str(exc)
+    return ds, message
+
+
+def _plan(sources: Sequence[str], out_dir: Path, suffix: str, target_crs: str, source_crs: str,
+          margin: float) -> list[SheetResult]:
+    """Read every name first, so skips are known before any pixel is touched."""
+    results, taken = [], {}
+    for source in sources:
+        result = SheetResult(source=source)
+        results.append(result)
+        try:
+            sheet = find_sheet_in_name(Path(source).name)
+        except InputError as exc:
+            result.reason = str(exc)
+            continue
+        result.sheet, result.scale = sheet.number, sheet.scale
+        output = out_dir / f"{sheet.number}{suffix}"
+        if sheet.number in taken:
+            result.reason = f"sheet {sheet.number} already comes from {taken[sheet.number]}"
+        elif os.path.realpath(output) == os.path.realpath(source):
+            result.reason = f"the output {output} would replace the source; choose another output folder"
+        else:
+            try:
+                result.bounds = projected_envelope(sheet, target_crs, source_crs, margin)
+            except InputError as exc:
+                result.status, result.reason = FAILED, str(exc)
+                continue
+            taken[sheet.number] = source
+            result.output = str(output)
+    return results
+
+
+def _creation_options(ds: gdal.Dataset) -> list[str]:
+    """Tiled, lossless, compressed; predictor 2 for integers, 3 for floats."""
+    options = ["TILED=YES", "BLOCKXSIZE=512", "BLOCKYSIZE=512", "COMPRESS=DEFLATE", "BIGTIFF=IF_SAFER",
+               "NUM_THREADS=ALL_CPUS"]
+    data_type = ds.GetRasterBand(1).DataType if ds.RasterCount else gdal.GDT_Byte
+    if data_type in (gdal.GDT_Float32, gdal.GDT_Float64):
+        options.append("PREDICTOR=3")
+    elif data_type in (gdal.GDT_Byte, gdal.GDT_UInt16, gdal.GDT_Int16, gdal.GDT_UInt32, gdal.GDT_Int32):
+        options.append("PREDICTOR=2")
+    return options
+
+
+def _write_geotiff(src: gdal.Dataset, target: Path, ullr: list[float], crs: str, feedback: Feedback) -> str:
+    """Copy the pixels into a georeferenced GeoTIFF; returns an error message or ''."""
+    def callback(complete: float, _message: str, _data: object) -> int:
+        feedback.progress(100.0 * complete)
+        return 0 if feedback.is_canceled() else 1
+
+    options = gdal.TranslateOptions(format="GTiff", outputSRS=crs, outputBounds=ullr,
+                                    creationOptions=_creation_options(src), callback=callback)
+    try:
+        with _gdal_errors():
+            ds = gdal.Translate(str(target), src, options=options)
+            message = gdal.GetLastErrorMsg()
+    except RuntimeError as exc:
+        ds, message = None, str(exc)
+    feedback.check_canceled()
+    if ds is None:
+        return message or "GDAL could not write the GeoTIFF"
+    del ds  # flush and close before the file is moved
+    return ""
+
+
+def _write_vrt(src: gdal.Dataset, source: str, target: Path, final_dir: Path, ullr: list[float], crs: str) -> str:
+    """A VRT that points at the untouched source pixels, by a path relative to its final folder."""
+    try:
+        with _gdal_errors():
+            vrt = gdal.Translate("", src, options=gdal.TranslateOptions(format="VRT", outputSRS=crs, outputBounds=ullr))
+            message = gdal.GetLastErrorMsg()
+    except RuntimeError as exc:
+        vrt, message = None, str(exc)
+    if vrt is None:
+        return message or "GDAL could not build the VRT"
+    root = ET.fromstring(vrt.GetMetadata("xml:VRT")[0])
+    vrt = None
+    try:
+        href, relative = Path(os.path.relpath(os.path.abspath(source), os.path.abspath(final_dir))).as_posix(), "1"
+    except ValueError:  # another drive on Windows: no relative path exists
+        href, relative = os.path.abspath(source), "0"
+    for element in root.iter("SourceFilename"):
+        element.text = href
+        element.set("relativeToVRT", relative)
+    target.write_text(ET.tostring(root, encoding="unicode"), encoding="utf-8")
+    return ""
+
+
+def georeference_sheets(inputs: Sequence[str], output_dir: str | os.PathLike, target_crs: str = "EPSG:5186",
+                        source_crs: str = "EPSG:4737", margin: float = 50.0, fmt: str = "GTiff",
+                        feedback: Feedback = SILENT) -> list[SheetResult]:
+    """Write ``<sheet>.tif`` (or ``.vrt``) for every input whose name carries a valid sheet number.
+
+    Returns one result per input, in input order. Raises InputError for bad parameters or an
+    unwritable output folder, CanceledError if cancelled (then nothing is written).
+    """
+    if fmt not in FORMATS:
+        raise InputError(f"Unknown output format '{fmt}'; use one of {', '.join(FORMATS)}.")
+    if not (math.isfinite(margin) and margin >= 0):
+        raise InputError(f"The margin must be a non-negative number of metres, not {margin}.")
+    _srs(target_crs)
+    _srs(source_crs)
+    out_dir = ensure_writable_dir(output_dir)
+    results = _plan(inputs, out_dir, FORMATS[fmt], target_crs, source_crs, margin)
+    planned = [r for r in results if r.output]
+    for result in results:
+        if not result.output:
+            feedback.warning(f"{result.status.capitalize()} {result.source}: {result.reason}")
+    if planned:
+        with atomic_files([r.output for r in planned]) as staging:
+            for i, result in enumerate(planned):
+                feedback.check_canceled()
+                step = feedback.scaled(100.0 * i / len(planned), 100.0 * (i + 1) / len(planned))
+                _process(result, staging, out_dir, target_crs, fmt, step)
+                step.progress(100.0)
+    feedback.progress(100.0)
+    counts = {s: sum(r.status == s for r in results) for s in (OK, SKIPPED, FAILED)}
+    feedback.info(f"Georeferenced {counts[OK]} sheet(s); skipped {counts[SKIPPED]}, failed {counts[FAILED]}.")
+    return results
+
+
+def _process(result: SheetResult, staging: Path, out_dir: Path, target_crs: str, fmt: str,
+             feedback: Feedback) -> None:
+    """Georeference one planned input into the staging folder; record failure instead of raising."""
+    target = staging / Path(result.output).name
+    src, message = _open(result.source)
+    if src is None:
+        _fail(result, f"GDAL cannot open it: {message or 'unknown error'}", feedback)
+        return
+    xmin, ymin, xmax, ymax = result.bounds
+    ullr = [xmin, ymax, xmax, ymin]
+    try:
+        if fmt == "GTiff":
+            error = _write_geotiff(src, target, ullr, target_crs, feedback)
+        else:
+            error = _write_vrt(src, result.source, target, out_dir, ullr, target_crs)
+    except OSError as exc:
+        error = str(exc)
+    if error:
+        target.unlink(missing_ok=True)
+        _fail(result, error, feedback)
+        return
+    result.status = OK
+    feedback.info(f"{Path(result.source).name}: sheet {result.sheet} (1:{result.scale:,}) → {target.name}, "
+                  f"{src.RasterXSize}×{src.RasterYSize} px of "
+                  f"{(xmax - xmin) / src.RasterXSize:.4f} × {(ymax - ymin) / src.RasterYSize:.4f} m")
+
+
+def _fail(result: SheetResult, reason: str, feedback: Feedback) -> None:
+    result.status, result.reason, result.output = FAILED, reason, None
+    feedback.warning(f"Failed {result.source}: {reason}")
+
+
+def write_footprint_index(results: Sequence[SheetResult], path: str | os.PathLike, crs: str = "EPSG:5186") -> None:
+    """A GeoPackage layer with one row per input: footprint polygon (none if skipped) and outcome."""
+    srs = _srs(crs)
+    fields = [("sheet", ogr.OFTString), ("scale", ogr.OFTInteger), ("source", ogr.OFTString),
+              ("status", ogr.OFTString), ("reason", ogr.OFTString), ("output", ogr.OFTString)]
+    with atomic_file(path) as tmp:
+        try:
+            with _gdal_errors():
+                ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tmp))
+                layer = None if ds is None else ds.CreateLayer(INDEX_LAYER, srs, ogr.wkbPolygon)
+        except RuntimeError as exc:
+            raise InputError(f"Cannot create the footprint index {path}: {exc}") from exc
+        if layer is None:
+            raise InputError(f"Cannot create the footprint index {path}: {gdal.GetLastErrorMsg()}")
+        for name, kind in fields:
+            layer.CreateField(ogr.FieldDefn(name, kind))
+        defn = layer.GetLayerDefn()
+        layer.StartTransaction()
+        for r in results:
+            feature = ogr.Feature(defn)
+            for name, _ in fields:
+                value = getattr(r, name)
+                if value is not None:
+                    feature.SetField(name, value)
+            if r.bounds:
+                xmin, ymin, xmax, ymax = r.bounds
+                ring = ogr.Geometry(ogr.wkbLinearRing)
+                for x, y in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax), (xmin, ymin)):
+                    ring.AddPoint_2D(x, y)
+                polygon = ogr.Geometry(ogr.wkbPolygon)
+                polygon.AddGeometry(ring)
+                feature.SetGeometry(polygon)
+            layer.CreateFeature(feature)
+        layer.CommitTransaction()
+        ds = layer = None
