@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from qgis.core import (
+    Qgis,
     QgsCoordinateReferenceSystem,
     QgsProcessingAlgorithm,
     QgsProcessingException,
@@ -99,11 +100,18 @@ class WitAlgorithm(QgsProcessingAlgorithm):
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
         try:
             deps.require(self.requirements)
+            self._check_geos()
             return self.execute(parameters, context, QgisFeedback(feedback))
         except CanceledError as exc:
             raise QgsProcessingException(self.tr("Cancelled: no output was written.")) from exc
         except WitError as exc:
             raise QgsProcessingException(str(exc)) from exc
+
+    def _check_geos(self) -> None:
+        """Refuse, rather than crash QGIS, when shapely carries a GEOS other than QGIS's."""
+        problem = "shapely" in self.requirements and deps.geos_mismatch(Qgis.geosVersion())
+        if problem:
+            raise QgsProcessingException(deps.install_hint(["shapely>=2"], problem))
 
     def execute(self, parameters, context, feedback: QgisFeedback) -> dict:
         """Convert the parameters, call the core, return the outputs."""

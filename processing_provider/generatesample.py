@@ -41,8 +41,10 @@ class GenerateSample(WitAlgorithm):
     WITH_ORTHO = "WITH_ORTHO"
 
     def initAlgorithm(self, config=None):  # noqa: N802
+        # Optional with a default: QGIS 3.22 does not fill a missing mandatory point with its default.
         self.addParameter(QgsProcessingParameterPoint(
-            self.CENTER, self.tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]"))
+            self.CENTER, self.tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]",
+            optional=True))
         self.addParameter(QgsProcessingParameterNumber(
             self.RADIUS, self.tr("Radius of the study area (m)"),
             QgsProcessingParameterNumber.Double, defaultValue=1000.0, minValue=50.0))
@@ -92,7 +94,7 @@ class GenerateSample(WitAlgorithm):
             "ROADS": str(result.roads),
             "DISTRICTS": str(result.districts),
             "DEM": str(result.dem) if result.dem else None,
-            "ORTHO_FOLDER": str(result.ortho_dir) if result.ortho_dir else None,
+            "ORTHO_FOLDER": str(result.ortho_tiles[0].parent) if result.ortho_tiles else None,
             "MANIFEST": str(result.manifest),
             "BUILDINGS_WRITTEN": result.counts["buildings"],
             "TILES_WRITTEN": len(result.ortho_tiles),

@@ -18,6 +18,8 @@ command -v gdal_translate >/dev/null || need_apt+=(gdal-bin)
 command -v qgis_process.bin >/dev/null || need_apt+=(qgis-providers)
 command -v xmllint >/dev/null || need_apt+=(libxml2-utils)
 command -v lrelease >/dev/null || need_apt+=(qttools5-dev-tools)
+command -v geos-config >/dev/null || need_apt+=(libgeos-dev)  # shapely is built against it
+[ -f /usr/include/python3.11/Python.h ] || need_apt+=(python3-dev)
 "$SYS_PY" -c 'import venv, ensurepip' 2>/dev/null || need_apt+=(python3-venv)
 if [ ${#need_apt[@]} -gt 0 ]; then
     log "installing system packages: ${need_apt[*]}"

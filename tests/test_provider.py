@@ -103,6 +103,6 @@ def test_plugin_loads_without_optional_packages_and_explains_how_to_install(tmp_
     assert "OK False" in result.stdout
     error = next(line for line in result.stdout.splitlines() if line.startswith("ERROR"))
     assert 'Missing Python package(s): shapely>=2' in error
-    assert '/usr/bin/python3 -m pip install --user --break-system-packages "shapely>=2"' in error
+    assert '/usr/bin/python3 -m pip install --user --break-system-packages --no-binary shapely "shapely>=2"' in error
     assert "OSGeo4W Shell" in error
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

@@ -6,6 +6,7 @@ The plugin must load without them; the algorithms that need them call ``require`
 from __future__ import annotations
 
 import importlib
+import sys
 
 from .errors import MissingDependencyError
 
@@ -35,17 +36,46 @@ def missing(modules: tuple[str, ...] | list[str]) -> list[str]:
     return result
 
 
-def install_hint(requirements: list[str]) -> str:
-    """A message with the exact commands that install ``requirements`` for QGIS's Python."""
+def install_hint(requirements: list[str], problem: str | None = None) -> str:
+    """A message with the exact commands that install ``requirements`` for QGIS's Python.
+
+    On Linux shapely must be built against the system GEOS (see ``geos_mismatch``).
+    """
     quoted = " ".join(f'"{r}"' for r in requirements)
+    no_binary = "--no-binary shapely " if any(r.startswith("shapely") for r in requirements) else ""
+    geos_dev = "sudo apt install libgeos-dev python3-dev && " if no_binary else ""
+    if problem:
+        no_binary = "--force-reinstall " + no_binary
     return (
-        f"Missing Python package(s): {', '.join(requirements)}. Install them for QGIS's Python, "
-        "then restart QGIS.\n"
-        f"  Linux (Debian/Ubuntu QGIS): /usr/bin/python3 -m pip install --user --break-system-packages {quoted}\n"
+        (problem or f"Missing Python package(s): {', '.join(requirements)}.")
+        + " Install them for QGIS's Python, then restart QGIS.\n"
+        f"  Linux (Debian/Ubuntu QGIS): {geos_dev}/usr/bin/python3 -m pip install --user "
+        f"--break-system-packages {no_binary}{quoted}\n"
         f"  Windows (OSGeo4W / QGIS installer): open the 'OSGeo4W Shell' and run: python -m pip install {quoted}\n"
         f"  macOS (QGIS.app): /Applications/QGIS.app/Contents/MacOS/bin/python3 -m pip install --user {quoted}\n"
         "Note: 'triangle' is free for non-commercial use only (licence of J. R. Shewchuk's Triangle)."
     )
+
+
+def geos_mismatch(host_geos: str) -> str | None:
+    """Why the installed shapely must not run inside this QGIS, or None when it may.
+
+    On Linux, QGIS loads the system GEOS with its symbols visible to every library loaded later.
+    A shapely wheel carries its own GEOS build; inside QGIS its calls then resolve to the
+    system's, of another version, and QGIS crashes. A shapely built from source against the
+    system GEOS (same version) is safe. ``host_geos`` is QGIS's GEOS version, e.g. "3.11.1".
+    """
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        import shapely
+    except ImportError:
+        return None
+    ours = ".".join(str(part) for part in shapely.geos_version)
+    if host_geos.split("-")[0] == ours:
+        return None
+    return (f"The installed shapely uses its own GEOS {ours} while QGIS uses GEOS {host_geos}; "
+            "running it inside QGIS would crash QGIS. Rebuild shapely against the system GEOS.")
 
 
 def require(modules: tuple[str, ...] | list[str]) -> None:

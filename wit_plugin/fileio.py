@@ -53,12 +53,16 @@ def atomic_files(targets: list[str | os.PathLike]) -> Iterator[Path]:
 
     For multi-file outputs (a shapefile and its sidecars, an image set): the caller writes
     into the folder under the final file names; nothing appears in the destination on failure.
+    A sub-folder written there replaces the destination's folder of that name as a whole.
     """
     dest = ensure_writable_dir(Path(targets[0]).parent)
     tmp_dir = Path(tempfile.mkdtemp(dir=dest, prefix=".wit-tmp-"))
     try:
         yield tmp_dir
-        for item in tmp_dir.iterdir():
-            os.replace(item, dest / item.name)
+        for item in list(tmp_dir.iterdir()):
+            target = dest / item.name
+            if item.is_dir() and target.is_dir():
+                os.replace(target, tmp_dir / f".old-{item.name}")  # removed with tmp_dir below
+            os.replace(item, target)
     finally:
         shutil.rmtree(tmp_dir, ignore_errors=True)

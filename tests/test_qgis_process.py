@@ -1,0 +1,71 @@
+"""End to end through scripts/qgis-process, as a batch user runs the plugin headless."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+
+import pytest
+from osgeo import gdal, ogr
+
+from conftest import ROOT
+
+
+def qgis_process(*args: str, profile) -> dict:
+    env = dict(os.environ, WIT_QGIS_PROFILE=str(profile))
+    result = subprocess.run([str(ROOT / "scripts" / "qgis-process"), "--json", *args],
+                            capture_output=True, text=True, env=env, timeout=600)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    return json.loads(result.stdout[result.stdout.index("{"):])
+
+
+@pytest.fixture(scope="module")
+def profile(tmp_path_factory):
+    return tmp_path_factory.mktemp("qgis-profile")
+
+
+def test_list_shows_the_wit_provider(profile):
+    env = dict(os.environ, WIT_QGIS_PROFILE=str(profile))
+    listing = subprocess.run([str(ROOT / "scripts" / "qgis-process"), "list"], capture_output=True,
+                             text=True, env=env, timeout=300).stdout
+    assert "WIT City Model" in listing
+    for algorithm in ("wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles"):
+        assert algorithm in listing
+
+
+def test_generate_sample_then_georeference_headless(tmp_path, profile):
+    sample = qgis_process("run", "wit:generatesample", "--RADIUS=300", "--SEED=3",
+                          "--ORTHO_PIXEL_SIZE=4", f"--OUTPUT={tmp_path / 'sample'}", profile=profile)
+    results = sample["results"]
+    assert results["BUILDINGS_WRITTEN"] > 100
+    buildings = gdal.OpenEx(results["BUILDINGS"], open_options=["ENCODING=CP949"])
+    layer = buildings.GetLayer()
+    assert layer.GetFeatureCount() == results["BUILDINGS_WRITTEN"]
+    assert layer.GetSpatialRef().FindMatches()[0][0].GetAuthorityCode(None) == "5179"
+    names = {f.GetField("BULD_NM") for f in layer if f.GetField("BULD_NM")}
+    assert any(name.endswith("아파트") for name in names), sorted(names)[:5]
+    assert results["TILES_WRITTEN"] >= 1
+
+    geo = qgis_process("run", "wit:georeferencemapsheets", f"--INPUT={results['ORTHO_FOLDER']}",
+                       f"--OUTPUT={tmp_path / 'geo'}", f"--OUTPUT_INDEX={tmp_path / 'index.gpkg'}",
+                       profile=profile)["results"]
+    assert geo["GEOREFERENCED"] == results["TILES_WRITTEN"] and geo["SKIPPED"] == geo["FAILED"] == 0
+    manifest = json.loads((tmp_path / "sample" / "sample_manifest.json").read_text(encoding="utf-8"))
+    for tile in manifest["tiles"]:
+        ds = gdal.Open(str(tmp_path / "geo" / f"{tile['sheet']}.tif"))
+        x0, dx, _, y0, _, dy = ds.GetGeoTransform()
+        xmin, ymin, xmax, ymax = tile["envelope_5186"]
+        assert (x0, y0) == pytest.approx((xmin, ymax), abs=0.001)
+        assert (x0 + dx * ds.RasterXSize, y0 + dy * ds.RasterYSize) == pytest.approx((xmax, ymin), abs=0.001)
+    index = ogr.Open(str(tmp_path / "index.gpkg"))  # keep the dataset alive while its layer is used
+    assert index.GetLayer().GetFeatureCount() == results["TILES_WRITTEN"]
+
+
+def test_bad_input_fails_with_a_message_and_exit_code(tmp_path, profile):
+    env = dict(os.environ, WIT_QGIS_PROFILE=str(profile))
+    result = subprocess.run([str(ROOT / "scripts" / "qgis-process"), "run", "wit:generatesample",
+                             "--CENTER=2.35,48.85 [EPSG:4326]", f"--OUTPUT={tmp_path / 'paris'}"],
+                            capture_output=True, text=True, env=env, timeout=300)
+    assert result.returncode != 0
+    assert "outside Korea" in result.stdout + result.stderr
+    assert "Traceback" not in result.stdout + result.stderr
