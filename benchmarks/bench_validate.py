@@ -1,0 +1,161 @@
+"""Benchmark wit:validatecitygml: throughput (MB/s) and peak memory on synthetic CityGML 3.0 files.
+
+Files hold N LoD1 box buildings (closed, outward solids, gml:ids on every polygon and ring) plus
+one TIN relief of about N triangles in a single feature, so both the per-member and the
+per-triangle streaming paths are exercised. Each measurement runs in a fresh process; its peak
+RSS comes from ``resource.getrusage(RUSAGE_CHILDREN)`` of an intermediate process that runs it.
+
+Modes: ``full`` = ``validate_files`` (all checks, streaming); ``xsd-dom`` = ``etree.parse`` then
+``XMLSchema.validate`` (the textbook way; memory grows with the file); ``xsd-sax`` =
+``iterparse(schema=...)`` with clearing (bounded, but libxml2 reports line 0 for every error).
+
+    python benchmarks/bench_validate.py [--sizes 10000 100000] [--out out/bench/validate.json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCHEMAS = ROOT.parent / "shared" / "schemas"
+
+HEAD = """<?xml version="1.0" encoding="UTF-8"?>
+<core:CityModel gml:id="cm" xmlns:core="http://www.opengis.net/citygml/3.0"
+ xmlns:bldg="http://www.opengis.net/citygml/building/3.0" xmlns:con="http://www.opengis.net/citygml/construction/3.0"
+ xmlns:dem="http://www.opengis.net/citygml/relief/3.0" xmlns:gen="http://www.opengis.net/citygml/generics/3.0"
+ xmlns:gml="http://www.opengis.net/gml/3.2" xmlns:xlink="http://www.w3.org/1999/xlink">
+ <gml:boundedBy><gml:Envelope srsName="EPSG:5186" srsDimension="3"><gml:lowerCorner>{x0} {y0} 0</gml:lowerCorner>
+ <gml:upperCorner>{x1} {y1} 100</gml:upperCorner></gml:Envelope></gml:boundedBy>
+"""
+
+
+def _face(fid: str, pts: list[tuple[float, float, float]]) -> str:
+    ring = " ".join(f"{x:.3f} {y:.3f} {z:.3f}" for x, y, z in pts + pts[:1])
+    return (f'<gml:surfaceMember><gml:Polygon gml:id="{fid}"><gml:exterior><gml:LinearRing gml:id="{fid}_r">'
+            f'<gml:posList srsDimension="3">{ring}</gml:posList></gml:LinearRing></gml:exterior></gml:Polygon>'
+            f'</gml:surfaceMember>\n')
+
+
+def _building(i: int, x: float, y: float, w: float = 12.0, d: float = 9.0, z: float = 30.0, h: float = 9.0) -> str:
+    b = f"b{i}"
+    g = [(x, y, z), (x, y + d, z), (x + w, y + d, z), (x + w, y, z)]  # ground seen from below: clockwise from above
+    t = [(px, py, z + h) for px, py, _ in g[::-1]]
+    walls = [[(g[k][0], g[k][1], z), (g[k - 1][0], g[k - 1][1], z), (g[k - 1][0], g[k - 1][1], z + h),
+              (g[k][0], g[k][1], z + h)] for k in range(4)]
+    faces = _face(f"{b}_g", g) + _face(f"{b}_t", t) + "".join(_face(f"{b}_w{k}", wall) for k, wall in enumerate(walls))
+    return (f'<core:cityObjectMember><bldg:Building gml:id="{b}"><core:genericAttribute><gen:StringAttribute>'
+            f'<gen:name>BD_MGT_SN</gen:name><gen:value>1111010100100{i:08d}</gen:value></gen:StringAttribute>'
+            f'</core:genericAttribute><core:lod1Solid><gml:Solid gml:id="{b}_s"><gml:exterior><gml:Shell>\n{faces}'
+            f'</gml:Shell></gml:exterior></gml:Solid></core:lod1Solid><con:height><con:Height>'
+            f'<con:highReference>highestRoofEdge</con:highReference><con:lowReference>lowestGroundPoint</con:lowReference>'
+            f'<con:status>measured</con:status><con:value uom="m">{h}</con:value></con:Height></con:height>'
+            f'<bldg:storeysAboveGround>3</bldg:storeysAboveGround></bldg:Building></core:cityObjectMember>\n')
+
+
+def generate(path: Path, n: int) -> None:
+    """Write a valid file with ``n`` buildings on a grid and a TIN of ~``n`` triangles, streaming."""
+    side = int(n ** 0.5) + 1
+    x0, y0 = 200000.0, 500000.0
+    with open(path, "w", encoding="utf-8") as out:
+        out.write(HEAD.format(x0=x0, y0=y0, x1=x0 + side * 20, y1=y0 + side * 20))
+        for i in range(n):
+            out.write(_building(i, x0 + (i % side) * 20 + 4, y0 + (i // side) * 20 + 4))
+        out.write('<core:cityObjectMember><dem:ReliefFeature gml:id="relief"><dem:lod>1</dem:lod><dem:reliefComponent>'
+                  '<dem:TINRelief gml:id="tin"><dem:lod>1</dem:lod><dem:tin><gml:TriangulatedSurface gml:id="tin_s">'
+                  '<gml:patches>\n')
+        cells = int((n / 2) ** 0.5) + 1
+        step = side * 20 / cells
+        for r in range(cells):
+            for c in range(cells):
+                a = (x0 + c * step, y0 + r * step, 29.0 + (c % 3) * 0.1)
+                b = (a[0] + step, a[1], 29.1)
+                d = (a[0], a[1] + step, 29.2)
+                e = (a[0] + step, a[1] + step, 29.0)
+                for k, tri in enumerate(((a, b, e), (a, e, d))):
+                    pos = " ".join(f"{x:.3f} {y:.3f} {z:.3f}" for x, y, z in tri + tri[:1])
+                    out.write(f'<gml:Triangle><gml:exterior><gml:LinearRing gml:id="t{r}_{c}_{k}"><gml:posList>{pos}'
+                              '</gml:posList></gml:LinearRing></gml:exterior></gml:Triangle>\n')
+        out.write("</gml:patches></gml:TriangulatedSurface></dem:tin></dem:TINRelief></dem:reliefComponent>"
+                  "</dem:ReliefFeature></core:cityObjectMember>\n</core:CityModel>\n")
+
+
+def worker(mode: str, path: str) -> None:
+    """Run one validation in this process and print its result as JSON."""
+    sys.path.insert(0, str(ROOT))
+    from lxml import etree
+
+    from wit_plugin import schemas, validate
+    schema = schemas.load_schema(SCHEMAS)
+    start = time.perf_counter()
+    if mode == "full":
+        report = validate.validate_files([path], SCHEMAS)[0]
+        result = {"valid": report.valid, "errors": [i.message for i in report.issues][:5]}
+    elif mode == "xsd-dom":
+        doc = etree.parse(path, etree.XMLParser(resolve_entities=False, no_network=True))
+        result = {"valid": schema.validate(doc), "errors": []}
+    else:
+        ok = True
+        try:
+            for _, el in etree.iterparse(path, events=("end",), schema=schema, resolve_entities=False, no_network=True):
+                if el.getparent() is not None and el.getparent().getparent() is None:
+                    el.clear()
+                    while el.getprevious() is not None:
+                        del el.getparent()[0]
+        except etree.XMLSyntaxError:
+            ok = False
+        result = {"valid": ok, "errors": []}
+    result["seconds"] = time.perf_counter() - start
+    print(json.dumps(result))
+
+
+def measure(mode: str, path: str) -> None:
+    """Run the worker in a child and add its peak RSS (this process does nothing else)."""
+    run = subprocess.run([sys.executable, __file__, "--worker", mode, path], capture_output=True, text=True, check=True)
+    result = json.loads(run.stdout.strip().splitlines()[-1])
+    result["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    print(json.dumps(result))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000])
+    ap.add_argument("--modes", nargs="+", default=["full", "xsd-dom", "xsd-sax"])
+    ap.add_argument("--tmp", default="/tmp")
+    ap.add_argument("--out", default=str(ROOT / "out" / "bench" / "validate.json"))
+    ap.add_argument("--worker", nargs=2, help=argparse.SUPPRESS)
+    ap.add_argument("--measure", nargs=2, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.worker:
+        return worker(*args.worker)
+    if args.measure:
+        return measure(*args.measure)
+    rows = []
+    for n in args.sizes:
+        path = Path(args.tmp) / f"wit_bench_{n}.gml"
+        start = time.perf_counter()
+        generate(path, n)
+        gen_s = time.perf_counter() - start
+        mb = path.stat().st_size / 1e6
+        for mode in args.modes:
+            run = subprocess.run([sys.executable, __file__, "--measure", mode, str(path)], capture_output=True,
+                                 text=True, check=True)
+            res = json.loads(run.stdout.strip().splitlines()[-1])
+            rows.append({"buildings": n, "mode": mode, "file_mb": round(mb, 1), "generate_s": round(gen_s, 1),
+                         "seconds": round(res["seconds"], 2), "mb_per_s": round(mb / res["seconds"], 1),
+                         "peak_rss_mb": round(res["peak_rss_mb"], 1), "valid": res["valid"], "errors": res["errors"]})
+            print(f"{n:>8} {mode:<8} {mb:8.1f} MB {res['seconds']:8.2f} s {mb / res['seconds']:7.1f} MB/s "
+                  f"{res['peak_rss_mb']:8.1f} MB RSS  valid={res['valid']}", flush=True)
+        os.unlink(path)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(rows, indent=2), encoding="utf-8")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,312 @@
+"""wit:validatecitygml core: XSD + geometry/reference/texture checks, schema lookup, reports."""
+from __future__ import annotations
+
+import csv
+import functools
+import http.server
+import shutil
+import subprocess
+import threading
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from wit_plugin import schemas, validate
+from wit_plugin.errors import CanceledError, InputError
+from wit_plugin.feedback import Feedback
+
+DATA = Path(__file__).parent / "data" / "citygml"
+VALID_EXAMPLES = ["Building_LOD1-EPSG25832.gml", "Building_LOD2-EPSG25832.gml", "LocalCRS_CityGML3.gml",
+                  "Building_CityGML3.0_LOD2_with_several_attributes.gml",
+                  "handmade_LOD1_textured_building_TIN_group.gml"]
+
+
+@pytest.fixture(scope="session")
+def schema_dir(shared_dir: Path) -> Path:
+    return shared_dir / "schemas"
+
+
+def _with_texture(src: Path, tmp_path: Path) -> Path:
+    """Copy a file beside the texture image it references (textures/tile_1.jpg)."""
+    (tmp_path / "textures").mkdir(exist_ok=True)
+    (tmp_path / "textures" / "tile_1.jpg").write_bytes(b"\xff\xd8\xff\xd9")
+    return Path(shutil.copy(src, tmp_path / src.name))
+
+
+def _errors(report: validate.FileReport) -> list[validate.Issue]:
+    return [i for i in report.issues if i.severity == "error"]
+
+
+def _one(path: Path, schema_dir: Path, **kw) -> validate.FileReport:
+    return validate.validate_files([str(path)], schema_dir, **kw)[0]
+
+
+@pytest.mark.parametrize("name", VALID_EXAMPLES)
+def test_valid_examples_have_no_errors(name, schema_dir, tmp_path):
+    path = _with_texture(schema_dir / "examples" / name, tmp_path)
+    report = _one(path, schema_dir)
+    assert _errors(report) == []
+    assert report.valid and report.status == "Success"
+
+
+def test_only_warning_on_valid_examples_is_2d_address_point(schema_dir, tmp_path):
+    reports = validate.validate_files([str(_with_texture(schema_dir / "examples" / n, tmp_path)) for n in VALID_EXAMPLES],
+                                      schema_dir)
+    warnings = [i for r in reports for i in r.issues]
+    assert [(Path(w.file).name, w.check, w.line) for w in warnings] == [
+        ("Building_CityGML3.0_LOD2_with_several_attributes.gml", "dimension", 294)]
+    assert "EPSG::4326" in warnings[0].message
+
+
+@pytest.mark.skipif(shutil.which("xmllint") is None, reason="xmllint not installed")
+@pytest.mark.parametrize("name", VALID_EXAMPLES + ["INVALID_handmade_LOD1_4_errors.gml"])
+def test_xsd_verdict_agrees_with_xmllint(name, schema_dir, tmp_path):
+    path = schema_dir / "examples" / name
+    run = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"), str(path)],
+                         capture_output=True, text=True, timeout=60)
+    xmllint_lines = {int(line.split(":")[1]) for line in run.stderr.splitlines() if "Schemas validity error" in line}
+    ours = {i.line for i in _one(path, schema_dir).issues if i.check == "xsd"}
+    assert (run.returncode == 0) == (not ours)
+    assert ours == xmllint_lines
+
+
+def test_missing_texture_image_is_an_error(schema_dir):
+    report = _one(schema_dir / "examples" / "handmade_LOD1_textured_building_TIN_group.gml", schema_dir)
+    assert not report.valid
+    [issue] = report.issues
+    assert (issue.check, issue.line, issue.gml_id) == ("texture-image", 159, "tex_tile_1")
+    assert "textures/tile_1.jpg" in issue.message and "does not exist" in issue.message
+    assert report.details == "texture-image: 1 error"
+
+
+def test_invalid_example_reports_all_four_errors_with_lines(schema_dir, tmp_path):
+    report = _one(_with_texture(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml", tmp_path), schema_dir)
+    assert report.status == "Fail"
+    xsd = {i.line: i for i in report.issues if i.check == "xsd"}
+    assert sorted(xsd) == [63, 117, 126, 175]
+    assert "gml:posLst" in xsd[63].message and "did you mean gml:posList" in xsd[63].message
+    assert "storeysAboveGround" in xsd[117].message and "'one'" in xsd[117].message
+    assert "missing the required element dem:lod" in xsd[126].message and xsd[126].gml_id == "tin_1"
+    assert "'abc'" in xsd[175].message
+    [tex] = [i for i in report.issues if i.check == "texture-coordinates"]
+    assert tex.line == 175 and "'abc'" in tex.message
+    assert report.details == "xsd: 4 errors; texture-coordinates: 1 error"
+
+
+FAULTS = {  # fixture -> (check, line, gml:id, words in the message)
+    "duplicate_id": ("duplicate-id", 64, "bldg_1_wall_s", "used more than once"),
+    "unresolved_target": ("reference", 156, None, "app:target '#bldg_1_roof_missing' points to no gml:id"),
+    "unresolved_href": ("reference", 141, None, "xlink:href of grp:groupMember '#bldg_99'"),
+    "open_solid": ("solid-closed", 33, "bldg_1_lod1", "is used by only one face: the shell has a hole"),
+    "inverted_solid": ("solid-orientation", 33, "bldg_1_lod1", "inside out"),
+    "flipped_face": ("solid-orientation", 33, "bldg_1_lod1", "face(s) bldg_1_roof are oriented opposite"),
+    "nonplanar_face": ("planarity", 46, "bldg_1_roof", "0.125 m from the face's plane"),
+    "bowtie_face": ("self-intersection", 46, "bldg_1_roof", "intersects itself"),
+    "degenerate_triangle": ("degenerate-triangle", 121, "tin_1_t1", "degenerate"),
+    "pos_2d": ("dimension", 117, "tin_1_t0", 'srsDimension="2"'),
+    "texcoord_count": ("texture-coordinates", 159, "tex_tile_1", "4 texture coordinate pairs for ring #bldg_1_roof_r, "
+                       "which has 5 points"),
+    "texcoord_nan": ("texture-coordinates", 159, "tex_tile_1", "contain 'NaN'"),
+    "unknown_ade": ("ade", 105, None, "uses ADE namespace http://example.org/ade/energy/1.0 whose schema is not available"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(FAULTS))
+def test_each_fault_is_detected(name, schema_dir, tmp_path):
+    check, line, gml_id, words = FAULTS[name]
+    report = _one(_with_texture(DATA / f"{name}.gml", tmp_path), schema_dir)
+    assert not report.valid
+    hits = [i for i in _errors(report) if i.check == check]
+    assert [(i.line, i.gml_id) for i in hits] == [(line, gml_id)]
+    assert words.lower() in hits[0].message.lower()
+    others = {i.check for i in _errors(report)} - {check}
+    expected_side_effects = {"bowtie_face": {"solid-closed"}}
+    assert others == expected_side_effects.get(name, set())
+
+
+def test_gml_id_syntax_is_checked(schema_dir, tmp_path):
+    path = tmp_path / "badid.gml"
+    path.write_text((DATA / "pos_2d.gml").read_text(encoding="utf-8").replace('gml:id="bldg_1_wall_n"', 'gml:id="1wall"'),
+                    encoding="utf-8")
+    [issue] = [i for i in _one(path, schema_dir).issues if i.check == "xsd"]
+    assert issue.gml_id == "1wall" and "not a valid XML name" in issue.message
+
+
+def test_bowtie_with_unequal_lobes_is_located(schema_dir, tmp_path):
+    text = (DATA / "bowtie_face.gml").read_text(encoding="utf-8").replace(
+        "458875.0 5438355.0 116.0 458875.0 5438350.0 116.0</gml:posList>",
+        "458875.0 5438356.0 116.0 458875.0 5438350.0 116.0</gml:posList>", 1)
+    path = tmp_path / "bowtie2.gml"
+    path.write_text(text, encoding="utf-8")
+    [hit] = [i for i in _one(path, schema_dir).issues if i.check == "self-intersection"]
+    assert hit.gml_id == "bldg_1_roof" and "Self-intersection" in hit.message
+    assert "near (458880.455 5438352.727 116.000)" in hit.message
+
+
+def test_inverted_solid_reports_negative_volume(schema_dir, tmp_path):
+    [issue] = _errors(_one(_with_texture(DATA / "inverted_solid.gml", tmp_path), schema_dir))
+    assert "signed volume -200.000 m³" in issue.message
+
+
+def test_planarity_tolerance_is_a_parameter(schema_dir, tmp_path):
+    path = _with_texture(DATA / "nonplanar_face.gml", tmp_path)
+    assert not _one(path, schema_dir, planarity_tol=0.1).valid
+    assert _one(path, schema_dir, planarity_tol=0.2).valid
+
+
+def test_xxe_is_harmless(schema_dir, tmp_path):
+    path = _with_texture(DATA / "xxe.gml", tmp_path)
+    (tmp_path / "secret.txt").write_text("TOPSECRET-42", encoding="utf-8")
+    start = time.perf_counter()
+    report = _one(path, schema_dir)
+    assert time.perf_counter() - start < 5
+    out_csv, out_html = tmp_path / "r.csv", tmp_path / "r.html"
+    validate.write_report_csv([report], str(out_csv))
+    validate.write_report_html([report], str(out_html))
+    everything = repr(report) + out_csv.read_text(encoding="utf-8-sig") + out_html.read_text(encoding="utf-8")
+    assert "TOPSECRET" not in everything
+    [entity] = [i for i in _errors(report) if i.check == "xml"]
+    assert entity.line == 26 and "&xxe;" in entity.message and "not expanded" in entity.message
+    assert not [i for i in report.issues if i.check == "xsd"]  # the rest of the file was still validated
+
+
+def test_entity_bomb_is_rejected_quickly(schema_dir):
+    start = time.perf_counter()
+    report = _one(DATA / "entity_bomb.gml", schema_dir)
+    assert time.perf_counter() - start < 5
+    [issue] = report.issues
+    assert issue.check == "xml" and "entity reference loop" in issue.message
+
+
+def test_not_well_formed_file(schema_dir, tmp_path):
+    path = tmp_path / "broken.gml"
+    path.write_text('<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0">\n<a>\n</core:CityModel>\n')
+    [issue] = _one(path, schema_dir).issues
+    assert issue.check == "xml" and issue.line == 3 and "Not well-formed" in issue.message
+
+
+def test_many_issues_are_capped(schema_dir, tmp_path):
+    text = (DATA / "texcoord_nan.gml").read_text(encoding="utf-8")
+    path = tmp_path / "many.gml"
+    path.write_text(text.replace("<bldg:storeysAboveGround>1<", "<bldg:storeysAboveGround>x<"), encoding="utf-8")
+    report = _one(path, schema_dir, max_issues_per_check=0)
+    assert {i.message for i in report.issues} >= {"... and 1 more xsd errors not listed."}
+
+
+def test_bad_inputs_raise_input_error(schema_dir, tmp_path):
+    with pytest.raises(InputError, match="No CityGML files"):
+        validate.validate_files([], schema_dir)
+    with pytest.raises(InputError, match="does not exist"):
+        validate.validate_files([str(tmp_path / "nope.gml")], schema_dir)
+    with pytest.raises(InputError, match="citygml3-all.xsd"):
+        validate.validate_files([str(DATA / "pos_2d.gml")], tmp_path)
+
+
+def test_cancel_and_progress(schema_dir, tmp_path):
+    class Recorder(Feedback):
+        def __init__(self, cancel: bool):
+            self.cancel, self.values = cancel, []
+
+        def progress(self, percent: float) -> None:
+            self.values.append(percent)
+
+        def is_canceled(self) -> bool:
+            return self.cancel
+
+    fb = Recorder(False)
+    validate.validate_files([str(DATA / "pos_2d.gml"), str(DATA / "open_solid.gml")], schema_dir, feedback=fb)
+    assert fb.values[-1] == pytest.approx(100.0) and fb.values == sorted(fb.values)
+    with pytest.raises(CanceledError):
+        validate.validate_files([str(DATA / "pos_2d.gml")], schema_dir, feedback=Recorder(True))
+
+
+def test_reports_csv_and_html(schema_dir, tmp_path):
+    reports = validate.validate_files([str(DATA / "unresolved_href.gml"), str(_with_texture(DATA / "open_solid.gml", tmp_path))],
+                                      schema_dir)
+    reports[0].issues.append(validate.Issue(reports[0].file, "xsd", "error", 1, None, "<script>alert(1)</script> & co"))
+    csv_path, html_path = tmp_path / "out" / "report.csv", tmp_path / "out" / "report.html"
+    validate.write_report_csv(reports, str(csv_path))
+    validate.write_report_html(reports, str(html_path))
+    rows = list(csv.DictReader(csv_path.open(encoding="utf-8-sig")))
+    assert {r["status"] for r in rows} == {"Fail"} and rows[1]["line"] == "141"
+    assert [(Path(r["file"]).name, r["check"]) for r in rows] == [
+        ("unresolved_href.gml", "texture-image"), ("unresolved_href.gml", "reference"), ("unresolved_href.gml", "xsd"),
+        ("open_solid.gml", "solid-closed")]
+    page = html_path.read_text(encoding="utf-8")
+    assert "<script>alert" not in page and "&lt;script&gt;alert(1)&lt;/script&gt; &amp; co" in page
+    assert page.count("<tr class='fail'>") == 2 and "solid-closed: 1 error" in page
+    assert not list((tmp_path / "out").glob(".*"))  # atomic: no temporary left behind
+
+
+# -- schema lookup and one-time download -------------------------------------------------------
+def test_find_schema_dir_order(schema_dir, tmp_path):
+    assert schemas.find_schema_dir(str(schema_dir), str(tmp_path), False) == (schema_dir, "configured folder")
+    with pytest.raises(InputError, match="does not contain citygml3-all.xsd"):
+        schemas.find_schema_dir(str(tmp_path), str(tmp_path), True)
+    with pytest.raises(InputError, match="No CityGML 3.0 schemas available: set SCHEMA_DIR"):
+        schemas.find_schema_dir(None, str(tmp_path), False)
+    cached = tmp_path / schemas.CACHE_SUBDIR
+    shutil.copytree(schema_dir, cached)
+    assert schemas.find_schema_dir(None, str(tmp_path), False) == (cached, "cache")
+
+
+def _public_mirror(schema_dir: Path, root: Path) -> None:
+    """Lay the shared schemas out under their public URLs (host/path), using its catalog.xml."""
+    cat = ET.parse(schema_dir / "catalog.xml").getroot()
+    ns = "{urn:oasis:names:tc:entity:xmlns:xml:catalog}"
+    mapping = {e.get("systemId"): e.get("uri") for e in cat.iter(f"{ns}system")}
+    for e in cat.iter(f"{ns}rewriteSystem"):
+        prefix, local = e.get("systemIdStartString"), e.get("rewritePrefix")
+        for f in (schema_dir / local).rglob("*"):
+            if f.is_file():
+                mapping[prefix + f.relative_to(schema_dir / local).as_posix()] = (Path(local) / f.relative_to(
+                    schema_dir / local)).as_posix()
+    for url, local in mapping.items():
+        if url.startswith("http://") and not url.startswith("http://docs.oasis"):
+            out = root / url[len("http://"):]
+            out.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(schema_dir / local, out)
+
+
+@pytest.fixture()
+def mirror_server(schema_dir, tmp_path):
+    root = tmp_path / "www"
+    _public_mirror(schema_dir, root)
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(root))
+    handler.log_message = lambda *a: None
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"http://127.0.0.1:{server.server_address[1]}/", root
+    server.shutdown()
+    server.server_close()
+
+
+def test_download_once_into_cache_then_validate_offline(mirror_server, schema_dir, tmp_path):
+    base_url, www = mirror_server
+    cache = tmp_path / "cache"
+    folder, source = schemas.find_schema_dir(None, str(cache), True, base_url=base_url)
+    assert (folder, source) == (cache / schemas.CACHE_SUBDIR, "downloaded")
+    assert (folder / "opengis/citygml/3.0/building.xsd").is_file() and (folder / "w3/1999/xlink.xsd").is_file()
+    assert (folder / "opengis/iso/19139/20070417/gmd/gmd.xsd").is_file()
+    every_location = [loc for f in folder.rglob("*.xsd") for loc in
+                      (e.get("schemaLocation") for e in ET.parse(f).getroot().iter() if e.get("schemaLocation"))]
+    assert every_location and not [loc for loc in every_location if "://" in loc]  # no network at validation time
+    shutil.rmtree(www)  # the server is gone: the second call must use the cache
+    assert schemas.find_schema_dir(None, str(cache), True, base_url=base_url) == (folder, "cache")
+    reports = validate.validate_files([str(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml"),
+                                       str(schema_dir / "examples" / "Building_LOD2-EPSG25832.gml")], folder)
+    assert sorted(i.line for i in reports[0].issues if i.check == "xsd") == [63, 117, 126, 175]
+    assert reports[1].valid
+
+
+def test_failed_download_leaves_no_cache(tmp_path):
+    with pytest.raises(InputError, match="Could not download the CityGML schema"):
+        schemas.find_schema_dir(None, str(tmp_path), True, base_url=(tmp_path / "empty").as_uri() + "/")
+    assert not (tmp_path / schemas.CACHE_SUBDIR).exists() and not list(tmp_path.glob(".wit-schemas-*"))
+
+
+def test_schema_compiled_once(schema_dir):
+    assert schemas.load_schema(schema_dir) is schemas.load_schema(Path(str(schema_dir) + "/"))

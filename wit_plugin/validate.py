@@ -1,0 +1,865 @@
+"""Offline CityGML 3.0 validation: XSD validity plus the checks an XSD cannot express.
+
+Why a custom validator: XSD validation says nothing about geometry (closed, outward-oriented,
+planar, simple solids; degenerate TIN triangles), about ``#id`` references or texture files. All
+checks run in one streaming pass (``lxml.etree.iterparse``): every top-level member of the city
+model is checked and XSD-validated on its own, then dropped, and TIN triangles are checked one by
+one, so memory stays bounded by the largest single feature, not by the file. ids and references
+are kept as strings (O(number of ids)) and resolved at the end of each file.
+
+Parsing never expands entities, loads DTDs or touches the network (XXE-safe).
+"""
+from __future__ import annotations
+
+import csv
+import html
+import math
+import re
+import time
+from collections import Counter, defaultdict
+from dataclasses import dataclass, field
+from difflib import get_close_matches
+from pathlib import Path
+from typing import NamedTuple, Sequence
+
+import numpy as np
+import shapely
+from lxml import etree
+
+from .errors import InputError
+from .feedback import SILENT, Feedback
+from .fileio import atomic_file
+from .schemas import content_model, load_schema, schema_namespaces
+
+GML = "http://www.opengis.net/gml/3.2"
+XLINK = "http://www.w3.org/1999/xlink"
+CORE = "http://www.opengis.net/citygml/3.0"
+APP = "http://www.opengis.net/citygml/appearance/3.0"
+GML_ID = f"{{{GML}}}id"
+HREF = f"{{{XLINK}}}href"
+_G = {name: f"{{{GML}}}{name}" for name in (
+    "Solid", "Shell", "exterior", "interior", "surfaceMember", "Polygon", "PolygonPatch", "LinearRing", "posList",
+    "pos", "lowerCorner", "upperCorner", "Triangle", "CompositeSurface", "OrientableSurface", "baseSurface",
+    "Surface", "patches", "MultiSurface", "boundedBy", "Envelope")}
+_A = {name: f"{{{APP}}}{name}" for name in (
+    "imageURI", "TexCoordList", "textureCoordinates", "ring", "target")}
+MEMBER_TAGS = frozenset(f"{{{CORE}}}{n}" for n in (
+    "cityObjectMember", "appearanceMember", "featureMember", "versionMember", "versionTransitionMember")) | {
+    f"{{{GML}}}featureMember"}
+PREFIXES = {  # conventional prefixes, for messages that read like the XML
+    CORE: "core", GML: "gml", XLINK: "xlink", APP: "app",
+    "http://www.opengis.net/citygml/building/3.0": "bldg", "http://www.opengis.net/citygml/construction/3.0": "con",
+    "http://www.opengis.net/citygml/relief/3.0": "dem", "http://www.opengis.net/citygml/transportation/3.0": "tran",
+    "http://www.opengis.net/citygml/generics/3.0": "gen", "http://www.opengis.net/citygml/cityobjectgroup/3.0": "grp",
+    "http://www.opengis.net/citygml/bridge/3.0": "brid", "http://www.opengis.net/citygml/tunnel/3.0": "tun",
+    "http://www.opengis.net/citygml/cityfurniture/3.0": "frn", "http://www.opengis.net/citygml/landuse/3.0": "luse",
+    "http://www.opengis.net/citygml/vegetation/3.0": "veg", "http://www.opengis.net/citygml/waterbody/3.0": "wtr",
+    "http://www.opengis.net/citygml/dynamizer/3.0": "dyn", "http://www.opengis.net/citygml/pointcloud/3.0": "pcl",
+    "http://www.opengis.net/citygml/versioning/3.0": "vers", "urn:oasis:names:tc:ciq:xal:3": "xAL",
+    "http://www.w3.org/2001/XMLSchema": "xs"}
+
+_PARSE = dict(resolve_entities=False, no_network=True, load_dtd=False, remove_comments=True, remove_pis=True)
+_WITH_ID = etree.XPath("descendant-or-self::*[@gml:id]", namespaces={"gml": GML})
+_WITH_HREF = etree.XPath("descendant-or-self::*[@xlink:href]", namespaces={"xlink": XLINK})
+_WITH_DIM = etree.XPath("descendant-or-self::*[@srsDimension]")
+_QNAME_IN_MSG = re.compile(r"\{([^}]*)\}([\w.\-]+)")
+_ELEMENT_IN_MSG = re.compile(r"^Element '([^']+)'")
+_NCNAME = re.compile(r"^[^\W\d][\w.\-]*$")
+_POINT_IN_REASON = re.compile(r"\[\s*([-+0-9.eE]+)\s+([-+0-9.eE]+)")
+
+
+@dataclass
+class Issue:
+    """One finding, located by line and/or the ``gml:id`` of the object it concerns."""
+    file: str
+    check: str
+    severity: str  # "error" or "warning"
+    line: int | None
+    gml_id: str | None
+    message: str
+
+
+@dataclass
+class FileReport:
+    """The result for one file: the row of the paper's Table 13 plus every issue behind it."""
+    file: str
+    valid: bool
+    issues: list[Issue] = field(default_factory=list)
+    size_bytes: int = 0
+    seconds: float = 0.0
+
+    @property
+    def status(self) -> str:
+        return "Success" if self.valid else "Fail"
+
+    @property
+    def details(self) -> str:
+        """Short summary such as ``xsd: 2 errors; solid-closed: 1 error``."""
+        errors = Counter(i.check for i in self.issues if i.severity == "error")
+        parts = [f"{check}: {n} error{'s' if n > 1 else ''}" for check, n in errors.items()]
+        warnings = sum(1 for i in self.issues if i.severity == "warning")
+        if warnings:
+            parts.append(f"{warnings} warning{'s' if warnings > 1 else ''}")
+        return "; ".join(parts) if parts else "valid (XSD, ids, references, geometry, textures)"
+
+
+def validate_files(paths: Sequence[str], schema_dir: Path, feedback: Feedback = SILENT,
+                   planarity_tol: float = 0.01, vertex_tol: float = 0.001, min_triangle_area: float = 1e-6,
+                   max_issues_per_check: int = 200) -> list[FileReport]:
+    """Validate CityGML 3.0 files against the XSDs in ``schema_dir`` and the geometry/reference rules.
+
+    ``planarity_tol`` (m): largest distance of a face vertex from the face's plane;
+    ``vertex_tol`` (m): coordinates closer than this are the same vertex when matching shell edges;
+    ``min_triangle_area`` (m²): TIN triangles at or below it are degenerate;
+    ``max_issues_per_check``: issues listed per check and file (the rest are counted), so a badly
+    broken 1 GB file still gives a readable report.
+    """
+    if not paths:
+        raise InputError("No CityGML files given: choose at least one .gml file to validate.")
+    files = [Path(p) for p in paths]
+    for path in files:
+        if not path.is_file():
+            raise InputError(f"CityGML file {path} does not exist or is not a file.")
+    schema = load_schema(schema_dir)
+    known = schema_namespaces(schema_dir)
+    total = sum(p.stat().st_size for p in files) or 1
+    done = 0
+    reports = []
+    for path in files:
+        feedback.check_canceled()
+        feedback.info(f"Validating {path.name}")
+        size = path.stat().st_size
+        check = _FileCheck(path, schema, Path(schema_dir), known, planarity_tol, vertex_tol, min_triangle_area,
+                           max_issues_per_check, feedback, lambda pos, d=done: feedback.progress(100.0 * (d + pos) / total))
+        start = time.perf_counter()
+        issues = check.run()
+        report = FileReport(str(path), not any(i.severity == "error" for i in issues), issues, size,
+                            time.perf_counter() - start)
+        feedback.info(f"{path.name}: {report.status} ({report.details})")
+        reports.append(report)
+        done += size
+        feedback.progress(100.0 * done / total)
+    return reports
+
+
+class _FileCheck:
+    """All checks of one file in one streaming pass."""
+
+    def __init__(self, path: Path, schema: etree.XMLSchema, schema_dir: Path, known_ns: frozenset[str],
+                 planarity_tol: float, vertex_tol: float, min_triangle_area: float, max_issues: int,
+                 feedback: Feedback, on_progress):
+        self.path, self.name, self.schema, self.schema_dir = path, str(path), schema, schema_dir
+        self.known_ns = known_ns
+        self.planarity_tol, self.vertex_tol, self.min_area = planarity_tol, vertex_tol, min_triangle_area
+        self.max_issues, self.feedback, self.on_progress = max_issues, feedback, on_progress
+        self.issues: list[Issue] = []
+        self._seen: set[tuple] = set()
+        self._per_check: Counter = Counter()
+        self.ids: dict[str, int] = {}  # gml:id -> number of points when it is a LinearRing, else 0
+        self.pending_refs: dict[str, tuple[int | None, str]] = {}  # id -> (line, how it is referenced)
+        self.pending_tex: list[tuple[str, int, int | None, str | None]] = []  # ring id, pairs, line, texture
+        self.images: set[str] = set()
+        self.ade_reported: set[str] = set()
+        self.entities_possible = False
+        self.model_crs: str | None = None
+        self.solids: list[tuple[_Where, list]] = []
+        self.pending: etree._Element | None = None  # checked member waiting to be validated and dropped
+        self.triangles: list[tuple[str | None, int | None, list[float]]] = []
+
+    # -- reporting -------------------------------------------------------------------------------
+    def add(self, check: str, line: int | None, gml_id: str | None, message: str, severity: str = "error") -> None:
+        key = (check, line, message)  # a kept triangle is seen twice, once without its ids
+        if key in self._seen:
+            return
+        self._seen.add(key)
+        self._per_check[check, severity] += 1
+        if self._per_check[check, severity] <= self.max_issues:
+            self.issues.append(Issue(self.name, check, severity, line, gml_id, message))
+
+    # -- driver ----------------------------------------------------------------------------------
+    def run(self) -> list[Issue]:
+        try:
+            root_tag = next(etree.iterparse(str(self.path), events=("start",), **_PARSE))[1].tag
+            with open(self.path, "rb") as stream:
+                events = etree.iterparse(stream, events=("end",), tag={_G["Triangle"], root_tag, *MEMBER_TAGS},
+                                         **_PARSE)
+                for n, (_, el) in enumerate(events):
+                    if n == 0:
+                        self._start_document(el)
+                    if el.tag == _G["Triangle"]:
+                        self._triangle(el)
+                        continue
+                    parent = el.getparent()
+                    if parent is None:
+                        self._release()
+                        self._feature(el)
+                        self._validate(el)
+                    elif parent.getparent() is None and el.tag in MEMBER_TAGS:
+                        self._release()
+                        self._feature(el)
+                        self.pending = el
+                    if n % 256 == 0:
+                        self.feedback.check_canceled()
+                        self.on_progress(stream.tell())
+        except StopIteration:
+            self.add("xml", None, None, "The file is empty.")
+        except etree.XMLSyntaxError as exc:
+            last = exc.error_log.last_error if exc.error_log else None
+            self.add("xml", (last.line if last else exc.lineno) or None, None, f"Not well-formed XML: "
+                     f"{(last.message if last else exc.msg).strip()}. Nothing after this point was checked.")
+        self._release()
+        self._flush_triangles()
+        self._flush_solids()
+        self._finish()
+        for (check, severity), count in self._per_check.items():
+            if count > self.max_issues:
+                self.issues.append(Issue(self.name, check, severity, None, None,
+                                         f"... and {count - self.max_issues} more {check} {severity}s not listed."))
+        return self.issues
+
+    def _start_document(self, el: etree._Element) -> None:
+        envelope = el.getroottree().getroot().find(f"{_G['boundedBy']}/{_G['Envelope']}")
+        self.model_crs = envelope.get("srsName") if envelope is not None else None
+        docinfo = el.getroottree().docinfo
+        if docinfo.internalDTD is not None or docinfo.doctype:
+            self.entities_possible = True
+            self.add("xml", 1, None, "The file has a DOCTYPE. CityGML needs none; its entity declarations are "
+                     "ignored (never expanded or fetched, for security).", "warning")
+
+    def _finish(self) -> None:
+        for ref, (line, how) in self.pending_refs.items():
+            if ref not in self.ids:
+                self.add("reference", line, None, f"{how} '#{ref}' points to no gml:id in this file.")
+        for ring_id, pairs, line, tex_id in self.pending_tex:
+            if self.ids.get(ring_id):
+                self._compare_tex(ring_id, pairs, line, tex_id)
+
+    # -- per feature -----------------------------------------------------------------------------
+    def _feature(self, el: etree._Element) -> None:
+        """Check one top-level member (or the whole root) where it stands in the tree."""
+        rings = self._scan(el)
+        self._check_solids(el, rings)
+        self._check_textures(el)
+
+    def _release(self) -> None:
+        """XSD-validate the previous member on its own, then drop it from the parsed tree.
+
+        Done one member late: libxml2 may still be appending the member's tail text right after its
+        end event, and moving that text node away under the parser corrupts memory.
+        """
+        el, self.pending = self.pending, None
+        if el is None:
+            return
+        root = el.getparent()
+        prev = el.getprevious()
+        if prev is None or prev.tag != el.tag or len(prev) or prev.attrib:
+            el.addprevious(etree.Element(el.tag))  # an empty member keeps the root's structure valid
+        mini = etree.Element(root.tag, nsmap=root.nsmap)
+        mini.append(el)  # moves the member out of the parsed tree: this is what frees its memory
+        self._validate(mini, _neutral_ids(mini))
+
+    def _scan(self, el: etree._Element) -> dict:
+        """ids, references and coordinate dimensions; returns the parsed coordinates of every ring."""
+        if self.entities_possible:
+            for ent in list(el.iter(etree.Entity)):
+                self.add("xml", ent.getparent().sourceline, None, f"Uses the XML entity {ent.text}: entities are not "
+                         "expanded (security), so its content is missing. Write the text directly.")
+                _remove_keep_tail(ent)
+        new_refs: list[tuple[str, int | None, str]] = []
+        for node in _WITH_ID(el):
+            gid = node.get(GML_ID)
+            if not _NCNAME.match(gid):
+                self.add("xsd", node.sourceline, gid, f"gml:id '{gid}' is not a valid XML name (it must start with a "
+                         "letter or '_' and contain no spaces or ':').")
+            if gid in self.ids:
+                self.add("duplicate-id", node.sourceline, gid, f"gml:id '{gid}' is used more than once; every "
+                         "gml:id in a file must be unique.")
+            else:
+                self.ids[gid] = 0
+        for node in _WITH_HREF(el):
+            href = node.get(HREF)
+            if href.startswith("#"):
+                new_refs.append((href[1:], node.sourceline, f"xlink:href of {_short(node.tag)}"))
+        for node in el.iter(_A["target"], _A["ring"]):
+            text = (node.text or "").strip()
+            if text.startswith("#"):
+                new_refs.append((text[1:], node.sourceline, _short(node.tag)))
+        rings: dict = {}
+        dims = _WITH_DIM(el)
+        for node in el.iter(_G["posList"], _G["pos"], _G["lowerCorner"], _G["upperCorner"]):
+            tokens = (node.text or "").split()
+            ok = self._check_dimension(node, len(tokens), bool(dims))
+            parent = node.getparent()
+            if parent.tag == _G["LinearRing"]:
+                try:
+                    values = list(map(float, tokens)) if ok else None
+                except ValueError:
+                    values = None  # not numbers: the XSD check reports it
+                if parent in rings:
+                    if rings[parent] is not None and values is not None:
+                        rings[parent].extend(values)
+                    else:
+                        rings[parent] = None
+                else:
+                    rings[parent] = values
+        for ring, values in rings.items():
+            gid = ring.get(GML_ID)
+            if gid is not None and values is not None:
+                self.ids[gid] = len(values) // 3
+        for ref, line, how in new_refs:
+            if ref not in self.ids and ref not in self.pending_refs:
+                self.pending_refs[ref] = (line, how)
+        return rings
+
+    def _check_dimension(self, node: etree._Element, count: int, any_declared: bool) -> bool:
+        """True when the position element holds 3D positions; reports it otherwise.
+
+        A geometry in its own CRS (e.g. an address point in EPSG:4326, as in the official
+        examples) gets a warning: its dimension follows that CRS, which cannot be looked up offline.
+        """
+        dim = _srs_dimension(node, any_declared)
+        if dim is not None and dim != 3:
+            problem = f"{_short(node.tag)} has srsDimension=\"{dim}\": coordinates must be 3D (x y z)."
+        elif node.tag == _G["posList"] and count % 3:
+            problem = f"gml:posList has {count} numbers, not a multiple of 3: every position must be 3D (x y z)."
+        elif node.tag != _G["posList"] and count != 3:
+            problem = f"{_short(node.tag)} has {count} numbers: a position must be 3D (x y z)."
+        else:
+            return True
+        own_crs = _inherited(node, "srsName")
+        if dim is None and own_crs and own_crs != self.model_crs and count % 2 == 0:
+            self.add("dimension", node.sourceline, _owner_id(node), f"{problem[:-1]}, unless its own CRS {own_crs} "
+                     "is 2D; city-object geometry should be 3D in the model's CRS.", "warning")
+        else:
+            self.add("dimension", node.sourceline, _owner_id(node), problem)
+        return False
+
+    def _validate(self, node: etree._Element, aliases: dict[str, str] | None = None) -> None:
+        """XSD-validate ``node``; ``aliases`` maps neutral gml:id values back to the file's ones."""
+        try:
+            if self.schema.validate(node):
+                return
+        except etree.XMLSchemaValidateError as exc:
+            self.add("xsd", node.sourceline, None, f"XSD validation could not run on this part: {exc}")
+            return
+        error_lines: set[int] = set()
+        for err in self.schema.error_log:
+            if "list type" in err.message and err.line in error_lines:
+                continue  # libxml2 repeats a bad list item as a bad list: report it once
+            error_lines.add(err.line)
+            self._xsd_issue(err.line, err.message, node, aliases or {})
+
+    def _xsd_issue(self, line: int, message: str, validated: etree._Element, aliases: dict[str, str]) -> None:
+        match = _ELEMENT_IN_MSG.match(message)
+        tag = match.group(1) if match else ""
+        ns = tag[1:].split("}")[0] if tag.startswith("{") else ""
+        if ns and ns not in self.known_ns:
+            if ns not in self.ade_reported:
+                self.ade_reported.add(ns)
+                self.add("ade", line, None, f"Uses ADE namespace {ns} whose schema is not available, so its "
+                         f"elements (first: {tag.split('}')[1]}) cannot be validated. Add the ADE's XSD to the "
+                         "schema folder (and import it in citygml3-all.xsd) or remove the ADE content.")
+            return
+        if self._per_check["xsd", "error"] >= self.max_issues:
+            self.add("xsd", line, None, message)
+            return
+        node = next((n for n in validated.iter(tag) if n.sourceline == line), None) if tag else None
+        gml_id = _owner_id(node) if node is not None else None
+        gml_id = aliases.get(gml_id, gml_id)
+        text = _short(message)
+        if node is not None and "This element is not expected" in message:
+            parent = node.getparent()
+            model = content_model(str(self.schema_dir.resolve()))
+            missing = model.missing_required(parent.tag, [c.tag for c in parent if isinstance(c.tag, str)])
+            expected = re.findall(r"\{[^}]*\}[\w.\-]+", message.split("Expected is", 1)[-1])
+            if missing:
+                text = (f"{_short(parent.tag)} is missing the required element {_short(missing[0])} "
+                        f"(found {_short(tag)} where {_short(missing[0])} was expected).")
+            elif tag not in model.local_names:
+                guess = get_close_matches(_short(tag), [_short(e) for e in expected], n=1)
+                text = (f"Unknown element {_short(tag)} in {_short(parent.tag)} (no schema defines it)"
+                        + (f"; did you mean {guess[0]}?" if guess else ".")
+                        + (f" Expected one of: {', '.join(_short(e) for e in expected)}." if expected else ""))
+        self.add("xsd", line, gml_id, text)
+
+    # -- TIN triangles ---------------------------------------------------------------------------
+    def _triangle(self, el: etree._Element) -> None:
+        """Check, validate and drop one triangle, keeping the first of its patch list for the XSD."""
+        rings = self._scan(el)
+        gid = el.get(GML_ID) or next((r.get(GML_ID) for r in rings if r.get(GML_ID)), None)
+        exterior = el.find(_G["exterior"] + "/" + _G["LinearRing"])
+        values = rings.get(exterior) if exterior is not None else None
+        if values is not None:
+            self.triangles.append((gid, el.sourceline, values))
+            if len(self.triangles) >= 4096:
+                self._flush_triangles()
+        for node in el.iter():
+            node.attrib.pop(GML_ID, None)  # recorded already; see _neutral_ids for why they must not reach the XSD
+        self._validate(el)
+        prev = el.getprevious()
+        if prev is not None and prev.tag == el.tag and prev.getprevious() is not None:
+            el.getparent().remove(prev)
+
+    def _flush_triangles(self) -> None:
+        for gid, line, values in self.triangles:
+            if len(values) != 12 or values[:3] != values[9:]:
+                self.add("degenerate-triangle", line, gid, f"Triangle has {len(values) // 3} positions; it needs 4 "
+                         "(3 corners and the first repeated).")
+        ok = [t for t in self.triangles if len(t[2]) == 12]
+        if ok:
+            pts = np.array([t[2] for t in ok]).reshape(-1, 4, 3)
+            area = 0.5 * np.linalg.norm(np.cross(pts[:, 1] - pts[:, 0], pts[:, 2] - pts[:, 0]), axis=1)
+            for i in np.flatnonzero(area <= self.min_area):
+                gid, line, _ = ok[i]
+                self.add("degenerate-triangle", line, gid, f"Triangle is degenerate (area {area[i]:.3g} m² ≤ "
+                         f"{self.min_area:g} m²): its corners coincide or are collinear.")
+        self.triangles = []
+
+    # -- textures --------------------------------------------------------------------------------
+    def _check_textures(self, el: etree._Element) -> None:
+        for node in el.iter(_A["imageURI"]):
+            uri = (node.text or "").strip()
+            if uri in self.images:
+                continue
+            self.images.add(uri)
+            if re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]+://", uri):
+                self.add("texture-image", node.sourceline, _owner_id(node), f"Texture image {uri} is remote and was "
+                         "not checked.", "warning")
+            elif not uri or not (self.path.parent / uri).is_file():
+                self.add("texture-image", node.sourceline, _owner_id(node), f"Texture image '{uri}' does not exist "
+                         f"(looked for {self.path.parent / uri}).")
+        for tcl in el.iter(_A["TexCoordList"]):
+            coords = [c for c in tcl if c.tag == _A["textureCoordinates"]]
+            targets = [c for c in tcl if c.tag == _A["ring"]]
+            tex_id = _owner_id(tcl)
+            if len(coords) != len(targets):
+                self.add("texture-coordinates", tcl.sourceline, tex_id, f"TexCoordList has {len(coords)} "
+                         f"textureCoordinates but {len(targets)} ring references; they must pair up in order.")
+            for coord, ring in zip(coords, targets):
+                tokens = (coord.text or "").split()
+                bad = [t for t in tokens if not _finite(t)]
+                ring_id = (ring.text or "").strip().lstrip("#")
+                if bad:
+                    self.add("texture-coordinates", coord.sourceline, tex_id, f"Texture coordinates for ring "
+                             f"#{ring_id} contain {', '.join(repr(b) for b in bad[:3])}: each must be a finite number.")
+                if len(tokens) % 2:
+                    self.add("texture-coordinates", coord.sourceline, tex_id, f"Texture coordinates for ring "
+                             f"#{ring_id} have an odd number of values ({len(tokens)}); they are (s t) pairs.")
+                    continue
+                if self.ids.get(ring_id):
+                    self._compare_tex(ring_id, len(tokens) // 2, coord.sourceline, tex_id)
+                else:
+                    self.pending_tex.append((ring_id, len(tokens) // 2, coord.sourceline, tex_id))
+
+    def _compare_tex(self, ring_id: str, pairs: int, line: int | None, tex_id: str | None) -> None:
+        points = self.ids[ring_id]
+        if pairs != points:
+            self.add("texture-coordinates", line, tex_id, f"{pairs} texture coordinate pairs for ring #{ring_id}, "
+                     f"which has {points} points; there must be one pair per point (closing point included).")
+
+    # -- solids ----------------------------------------------------------------------------------
+    def _check_solids(self, feature: etree._Element, rings: dict) -> None:
+        """Queue the feature's solids; they are checked in batches (numpy pays off on thousands of faces)."""
+        for solid in feature.iter(_G["Solid"]):
+            faces: list = []
+            try:
+                for shell in solid.iterfind(f"{_G['exterior']}/{_G['Shell']}"):
+                    self._collect_faces(shell, False, feature, rings, faces)
+            except _Unresolved as exc:
+                self.add("solid-closed", solid.sourceline, solid.get(GML_ID), f"Solid not checked: its surface "
+                         f"#{exc} is not defined in the same feature.", "warning")
+                continue
+            except _Unparsed:
+                continue  # coordinates that are not numbers: the XSD check reports it
+            if faces:
+                self.solids.append((_Where(solid.sourceline, solid.get(GML_ID), _label(solid)), faces))
+        if len(self.solids) >= 2000:
+            self._flush_solids()
+
+    def _flush_solids(self) -> None:
+        if self.solids:
+            _SolidCheck(self, self.solids).run()
+        self.solids = []
+
+    def _collect_faces(self, node: etree._Element, reverse: bool, feature: etree._Element, rings: dict,
+                       out: list) -> None:
+        """Polygons of a shell/composite/orientable surface as (polygon element, [rings]), in shell orientation."""
+        for child in node:
+            if child.tag not in (_G["surfaceMember"], _G["baseSurface"], _G["patches"]):
+                continue
+            targets = list(child)
+            href = child.get(HREF)
+            if not targets and href and href.startswith("#"):
+                found = feature.xpath("descendant-or-self::*[@gml:id=$i]", i=href[1:], namespaces={"gml": GML})
+                if not found:
+                    raise _Unresolved(href[1:])
+                targets = found[:1]
+            for surface in targets:
+                if surface.tag in (_G["Polygon"], _G["PolygonPatch"]):
+                    ring_nodes = [r for part in surface for r in part if r.tag == _G["LinearRing"]
+                                  and part.tag in (_G["exterior"], _G["interior"])]
+                    coords = [rings.get(r) for r in ring_nodes]
+                    if not ring_nodes or any(c is None or len(c) % 3 for c in coords):
+                        raise _Unparsed()
+                    arrays = [np.asarray(c).reshape(-1, 3) for c in coords]
+                    out.append((_Where(surface.sourceline, _owner_id(surface), _label(surface)),
+                                [a[::-1] for a in arrays] if reverse else arrays))
+                elif surface.tag == _G["OrientableSurface"]:
+                    self._collect_faces(surface, reverse ^ (surface.get("orientation") == "-"), feature, rings, out)
+                elif surface.tag in (_G["CompositeSurface"], _G["Surface"], _G["MultiSurface"], _G["Shell"]):
+                    self._collect_faces(surface, reverse, feature, rings, out)
+
+
+class _Where(NamedTuple):
+    """Where a solid or face is, kept instead of the element so that checked members can be freed."""
+    line: int | None
+    gml_id: str | None
+    label: str
+
+
+class _Unresolved(Exception):
+    """A shell member refers to a surface outside the feature being checked."""
+
+
+class _Unparsed(Exception):
+    """A face's coordinates are missing or not 3D numbers (reported by the XSD/dimension checks)."""
+
+
+class _SolidCheck:
+    """Closedness, orientation, planarity and simplicity of a batch of solids, vectorised over the batch."""
+
+    def __init__(self, fc: _FileCheck, solids: list):
+        self.fc, self.tol = fc, fc.vertex_tol
+        self.solids = solids
+
+    def run(self) -> None:
+        fc = self.fc
+        verts, vert_ring, ring_face, face_solid, face_nodes, origins = [], [], [], [], [], []
+        self.broken: set[int] = set()  # solids with a face dropped for a bad ring: topology would mislead
+        for s, (solid, faces) in enumerate(self.solids):
+            origin = faces[0][1][0][0]
+            origins.append(origin)
+            for node, rings in faces:
+                good = []
+                for ring in rings:
+                    if len(ring) < 4:
+                        fc.add("polygon", node.line, node.gml_id, f"A ring of face {node.label} has "
+                               f"{len(ring)} positions; a ring needs at least 4 (3 corners and the first repeated).")
+                    elif np.abs(ring[0] - ring[-1]).max() > self.tol:
+                        fc.add("polygon", node.line, node.gml_id, f"A ring of face {node.label} is not "
+                               "closed: its last position must repeat the first.")
+                    else:
+                        good.append(ring[:-1] - origin)
+                if len(good) != len(rings):
+                    self.broken.add(s)
+                    continue
+                f = len(face_nodes)
+                face_nodes.append(node)
+                face_solid.append(s)
+                for ring in good:
+                    vert_ring.append(np.full(len(ring), len(ring_face)))
+                    ring_face.append(f)
+                    verts.append(ring)
+        if not verts:
+            return
+        self.v = np.concatenate(verts)
+        self.vert_ring = np.concatenate(vert_ring)
+        self.ring_face = np.asarray(ring_face)
+        self.face_solid = np.asarray(face_solid)
+        self.face_nodes, self.origins = face_nodes, origins
+        ring_len = np.bincount(self.vert_ring)
+        ring_start = np.concatenate([[0], np.cumsum(ring_len)[:-1]])
+        self.nxt = np.arange(len(self.v)) + 1
+        self.nxt[ring_start + ring_len - 1] = ring_start
+        self.vert_face = self.ring_face[self.vert_ring]
+        self._faces()
+        self._topology()
+
+    def _faces(self) -> None:
+        """Area, planarity and self-intersection of every face; signed volume of every solid."""
+        fc, v, w, vf = self.fc, self.v, self.v[self.nxt], self.vert_face
+        nfaces = len(self.face_nodes)
+        terms = np.column_stack([(v[:, 1] - w[:, 1]) * (v[:, 2] + w[:, 2]), (v[:, 2] - w[:, 2]) * (v[:, 0] + w[:, 0]),
+                                 (v[:, 0] - w[:, 0]) * (v[:, 1] + w[:, 1])])
+        normal = np.column_stack([np.bincount(vf, terms[:, k], nfaces) for k in range(3)])  # 2 × area vector
+        count = np.bincount(vf, minlength=nfaces)
+        centroid = np.column_stack([np.bincount(vf, v[:, k], nfaces) for k in range(3)]) / count[:, None]
+        length = np.linalg.norm(normal, axis=1)
+        flat = length / 2 <= max(self.tol ** 2, 1e-12)
+        unit = normal / np.where(flat, 1.0, length)[:, None]
+        dist = np.abs(((v - centroid[vf]) * unit[vf]).sum(axis=1))
+        face_start = np.flatnonzero(np.r_[True, vf[1:] != vf[:-1]])
+        worst = np.maximum.reduceat(dist, face_start)
+        self.volume = np.bincount(self.face_solid, (centroid * normal).sum(axis=1), len(self.solids)) / 6.0
+        self.flat_solid = set(self.face_solid[flat].tolist())
+        for f in np.flatnonzero(flat):
+            node, pts = self.face_nodes[f], v[vf == f]
+            spread = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
+            if len(spread) > 1 and spread[1] > self.tol * np.sqrt(len(pts)):
+                fc.add("self-intersection", node.line, node.gml_id, f"Face {node.label} intersects itself "
+                       "(its signed area is zero although its points span a plane: a bow-tie or figure-eight ring).")
+            else:
+                fc.add("polygon", node.line, node.gml_id, f"Face {node.label} has zero area (its points "
+                       "coincide or are collinear).")
+        for f in np.flatnonzero(~flat & (worst > fc.planarity_tol)):
+            node = self.face_nodes[f]
+            fc.add("planarity", node.line, node.gml_id, f"Face {node.label} is not planar: a vertex lies "
+                   f"{worst[f]:.3f} m from the face's plane (tolerance {fc.planarity_tol:g} m).")
+        # self-intersection: each face projected on the coordinate plane its normal is closest to
+        keep = ~flat[vf]
+        axis = np.argmax(np.abs(normal), axis=1)
+        a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+        idx = np.flatnonzero(keep)
+        xy = np.column_stack([v[idx, a1[vf[idx]]], v[idx, a2[vf[idx]]]])
+        if not len(idx):
+            return
+        ring_ids = self.vert_ring[idx]
+        _, ring_seq = np.unique(ring_ids, return_inverse=True)
+        linear = shapely.linearrings(xy, indices=ring_seq)
+        ring_of = np.unique(ring_ids)
+        faces_of_rings = self.ring_face[ring_of]
+        _, face_seq = np.unique(faces_of_rings, return_inverse=True)
+        polys = shapely.polygons(linear, indices=face_seq)
+        face_list = np.unique(faces_of_rings)
+        for k in np.flatnonzero(~shapely.is_valid(polys)):
+            f = face_list[k]
+            node = self.face_nodes[f]
+            reason = shapely.is_valid_reason(polys[k])
+            where = ""
+            m = _POINT_IN_REASON.search(reason)
+            if m:
+                p = np.zeros(3)
+                p[a1[f]], p[a2[f]] = float(m.group(1)), float(m.group(2))
+                n, c = unit[f], centroid[f]
+                p[axis[f]] = c[axis[f]] - (n[a1[f]] * (p[a1[f]] - c[a1[f]]) + n[a2[f]] * (p[a2[f]] - c[a2[f]])) / n[axis[f]]
+                where = " near " + _xyz(p + self.origins[self.face_solid[f]])
+            fc.add("self-intersection", node.line, node.gml_id, f"Face {node.label} intersects itself"
+                   f"{where} ({reason.split('[')[0].strip()}).")
+
+    def _topology(self) -> None:
+        """Every edge in exactly two faces, once in each direction; then outward by signed volume."""
+        fc, v = self.fc, self.v
+        vs = self.face_solid[self.vert_face]
+        key = np.column_stack([vs, np.round(v / self.tol).astype(np.int64)])
+        _, vid = np.unique(key, axis=0, return_inverse=True)
+        vid = vid.ravel()
+        suspicious = self._suspicious(vid)
+        for s, (solid, _) in enumerate(self.solids):
+            if s in self.broken:
+                continue
+            if s in suspicious:
+                mask = vs == s
+                self._explain(s, solid, np.flatnonzero(mask), _tolerant_ids(v[mask], self.tol))
+            elif s not in self.flat_solid:
+                self._outward(s, solid)
+
+    def _suspicious(self, vid: np.ndarray) -> set[int]:
+        a, b = vid, vid[self.nxt]
+        real = a != b
+        solid_of_edge = self.face_solid[self.vert_face][real]
+        a, b = a[real], b[real]
+        m = int(vid.max()) + 1
+        _, inv, cnt = np.unique(np.minimum(a, b) * m + np.maximum(a, b), return_inverse=True, return_counts=True)
+        _, dinv, dcnt = np.unique(a * m + b, return_inverse=True, return_counts=True)
+        bad = (cnt[inv.ravel()] != 2) | (dcnt[dinv.ravel()] != 1)
+        return set(solid_of_edge[bad].tolist())
+
+    def _explain(self, s: int, solid: _Where, vidx: np.ndarray, local_ids: list[int]) -> None:
+        """Report why a solid failed the fast edge test (after matching vertices at the tolerance)."""
+        fc, sid = self.fc, solid.gml_id
+        ids = dict(zip(vidx.tolist(), local_ids))
+        undirected: dict = defaultdict(list)
+        for i in vidx.tolist():
+            a, b = ids[i], ids[self.nxt[i]]
+            if a != b:
+                undirected[min(a, b), max(a, b)].append((int(self.vert_face[i]), a < b, i))
+        open_edges = [(k, uses) for k, uses in undirected.items() if len(uses) != 2]
+        if open_edges:
+            (_, uses), n = open_edges[0], len(open_edges)
+            i = uses[0][2]
+            faces = ", ".join(sorted({self.face_nodes[f].label for f, _, _ in uses}))
+            ends = f"{_xyz(self.v[i] + self.origins[s])} – {_xyz(self.v[self.nxt[i]] + self.origins[s])}"
+            what = "is used by only one face: the shell has a hole" if len(uses) == 1 else \
+                f"is shared by {len(uses)} faces"
+            fc.add("solid-closed", solid.line, sid, f"Solid {sid or ''} is not closed: edge {ends} (face "
+                   f"{faces}) {what}" + (f"; {n - 1} more such edges." if n > 1 else "."))
+            return
+        if all(d1 != d2 for (_, d1, _), (_, d2, _) in undirected.values()):
+            if s not in self.flat_solid:
+                self._outward(s, solid)  # only the fast vertex matching was fooled
+            return
+        # closed: find the faces whose orientation disagrees with their neighbours
+        neighbours: dict = defaultdict(list)
+        for (f1, d1, _), (f2, d2, _) in undirected.values():
+            neighbours[f1].append((f2, d1 == d2))
+            neighbours[f2].append((f1, d1 == d2))
+        parity: dict[int, int] = {}
+        for start in neighbours:
+            if start in parity:
+                continue
+            parity[start], todo = 0, [start]
+            while todo:
+                f = todo.pop()
+                for g, flip in neighbours[f]:
+                    want = parity[f] ^ flip
+                    if g not in parity:
+                        parity[g] = want
+                        todo.append(g)
+                    elif parity[g] != want:
+                        fc.add("solid-orientation", solid.line, sid, f"Solid {sid or ''} cannot be oriented "
+                               "consistently (its shell is not a proper closed surface).")
+                        return
+        groups = [sorted(f for f, p in parity.items() if p == k) for k in (0, 1)]
+        minority = min(groups, key=len)
+        names = ", ".join(self.face_nodes[f].label for f in minority[:10])
+        fc.add("solid-orientation", solid.line, sid, f"Solid {sid or ''}: face(s) {names} are oriented "
+               "opposite to their neighbours; reverse their vertex order so all faces point outwards.")
+
+    def _outward(self, s: int, solid: _Where) -> None:
+        vol, sid = self.volume[s], solid.gml_id
+        if vol < 0:
+            self.fc.add("solid-orientation", solid.line, sid, f"Solid {sid or ''} is inside out: all faces point "
+                        f"inwards (signed volume {vol:.3f} m³); reverse the vertex order of every face.")
+        elif vol <= self.tol ** 3:
+            self.fc.add("solid-closed", solid.line, sid, f"Solid {sid or ''} encloses no volume.")
+
+
+def _tolerant_ids(points: np.ndarray, tol: float) -> list[int]:
+    """Vertex ids where points within ``tol`` share an id (grid cells plus their 26 neighbours)."""
+    cells: dict = defaultdict(list)
+    ids, reps = [], []
+    offsets = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)]
+    for p in points:
+        c = tuple(np.floor(p / tol).astype(int))
+        found = next((j for o in offsets for j in cells.get((c[0] + o[0], c[1] + o[1], c[2] + o[2]), ())
+                      if np.abs(reps[j] - p).max() <= tol), None)
+        if found is None:
+            found = len(reps)
+            reps.append(p)
+            cells[c].append(found)
+        ids.append(found)
+    return ids
+
+
+# -- small helpers --------------------------------------------------------------------------------
+def _short(text: str) -> str:
+    """Replace ``{namespace}name`` by ``prefix:name`` so messages read like the XML."""
+    return _QNAME_IN_MSG.sub(lambda m: f"{PREFIXES.get(m.group(1), m.group(1))}:{m.group(2)}", text)
+
+
+def _owner_id(node: etree._Element | None) -> str | None:
+    while node is not None:
+        gid = node.get(GML_ID)
+        if gid:
+            return gid
+        node = node.getparent()
+    return None
+
+
+def _label(node: etree._Element) -> str:
+    gid = node.get(GML_ID)
+    return gid if gid else f"at line {node.sourceline}"
+
+
+def _xyz(p: np.ndarray) -> str:
+    return "(" + " ".join(f"{c:.3f}" for c in p) + ")"
+
+
+def _finite(token: str) -> bool:
+    try:
+        return math.isfinite(float(token))
+    except ValueError:
+        return False
+
+
+def _srs_dimension(node: etree._Element, any_declared: bool) -> int | None:
+    """srsDimension of the position element or its nearest ancestor that declares one."""
+    while node is not None:
+        value = node.get("srsDimension")
+        if value is not None:
+            return int(value) if value.isdigit() else None
+        if not any_declared:
+            return None
+        node = node.getparent()
+    return None
+
+
+def _neutral_ids(tree: etree._Element) -> dict[str, str]:
+    """Replace every gml:id by a short name reused from member to member; return new -> original.
+
+    libxml2 (< 2.12) interns each xs:ID value it validates in a process-wide string dictionary whose
+    hash table stops growing, so millions of distinct ids make validation quadratic. Uniqueness
+    and syntax of the real ids are checked in ``_scan`` instead.
+    """
+    aliases = {}
+    for n, node in enumerate(_WITH_ID(tree)):
+        alias = f"i{n}"
+        aliases[alias] = node.get(GML_ID)
+        node.set(GML_ID, alias)
+    return aliases
+
+
+def _inherited(node: etree._Element | None, attribute: str) -> str | None:
+    while node is not None:
+        value = node.get(attribute)
+        if value is not None:
+            return value
+        node = node.getparent()
+    return None
+
+
+def _remove_keep_tail(node: etree._Element) -> None:
+    parent, tail = node.getparent(), node.tail or ""
+    prev = node.getprevious()
+    if prev is not None:
+        prev.tail = (prev.tail or "") + tail
+    else:
+        parent.text = (parent.text or "") + tail
+    parent.remove(node)
+
+
+# -- reports --------------------------------------------------------------------------------------
+_COLUMNS = ["file", "status", "details", "check", "severity", "line", "gml_id", "message"]
+
+
+def write_report_csv(reports: Sequence[FileReport], path: str) -> None:
+    """One row per issue (every file appears, a valid one with empty issue columns); UTF-8 with BOM for Excel."""
+    with atomic_file(path) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8-sig") as out:
+            writer = csv.writer(out)
+            writer.writerow(_COLUMNS)
+            for rep in reports:
+                rows = rep.issues or [None]
+                for issue in rows:
+                    writer.writerow([rep.file, rep.status, rep.details] + (
+                        [issue.check, issue.severity, issue.line if issue.line is not None else "",
+                         issue.gml_id or "", issue.message] if issue else ["", "", "", "", ""]))
+
+
+def write_report_html(reports: Sequence[FileReport], path: str) -> None:
+    """A self-contained HTML page: the Table-13 style summary, then every issue."""
+    esc = html.escape
+    summary = "".join(
+        f"<tr class='{'ok' if r.valid else 'fail'}'><td>{esc(Path(r.file).name)}</td><td>{r.status}</td>"
+        f"<td>{esc(r.details)}</td><td>{r.size_bytes / 1e6:.2f}</td><td>{r.seconds:.2f}</td></tr>" for r in reports)
+    issues = "".join(
+        f"<tr class='{esc(i.severity)}'><td>{esc(Path(i.file).name)}</td><td>{esc(i.check)}</td>"
+        f"<td>{esc(i.severity)}</td><td>{i.line if i.line is not None else ''}</td><td>{esc(i.gml_id or '')}</td>"
+        f"<td>{esc(i.message)}</td></tr>" for r in reports for i in r.issues)
+    n_ok = sum(r.valid for r in reports)
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>CityGML 3.0 validation report</title>
+<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;margin-bottom:2em}}
+td,th{{border:1px solid #bbb;padding:3px 8px;text-align:left;vertical-align:top}}th{{background:#eee}}
+tr.fail td:nth-child(2),tr.error td:nth-child(3){{color:#b00;font-weight:bold}}
+tr.ok td:nth-child(2){{color:#070;font-weight:bold}}tr.warning td:nth-child(3){{color:#a60}}</style></head>
+<body><h1>CityGML 3.0 validation report</h1>
+<p>{n_ok} of {len(reports)} file(s) valid.</p>
+<h2>Summary</h2>
+<table><tr><th>File</th><th>Status</th><th>Details</th><th>MB</th><th>Seconds</th></tr>{summary}</table>
+<h2>Issues</h2>
+<table><tr><th>File</th><th>Check</th><th>Severity</th><th>Line</th><th>gml:id</th><th>Message</th></tr>{issues}</table>
+</body></html>
+"""
+    with atomic_file(path) as tmp:
+        tmp.write_text(page, encoding="utf-8")
