@@ -191,5 +191,61 @@
       <source>WIT City Model: textured CityGML 3.0 from Korean national GIS data</source>
       <translation>WIT City Model: textured CityGML 3.0 from Korean national GIS data</translation>
     </message>
+    <message>
+      <source>Validate CityGML 3.0</source>
+      <translation>Validate CityGML 3.0</translation>
+    </message>
+    <message>
+      <source>CityGML</source>
+      <translation>CityGML</translation>
+    </message>
+    <message>
+      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder, else the folder set in the plugin settings, else the plugin's cache, else a one-time download from schemas.opengis.net; the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports.</source>
+      <translation>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder, else the folder set in the plugin settings, else the plugin's cache, else a one-time download from schemas.opengis.net; the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports.</translation>
+    </message>
+    <message>
+      <source>CityGML files</source>
+      <translation>CityGML files</translation>
+    </message>
+    <message>
+      <source>Schema folder (with citygml3-all.xsd)</source>
+      <translation>Schema folder (with citygml3-all.xsd)</translation>
+    </message>
+    <message>
+      <source>HTML report</source>
+      <translation>HTML report</translation>
+    </message>
+    <message>
+      <source>HTML files (*.html)</source>
+      <translation>HTML files (*.html)</translation>
+    </message>
+    <message>
+      <source>CSV report (one row per problem)</source>
+      <translation>CSV report (one row per problem)</translation>
+    </message>
+    <message>
+      <source>CSV files (*.csv)</source>
+      <translation>CSV files (*.csv)</translation>
+    </message>
+    <message>
+      <source>Validation table</source>
+      <translation>Validation table</translation>
+    </message>
+    <message>
+      <source>All files valid</source>
+      <translation>All files valid</translation>
+    </message>
+    <message>
+      <source>Number of errors</source>
+      <translation>Number of errors</translation>
+    </message>
+    <message>
+      <source>Schemas used</source>
+      <translation>Schemas used</translation>
+    </message>
+    <message>
+      <source>Schemas: {source} ({folder})</source>
+      <translation>Schemas: {source} ({folder})</translation>
+    </message>
   </context>
 </TS>

@@ -191,5 +191,61 @@
       <source>WIT City Model: textured CityGML 3.0 from Korean national GIS data</source>
       <translation>WIT 도시모델: 국가 공간정보로 텍스처 CityGML 3.0 생성</translation>
     </message>
+    <message>
+      <source>Validate CityGML 3.0</source>
+      <translation>CityGML 3.0 검증</translation>
+    </message>
+    <message>
+      <source>CityGML</source>
+      <translation>CityGML</translation>
+    </message>
+    <message>
+      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder, else the folder set in the plugin settings, else the plugin's cache, else a one-time download from schemas.opengis.net; the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports.</source>
+      <translation>CityGML 3.0 파일을 오프라인으로 검증하고 모든 문제를 파일, 줄, gml:id와 함께 보고합니다: 모든 CityGML 3.0 모듈에 대한 XSD 유효성(스키마가 없는 ADE를 쓰는 파일은 그렇다고 보고), gml:id 중복 없음, 모든 #id / xlink:href 참조 해석, 건물 솔리드가 닫혀 있고 일관되게 바깥을 향하며 면이 평면이고 자기 교차가 없음, TIN 삼각형이 퇴화하지 않음, 모든 좌표가 3차원, 텍스처 이미지 존재 및 텍스처 좌표 수가 링과 일치. 큰 파일은 스트리밍으로 처리합니다. 파싱 중 외부 엔티티와 네트워크 접근은 꺼져 있습니다. 스키마: SCHEMA_DIR 폴더, 없으면 플러그인 설정의 폴더, 없으면 플러그인 캐시, 없으면 schemas.opengis.net에서 한 번 내려받습니다. 어느 것을 썼는지 로그에 남깁니다. 결과: VALID, ERROR_COUNT, 논문 표 13과 같은 파일별 표(파일, 상태, 상세), HTML 및 CSV 보고서.</translation>
+    </message>
+    <message>
+      <source>CityGML files</source>
+      <translation>CityGML 파일</translation>
+    </message>
+    <message>
+      <source>Schema folder (with citygml3-all.xsd)</source>
+      <translation>스키마 폴더 (citygml3-all.xsd 포함)</translation>
+    </message>
+    <message>
+      <source>HTML report</source>
+      <translation>HTML 보고서</translation>
+    </message>
+    <message>
+      <source>HTML files (*.html)</source>
+      <translation>HTML 파일 (*.html)</translation>
+    </message>
+    <message>
+      <source>CSV report (one row per problem)</source>
+      <translation>CSV 보고서 (문제마다 한 행)</translation>
+    </message>
+    <message>
+      <source>CSV files (*.csv)</source>
+      <translation>CSV 파일 (*.csv)</translation>
+    </message>
+    <message>
+      <source>Validation table</source>
+      <translation>검증 결과 표</translation>
+    </message>
+    <message>
+      <source>All files valid</source>
+      <translation>모든 파일 유효</translation>
+    </message>
+    <message>
+      <source>Number of errors</source>
+      <translation>오류 수</translation>
+    </message>
+    <message>
+      <source>Schemas used</source>
+      <translation>사용한 스키마</translation>
+    </message>
+    <message>
+      <source>Schemas: {source} ({folder})</source>
+      <translation>스키마: {source} ({folder})</translation>
+    </message>
   </context>
 </TS>

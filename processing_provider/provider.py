@@ -6,8 +6,9 @@ from .base import PLUGIN_DIR, tr
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
 from .mergetiles import MergeTiles
+from .validatecitygml import ValidateCityGML
 
-ALGORITHMS = (GenerateSample, GeoreferenceMapSheets, MergeTiles)
+ALGORITHMS = (GenerateSample, GeoreferenceMapSheets, MergeTiles, ValidateCityGML)
 
 
 class WitProvider(QgsProcessingProvider):

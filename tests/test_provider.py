@@ -15,7 +15,7 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS
 
 from conftest import ROOT
 
-EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles"}
+EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:validatecitygml"}
 
 
 @pytest.fixture
