@@ -184,6 +184,82 @@
       <translation>Feather (WIT)</translation>
     </message>
     <message>
+      <source>Prepare vector layers</source>
+      <translation>Prepare vector layers</translation>
+    </message>
+    <message>
+      <source>Geometry</source>
+      <translation>Geometry</translation>
+    </message>
+    <message>
+      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
+      <translation>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</translation>
+    </message>
+    <message>
+      <source>Douglas–Peucker tolerance, buildings (m)</source>
+      <translation>Douglas–Peucker tolerance, buildings (m)</translation>
+    </message>
+    <message>
+      <source>Douglas–Peucker tolerance, roads (m)</source>
+      <translation>Douglas–Peucker tolerance, roads (m)</translation>
+    </message>
+    <message>
+      <source>Douglas–Peucker tolerance, districts (m)</source>
+      <translation>Douglas–Peucker tolerance, districts (m)</translation>
+    </message>
+    <message>
+      <source>Minimum building area (m²)</source>
+      <translation>Minimum building area (m²)</translation>
+    </message>
+    <message>
+      <source>Road width when ROAD_BT is missing (m)</source>
+      <translation>Road width when ROAD_BT is missing (m)</translation>
+    </message>
+    <message>
+      <source>Study area polygons (instead of centre and radius)</source>
+      <translation>Study area polygons (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
+      <translation>Legal-dong code EMD_CD (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
+      <translation>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</translation>
+    </message>
+    <message>
+      <source>Prepared layers (GeoPackage)</source>
+      <translation>Prepared layers (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>GeoPackage (*.gpkg)</source>
+      <translation>GeoPackage (*.gpkg)</translation>
+    </message>
+    <message>
+      <source>Prepared buildings</source>
+      <translation>Prepared buildings</translation>
+    </message>
+    <message>
+      <source>Prepared road polygons</source>
+      <translation>Prepared road polygons</translation>
+    </message>
+    <message>
+      <source>Prepared legal dongs</source>
+      <translation>Prepared legal dongs</translation>
+    </message>
+    <message>
+      <source>Statistics (CSV)</source>
+      <translation>Statistics (CSV)</translation>
+    </message>
+    <message>
+      <source>Buildings kept</source>
+      <translation>Buildings kept</translation>
+    </message>
+    <message>
+      <source>Give at least one of the building, road and district layers.</source>
+      <translation>Give at least one of the building, road and district layers.</translation>
+    </message>
+    <message>
       <source>WIT City Model</source>
       <translation>WIT City Model</translation>
     </message>
@@ -246,6 +322,62 @@
     <message>
       <source>Schemas: {source} ({folder})</source>
       <translation>Schemas: {source} ({folder})</translation>
+    </message>
+    <message>
+      <source>Write CityGML 3.0</source>
+      <translation>Write CityGML 3.0</translation>
+    </message>
+    <message>
+      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
+      <translation>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 buildings (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>Terrain TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Road polygons (wit:preparevectors)</source>
+      <translation>Road polygons (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (wit:preparevectors)</source>
+      <translation>Legal dongs (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Texture folder (wit:wittexture)</source>
+      <translation>Texture folder (wit:wittexture)</translation>
+    </message>
+    <message>
+      <source>Copy texture images beside the .gml</source>
+      <translation>Copy texture images beside the .gml</translation>
+    </message>
+    <message>
+      <source>CityGML file</source>
+      <translation>CityGML file</translation>
+    </message>
+    <message>
+      <source>CityGML files (*.gml)</source>
+      <translation>CityGML files (*.gml)</translation>
+    </message>
+    <message>
+      <source>Roads written</source>
+      <translation>Roads written</translation>
+    </message>
+    <message>
+      <source>Terrain triangles written</source>
+      <translation>Terrain triangles written</translation>
+    </message>
+    <message>
+      <source>Textured surfaces</source>
+      <translation>Textured surfaces</translation>
+    </message>
+    <message>
+      <source>District groups</source>
+      <translation>District groups</translation>
     </message>
   </context>
 </TS>

@@ -184,6 +184,82 @@
       <translation>페더링 (WIT)</translation>
     </message>
     <message>
+      <source>Prepare vector layers</source>
+      <translation>벡터 레이어 준비</translation>
+    </message>
+    <message>
+      <source>Geometry</source>
+      <translation>기하</translation>
+    </message>
+    <message>
+      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
+      <translation>건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD) 레이어를 읽습니다(.cpg 없는 셰이프파일은 내용이 CP949이면 CP949로 읽음). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거, 가는 조각은 이유와 함께 제외). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로는 ROAD_BT / 2 만큼 버퍼한 폴리곤이 됩니다(없으면 도로 등급별 기본 폭). 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
+    </message>
+    <message>
+      <source>Douglas–Peucker tolerance, buildings (m)</source>
+      <translation>Douglas–Peucker 허용오차, 건물 (m)</translation>
+    </message>
+    <message>
+      <source>Douglas–Peucker tolerance, roads (m)</source>
+      <translation>Douglas–Peucker 허용오차, 도로 (m)</translation>
+    </message>
+    <message>
+      <source>Douglas–Peucker tolerance, districts (m)</source>
+      <translation>Douglas–Peucker 허용오차, 행정구역 (m)</translation>
+    </message>
+    <message>
+      <source>Minimum building area (m²)</source>
+      <translation>최소 건물 면적 (m²)</translation>
+    </message>
+    <message>
+      <source>Road width when ROAD_BT is missing (m)</source>
+      <translation>ROAD_BT가 없을 때 도로 폭 (m)</translation>
+    </message>
+    <message>
+      <source>Study area polygons (instead of centre and radius)</source>
+      <translation>연구 지역 폴리곤 (중심·반경 대신)</translation>
+    </message>
+    <message>
+      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
+      <translation>법정동 코드 EMD_CD (중심·반경 대신)</translation>
+    </message>
+    <message>
+      <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
+      <translation>셰이프파일 문자 인코딩 (비우면 자동 감지, juso.go.kr 파일은 CP949)</translation>
+    </message>
+    <message>
+      <source>Prepared layers (GeoPackage)</source>
+      <translation>준비된 레이어 (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>GeoPackage (*.gpkg)</source>
+      <translation>GeoPackage (*.gpkg)</translation>
+    </message>
+    <message>
+      <source>Prepared buildings</source>
+      <translation>준비된 건물</translation>
+    </message>
+    <message>
+      <source>Prepared road polygons</source>
+      <translation>준비된 도로 폴리곤</translation>
+    </message>
+    <message>
+      <source>Prepared legal dongs</source>
+      <translation>준비된 법정동</translation>
+    </message>
+    <message>
+      <source>Statistics (CSV)</source>
+      <translation>통계 (CSV)</translation>
+    </message>
+    <message>
+      <source>Buildings kept</source>
+      <translation>유지된 건물 수</translation>
+    </message>
+    <message>
+      <source>Give at least one of the building, road and district layers.</source>
+      <translation>건물, 도로, 법정동 레이어 중 적어도 하나를 지정하십시오.</translation>
+    </message>
+    <message>
       <source>WIT City Model</source>
       <translation>WIT 도시모델</translation>
     </message>
@@ -246,6 +322,62 @@
     <message>
       <source>Schemas: {source} ({folder})</source>
       <translation>스키마: {source} ({folder})</translation>
+    </message>
+    <message>
+      <source>Write CityGML 3.0</source>
+      <translation>CityGML 3.0 쓰기</translation>
+    </message>
+    <message>
+      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
+      <translation>CityGML 3.0 도시모델을 스트리밍으로 씁니다(건물 수가 늘어도 메모리가 늘지 않음): 닫혀 있고 바깥을 향하는 lod1Solid, con:height, 층수, 모든 원본 속성을 형식 있는 일반 속성으로 가진 bldg:Building(wit:extrudebuildings에서), 지형 위에 놓인 통행 영역을 가진 tran:Road와 TIN을 가진 dem:ReliefFeature(wit:triangulateterrain에서, 준비된 도로 속성 포함), 법정동마다 하나의 grp:CityObjectGroup(행정구역), 그리고 있으면 wit:wittexture의 텍스처를 app:ParameterizedTexture로(이미지는 .gml 옆에 복사, 상대 경로 URI). gml:id는 원본 ID에서 만들어지므로 같은 입력은 같은 ID를 줍니다. 메인 스레드에서 실행됩니다.</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 건물 (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>지형 TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Road polygons (wit:preparevectors)</source>
+      <translation>도로 폴리곤 (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (wit:preparevectors)</source>
+      <translation>법정동 (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Texture folder (wit:wittexture)</source>
+      <translation>텍스처 폴더 (wit:wittexture)</translation>
+    </message>
+    <message>
+      <source>Copy texture images beside the .gml</source>
+      <translation>텍스처 이미지를 .gml 옆에 복사</translation>
+    </message>
+    <message>
+      <source>CityGML file</source>
+      <translation>CityGML 파일</translation>
+    </message>
+    <message>
+      <source>CityGML files (*.gml)</source>
+      <translation>CityGML 파일 (*.gml)</translation>
+    </message>
+    <message>
+      <source>Roads written</source>
+      <translation>기록된 도로 수</translation>
+    </message>
+    <message>
+      <source>Terrain triangles written</source>
+      <translation>기록된 지형 삼각형 수</translation>
+    </message>
+    <message>
+      <source>Textured surfaces</source>
+      <translation>텍스처가 입혀진 면 수</translation>
+    </message>
+    <message>
+      <source>District groups</source>
+      <translation>법정동 그룹 수</translation>
     </message>
   </context>
 </TS>

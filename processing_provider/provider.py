@@ -6,9 +6,10 @@ from .base import PLUGIN_DIR, tr
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
 from .mergetiles import MergeTiles
+from .preparevectors import PrepareVectors
 from .validatecitygml import ValidateCityGML
 
-ALGORITHMS = (GenerateSample, GeoreferenceMapSheets, MergeTiles, ValidateCityGML)
+ALGORITHMS = (GenerateSample, GeoreferenceMapSheets, MergeTiles, PrepareVectors, ValidateCityGML)
 
 
 class WitProvider(QgsProcessingProvider):

@@ -35,19 +35,24 @@ def shared_dir() -> Path:
     return SHARED
 
 
-@pytest.fixture(scope="session")
+_KEEP_ALIVE: list = []
+
+
+@pytest.fixture
 def wit_provider(qgis_processing):
-    """The ``wit`` provider registered in the test QGIS, as the plugin does it."""
+    """The ``wit`` provider registered in the test QGIS, as the plugin does it.
+
+    Looked up on every use: a plugin test's unload() removes (and deletes) the provider.
+    """
     from qgis.core import QgsApplication
 
     from wit_citymodel.processing_provider.provider import WitProvider
 
     registry = QgsApplication.processingRegistry()
-    provider = registry.providerById("wit")
-    if provider is None:
-        provider = WitProvider()
-        registry.addProvider(provider)
-    yield provider
+    if registry.providerById("wit") is None:
+        _KEEP_ALIVE.append(WitProvider())  # the Python side must outlive its registration
+        registry.addProvider(_KEEP_ALIVE[-1])
+    return registry.providerById("wit")
 
 
 @pytest.fixture

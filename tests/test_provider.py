@@ -15,11 +15,19 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS
 
 from conftest import ROOT
 
-EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:validatecitygml"}
+EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:validatecitygml"}
+
+
+def _without_registered_provider():
+    """Start from a registry without 'wit' (other tests register it for Processing runs)."""
+    registry = QgsApplication.processingRegistry()
+    if registry.providerById("wit") is not None:
+        registry.removeProvider("wit")
 
 
 @pytest.fixture
 def loaded_plugin(qgis_iface, qgis_processing):
+    _without_registered_provider()
     plugin = wit_citymodel.classFactory(qgis_iface)
     plugin.initProcessing()
     yield plugin
@@ -27,6 +35,7 @@ def loaded_plugin(qgis_iface, qgis_processing):
 
 
 def test_plugin_registers_provider_and_unloads_cleanly(qgis_iface, qgis_processing):
+    _without_registered_provider()
     registry = QgsApplication.processingRegistry()
     plugin = wit_citymodel.classFactory(qgis_iface)
     plugin.initProcessing()
