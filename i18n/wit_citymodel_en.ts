@@ -324,12 +324,20 @@
       <translation>Schemas: {source} ({folder})</translation>
     </message>
     <message>
-      <source>Write CityGML 3.0</source>
-      <translation>Write CityGML 3.0</translation>
+      <source>WIT texturing</source>
+      <translation>WIT texturing</translation>
     </message>
     <message>
-      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
-      <translation>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</translation>
+      <source>Texture</source>
+      <translation>Texture</translation>
+    </message>
+    <message>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</translation>
+    </message>
+    <message>
+      <source>Merged orthoimage</source>
+      <translation>Merged orthoimage</translation>
     </message>
     <message>
       <source>LoD1 buildings (wit:extrudebuildings)</source>
@@ -338,6 +346,54 @@
     <message>
       <source>Terrain TIN (wit:triangulateterrain)</source>
       <translation>Terrain TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Texture scale S (0 &lt; S ≤ 1)</source>
+      <translation>Texture scale S (0 &lt; S ≤ 1)</translation>
+    </message>
+    <message>
+      <source>Image format</source>
+      <translation>Image format</translation>
+    </message>
+    <message>
+      <source>JPEG quality</source>
+      <translation>JPEG quality</translation>
+    </message>
+    <message>
+      <source>Atlas size limit (px)</source>
+      <translation>Atlas size limit (px)</translation>
+    </message>
+    <message>
+      <source>Gutter width (px)</source>
+      <translation>Gutter width (px)</translation>
+    </message>
+    <message>
+      <source>Write the mip chain (to 1×1)</source>
+      <translation>Write the mip chain (to 1×1)</translation>
+    </message>
+    <message>
+      <source>Texture folder</source>
+      <translation>Texture folder</translation>
+    </message>
+    <message>
+      <source>Images written</source>
+      <translation>Images written</translation>
+    </message>
+    <message>
+      <source>Textured surfaces</source>
+      <translation>Textured surfaces</translation>
+    </message>
+    <message>
+      <source>Give the LoD1 buildings, the TIN, or both.</source>
+      <translation>Give the LoD1 buildings, the TIN, or both.</translation>
+    </message>
+    <message>
+      <source>Write CityGML 3.0</source>
+      <translation>Write CityGML 3.0</translation>
+    </message>
+    <message>
+      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
+      <translation>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</translation>
     </message>
     <message>
       <source>Road polygons (wit:preparevectors)</source>
@@ -370,10 +426,6 @@
     <message>
       <source>Terrain triangles written</source>
       <translation>Terrain triangles written</translation>
-    </message>
-    <message>
-      <source>Textured surfaces</source>
-      <translation>Textured surfaces</translation>
     </message>
     <message>
       <source>District groups</source>

@@ -324,12 +324,20 @@
       <translation>스키마: {source} ({folder})</translation>
     </message>
     <message>
-      <source>Write CityGML 3.0</source>
-      <translation>CityGML 3.0 쓰기</translation>
+      <source>WIT texturing</source>
+      <translation>WIT 텍스처링</translation>
     </message>
     <message>
-      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
-      <translation>CityGML 3.0 도시모델을 스트리밍으로 씁니다(건물 수가 늘어도 메모리가 늘지 않음): 닫혀 있고 바깥을 향하는 lod1Solid, con:height, 층수, 모든 원본 속성을 형식 있는 일반 속성으로 가진 bldg:Building(wit:extrudebuildings에서), 지형 위에 놓인 통행 영역을 가진 tran:Road와 TIN을 가진 dem:ReliefFeature(wit:triangulateterrain에서, 준비된 도로 속성 포함), 법정동마다 하나의 grp:CityObjectGroup(행정구역), 그리고 있으면 wit:wittexture의 텍스처를 app:ParameterizedTexture로(이미지는 .gml 옆에 복사, 상대 경로 URI). gml:id는 원본 ID에서 만들어지므로 같은 입력은 같은 ID를 줍니다. 메인 스레드에서 실행됩니다.</translation>
+      <source>Texture</source>
+      <translation>텍스처</translation>
+    </message>
+    <message>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 텍스처를 입히지 않습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽습니다. 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
+    </message>
+    <message>
+      <source>Merged orthoimage</source>
+      <translation>병합된 정사영상</translation>
     </message>
     <message>
       <source>LoD1 buildings (wit:extrudebuildings)</source>
@@ -338,6 +346,54 @@
     <message>
       <source>Terrain TIN (wit:triangulateterrain)</source>
       <translation>지형 TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Texture scale S (0 &lt; S ≤ 1)</source>
+      <translation>텍스처 배율 S (0 &lt; S ≤ 1)</translation>
+    </message>
+    <message>
+      <source>Image format</source>
+      <translation>이미지 형식</translation>
+    </message>
+    <message>
+      <source>JPEG quality</source>
+      <translation>JPEG 품질</translation>
+    </message>
+    <message>
+      <source>Atlas size limit (px)</source>
+      <translation>아틀라스 최대 크기 (px)</translation>
+    </message>
+    <message>
+      <source>Gutter width (px)</source>
+      <translation>거터 폭 (px)</translation>
+    </message>
+    <message>
+      <source>Write the mip chain (to 1×1)</source>
+      <translation>밉 체인 쓰기 (1×1까지)</translation>
+    </message>
+    <message>
+      <source>Texture folder</source>
+      <translation>텍스처 폴더</translation>
+    </message>
+    <message>
+      <source>Images written</source>
+      <translation>기록된 이미지 수</translation>
+    </message>
+    <message>
+      <source>Textured surfaces</source>
+      <translation>텍스처가 입혀진 면 수</translation>
+    </message>
+    <message>
+      <source>Give the LoD1 buildings, the TIN, or both.</source>
+      <translation>LoD1 건물, TIN, 또는 둘 다를 지정하십시오.</translation>
+    </message>
+    <message>
+      <source>Write CityGML 3.0</source>
+      <translation>CityGML 3.0 쓰기</translation>
+    </message>
+    <message>
+      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
+      <translation>CityGML 3.0 도시모델을 스트리밍으로 씁니다(건물 수가 늘어도 메모리가 늘지 않음): 닫혀 있고 바깥을 향하는 lod1Solid, con:height, 층수, 모든 원본 속성을 형식 있는 일반 속성으로 가진 bldg:Building(wit:extrudebuildings에서), 지형 위에 놓인 통행 영역을 가진 tran:Road와 TIN을 가진 dem:ReliefFeature(wit:triangulateterrain에서, 준비된 도로 속성 포함), 법정동마다 하나의 grp:CityObjectGroup(행정구역), 그리고 있으면 wit:wittexture의 텍스처를 app:ParameterizedTexture로(이미지는 .gml 옆에 복사, 상대 경로 URI). gml:id는 원본 ID에서 만들어지므로 같은 입력은 같은 ID를 줍니다. 메인 스레드에서 실행됩니다.</translation>
     </message>
     <message>
       <source>Road polygons (wit:preparevectors)</source>
@@ -370,10 +426,6 @@
     <message>
       <source>Terrain triangles written</source>
       <translation>기록된 지형 삼각형 수</translation>
-    </message>
-    <message>
-      <source>Textured surfaces</source>
-      <translation>텍스처가 입혀진 면 수</translation>
     </message>
     <message>
       <source>District groups</source>

@@ -30,6 +30,11 @@ def crs_string(crs: QgsCoordinateReferenceSystem) -> str:
     return crs.authid() or crs.toWkt()
 
 
+def layer_file(layer) -> str | None:
+    """The file behind a file-based layer (``path|layername=…`` → ``path``); the core opens it itself."""
+    return layer.source().split("|")[0] if layer is not None else None
+
+
 def tr(text: str) -> str:
     """Translate in the plugin's single translation context."""
     return QCoreApplication.translate("WitCityModel", text)

@@ -8,8 +8,18 @@ from .georeferencemapsheets import GeoreferenceMapSheets
 from .mergetiles import MergeTiles
 from .preparevectors import PrepareVectors
 from .validatecitygml import ValidateCityGML
+from .wittexture import WitTexture
+from .writecitygml import WriteCityGML
 
-ALGORITHMS = (GenerateSample, GeoreferenceMapSheets, MergeTiles, PrepareVectors, ValidateCityGML)
+ALGORITHMS = (
+    GenerateSample,
+    GeoreferenceMapSheets,
+    MergeTiles,
+    PrepareVectors,
+    WitTexture,
+    WriteCityGML,
+    ValidateCityGML,
+)
 
 
 class WitProvider(QgsProcessingProvider):

@@ -15,7 +15,7 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS
 
 from conftest import ROOT
 
-EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:validatecitygml"}
+EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml"}
 
 
 def _without_registered_provider():

@@ -16,7 +16,6 @@ from wit_plugin import mapsheet, sample
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
-gdal.UseExceptions()
 SMALL = sample.SampleConfig(radius_m=300.0, ortho_pixel_size=2.0)
 SUSEO_5179 = Transformer.from_crs("EPSG:4737", "EPSG:5179", always_xy=True).transform(127.1020, 37.4876)
 

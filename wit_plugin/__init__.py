@@ -4,4 +4,7 @@ Pure Python on GDAL, numpy, shapely, triangle, lxml and pyproj. Nothing here imp
 so the core runs in tests, scripts and worker processes without QGIS.
 """
 
-__all__ = ["deps", "errors", "feedback", "fileio", "georef", "mapsheet", "model", "mosaic", "sample"]
+__all__ = [
+    "citygml", "deps", "errors", "feedback", "fileio", "gdal_env", "georef", "mapsheet", "model", "mosaic",
+    "sample", "schemas", "texture", "validate", "vector_io", "vectors",
+]

@@ -44,6 +44,7 @@ STOREYS_BELOW = "storeys_below"
 # A folder of images (atlases) and a GeoPackage attribute table (no geometry) TEXCOORD_TABLE with
 # one row per textured surface ring. Rings are the exterior rings as stored in the TIN / LoD1
 # layers (closing point included), so the writer pairs them without re-deriving geometry.
+TEXCOORD_FILE = "texcoords.gpkg"  # in the texture folder
 TEXCOORD_TABLE = "texcoords"
 TEX_TARGET = "target"  # "roof" (LoD1 face), "tin" (TIN triangle) or "road" (TIN triangle)
 TEX_FEATURE = "feature"  # wit_id of the building for "roof"; tri_id (as text) for "tin"/"road"

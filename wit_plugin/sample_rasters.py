@@ -24,8 +24,6 @@ from .feedback import Feedback, SILENT
 from .sample_layout import (GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS,
                             CityLayout, footprints)
 
-gdal.UseExceptions()
-ogr.UseExceptions()
 
 NO_DATA_HOLE = -9999.0
 SUSEO_STATION_5186 = (209020.888, 543132.772)

@@ -638,7 +638,7 @@ class _SolidCheck:
 
     def _topology(self) -> None:
         """Every edge in exactly two faces, once in each direction; then outward by signed volume."""
-        fc, v = self.fc, self.v
+        v = self.v
         vs = self.face_solid[self.vert_face]
         key = np.column_stack([vs, np.round(v / self.tol).astype(np.int64)])
         _, vid = np.unique(key, axis=0, return_inverse=True)

@@ -1,0 +1,94 @@
+"""wit:wittexture — texture roofs, terrain and roads from the merged orthoimage (WIT)."""
+from qgis.core import (
+    QgsProcessing,
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterEnum,
+    QgsProcessingParameterFolderDestination,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterLayer,
+    QgsProcessingParameterVectorLayer,
+)
+
+from .base import WitAlgorithm, layer_file
+
+IMAGE_FORMATS = ("JPEG", "PNG")
+
+
+class WitTexture(WitAlgorithm):
+    algorithm_id = "wittexture"
+    display_name = "WIT texturing"
+    group_name = "Texture"
+    help_text = (
+        "Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged "
+        "orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − "
+        "ymin) over each image's ground extent with the half-pixel correction, so a vertex at a "
+        "pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters "
+        "(edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one "
+        "image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S "
+        "(0 < S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The "
+        "orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, "
+        "the input of wit:writecitygml."
+    )
+    requirements = ("shapely",)
+
+    ORTHO = "ORTHO"
+    LOD1 = "LOD1"
+    TIN = "TIN"
+    SCALE = "SCALE"
+    FORMAT = "FORMAT"
+    JPEG_QUALITY = "JPEG_QUALITY"
+    ATLAS_SIZE = "ATLAS_SIZE"
+    GUTTER = "GUTTER"
+    MIPMAPS = "MIPMAPS"
+    OUTPUT = "OUTPUT"
+
+    def initAlgorithm(self, config=None):  # noqa: N802
+        self.addParameter(QgsProcessingParameterRasterLayer(self.ORTHO, self.tr("Merged orthoimage")))
+        self.addParameter(QgsProcessingParameterVectorLayer(
+            self.LOD1, self.tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon],
+            optional=True))
+        self.addParameter(QgsProcessingParameterVectorLayer(
+            self.TIN, self.tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon],
+            optional=True))
+        self.addParameter(QgsProcessingParameterNumber(
+            self.SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), QgsProcessingParameterNumber.Double,
+            defaultValue=1.0, minValue=0.01, maxValue=1.0))
+        self.addParameter(QgsProcessingParameterEnum(
+            self.FORMAT, self.tr("Image format"), options=list(IMAGE_FORMATS), defaultValue=0))
+        self.addParameter(QgsProcessingParameterNumber(
+            self.JPEG_QUALITY, self.tr("JPEG quality"), defaultValue=90, minValue=10, maxValue=100))
+        self.addParameter(QgsProcessingParameterEnum(
+            self.ATLAS_SIZE, self.tr("Atlas size limit (px)"), options=["1024", "2048", "4096", "8192"],
+            defaultValue=1))
+        self.addParameter(QgsProcessingParameterNumber(
+            self.GUTTER, self.tr("Gutter width (px)"), defaultValue=4, minValue=0, maxValue=64))
+        self.addParameter(QgsProcessingParameterBoolean(
+            self.MIPMAPS, self.tr("Write the mip chain (to 1×1)"), defaultValue=False))
+        self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Texture folder")))
+        self.addOutput(QgsProcessingOutputNumber("IMAGES", self.tr("Images written")))
+        self.addOutput(QgsProcessingOutputNumber("TEXTURED_SURFACES", self.tr("Textured surfaces")))
+
+    def execute(self, parameters, context, feedback):
+        from ..wit_plugin.texture import TextureConfig, texture_model
+
+        lod1 = layer_file(self.parameterAsVectorLayer(parameters, self.LOD1, context))
+        tin = layer_file(self.parameterAsVectorLayer(parameters, self.TIN, context))
+        if not (lod1 or tin):
+            raise QgsProcessingException(self.tr("Give the LoD1 buildings, the TIN, or both."))
+        config = TextureConfig(
+            scale=self.parameterAsDouble(parameters, self.SCALE, context),
+            image_format=IMAGE_FORMATS[self.parameterAsEnum(parameters, self.FORMAT, context)],
+            jpeg_quality=self.parameterAsInt(parameters, self.JPEG_QUALITY, context),
+            atlas_size=1024 << self.parameterAsEnum(parameters, self.ATLAS_SIZE, context),
+            gutter=self.parameterAsInt(parameters, self.GUTTER, context),
+            write_mipmaps=self.parameterAsBool(parameters, self.MIPMAPS, context),
+        )
+        output = self.parameterAsString(parameters, self.OUTPUT, context)
+        ortho = self.parameterAsRasterLayer(parameters, self.ORTHO, context).source()
+        report = texture_model(ortho, lod1, tin, output, config, feedback)
+        feedback.info(f"Textured {report.surfaces}; untextured {report.untextured}; "
+                      f"{len(report.images)} images, {report.bytes_written / 1e6:.1f} MB")
+        return {self.OUTPUT: output, "IMAGES": len(report.images),
+                "TEXTURED_SURFACES": sum(report.surfaces.values())}

@@ -1,0 +1,691 @@
+"""Streaming CityGML 3.0 writer: the core of ``wit:writecitygml`` (SPEC §6).
+
+Reads the step outputs named in ``model`` (LoD1 faces, TIN, prepared roads and districts, the
+texture table) and writes one ``core:CityModel``, element by element, with constant memory in
+the number of buildings:
+
+* ``bldg:Building`` (gml:id = wit_id): generic attributes (every source field, typed), a closed
+  ``core:lod1Solid`` whose faces are written as stored (polygon ``<wit_id>_f<face_no>``, exterior
+  ring ``…_r``, interior rings ``…_r1``, ``…_r2`` …), ``con:height``, storeys.
+* ``tran:Road`` (gml:id = road wit_id) → ``tran:trafficSpace/tran:TrafficSpace`` (granularity
+  "way") → ``core:boundary/tran:TrafficArea`` → ``core:lod2MultiSurface``: the TIN triangles with
+  surface "road" of that road (already draped, Z from the TIN), each a ``gml:Polygon tri_<tri_id>``.
+* ``dem:ReliefFeature`` → ``dem:TINRelief`` → ``gml:TriangulatedSurface DEM_tin_surface``: every
+  other TIN triangle (terrain and building footprints). Road triangles are not repeated there, so
+  relief + roads tile the terrain exactly once (closed, no z-fighting). ``gml:Triangle`` cannot
+  carry a gml:id, so a terrain triangle is identified by its ring ``tri_<tri_id>_r``.
+* ``grp:CityObjectGroup`` per legal dong (gml:id = district wit_id) listing the buildings whose
+  footprint's representative point lies in it; districts without buildings are left out.
+* One global ``app:Appearance`` (``core:appearanceMember`` last) with one
+  ``app:ParameterizedTexture`` per image; texture-table rows are read ORDER BY image.
+
+Threading: lxml used from a QGIS Processing background thread has crashed QGIS on Windows
+(qgis/QGIS#54751), so the Processing algorithm runs this writer in the main thread
+(``FlagNoThreading``); the QGIS glue sets that flag.
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+import mimetypes
+import os
+import re
+import shutil
+import sqlite3
+import tempfile
+from dataclasses import dataclass
+from itertools import chain, groupby
+from pathlib import Path
+from typing import Any, Callable, Iterable, Iterator
+
+import numpy as np
+import shapely
+from lxml import etree
+from osgeo import ogr
+
+from . import model
+from .errors import InputError
+from .feedback import SILENT, Feedback
+from .fileio import atomic_file
+from .schemas import CITYGML_MODULES
+
+APPEARANCE_THEME = "rgbTexture"
+DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-address data
+RELIEF_ID, TIN_RELIEF_ID, TIN_SURFACE_ID = "DEM_relief", "DEM_tin", "DEM_tin_surface"
+RELIEF_LOD, ROAD_LOD_PROPERTY = "1", "lod2MultiSurface"
+
+NS = {
+    "core": "http://www.opengis.net/citygml/3.0",
+    "bldg": "http://www.opengis.net/citygml/building/3.0",
+    "con": "http://www.opengis.net/citygml/construction/3.0",
+    "tran": "http://www.opengis.net/citygml/transportation/3.0",
+    "dem": "http://www.opengis.net/citygml/relief/3.0",
+    "app": "http://www.opengis.net/citygml/appearance/3.0",
+    "gen": "http://www.opengis.net/citygml/generics/3.0",
+    "grp": "http://www.opengis.net/citygml/cityobjectgroup/3.0",
+    "gml": "http://www.opengis.net/gml/3.2",
+    "xlink": "http://www.w3.org/1999/xlink",
+    "xsi": "http://www.w3.org/2001/XMLSchema-instance",
+}
+CORE, BLDG, CON, TRAN, DEM, APP, GEN, GRP, GML, XLINK, XSI = ("{%s}" % NS[p] for p in NS)
+GML_ID = GML + "id"
+
+# characters XML 1.0 cannot carry (C0 controls except tab/LF/CR, lone surrogates, U+FFFE/U+FFFF)
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+_NCNAME = re.compile(r"[^\W\d][\w.\-]*")
+_BATCH = 10_000  # rows between progress/cancel checks and district-lookup batches
+
+
+@dataclass(frozen=True)
+class CityGMLInputs:
+    """Paths of the step outputs to combine; only the LoD1 faces are required."""
+
+    lod1: str
+    tin: str | None = None
+    roads: str | None = None
+    districts: str | None = None
+    textures: str | None = None  # wit:wittexture folder: images + model.TEXCOORD_FILE
+
+
+@dataclass
+class WriteReport:
+    """What was written, for the Processing log and the tests."""
+
+    buildings: int = 0
+    faces: int = 0
+    roads: int = 0
+    triangles: int = 0  # TIN triangles written (relief + road traffic areas)
+    textures: int = 0  # ParameterizedTexture elements (one per image)
+    textured_surfaces: int = 0  # rings with texture coordinates
+    groups: int = 0
+    group_members: int = 0
+    envelope: tuple[float, float, float, float, float, float] | None = None  # min x y z, max x y z
+    texture_folder: str | None = None
+
+
+def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186",
+                  feedback: Feedback = SILENT, copy_textures: bool = True) -> WriteReport:
+    """Write the CityGML 3.0 model to ``output`` (atomically); see the module docstring."""
+    srs_uri = srs_uri_of(srs_name)
+    report = WriteReport()
+    out = Path(output)
+    with contextlib.ExitStack() as stack:
+        def layer(path: str | None, *args: Any, **kwargs: Any) -> _Layer | None:
+            return stack.enter_context(_Layer.open(path, *args, **kwargs)) if path else None
+
+        lod1 = layer(inputs.lod1, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
+                     (model.WIT_ID, model.FACE_NUMBER, model.FACE_TYPE), geometry_z=True)
+        tin = layer(inputs.tin, model.TIN_LAYER, "TIN (wit:triangulateterrain)",
+                    (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), geometry_z=True)
+        roads = layer(inputs.roads, model.PREPARED_ROADS, "prepared roads (wit:preparevectors)", (model.WIT_ID,))
+        districts = layer(inputs.districts, model.PREPARED_DISTRICTS, "prepared districts (wit:preparevectors)",
+                          (model.WIT_ID,))
+        texcoords = layer(inputs.textures and str(Path(inputs.textures) / model.TEXCOORD_FILE), model.TEXCOORD_TABLE,
+                          "texture table (wit:wittexture)",
+                          (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS))
+        if lod1 is None or lod1.count() == 0:
+            raise InputError(f"{inputs.lod1} has no building faces: run wit:extrudebuildings on a non-empty area.")
+        for source in (lod1, tin):
+            if source:
+                source.check_crs(srs_name)
+        images = _texture_images(texcoords, Path(inputs.textures)) if texcoords else {}
+        report.envelope = _envelope([source for source in (lod1, tin) if source])
+        if report.envelope is None:
+            raise InputError(f"{inputs.lod1} has no face geometries: re-run wit:extrudebuildings.")
+        tex_dir = out.parent / f"{out.stem}_textures"
+        uris = {image: _image_uri(src, image, out.parent, tex_dir if copy_textures else None)
+                for image, src in images.items()}
+        members = stack.enter_context(_Membership(districts)) if districts else None
+        total = sum(source.count() for source in (lod1, tin, texcoords) if source) or 1
+        tmp = stack.enter_context(atomic_file(out))
+        with open(tmp, "wb") as fh, _Writer.document(fh, srs_uri, report, _Progress(feedback, total)) as writer:
+            writer.buildings(lod1, members)
+            if roads or tin:
+                writer.roads(roads, tin)
+            if tin:
+                writer.relief(tin)
+            if members:
+                writer.groups(members)
+            if texcoords:
+                writer.appearance(texcoords, uris)
+        if copy_textures and images:
+            for image, src in images.items():
+                dest = tex_dir / image
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(src, dest)
+            report.texture_folder = str(tex_dir)
+    feedback.progress(100.0)
+    feedback.info(f"CityGML: {report.buildings} buildings ({report.faces} faces), {report.roads} roads, "
+                  f"{report.triangles} TIN triangles, {report.textures} textures, {report.groups} districts")
+    return report
+
+
+def srs_uri_of(srs_name: str) -> str:
+    """``EPSG:n`` → the OGC http URI; URIs and URNs are passed through unchanged."""
+    name = srs_name.strip()
+    match = re.fullmatch(r"(?i)EPSG:(\d+)", name)
+    if match:
+        return f"http://www.opengis.net/def/crs/EPSG/0/{match.group(1)}"
+    if re.match(r"(?i)(https?://|urn:)\S+$", name):
+        return name
+    raise InputError(f"CRS '{srs_name}' is neither EPSG:<code> nor a CRS URI/URN (e.g. EPSG:5186).")
+
+
+# --- inputs -------------------------------------------------------------------------------------
+
+class _Layer:
+    """One input layer of a GeoPackage, opened read-only, with ordered SQL reads."""
+
+    def __init__(self, ds: ogr.DataSource, layer: ogr.Layer, path: str, name: str):
+        self.ds, self.layer, self.path, self.name = ds, layer, path, name
+
+    @classmethod
+    @contextlib.contextmanager
+    def open(cls, path: str, name: str, role: str, fields: Iterable[str],
+             geometry_z: bool = False) -> Iterator["_Layer"]:
+        if not Path(path).is_file():
+            raise InputError(f"The {role} file {path} does not exist.")
+        try:
+            ds = ogr.Open(str(path), 0)
+        except RuntimeError as exc:
+            raise InputError(f"Cannot open the {role} file {path}: {exc}") from exc
+        if ds is None:
+            raise InputError(f"Cannot open the {role} file {path} as a vector dataset.")
+        layer = ds.GetLayerByName(name)
+        if layer is None:
+            raise InputError(f"{path} has no layer '{name}': give the {role} output.")
+        defn = layer.GetLayerDefn()
+        present = {defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())}
+        missing = [f for f in fields if f not in present]
+        if missing:
+            raise InputError(f"Layer '{name}' in {path} lacks the field(s) {', '.join(missing)}: "
+                             f"re-create it with the current {role}.")
+        if geometry_z and not ogr.GT_HasZ(layer.GetGeomType()):
+            raise InputError(f"Layer '{name}' in {path} has no Z coordinates: re-create it with the {role}.")
+        yield cls(ds, layer, path, name)
+
+    def count(self) -> int:
+        return max(self.layer.GetFeatureCount(), 0)
+
+    def check_crs(self, srs_name: str) -> None:
+        """Refuse a layer whose EPSG code differs from the output's: coordinates are written as read."""
+        srs = self.layer.GetSpatialRef()
+        wanted = re.fullmatch(r"(?i)EPSG:(\d+)", srs_name.strip())
+        code = srs.GetAuthorityCode(None) if srs is not None else None
+        if wanted and code and srs.GetAuthorityName(None) == "EPSG" and code != wanted.group(1):
+            raise InputError(f"Layer '{self.name}' in {self.path} is in EPSG:{code}, not {srs_name}: "
+                             f"run the earlier steps with the target CRS {srs_name}.")
+
+    def fields(self) -> list[tuple[int, str, int]]:
+        return _fields(self.layer)
+
+    @contextlib.contextmanager
+    def select(self, where: str = "", order: Iterable[str] = (), columns: str = "*") -> Iterator[ogr.Layer]:
+        """Features in a stable order (SQLite sorts on disk, so memory stays flat)."""
+        sql = f'SELECT {columns} FROM "{self.name}"'
+        if where:
+            sql += f" WHERE {where}"
+        if order:
+            sql += " ORDER BY " + ", ".join(f'"{c}"' for c in order)
+        result = self.ds.ExecuteSQL(sql)
+        if result is None:
+            raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
+        try:
+            yield result
+        finally:
+            self.ds.ReleaseResultSet(result)
+
+    def scalar(self, sql: str) -> Any:
+        result = self.ds.ExecuteSQL(sql)
+        if result is None:
+            raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
+        try:
+            feature = result.GetNextFeature()
+            return feature.GetField(0) if feature is not None else None
+        finally:
+            self.ds.ReleaseResultSet(result)
+
+
+def _fields(layer: ogr.Layer) -> list[tuple[int, str, int]]:
+    """(index, name, OGR type) of every attribute field (of a table or an SQL result)."""
+    defn = layer.GetLayerDefn()
+    return [(i, defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in range(defn.GetFieldCount())]
+
+
+def _columns(layer: ogr.Layer) -> dict[str, int]:
+    """Field name → index: typed getters by index are several times faster than by name."""
+    return {name: index for index, name, _ in _fields(layer)}
+
+
+def _envelope(layers: list[_Layer]) -> tuple[float, ...] | None:
+    """3D bounding box of all geometries, read geometry-only through OGR's Arrow stream."""
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for source in layers:
+        layer = source.layer
+        # all but one field: GDAL 3.6's GPKG Arrow reader returns empty geometries when every field is ignored
+        layer.SetIgnoredFields([name for _, name, _ in source.fields()[1:]])
+        try:
+            stream = layer.GetArrowStreamAsNumPy(options=["INCLUDE_FID=NO", "MAX_FEATURES_IN_BATCH=4096"])
+            for batch in stream:
+                xyz = shapely.get_coordinates(shapely.from_wkb(batch[layer.GetGeometryColumn()]), include_z=True)
+                if len(xyz):
+                    lo, hi = np.fmin(lo, np.nanmin(xyz, axis=0)), np.fmax(hi, np.nanmax(xyz, axis=0))
+        finally:
+            layer.SetIgnoredFields([])
+            layer.ResetReading()
+    return None if not np.all(np.isfinite(lo)) else tuple(map(float, (*lo, *hi)))
+
+
+def _texture_images(texcoords: _Layer, folder: Path) -> dict[str, Path]:
+    """Image name → source path of every image the texture table uses; refuses missing images."""
+    images: dict[str, Path] = {}
+    with texcoords.select(columns=f'DISTINCT "{model.TEX_IMAGE}"', order=(model.TEX_IMAGE,)) as result:
+        for feature in result:
+            image = feature.GetField(0)
+            rel = Path(image or "")
+            if not image or rel.is_absolute() or ".." in rel.parts:
+                raise InputError(f"Texture table in {texcoords.path} has an invalid image path {image!r}: "
+                                 "paths must be relative to the texture folder.")
+            if not (folder / rel).is_file():
+                raise InputError(f"Texture image {folder / rel} listed in {texcoords.path} does not exist: "
+                                 "re-run wit:wittexture.")
+            images[image] = folder / rel
+    return images
+
+
+def _image_uri(src: Path, image: str, out_dir: Path, tex_dir: Path | None) -> str:
+    """Relative URI of the image from the .gml: in the copied folder, else the original file."""
+    target = tex_dir / image if tex_dir else src
+    try:
+        return Path(os.path.relpath(target, out_dir)).as_posix()
+    except ValueError:  # another drive on Windows: no relative path exists
+        return target.resolve().as_uri()
+
+
+def _wit_id(value: Any, what: str) -> str:
+    if not isinstance(value, str) or not _NCNAME.fullmatch(value):
+        raise InputError(f"{what} has wit_id {value!r}, which cannot be a gml:id (letters, digits, '_', '-', '.'; "
+                         "not starting with a digit): re-create the layer with wit:preparevectors.")
+    return value
+
+
+def _clean(text: str) -> str:
+    return _NOT_XML.sub("", text)
+
+
+def _poslist(points: list[tuple[float, ...]]) -> str:
+    return " ".join(f"{x:.3f} {y:.3f} {z:.3f}" for x, y, z in points)
+
+
+def _uv(text: str | None, what: str, pairs: Callable[[int], bool]) -> str:
+    """Validated texture coordinates, normalised to 7 significant digits."""
+    try:
+        values = [float(v) for v in (text or "").split()]
+    except ValueError:
+        values = []
+    if not values or len(values) % 2 or not pairs(len(values) // 2) or not all(map(math.isfinite, values)):
+        raise InputError(f"Texture coordinates of {what} are not a valid list of u v pairs: {text!r}. "
+                         "Re-run wit:wittexture.")
+    return " ".join(format(v, ".7g") for v in values)
+
+
+class _Progress:
+    def __init__(self, feedback: Feedback, total: int):
+        self.feedback, self.total, self.done = feedback, total, 0
+
+    def tick(self) -> None:
+        self.done += 1
+        if self.done % _BATCH == 0:
+            self.feedback.check_canceled()
+            self.feedback.progress(min(99.0, 100.0 * self.done / self.total))
+
+
+class _Membership:
+    """Building → district assignment, spooled to a temporary SQLite table (constant memory)."""
+
+    def __init__(self, districts: _Layer):
+        self.rows: list[tuple[str, ogr.Feature]] = []  # (wit_id, feature) sorted by wit_id
+        geoms = []
+        districts.layer.ResetReading()
+        features = sorted(((_wit_id(f.GetField(model.WIT_ID), f"A district in {districts.path}"), f)
+                           for f in districts.layer), key=lambda pair: pair[0])
+        for wit_id, group in groupby(features, key=lambda pair: pair[0]):
+            feature = next(group)[1]
+            geometry = feature.GetGeometryRef()
+            if geometry is not None and not geometry.IsEmpty():
+                self.rows.append((wit_id, feature))
+                geoms.append(shapely.from_wkb(bytes(geometry.ExportToIsoWkb())))
+        self.fields = districts.fields()
+        self.tree = shapely.STRtree(geoms)
+        self.pending: list[tuple[str, bytes]] = []
+        self.tmp = tempfile.TemporaryDirectory(prefix="wit-citygml-")
+        self.db = sqlite3.connect(Path(self.tmp.name) / "members.sqlite")
+        self.db.execute("CREATE TABLE m (district INTEGER, building TEXT)")
+
+    def __enter__(self) -> "_Membership":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.db.close()
+        self.tmp.cleanup()
+
+    def add(self, building: str, footprint_wkb: bytes) -> None:
+        self.pending.append((building, footprint_wkb))
+        if len(self.pending) >= _BATCH:
+            self.flush()
+
+    def flush(self) -> None:
+        """Assign the pending buildings: the district containing the footprint's representative point.
+
+        A point on a shared border goes to the district with the smallest wit_id (deterministic).
+        """
+        if not self.pending:
+            return
+        points = shapely.point_on_surface(shapely.from_wkb([wkb for _, wkb in self.pending]))
+        pairs = self.tree.query(points, predicate="intersects")
+        first: dict[int, int] = {}
+        for building, district in zip(*pairs.tolist()):
+            first[building] = min(district, first.get(building, district))
+        self.db.executemany("INSERT INTO m VALUES (?, ?)",
+                            ((district, self.pending[b][0]) for b, district in first.items()))
+        self.pending.clear()
+
+    def groups(self) -> Iterator[tuple[str, Any, Iterator[str]]]:
+        """(district wit_id, district feature, member wit_ids sorted) for districts with members."""
+        self.flush()
+        cursor = self.db.execute("SELECT district, building FROM m ORDER BY district, building")
+        for district, rows in groupby(cursor, key=lambda row: row[0]):
+            wit_id, feature = self.rows[district]
+            yield wit_id, feature, (building for _, building in rows)
+
+
+# --- writing ------------------------------------------------------------------------------------
+
+_SKIP_BUILDING_FIELDS = {model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.HEIGHT,
+                         model.STOREYS_ABOVE, model.STOREYS_BELOW}
+_GEN_TYPES = {ogr.OFTInteger: "IntAttribute", ogr.OFTInteger64: "IntAttribute",
+              ogr.OFTReal: "DoubleAttribute", ogr.OFTDate: "DateAttribute"}
+
+
+class _Writer:
+    """Writes the document through ``lxml.etree.xmlfile``, one element at a time."""
+
+    def __init__(self, xf: Any, report: WriteReport, progress: _Progress):
+        self.xf, self.report, self.progress = xf, report, progress
+
+    @classmethod
+    @contextlib.contextmanager
+    def document(cls, fh: Any, srs_uri: str, report: WriteReport, progress: _Progress) -> Iterator["_Writer"]:
+        """The CityModel with its envelope; members are written inside the ``with`` block."""
+        locations = " ".join(f"{NS[p]} {CITYGML_MODULES[NS[p]]}"
+                             for p in ("core", "bldg", "con", "tran", "dem", "app", "gen", "grp"))
+        env = report.envelope
+        with etree.xmlfile(fh, encoding="utf-8") as xf:
+            xf.write_declaration()
+            with xf.element(CORE + "CityModel", {XSI + "schemaLocation": locations}, nsmap=NS):
+                writer = cls(xf, report, progress)
+                with writer.el(GML + "boundedBy"), \
+                        writer.el(GML + "Envelope", {"srsName": srs_uri, "srsDimension": "3"}):
+                    writer.leaf(GML + "lowerCorner", _poslist([env[:3]]))
+                    writer.leaf(GML + "upperCorner", _poslist([env[3:]]))
+                yield writer
+                xf.write("\n")
+
+    # small helpers ------------------------------------------------------------------------------
+    def el(self, tag: str, attrib: dict[str, str] | None = None) -> Any:
+        return self.xf.element(tag, attrib or {})
+
+    def leaf(self, tag: str, text: str, attrib: dict[str, str] | None = None) -> None:
+        with self.xf.element(tag, attrib or {}):
+            self.xf.write(text)
+
+    @contextlib.contextmanager
+    def member(self, tag: str, gml_id: str) -> Iterator[None]:
+        """A ``core:cityObjectMember`` holding one city object, on its own line."""
+        self.xf.write("\n")
+        with self.el(CORE + "cityObjectMember"), self.el(tag, {GML_ID: gml_id}):
+            yield
+
+    def attributes(self, feature: ogr.Feature, fields: list[tuple[int, str, int]], skip: set[str]) -> None:
+        """Every set, finite attribute as a typed ``gen:`` attribute (UTF-8, XML-clean)."""
+        for index, name, ftype in fields:
+            if name in skip or not feature.IsFieldSetAndNotNull(index):
+                continue
+            kind = _GEN_TYPES.get(ftype, "StringAttribute")
+            if kind == "IntAttribute":
+                value = str(feature.GetFieldAsInteger64(index))
+            elif kind == "DoubleAttribute":
+                number = feature.GetFieldAsDouble(index)
+                if not math.isfinite(number):
+                    continue
+                value = repr(number)
+            elif kind == "DateAttribute":
+                year, month, day = feature.GetFieldAsDateTime(index)[:3]
+                value = f"{year:04d}-{month:02d}-{day:02d}"
+            else:
+                value = _clean(feature.GetFieldAsString(index))
+            with self.el(CORE + "genericAttribute"), self.el(GEN + kind):
+                self.leaf(GEN + "name", _clean(name))
+                self.leaf(GEN + "value", value)
+
+    def polygon(self, gml_id: str, geometry: ogr.Geometry) -> None:
+        """A ``gml:Polygon`` with rings as stored; ring ids ``<id>_r`` (exterior), ``<id>_r<i>``."""
+        with self.el(GML + "Polygon", {GML_ID: gml_id}):
+            for i in range(geometry.GetGeometryCount()):
+                with self.el(GML + ("interior" if i else "exterior")), \
+                        self.el(GML + "LinearRing", {GML_ID: f"{gml_id}_r{i or ''}"}):
+                    self.leaf(GML + "posList", _poslist(geometry.GetGeometryRef(i).GetPoints()), {"srsDimension": "3"})
+
+    # content ------------------------------------------------------------------------------------
+    def buildings(self, lod1: _Layer, members: _Membership | None) -> None:
+        with lod1.select(order=(model.WIT_ID, model.FACE_NUMBER)) as result:
+            fields, col = _fields(result), _columns(result)
+            key = col[model.WIT_ID]
+            for wit_id, faces in groupby(result, key=lambda f: f.GetFieldAsString(key)):
+                self.building(_wit_id(wit_id, f"A face in {lod1.path}"), faces, fields, col, members)
+
+    def building(self, wit_id: str, faces: Iterator[ogr.Feature], fields: list[tuple[int, str, int]],
+                 col: dict[str, int], members: _Membership | None) -> None:
+        first = next(faces)
+        number_col, type_col, last = col[model.FACE_NUMBER], col[model.FACE_TYPE], -1
+        with self.member(BLDG + "Building", wit_id):
+            self.attributes(first, fields, _SKIP_BUILDING_FIELDS)
+            with self.el(CORE + "lod1Solid"), self.el(GML + "Solid", {GML_ID: f"{wit_id}_lod1"}), \
+                    self.el(GML + "exterior"), self.el(GML + "Shell"):
+                for face in chain([first], faces):
+                    number, geometry = face.GetFieldAsInteger(number_col), face.GetGeometryRef()
+                    if not face.IsFieldSetAndNotNull(number_col) or number <= last:
+                        raise InputError(f"Building {wit_id} has a face without a unique {model.FACE_NUMBER}: "
+                                         "re-run wit:extrudebuildings.")
+                    if geometry is None or geometry.IsEmpty():
+                        raise InputError(f"Face {number} of building {wit_id} has no geometry: "
+                                         "re-run wit:extrudebuildings.")
+                    self.xf.write("\n")
+                    with self.el(GML + "surfaceMember"):
+                        self.polygon(f"{wit_id}_f{number}", geometry)
+                    if members and face.GetFieldAsString(type_col) == "ground":
+                        members.add(wit_id, bytes(geometry.ExportToIsoWkb()))
+                    last = number
+                    self.report.faces += 1
+                    self.progress.tick()
+            self.height(first, col)
+            for name, tag in ((model.STOREYS_ABOVE, "storeysAboveGround"), (model.STOREYS_BELOW, "storeysBelowGround")):
+                if name in col and first.IsFieldSetAndNotNull(col[name]):
+                    self.leaf(BLDG + tag, str(first.GetFieldAsInteger64(col[name])))
+        self.report.buildings += 1
+
+    def height(self, feature: ogr.Feature, col: dict[str, int]) -> None:
+        """``con:height``: measured when it came from a height field, else estimated."""
+        if model.HEIGHT not in col or not feature.IsFieldSetAndNotNull(col[model.HEIGHT]):
+            return
+        value = feature.GetFieldAsDouble(col[model.HEIGHT])
+        if not math.isfinite(value):
+            return
+        source = feature.GetFieldAsString(col[model.HEIGHT_SOURCE]) if model.HEIGHT_SOURCE in col else None
+        with self.el(CON + "height"), self.el(CON + "Height"):
+            self.leaf(CON + "highReference", "highestRoofEdge")
+            self.leaf(CON + "lowReference", "lowestGroundPoint")
+            self.leaf(CON + "status", "measured" if source == "field" else "estimated")
+            self.leaf(CON + "value", f"{value:.3f}", {"uom": "m"})
+
+    def roads(self, roads: _Layer | None, tin: _Layer | None) -> None:
+        """One ``tran:Road`` per road wit_id in the road layer or among the road triangles."""
+        fields: list[tuple[int, str, int]] = []
+        tri_col = -1
+        with contextlib.ExitStack() as stack:
+            road_rows: Iterator[tuple[str, Any]] = iter(())
+            tri_rows: Iterator[tuple[str, Any]] = iter(())
+            if roads:
+                result = stack.enter_context(roads.select(order=(model.WIT_ID,)))
+                fields, key = _fields(result), _columns(result)[model.WIT_ID]
+                road_rows = ((k, next(g)) for k, g in groupby(result, key=lambda f: f.GetFieldAsString(key)))
+            if tin:
+                result = stack.enter_context(tin.select(_ROAD_TRIANGLES, (model.TIN_FEATURE_ID, model.TIN_TRIANGLE_ID)))
+                col = _columns(result)
+                tri_key, tri_col = col[model.TIN_FEATURE_ID], col[model.TIN_TRIANGLE_ID]
+                tri_rows = groupby(result, key=lambda f: f.GetFieldAsString(tri_key))
+            for wit_id, road, triangles in _join_sorted(road_rows, tri_rows):
+                self.road(_wit_id(wit_id, "A road"), road, fields, triangles, tri_col)
+
+    def road(self, wit_id: str, road: ogr.Feature | None, fields: list[tuple[int, str, int]],
+             triangles: Iterator[ogr.Feature] | None, tri_col: int) -> None:
+        with self.member(TRAN + "Road", wit_id):
+            if road is not None:
+                self.attributes(road, fields, {model.WIT_ID})
+            if triangles is not None:
+                with self.el(TRAN + "trafficSpace"), self.el(TRAN + "TrafficSpace", {GML_ID: f"{wit_id}_space"}):
+                    with self.el(CORE + "boundary"), self.el(TRAN + "TrafficArea", {GML_ID: f"{wit_id}_area"}), \
+                            self.el(CORE + ROAD_LOD_PROPERTY), self.el(GML + "MultiSurface"):
+                        for triangle in triangles:
+                            self.xf.write("\n")
+                            with self.el(GML + "surfaceMember"):
+                                self.polygon(f"tri_{triangle.GetFieldAsString(tri_col)}", _triangle(triangle))
+                            self.report.triangles += 1
+                            self.progress.tick()
+                    self.leaf(TRAN + "granularity", "way")
+        self.report.roads += 1
+
+    def relief(self, tin: _Layer) -> None:
+        """The TIN triangles not written as road surfaces, as one ``dem:TINRelief``."""
+        where = f"NOT ({_ROAD_TRIANGLES})"
+        if not tin.scalar(f'SELECT EXISTS (SELECT 1 FROM "{tin.name}" WHERE {where})'):
+            return
+        with self.member(DEM + "ReliefFeature", RELIEF_ID):
+            self.leaf(DEM + "lod", RELIEF_LOD)
+            with self.el(DEM + "reliefComponent"), self.el(DEM + "TINRelief", {GML_ID: TIN_RELIEF_ID}):
+                self.leaf(DEM + "lod", RELIEF_LOD)
+                with self.el(DEM + "tin"), self.el(GML + "TriangulatedSurface", {GML_ID: TIN_SURFACE_ID}), \
+                        self.el(GML + "patches"), tin.select(where, (model.TIN_TRIANGLE_ID,)) as result:
+                    tri_col = _columns(result)[model.TIN_TRIANGLE_ID]
+                    for triangle in result:
+                        self.xf.write("\n")
+                        with self.el(GML + "Triangle"), self.el(GML + "exterior"), \
+                                self.el(GML + "LinearRing", {GML_ID: f"tri_{triangle.GetFieldAsString(tri_col)}_r"}):
+                            self.leaf(GML + "posList", _poslist(_triangle(triangle).GetGeometryRef(0).GetPoints()),
+                                      {"srsDimension": "3"})
+                        self.report.triangles += 1
+                        self.progress.tick()
+
+    def groups(self, members: _Membership) -> None:
+        for wit_id, district, buildings in members.groups():
+            with self.member(GRP + "CityObjectGroup", wit_id):
+                index = district.GetFieldIndex(DISTRICT_NAME_FIELD)
+                if index >= 0 and district.IsFieldSetAndNotNull(index):
+                    self.leaf(GML + "name", _clean(district.GetFieldAsString(index)))
+                self.attributes(district, members.fields, {model.WIT_ID})
+                for building in buildings:
+                    with self.el(GRP + "groupMember"), self.el(GRP + "Role"), \
+                            self.el(GRP + "groupMember", {XLINK + "href": f"#{building}"}):
+                        pass
+                    self.report.group_members += 1
+            self.report.groups += 1
+
+    def appearance(self, texcoords: _Layer, uris: dict[str, str]) -> None:
+        """One global ``app:Appearance``; per image a ``ParameterizedTexture`` (ids ``tex_1``… by image name)."""
+        order = (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE)
+        self.xf.write("\n")
+        with self.el(CORE + "appearanceMember"), self.el(APP + "Appearance", {GML_ID: "app_texture"}), \
+                texcoords.select(order=order) as result:
+            self.leaf(APP + "theme", APPEARANCE_THEME)
+            col = _columns(result)
+            image_col, target_col = col[model.TEX_IMAGE], col[model.TEX_TARGET]
+            for number, (image, rows) in enumerate(groupby(result, key=lambda f: f.GetFieldAsString(image_col)), 1):
+                self.xf.write("\n")
+                with self.el(APP + "surfaceData"), self.el(APP + "ParameterizedTexture", {GML_ID: f"tex_{number}"}):
+                    self.leaf(APP + "imageURI", uris[image])
+                    mime = mimetypes.guess_type(image)[0]
+                    if mime:
+                        self.leaf(APP + "mimeType", mime)
+                    for target, group in groupby(rows, key=lambda f: f.GetFieldAsString(target_col)):
+                        self.textured(target, group, col, texcoords.path)
+                self.report.textures += 1
+
+    def textured(self, target: str, rows: Iterator[ogr.Feature], col: dict[str, int], path: str) -> None:
+        """Texture associations: one per roof face / road triangle, one for all TIN triangles.
+
+        The TIN's association lists the ring ids after all coordinates, so those ids (not the
+        coordinates) are held for one image's terrain triangles.
+        """
+        feature_col, face_col, uv_col = col[model.TEX_FEATURE], col[model.TEX_FACE], col[model.TEX_COORDS]
+        if target == "tin":
+            refs: list[str] = []
+            with self.association(f"#{TIN_SURFACE_ID}"):
+                for row in rows:
+                    feature = row.GetFieldAsString(feature_col)
+                    self.leaf(APP + "textureCoordinates", _uv(row.GetFieldAsString(uv_col),
+                                                              f"TIN triangle {feature} in {path}", lambda n: n == 4))
+                    refs.append(f"#tri_{feature}_r")
+                    self.report.textured_surfaces += 1
+                    self.progress.tick()
+                for ref in refs:
+                    self.leaf(APP + "ring", ref)
+            return
+        if target not in ("roof", "road"):
+            raise InputError(f"Texture table {path} has the unknown target {target!r}: use roof, road or tin.")
+        for row in rows:
+            feature = row.GetFieldAsString(feature_col)
+            surface = f"{feature}_f{row.GetFieldAsString(face_col)}" if target == "roof" else f"tri_{feature}"
+            coords = _uv(row.GetFieldAsString(uv_col), f"{target} {surface} in {path}",
+                         (lambda n: n >= 4) if target == "roof" else (lambda n: n == 4))
+            with self.association(f"#{surface}"):
+                self.leaf(APP + "textureCoordinates", coords)
+                self.leaf(APP + "ring", f"#{surface}_r")
+            self.report.textured_surfaces += 1
+            self.progress.tick()
+
+    @contextlib.contextmanager
+    def association(self, target: str) -> Iterator[None]:
+        """``app:TextureAssociation`` → ``app:TexCoordList``; the caller writes coordinates, then rings."""
+        self.xf.write("\n")
+        with self.el(APP + "textureParameterization"), self.el(APP + "TextureAssociation"):
+            self.leaf(APP + "target", target)
+            with self.el(APP + "textureParameterization"), self.el(APP + "TexCoordList"):
+                yield
+
+
+_ROAD_TRIANGLES = f"\"{model.TIN_SURFACE}\" = 'road' AND \"{model.TIN_FEATURE_ID}\" IS NOT NULL"
+"""Triangles written into their road's traffic area; every other triangle goes into the relief."""
+
+
+def _triangle(feature: ogr.Feature) -> ogr.Geometry:
+    geometry = feature.GetGeometryRef()
+    if geometry is None or geometry.GetGeometryCount() != 1 or geometry.GetGeometryRef(0).GetPointCount() != 4:
+        raise InputError(f"TIN feature tri_id={feature.GetField(model.TIN_TRIANGLE_ID)} is not a closed triangle: "
+                         "re-run wit:triangulateterrain.")
+    return geometry
+
+
+def _join_sorted(left: Iterator[tuple[str, Any]], right: Iterator[tuple[str, Any]]
+                 ) -> Iterator[tuple[str, Any, Any]]:
+    """Full outer merge of two key-sorted streams with unique keys: (key, left or None, right or None)."""
+    a, b = next(left, None), next(right, None)
+    while a is not None or b is not None:
+        if b is None or (a is not None and a[0] < b[0]):
+            yield a[0], a[1], None
+            a = next(left, None)
+        elif a is None or b[0] < a[0]:
+            yield b[0], None, b[1]
+            b = next(right, None)
+        else:
+            yield a[0], a[1], b[1]
+            a, b = next(left, None), next(right, None)

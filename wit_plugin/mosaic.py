@@ -1,0 +1,640 @@
+"""Mosaic georeferenced tiles into one raster, block by block (``wit:mergetiles``, SPEC §2, §5.2).
+
+Two overlap modes:
+
+* ``overwrite``: later tiles overwrite earlier ones where they are covered. This is the paper's
+  method and, for inputs on one grid, gives the same pixels as ``gdal_merge.py``.
+* ``feather`` (WIT seam interpolation): where tiles overlap, a pixel is Σ wᵢvᵢ / Σ wᵢ with wᵢ the
+  distance, in output pixels from the pixel centre, to the nearest edge of tile i's rectangle;
+  a NoData pixel has weight 0. Optionally after a per-tile gain that equalises the tiles' tone.
+
+Guarantees:
+
+* The output grid is the one ``gdal_merge.py`` builds: union extent, first input's pixel size,
+  same rounding; each input lands on the same output window as with ``gdal_merge.py``.
+* With gain off, a pixel covered by one tile only is bit-identical to that tile's pixel, in both
+  modes: blending is only evaluated where two or more tiles contribute.
+* With gain on, every pixel of tile i is multiplied by its gain (per band), single-coverage pixels
+  included: that is the point (one tone across the mosaic), so they are no longer the source
+  values. Gains are multiplicative and normalised so that their geometric mean is 1.
+* NoData (declared, an alpha band or mask, or the ``nodata`` parameter) is "not covered": it is
+  never blended as a value. The output declares NoData if any input did.
+* Memory does not grow with the mosaic: the output is computed in ``block_size`` windows, each
+  input is read only over the window it overlaps, and the GDAL block cache is capped during the
+  run. The output is a tiled, DEFLATE-compressed GeoTIFF with internal overviews (COG-style).
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+from osgeo import gdal, gdal_array, osr
+
+from .errors import InputError, WitError
+from .gdal_env import capped_block_cache
+from .feedback import SILENT, Feedback
+from .fileio import atomic_file
+
+MODES = ("feather", "overwrite")
+
+_TILE = 512  # output GeoTIFF block size; also the size below which no more overviews are built
+_GAIN_SAMPLES = 256 * 256  # pixels sampled per overlap to estimate gains
+_MIN_GAIN_SAMPLES = 64  # fewer jointly valid samples than this: the overlap says nothing
+_PIXEL_SIZE_DRIFT = 0.01  # same pixel size if the difference drifts < 1 % of a pixel over a tile
+_BLOCKS_SHARE = 85.0  # progress share of the block loop; overviews take the rest
+
+
+@dataclass
+class MergeReport:
+    """What ``merge_tiles`` wrote: the output grid, where each input landed, the gains used."""
+
+    output: str
+    mode: str
+    gain: bool
+    geotransform: tuple[float, float, float, float, float, float]
+    width: int
+    height: int
+    bands: int
+    data_type: str
+    crs_wkt: str
+    nodata: float | None
+    inputs: list[str]
+    """The inputs that landed on the grid, in input order (one covering no pixel is skipped)."""
+    tile_windows: list[tuple[int, int, int, int]]
+    """Each of ``inputs``' (xoff, yoff, width, height) in output pixels."""
+    gains: list[list[float]]
+    """Each of ``inputs``' multiplicative gain per band (all 1.0 with gain off)."""
+    resampled: list[str] = field(default_factory=list)
+    """Inputs warped onto the output grid because their CRS or pixel size differed."""
+    covered_pixels: int = 0
+    """Output pixels that got a value from at least one input."""
+    blended_pixels: int = 0
+    """Output pixels that are a weighted mean of two or more inputs (0 in overwrite mode)."""
+
+
+@dataclass
+class _Tile:
+    """One input, placed on the output grid."""
+
+    path: str
+    ds: gdal.Dataset  # what is read: the file itself, or a VRT warping it onto the output grid
+    x0: int  # window in output pixels
+    y0: int
+    w: int
+    h: int
+    cols: np.ndarray  # source column of each output column of the window (gdal_merge's mapping)
+    rows: np.ndarray
+    nodata: list[float | None]  # per band; equal values are not covered
+    mask: gdal.Band | None  # alpha / mask band: 0 is not covered
+
+    @property
+    def window(self) -> tuple[int, int, int, int]:
+        return self.x0, self.y0, self.w, self.h
+
+
+class _BlockIndex:
+    """Which tiles touch which output block, so work stays linear in the number of tiles."""
+
+    def __init__(self, tiles: list[_Tile], block_size: int):
+        self.tiles, self.block_size = tiles, block_size
+        self.cells: dict[tuple[int, int], list[int]] = {}
+        for k, t in enumerate(tiles):  # in input order, which overwrite relies on
+            for row in range(t.y0 // block_size, (t.y0 + t.h - 1) // block_size + 1):
+                for col in range(t.x0 // block_size, (t.x0 + t.w - 1) // block_size + 1):
+                    self.cells.setdefault((col, row), []).append(k)
+
+    def at(self, bx: int, by: int) -> list[int]:
+        """Indices of the tiles touching the block whose corner is output pixel (bx, by)."""
+        return self.cells.get((bx // self.block_size, by // self.block_size), [])
+
+    def overlapping_pairs(self) -> list[tuple[int, int]]:
+        pairs = {(a, b) for ks in self.cells.values() for i, a in enumerate(ks) for b in ks[i + 1:]}
+        return sorted(p for p in pairs if _intersect(self.tiles[p[0]].window, self.tiles[p[1]].window))
+
+
+def merge_tiles(
+    inputs: Sequence[str],
+    output: str,
+    mode: str = "feather",
+    gain: bool | None = None,
+    nodata: float | None = None,
+    feedback: Feedback = SILENT,
+    block_size: int = 1024,
+) -> MergeReport:
+    """Mosaic ``inputs`` into the GeoTIFF ``output``; see the module docstring for the rules.
+
+    ``gain`` defaults to on with ``feather`` and off with ``overwrite``. ``nodata`` overrides the
+    inputs' declared NoData. Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel
+    (no output is left behind in either case).
+    """
+    if mode not in MODES:
+        raise InputError(f"Unknown overlap mode {mode!r}: use one of {', '.join(MODES)}.")
+    if not inputs:
+        raise InputError("No input rasters given: select at least one tile to merge.")
+    if block_size < 16:
+        raise InputError(f"Block size {block_size} is too small: use at least 16 pixels.")
+    use_gain = (mode == "feather") if gain is None else bool(gain)
+    with capped_block_cache():
+        sources = [_open(path) for path in inputs]  # kept open: warped VRTs read through them
+        first = sources[0]
+        bands, dtype, crs = _check_inputs(inputs, sources)
+        warp_reasons = [_warp_reason(first, ds) for ds in sources]
+        warp_reasons[0] = None
+        bounds = [_warped_bounds(ds, first, nodata) if why else _bounds(ds)
+                  for ds, why in zip(sources, warp_reasons)]
+        gt, width, height = _grid(first, bounds)
+        tiles = []
+        for path, ds, why, bb in zip(inputs, sources, warp_reasons, bounds):
+            if why:
+                feedback.warning(f"{path}: {why}; resampled (bilinear) onto the first input's grid.")
+                tile = _warped_tile(path, ds, first, bb, gt, width, height, nodata)
+            else:
+                tile = _direct_tile(path, ds, gt, width, height, bands, nodata, feedback)
+            if tile is None:
+                feedback.warning(f"{path}: covers less than one output pixel; skipped.")
+            else:
+                tiles.append(tile)
+        np_dtype = np.dtype(gdal_array.GDALTypeCodeToNumericTypeCode(dtype))
+        out_nodata = _output_nodata(sources, nodata, np_dtype)
+        feedback.info(f"Output grid {width} × {height} px, {bands} band(s) {gdal.GetDataTypeName(dtype)}, "
+                      f"pixel size {gt[1]:g} × {-gt[5]:g}, mode {mode}, gain {'on' if use_gain else 'off'}.")
+        index = _BlockIndex(tiles, block_size)
+        if use_gain:
+            gains = _estimate_gains(index, bands, np_dtype, feedback)
+            for tile, g in zip(tiles, gains):
+                feedback.info(f"Gain {os.path.basename(tile.path)}: " + ", ".join(f"{v:.4f}" for v in g))
+        else:
+            gains = [np.ones(bands)] * len(tiles)
+        report = MergeReport(
+            output=str(output), mode=mode, gain=use_gain, geotransform=tuple(gt), width=width,
+            height=height, bands=bands, data_type=gdal.GetDataTypeName(dtype), crs_wkt=crs,
+            nodata=out_nodata, inputs=[t.path for t in tiles], tile_windows=[t.window for t in tiles],
+            gains=[[float(v) for v in g] for g in gains],
+            resampled=[p for p, why in zip(inputs, warp_reasons) if why])
+        with atomic_file(output) as tmp:
+            _write(tmp, first, index, gains, report, dtype, feedback)
+    feedback.progress(100.0)
+    return report
+
+
+# --- inputs -------------------------------------------------------------------------------------
+
+def _open(path: str) -> gdal.Dataset:
+    try:
+        ds = gdal.Open(str(path))
+    except RuntimeError as exc:
+        raise InputError(f"Cannot open {path} as a raster: {exc}") from exc
+    if ds is None:
+        raise InputError(f"Cannot open {path} as a raster: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+    if ds.RasterCount == 0:
+        raise InputError(f"{path} has no raster bands.")
+    return ds
+
+
+def _check_inputs(paths: Sequence[str], sources: list[gdal.Dataset]) -> tuple[int, int, str]:
+    """Refuse what cannot be merged; return band count, GDAL data type and CRS of the first input."""
+    first = sources[0]
+    gt = first.GetGeoTransform(can_return_null=True)
+    if gt is None:
+        raise InputError(f"{paths[0]} is not georeferenced: georeference it first (wit:georeferencemapsheets).")
+    if gt[2] or gt[4] or gt[5] >= 0:
+        raise InputError(f"{paths[0]} is rotated or south-up; the first input sets the output grid and must be "
+                         "north-up: warp it first (Raster > Projections > Warp) or list another tile first.")
+    for path, ds in zip(paths, sources):
+        if ds.RasterCount != first.RasterCount:
+            raise InputError(f"{path} has {ds.RasterCount} band(s) but {paths[0]} has {first.RasterCount}: "
+                             "all tiles must have the same bands (e.g. all RGB).")
+        if ds.GetGeoTransform(can_return_null=True) is None:
+            raise InputError(f"{path} is not georeferenced: georeference it first (wit:georeferencemapsheets).")
+        if bool(ds.GetProjection()) != bool(first.GetProjection()):
+            has, lacks = (path, paths[0]) if ds.GetProjection() else (paths[0], path)
+            raise InputError(f"{lacks} has no coordinate reference system but {has} has one, so it cannot be "
+                             "placed: assign the CRS to every tile (Raster > Projections > Assign Projection).")
+    return first.RasterCount, first.GetRasterBand(1).DataType, first.GetProjection()
+
+
+def _warp_reason(first: gdal.Dataset, ds: gdal.Dataset) -> str | None:
+    """Why ``ds`` cannot be copied pixel for pixel onto the first input's grid, or None."""
+    if first.GetProjection():
+        a, b = osr.SpatialReference(), osr.SpatialReference()
+        a.ImportFromWkt(first.GetProjection())
+        b.ImportFromWkt(ds.GetProjection())
+        if not a.IsSame(b):
+            return f"CRS {b.GetName()} differs from the first input's {a.GetName()}"
+    gt, ref = ds.GetGeoTransform(), first.GetGeoTransform()
+    if gt[2] or gt[4] or gt[5] >= 0:
+        return "rotated or south-up geotransform"
+    size = max(ds.RasterXSize, ds.RasterYSize)
+    drift = max(abs(gt[1] - ref[1]) / ref[1], abs(gt[5] - ref[5]) / -ref[5]) * size
+    if drift > _PIXEL_SIZE_DRIFT:
+        return f"pixel size {gt[1]:g} × {-gt[5]:g} differs from the first input's {ref[1]:g} × {-ref[5]:g}"
+    return None
+
+
+def _bounds(ds: gdal.Dataset) -> tuple[float, float, float, float]:
+    """(ulx, uly, lrx, lry) as gdal_merge computes them."""
+    gt = ds.GetGeoTransform()
+    return gt[0], gt[3], gt[0] + gt[1] * ds.RasterXSize, gt[3] + gt[5] * ds.RasterYSize
+
+
+def _warp_options(first: gdal.Dataset, ds: gdal.Dataset, nodata: float | None) -> dict:
+    options = dict(format="VRT", resampleAlg="bilinear")
+    if first.GetProjection():
+        options["dstSRS"] = first.GetProjection()
+    if nodata is not None:
+        options["srcNodata"] = nodata
+    if ds.GetRasterBand(ds.RasterCount).GetColorInterpretation() != gdal.GCI_AlphaBand:
+        options["dstAlpha"] = True  # marks the pixels the warp leaves empty
+    return options
+
+
+def _warp(ds: gdal.Dataset, **options) -> gdal.Dataset:
+    """An in-memory warped VRT of ``ds``; InputError whatever GDAL's exception mode."""
+    try:
+        vrt = gdal.Warp("", ds, **options)
+    except RuntimeError as exc:
+        vrt, message = None, str(exc)
+    else:
+        message = gdal.GetLastErrorMsg()
+    if vrt is None:
+        raise InputError(f"Cannot resample {ds.GetDescription()} onto the first input's grid: {message}")
+    return vrt
+
+
+def _warped_bounds(ds: gdal.Dataset, first: gdal.Dataset, nodata: float | None) -> tuple[float, float, float, float]:
+    """Bounds of ``ds`` in the first input's CRS, as gdalwarp suggests them."""
+    ref = first.GetGeoTransform()
+    return _bounds(_warp(ds, xRes=ref[1], yRes=-ref[5], **_warp_options(first, ds, nodata)))
+
+
+def _grid(first: gdal.Dataset, bounds: list[tuple[float, float, float, float]]) -> tuple[list[float], int, int]:
+    """Union extent, first pixel size and gdal_merge's size rounding."""
+    ulx, uly, lrx, lry = bounds[0]
+    for b in bounds:
+        ulx, uly, lrx, lry = min(ulx, b[0]), max(uly, b[1]), max(lrx, b[2]), min(lry, b[3])
+    ref = first.GetGeoTransform()
+    gt = [ulx, ref[1], 0.0, uly, 0.0, ref[5]]
+    return gt, int((lrx - ulx) / gt[1] + 0.5), int((lry - uly) / gt[5] + 0.5)
+
+
+def _direct_tile(path: str, ds: gdal.Dataset, gt: list[float], width: int, height: int, bands: int,
+                 nodata: float | None, feedback: Feedback) -> _Tile | None:
+    """Place ``ds`` with gdal_merge's window arithmetic (file_info.copy_into), bit for bit."""
+    ulx, uly, lrx, lry = _bounds(ds)
+    sgt = ds.GetGeoTransform()
+    t_lrx, t_lry = gt[0] + width * gt[1], gt[3] + height * gt[5]
+    gx0, gx1 = max(gt[0], ulx), min(t_lrx, lrx)
+    gy0, gy1 = min(gt[3], uly), max(t_lry, lry)
+    if gx0 >= gx1 or gy0 <= gy1:
+        return None
+    tx, ty = int((gx0 - gt[0]) / gt[1] + 0.1), int((gy0 - gt[3]) / gt[5] + 0.1)
+    tw, th = int((gx1 - gt[0]) / gt[1] + 0.5) - tx, int((gy1 - gt[3]) / gt[5] + 0.5) - ty
+    sx, sy = int((gx0 - sgt[0]) / sgt[1] + 0.1), int((gy0 - sgt[3]) / sgt[5] + 0.1)
+    sw, sh = int((gx1 - sgt[0]) / sgt[1] + 0.5) - sx, int((gy1 - sgt[3]) / sgt[5] + 0.5) - sy
+    if min(tw, th, sw, sh) < 1:
+        return None
+    shift = max(abs(d - round(d)) for d in ((ulx - gt[0]) / gt[1], (uly - gt[3]) / gt[5]))
+    if shift > 0.01:
+        feedback.warning(f"{path}: origin is {shift:.2f} px off the output grid; snapped to it as gdal_merge "
+                         "does (nearest-neighbour, shift under one pixel).")
+    band1 = ds.GetRasterBand(1)
+    declared = [ds.GetRasterBand(b + 1).GetNoDataValue() for b in range(bands)]
+    mask = None
+    if nodata is None and not any(v is not None for v in declared):
+        flags = band1.GetMaskFlags()
+        if not flags & gdal.GMF_ALL_VALID and flags & gdal.GMF_PER_DATASET:
+            mask = band1.GetMaskBand()  # alpha band or internal mask
+    return _Tile(path, ds, tx, ty, tw, th, _index_map(sx, sw, tw, ds.RasterXSize),
+                 _index_map(sy, sh, th, ds.RasterYSize),
+                 [nodata] * bands if nodata is not None else declared, mask)
+
+
+def _index_map(offset: int, src_size: int, dst_size: int, limit: int) -> np.ndarray:
+    """Source index of each destination index: GDAL's nearest-neighbour RasterIO rule."""
+    i = np.arange(dst_size, dtype=np.float64)
+    return np.clip(np.floor((i + 0.5) * (src_size / dst_size) + offset + 1e-10), 0, limit - 1).astype(np.int64)
+
+
+def _warped_tile(path: str, ds: gdal.Dataset, first: gdal.Dataset, bounds: tuple[float, float, float, float],
+                 gt: list[float], width: int, height: int, nodata: float | None) -> _Tile | None:
+    """Warp ``ds`` into a VRT whose pixels are exactly a window of the output grid."""
+    x0 = max(0, math.floor((bounds[0] - gt[0]) / gt[1] + 1e-6))
+    x1 = min(width, math.ceil((bounds[2] - gt[0]) / gt[1] - 1e-6))
+    y0 = max(0, math.floor((bounds[1] - gt[3]) / gt[5] + 1e-6))
+    y1 = min(height, math.ceil((bounds[3] - gt[3]) / gt[5] - 1e-6))
+    if x1 <= x0 or y1 <= y0:
+        return None
+    extent = (gt[0] + x0 * gt[1], gt[3] + y1 * gt[5], gt[0] + x1 * gt[1], gt[3] + y0 * gt[5])
+    vrt = _warp(ds, outputBounds=extent, width=x1 - x0, height=y1 - y0, **_warp_options(first, ds, nodata))
+    return _Tile(path, vrt, x0, y0, x1 - x0, y1 - y0, np.arange(x1 - x0), np.arange(y1 - y0),
+                 [None] * ds.RasterCount, vrt.GetRasterBand(vrt.RasterCount))
+
+
+def _output_nodata(sources: list[gdal.Dataset], nodata: float | None, np_dtype: np.dtype) -> float | None:
+    """The parameter, else the first NoData any input declares; it must fit the output type."""
+    value = nodata
+    for ds in sources:
+        for b in range(ds.RasterCount):
+            if value is None:
+                value = ds.GetRasterBand(b + 1).GetNoDataValue()
+    if value is not None and np_dtype.kind in "iu":
+        info = np.iinfo(np_dtype)
+        if not (float(value).is_integer() and info.min <= value <= info.max):
+            raise InputError(f"NoData {value:g} does not fit the {np_dtype.name} output "
+                             f"(range {info.min}..{info.max}): give a NoData value inside that range.")
+    return value
+
+
+# --- reading ------------------------------------------------------------------------------------
+
+def _intersect(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> tuple[int, int, int, int] | None:
+    x0, y0 = max(a[0], b[0]), max(a[1], b[1])
+    x1, y1 = min(a[0] + a[2], b[0] + b[2]), min(a[1] + a[3], b[1] + b[3])
+    return (x0, y0, x1 - x0, y1 - y0) if x1 > x0 and y1 > y0 else None
+
+
+def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.dtype,
+          step: int = 1) -> tuple[np.ndarray, np.ndarray | None]:
+    """Pixels of ``tile`` over the output window ``win``, and where they are valid (None: all).
+
+    ``step`` > 1 reads a decimated sample (for gain estimation) instead of every pixel.
+    """
+    x, y, w, h = win
+    cols = tile.cols[x - tile.x0:x - tile.x0 + w]
+    rows = tile.rows[y - tile.y0:y - tile.y0 + h]
+    c0, r0 = int(cols[0]), int(rows[0])
+    cw, rh = int(cols[-1]) - c0 + 1, int(rows[-1]) - r0 + 1
+    buf = (-(-w // step), -(-h // step)) if step > 1 else (cw, rh)
+    pick = None if step > 1 or (cw == w and rh == h) else np.ix_(rows - r0, cols - c0)
+    data = tile.ds.ReadAsArray(c0, r0, cw, rh, buf_xsize=buf[0], buf_ysize=buf[1],
+                               band_list=list(range(1, bands + 1)),
+                               buf_type=gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype))
+    if data is None:
+        raise InputError(f"Cannot read {tile.path}: {gdal.GetLastErrorMsg()}")
+    data = data.reshape(bands, buf[1], buf[0])
+    if pick is not None:
+        data = data[(slice(None),) + pick]
+    invalid = None
+    if any(v is not None for v in tile.nodata):
+        invalid = np.zeros(data.shape, bool)
+        for b, v in enumerate(tile.nodata):
+            if v is not None:
+                value = np_dtype.type(v) if np_dtype.kind == "f" else v  # float32 NoData compares as float32
+                invalid[b] = np.isnan(data[b]) if math.isnan(v) else data[b] == value
+    if np_dtype.kind == "f":
+        nan = np.isnan(data)
+        if nan.any():
+            invalid = nan if invalid is None else invalid | nan
+    if tile.mask is not None:
+        mask = tile.mask.ReadAsArray(c0, r0, cw, rh, buf_xsize=buf[0], buf_ysize=buf[1])
+        mask = (mask[pick] if pick is not None else mask)[None] == 0
+        invalid = mask if invalid is None else invalid | mask
+    if invalid is None or not invalid.any():
+        return data, None
+    return data, ~invalid
+
+
+# --- gains --------------------------------------------------------------------------------------
+
+def _estimate_gains(index: _BlockIndex, bands: int, np_dtype: np.dtype, feedback: Feedback) -> list[np.ndarray]:
+    """Per-tile, per-band multiplicative gains that make overlapping tiles agree.
+
+    For every overlapping pair, the means mᵢ, mⱼ of both tiles over their jointly valid overlap
+    pixels (a decimated sample) ask for log gᵢ − log gⱼ = log(mⱼ / mᵢ), weighted by the sample
+    count; the least-squares solution with zero mean per connected group of tiles fixes the
+    scale (geometric mean of the gains 1).
+    """
+    tiles = index.tiles
+    edges: list[list[tuple[int, int, float, float]]] = [[] for _ in range(bands)]
+    for i, j in index.overlapping_pairs():
+        feedback.check_canceled()
+        win = _intersect(tiles[i].window, tiles[j].window)
+        step = max(1, math.ceil(math.sqrt(win[2] * win[3] / _GAIN_SAMPLES)))
+        da, va = _read(tiles[i], win, bands, np_dtype, step)
+        db, vb = _read(tiles[j], win, bands, np_dtype, step)
+        joint = va if vb is None else vb if va is None else va & vb
+        for band in range(bands):
+            sel = None if joint is None else joint[min(band, len(joint) - 1)]
+            sa = da[band] if sel is None else da[band][sel]
+            sb = db[band] if sel is None else db[band][sel]
+            if sa.size < _MIN_GAIN_SAMPLES:
+                continue
+            ma, mb = float(sa.mean(dtype=np.float64)), float(sb.mean(dtype=np.float64))
+            if ma > 0 and mb > 0:
+                edges[band].append((i, j, float(sa.size), math.log(mb / ma)))
+    if not any(edges):
+        feedback.warning("No overlap with enough valid pixels between the tiles: gains left at 1.")
+    return list(np.exp(np.stack([_solve_log_gains(len(tiles), e) for e in edges], axis=1)))
+
+
+def _solve_log_gains(n: int, edges: list[tuple[int, int, float, float]]) -> np.ndarray:
+    """Minimise Σ w (xᵢ − xⱼ − d)² by conjugate gradients on the tile graph's Laplacian.
+
+    Starting from 0, CG stays orthogonal to the Laplacian's null space (constants per connected
+    group), so it returns the solution with zero mean per group; it needs no dense matrix, which
+    keeps thousands of tiles cheap.
+    """
+    x = np.zeros(n)
+    if not edges:
+        return x
+    i, j = (np.array([e[k] for e in edges], dtype=np.int64) for k in (0, 1))
+    w, d = (np.array([e[k] for e in edges]) for k in (2, 3))
+
+    def laplacian(v: np.ndarray) -> np.ndarray:
+        diff = w * (v[i] - v[j])
+        return np.bincount(i, diff, n) - np.bincount(j, diff, n)
+
+    residual = np.bincount(i, w * d, n) - np.bincount(j, w * d, n)
+    direction, rs = residual.copy(), residual @ residual
+    tolerance = 1e-24 * rs
+    for _ in range(2 * n):
+        if rs <= tolerance:
+            break
+        lp = laplacian(direction)
+        alpha = rs / (direction @ lp)
+        x += alpha * direction
+        residual -= alpha * lp
+        rs, rs_old = residual @ residual, rs
+        direction = residual + (rs / rs_old) * direction
+    return x
+
+
+def _to_dtype(values: np.ndarray, np_dtype: np.dtype) -> np.ndarray:
+    """Round half to even and clip to the type's range for integers; plain cast for floats."""
+    if np_dtype.kind in "iu":
+        info = np.iinfo(np_dtype)
+        return np.clip(np.rint(values), info.min, info.max).astype(np_dtype)
+    return values.astype(np_dtype)
+
+
+class _Gain:
+    """Applies one tile's gains: a lookup table for 8/16-bit unsigned data, else float maths."""
+
+    def __init__(self, gains: np.ndarray, np_dtype: np.dtype):
+        self.gains, self.dtype = gains, np_dtype
+        self.luts = None
+        if np_dtype.kind == "u" and np_dtype.itemsize <= 2:
+            domain = np.arange(np.iinfo(np_dtype).max + 1, dtype=np.float64)
+            self.luts = [_to_dtype(domain * g, np_dtype) for g in gains]
+
+    def __call__(self, data: np.ndarray) -> np.ndarray:
+        if self.luts is None:
+            return _to_dtype(data * self.gains[:, None, None], self.dtype)
+        for lut, band in zip(self.luts, data):
+            np.take(lut, band, out=band)
+        return data
+
+
+# --- writing ------------------------------------------------------------------------------------
+
+def _creation_options(first: gdal.Dataset, bands: int, np_dtype: np.dtype) -> list[str]:
+    options = ["TILED=YES", f"BLOCKXSIZE={_TILE}", f"BLOCKYSIZE={_TILE}", "COMPRESS=DEFLATE",
+               f"PREDICTOR={3 if np_dtype.kind == 'f' else 2}", "BIGTIFF=IF_SAFER", "NUM_THREADS=ALL_CPUS"]
+    interp = [first.GetRasterBand(b + 1).GetColorInterpretation() for b in range(bands)]
+    if np_dtype == np.uint8 and interp[:3] == [gdal.GCI_RedBand, gdal.GCI_GreenBand, gdal.GCI_BlueBand]:
+        options.append("PHOTOMETRIC=RGB")
+        if bands == 4 and interp[3] == gdal.GCI_AlphaBand:
+            options.append("ALPHA=YES")
+    return options
+
+
+def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, gains: list[np.ndarray],
+           report: MergeReport, dtype: int, feedback: Feedback) -> None:
+    np_dtype = np.dtype(gdal_array.GDALTypeCodeToNumericTypeCode(dtype))
+    try:
+        ds = gdal.GetDriverByName("GTiff").Create(str(path), report.width, report.height, report.bands, dtype,
+                                                  _creation_options(first, report.bands, np_dtype))
+    except RuntimeError as exc:
+        raise InputError(f"Cannot create {report.output}: {exc}") from exc
+    if ds is None:
+        raise InputError(f"Cannot create {report.output}: {gdal.GetLastErrorMsg()}")
+    try:
+        ds.SetGeoTransform(report.geotransform)
+        ds.SetProjection(report.crs_wkt)
+        if report.nodata is not None:
+            for b in range(report.bands):
+                ds.GetRasterBand(b + 1).SetNoDataValue(report.nodata)
+        _write_blocks(ds, index, gains, report, np_dtype, feedback.scaled(0, _BLOCKS_SHARE))
+        ds.FlushCache()
+        _build_overviews(ds, feedback.scaled(_BLOCKS_SHARE, 100))
+    finally:
+        ds = None  # closes the file before it is renamed or removed
+
+
+def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, gains: list[np.ndarray], report: MergeReport,
+                  np_dtype: np.dtype, feedback: Feedback) -> None:
+    """Compute and write the mosaic one ``block_size`` window at a time."""
+    fill = report.nodata if report.nodata is not None else 0
+    appliers = [_Gain(g, np_dtype) if report.gain else None for g in gains]
+    block_size = index.block_size
+    gdal_type = gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype)
+    for by in range(0, report.height, block_size):
+        for bx in range(0, report.width, block_size):
+            feedback.check_canceled()
+            block = (bx, by, min(block_size, report.width - bx), min(block_size, report.height - by))
+            out = np.full((report.bands, block[3], block[2]), fill, np_dtype)
+            covered = np.zeros((block[3], block[2]), bool)
+            pieces = []
+            for k in index.at(bx, by):
+                tile = index.tiles[k]
+                win = _intersect(block, tile.window)
+                if win is None:
+                    continue
+                data, valid = _read(tile, win, report.bands, np_dtype)
+                here = (slice(win[1] - by, win[1] - by + win[3]), slice(win[0] - bx, win[0] - bx + win[2]))
+                if appliers[k]:
+                    data = appliers[k](data)
+                if valid is None:
+                    out[(slice(None),) + here] = data
+                    covered[here] = True
+                else:
+                    np.copyto(out[(slice(None),) + here], data, where=valid)
+                    covered[here] |= valid.any(axis=0)
+                pieces.append((tile, win, data, valid))
+            if report.mode == "feather" and len(pieces) > 1:
+                report.blended_pixels += _blend(out, block, pieces)
+            report.covered_pixels += int(np.count_nonzero(covered))
+            ds.WriteRaster(bx, by, block[2], block[3], out, buf_type=gdal_type)
+        feedback.progress(100.0 * min(by + block_size, report.height) / report.height)
+
+
+def _blend(out: np.ndarray, block: tuple[int, int, int, int], pieces: list) -> int:
+    """Feather the pixels of ``out`` where two or more tiles are valid; return how many.
+
+    ``pieces`` hold (tile, window, pixels, valid) for each tile over its part of the block, the
+    pixels already gain-corrected.
+    """
+    region = None
+    for i, (_, wa, _, _) in enumerate(pieces):
+        for _, wb, _, _ in pieces[i + 1:]:
+            both = _intersect(wa, wb)
+            if both is not None:
+                region = both if region is None else _union(region, both)
+    if region is None:
+        return 0
+    rx, ry, rw, rh = region
+    bands = out.shape[0]
+    count = np.zeros((bands, rh, rw), np.uint8)
+    parts = []
+    for tile, win, data, valid in pieces:
+        sub = _intersect(win, region)
+        if sub is None:
+            continue
+        sx, sy, sw, sh = sub
+        src = (slice(sy - win[1], sy - win[1] + sh), slice(sx - win[0], sx - win[0] + sw))
+        dst = (slice(sy - ry, sy - ry + sh), slice(sx - rx, sx - rx + sw))
+        dx = np.arange(sx, sx + sw) + 0.5 - tile.x0
+        dy = np.arange(sy, sy + sh) + 0.5 - tile.y0
+        weight = np.minimum.outer(np.minimum(dy, tile.h - dy), np.minimum(dx, tile.w - dx)).astype(np.float32)
+        ok = None if valid is None else valid[(slice(None),) + src]
+        count[(slice(None),) + dst] += 1 if ok is None else ok
+        parts.append((data[(slice(None),) + src], ok, weight, dst))
+    blend = count >= 2
+    acc = np.empty((rh, rw))
+    wsum = np.empty((rh, rw))
+    target = out[:, ry - block[1]:ry - block[1] + rh, rx - block[0]:rx - block[0] + rw]
+    for band in range(bands):
+        if not blend[band].any():
+            continue
+        acc.fill(0.0)
+        wsum.fill(0.0)
+        for values, ok, weight, dst in parts:
+            w = weight if ok is None else weight * ok[min(band, len(ok) - 1)]
+            v = values[band].astype(np.float64)
+            if ok is not None and values.dtype.kind == "f":
+                v[w == 0] = 0.0  # NaN NoData must not poison the sum
+            acc[dst] += w * v
+            wsum[dst] += w
+        np.divide(acc, wsum, out=acc, where=blend[band])
+        np.copyto(target[band], _to_dtype(acc, out.dtype), where=blend[band])
+    return int(np.count_nonzero(blend.any(axis=0)))
+
+
+def _union(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    x0, y0 = min(a[0], b[0]), min(a[1], b[1])
+    return x0, y0, max(a[0] + a[2], b[0] + b[2]) - x0, max(a[1] + a[3], b[1] + b[3]) - y0
+
+
+def _build_overviews(ds: gdal.Dataset, feedback: Feedback) -> None:
+    """Internal AVERAGE overviews by factors of 2 until the smallest is under 512 px."""
+    size, factor, levels = max(ds.RasterXSize, ds.RasterYSize), 2, []
+    while size * 2 / factor > _TILE:
+        levels.append(factor)
+        factor *= 2
+    if not levels:
+        return
+
+    def callback(complete: float, _message: str, _data: object) -> int:
+        feedback.progress(100.0 * complete)
+        return 0 if feedback.is_canceled() else 1
+
+    try:
+        failed = ds.BuildOverviews("AVERAGE", levels, callback=callback) != 0
+    except RuntimeError:
+        failed = True
+    feedback.check_canceled()
+    if failed:
+        raise WitError(f"Building overviews failed: {gdal.GetLastErrorMsg()}")

@@ -1,0 +1,630 @@
+"""Texture roofs, terrain and roads from the merged orthoimage (``wit:wittexture``, SPEC §5 items 1, 3, 4).
+
+Inputs follow ``model``: the LoD1 faces layer (``lod1_faces``), the TIN layer (``tin``) and the
+merged orthoimage (north-up RGB GeoTIFF in the same CRS). Outputs, in ``output_dir`` (the texture
+folder): JPEG or PNG images and ``texcoords.gpkg`` holding the attribute table ``texcoords``
+(one row per textured ring, ``model.TEX_*`` columns, image names relative to the folder).
+
+What is textured, and how:
+
+* **Roofs** (LoD1 faces ``roof``): each roof face is an *island* cut from the ortho over its 2D
+  bounding box, packed into **roof atlases** (``roof_atlas_NNNN``) by shelf packing. Islands are
+  padded by ``gutter`` texels of dilated edge pixels and placed on a grid of
+  A = 2^⌊log2 gutter⌋ texels with slot sizes rounded up to A (the extra texels are dilated too),
+  so mip levels 0…log2 A average texels of one island only: no neighbour bleeds in. An atlas is
+  written when the next island does not fit; its sides are cropped to the next power of two of
+  the used area (≤ ``atlas_size``).
+* **Terrain and roads** (TIN triangles ``terrain`` and ``road``): a ``road`` triangle with a
+  ``feature_id`` gets target ``road`` (the CityGML writer puts it in its road's traffic area),
+  every other one target ``tin`` (it stays in the relief, as the writer places it). Triangles
+  are grouped by **ground tile**, a square grid anchored on the ortho's origin whose side is 7/8
+  of ``atlas_size`` texels. A triangle belongs to the tile holding its first vertex;
+  each non-empty tile becomes one image (``ground_rRRRR_cCCCC``) covering the bounding box of its
+  triangles plus ``gutter`` texels of real ortho context. Per-triangle islands would cost an
+  island (and a gutter) per 5 m triangle; a ground tile needs no packing and keeps neighbouring
+  triangles continuous.
+* A surface (or ground tile) whose texture exceeds ``atlas_size`` (minus the gutters) is
+  downscaled to fit, keeping its extent; the report counts such images (``downscaled``).
+* **Not textured**: LoD1 ``wall`` faces (an orthoimage shows no facades: the CityGML writer gives
+  walls no texture or a plain material), ``ground`` faces (never visible) and TIN ``footprint``
+  triangles (under the buildings). The report counts them (``untextured``); the table has no rows
+  for them.
+
+UV mapping (SPEC §5.1): for an image covering the ground extent [xmin, xmax] × [ymin, ymax],
+U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin), V measured from the bottom (CityGML /
+OpenGL). The half-pixel correction is built in: xmin…ymax are the *outer edges* of the image's
+edge texels (their centres ± half a texel), so with S = 1 a vertex at the centre of ortho pixel i
+gets u·W = i' + ½, the centre of the texel holding that pixel. In an atlas the island's extent
+maps onto its texel rectangle and U, V are taken over the atlas.
+
+Scale S: a texel is about 1/S ortho pixels; windows are snapped to multiples of round(1/S)
+pixels, so S = 1/n averages exact n × n pixel blocks (GDAL average resampling). Every texture
+window is read with a windowed ``ReadAsArray``; the ortho is never loaded whole, and features are
+read per ground tile through OGR spatial filters (the GeoPackage R-tree); GDAL's block cache is
+capped during the run as in wit:mergetiles. Memory is bounded by the cache cap, one atlas and one
+tile's features, whatever the size of the ortho.
+
+Coverage: if a textured layer's extent is not inside the ortho's, the run stops before writing
+anything (``InputError``): merge the tiles that cover the study area or clip the study area.
+NoData pixels inside the ortho are textured as they are.
+
+Mipmaps (paper Table 10): ``mip_chain`` gives the box-filtered chain to 1 × 1 for any image;
+with ``write_mipmaps`` each image's levels 1… are written as ``<image>_mip<k>.<ext>``. KTX2 is
+not written: the Khronos Python binding (pyktx) is source-only and needs libktx, which Debian
+does not package; the only installable wheel (alktx2) is a young single-author project.
+"""
+from __future__ import annotations
+
+import contextlib
+import functools
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+from osgeo import gdal, ogr, osr
+
+from . import model
+from .errors import InputError
+from .feedback import SILENT, Feedback
+from .fileio import atomic_files
+from .gdal_env import capped_block_cache
+
+FORMATS = {"JPEG": "jpg", "PNG": "png"}
+TEXCOORDS_FILE = model.TEXCOORD_FILE
+TEXTURED_TIN_SURFACES = ("terrain", "road")
+ROOF_TARGET, TIN_TARGET, ROAD_TARGET = "roof", "tin", "road"  # TEX_TARGET values
+
+_BACKGROUND = 128  # grey for unused atlas space: neutral under JPEG ringing
+_TILE_FILL = 0.875  # share of the image side given to a ground tile; the rest takes triangle overhang
+_UV_DIGITS = 12  # decimals of u and v: 1e-12 of an image side, far below a texel of any atlas
+
+
+@dataclass(frozen=True)
+class TextureConfig:
+    """Texture resolution, image format and atlas layout."""
+
+    scale: float = 1.0
+    """S, 0 < S ≤ 1: texture resolution relative to the ortho's."""
+    image_format: str = "JPEG"
+    """Either "JPEG" or "PNG"."""
+    jpeg_quality: int = 90
+    atlas_size: int = 2048
+    """Maximum side of any image, a power of two."""
+    gutter: int = 4
+    """Texels of padding around each roof island (and of context around ground tiles)."""
+    write_mipmaps: bool = False
+    """Write each image's mip chain to 1 × 1 as files (otherwise it is derivable by the viewer)."""
+
+
+@dataclass
+class TextureReport:
+    """What ``texture_model`` wrote."""
+
+    output_dir: str
+    texcoords: str
+    """Path of ``texcoords.gpkg``."""
+    images: list[str] = field(default_factory=list)
+    """Images (level 0), relative to ``output_dir``."""
+    surfaces: dict[str, int] = field(default_factory=lambda: {ROOF_TARGET: 0, TIN_TARGET: 0, ROAD_TARGET: 0})
+    """Textured rings per TEX_TARGET."""
+    untextured: dict[str, int] = field(default_factory=dict)
+    """Surfaces deliberately left untextured: LoD1 'wall' / 'ground' faces, TIN 'footprint' triangles."""
+    atlases: int = 0
+    ground_images: int = 0
+    mip_files: int = 0
+    downscaled: int = 0
+    """Images or islands shrunk below S to fit ``atlas_size``."""
+    texel_size: float = 0.0
+    """Nominal ground size of a texel (CRS units, m) = ortho pixel size / S."""
+    texels_per_m2: float = 0.0
+    bytes_written: int = 0
+
+
+def mip_chain(image: np.ndarray) -> list[np.ndarray]:
+    """The mip levels of ``image`` (rows × columns [× bands]) from itself down to 1 × 1.
+
+    Each level halves the previous one's sides (floored, at least 1: the OpenGL rule for
+    non-power-of-two sizes) by area-weighted box filtering, so an odd side still weighs every
+    source texel by its covered area. Levels are computed from the unrounded previous level (in
+    float32, float64 for float64 images) and returned in the input's dtype.
+    """
+    if image.ndim < 2 or image.shape[0] < 1 or image.shape[1] < 1:
+        raise ValueError(f"mip_chain needs an image of at least 1 × 1, got shape {image.shape}")
+    work = np.result_type(image.dtype, np.float32)
+    levels = [image]
+    current = image
+    while current.shape[0] > 1 or current.shape[1] > 1:
+        current = _halve(_halve(current, 0, work), 1, work)
+        levels.append(_as_dtype(current, image.dtype))
+    return levels
+
+
+def _halve(a: np.ndarray, axis: int, work: np.dtype) -> np.ndarray:
+    """Box-filter ``a`` to half its size (floored, ≥ 1) along ``axis``, in the ``work`` dtype."""
+    n = a.shape[axis]
+    m = max(1, n // 2)
+    if n == 2 * m:
+        shape = a.shape[:axis] + (m, 2) + a.shape[axis + 1:]
+        return a.reshape(shape).mean(axis=axis + 1, dtype=work)
+    if n == 1:
+        return a.astype(work, copy=False)
+    # odd n: out[j] = mean of a over [j·n/m, (j+1)·n/m), a span of 2 + 1/m ≤ 3 texels, so it
+    # overlaps at most 4 of them: a weighted sum of 4 shifted takes (no full-size temporaries)
+    span = n / m
+    edges = np.arange(m + 1) * span
+    first = np.floor(edges[:-1]).astype(int)
+    shape = (-1,) + (1,) * (a.ndim - axis - 1)
+    out = np.zeros(a.shape[:axis] + (m,) + a.shape[axis + 1:], dtype=work)
+    for t in range(4):
+        index = first + t
+        overlap = np.minimum(edges[1:], index + 1) - np.maximum(edges[:-1], index)
+        weight = (np.clip(overlap, 0.0, None) / span).astype(work).reshape(shape)
+        out += weight * np.take(a, np.minimum(index, n - 1), axis=axis)
+    return out
+
+
+def _as_dtype(a: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    if np.issubdtype(dtype, np.integer):
+        info = np.iinfo(dtype)
+        return np.clip(np.rint(a), info.min, info.max).astype(dtype)
+    return a.astype(dtype, copy=False)
+
+
+def texture_model(
+    ortho: str,
+    lod1_gpkg: str | None,
+    tin_gpkg: str | None,
+    output_dir: str,
+    config: TextureConfig = TextureConfig(),
+    feedback: Feedback = SILENT,
+) -> TextureReport:
+    """Cut roof, terrain and road textures from ``ortho`` into ``output_dir``; see the module docstring.
+
+    Either layer file may be None (then its surfaces are not textured), not both. Raises
+    ``InputError`` for unusable inputs or parameters and ``CanceledError`` on cancel; in both
+    cases nothing is written to ``output_dir``.
+    """
+    _check_config(config)
+    if not lod1_gpkg and not tin_gpkg:
+        raise InputError("Give the LoD1 faces layer, the TIN layer or both: there is nothing to texture.")
+    with contextlib.ExitStack() as stack:  # datasets closed on any exit, not when a traceback dies
+        image = _Ortho(ortho, config)
+        stack.callback(image.close)
+        roofs = tin = None
+        untextured: dict[str, int] = {}
+        if lod1_gpkg:
+            roofs = _Layer(lod1_gpkg, model.LOD1_LAYER, model.FACE_TYPE,
+                           (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER), (ROOF_TARGET,),
+                           "wit:extrudebuildings")
+            stack.callback(roofs.close)
+            untextured.update({k: roofs.count((k,)) for k in ("wall", "ground")})
+        if tin_gpkg:
+            tin = _Layer(tin_gpkg, model.TIN_LAYER, model.TIN_SURFACE,
+                         (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), TEXTURED_TIN_SURFACES,
+                         "wit:triangulateterrain")
+            stack.callback(tin.close)
+            untextured["footprint"] = tin.count(("footprint",))
+        layers = [layer for layer in (roofs, tin) if layer is not None]
+        for layer in layers:
+            image.check_covers(layer)
+        if not any(layer.surfaces for layer in layers):
+            raise InputError("Nothing to texture: the LoD1 layer has no 'roof' faces and the TIN no 'terrain' or "
+                             "'road' triangles.")
+        report = TextureReport(output_dir=str(output_dir), texcoords=str(Path(output_dir) / TEXCOORDS_FILE),
+                               untextured=untextured, texel_size=image.texel_size,
+                               texels_per_m2=1.0 / image.texel_size ** 2)
+        feedback.info(f"Texel {image.texel_size:g} m (S = {config.scale:g}); {roofs.surfaces if roofs else 0} roof "
+                      f"face(s), {tin.surfaces if tin else 0} terrain/road triangle(s); walls are not textured.")
+        grid = _Grid(image, config)
+        share = 100.0 * (roofs.surfaces if roofs else 0) / sum(layer.surfaces for layer in layers)
+        with capped_block_cache(), atomic_files([report.texcoords]) as tmp:
+            out = _Output(tmp, FORMATS[config.image_format.upper()], config, report)
+            try:
+                if roofs is not None:
+                    _texture_roofs(roofs, image, grid, out, config, feedback.scaled(0.0, share))
+                if tin is not None:
+                    _texture_ground(tin, image, grid, out, config, feedback.scaled(share, 100.0))
+                out.finish()
+            finally:
+                out.close()
+            report.bytes_written = sum(p.stat().st_size for p in tmp.iterdir())
+    feedback.info(f"Wrote {len(report.images)} image(s) ({report.atlases} roof atlas(es), {report.ground_images} "
+                  f"ground tile(s)), {report.mip_files} mip file(s), {report.bytes_written / 1e6:.1f} MB.")
+    feedback.progress(100.0)
+    return report
+
+
+def _check_config(config: TextureConfig) -> None:
+    if not 0.0 < config.scale <= 1.0:
+        raise InputError(f"Texture scale S = {config.scale:g} is out of range: use 0 < S ≤ 1 (1 = ortho resolution).")
+    if config.image_format.upper() not in FORMATS:
+        raise InputError(f"Image format {config.image_format!r} is not supported: use one of {', '.join(FORMATS)}.")
+    if not 1 <= config.jpeg_quality <= 100:
+        raise InputError(f"JPEG quality {config.jpeg_quality} is out of range: use 1–100.")
+    size = config.atlas_size
+    if size < 64 or size > 16384 or size & (size - 1):
+        raise InputError(f"Atlas size {size} must be a power of two between 64 and 16384.")
+    if not 0 <= config.gutter <= size // 8:
+        raise InputError(f"Gutter {config.gutter} px is out of range: use 0–{size // 8} px for atlases of {size} px.")
+
+
+# --- inputs -------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Surface:
+    """One ring to texture: its TEX_TARGET, TEX_FEATURE, TEX_FACE and 2D points (closing point included)."""
+
+    target: str
+    feature: str
+    face: int | None
+    xy: np.ndarray
+
+    def bbox(self) -> tuple[float, float, float, float]:
+        return (*self.xy.min(axis=0), *self.xy.max(axis=0))
+
+
+class _Layer:
+    """A textured layer: the faces of the given kinds, read tile by tile through a spatial filter."""
+
+    def __init__(self, path: str, name: str, kind_field: str, fields: tuple[str, ...], kinds: tuple[str, ...],
+                 producer: str):
+        self.path, self.name, self.kind_field, self.kinds = path, name, kind_field, kinds
+        try:
+            self._ds = ogr.Open(str(path))
+        except RuntimeError as exc:
+            raise InputError(f"Cannot open {path} as a vector file: {exc}") from exc
+        if self._ds is None:
+            raise InputError(f"Cannot open {path} as a vector file: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+        self.layer = self._ds.GetLayerByName(name)
+        if self.layer is None:
+            names = [self._ds.GetLayer(i).GetName() for i in range(self._ds.GetLayerCount())]
+            raise InputError(f"{path} has no layer {name!r} (it has: {', '.join(names) or 'none'}): "
+                             f"use the output of {producer}.")
+        defn = self.layer.GetLayerDefn()
+        lacking = [f for f in fields if defn.GetFieldIndex(f) < 0]
+        if lacking:
+            raise InputError(f"Layer {name!r} in {path} lacks the field(s) {', '.join(lacking)}: "
+                             f"use the output of {producer}.")
+        xmin, xmax, ymin, ymax = self.layer.GetExtent()
+        self.extent = (xmin, ymin, xmax, ymax)
+        srs = self.layer.GetSpatialRef()
+        self.srs = srs.Clone() if srs is not None else None  # the layer owns its SRS; keep our own
+        self.surfaces = self.count(kinds)
+
+    def close(self) -> None:
+        self.layer = self._ds = None
+
+    def _where(self, kinds: tuple[str, ...]) -> str:
+        return f"\"{self.kind_field}\" IN ({', '.join(repr(k) for k in kinds)})"
+
+    def count(self, kinds: tuple[str, ...]) -> int:
+        """Number of features whose kind field is one of ``kinds``."""
+        self.layer.SetAttributeFilter(self._where(kinds))
+        return self.layer.GetFeatureCount()
+
+    def tiles(self, grid: _Grid, surface: Callable[[ogr.Feature, np.ndarray], _Surface],
+              ) -> Iterator[tuple[tuple[int, int], list[_Surface]]]:
+        """Each ground tile over the layer's extent with the surfaces whose first vertex lies in it.
+
+        Every feature is returned by the spatial filter of the tile holding its first vertex (a
+        point of the geometry), and is kept there only, so each surface comes exactly once.
+        """
+        self.layer.SetAttributeFilter(self._where(self.kinds))
+        for key in grid.keys(self.extent):
+            yield key, self._tile(grid, key, surface)
+        self.layer.SetSpatialFilter(None)
+
+    def _tile(self, grid: _Grid, key: tuple[int, int], surface: Callable[[ogr.Feature, np.ndarray], _Surface],
+              ) -> list[_Surface]:
+        """The surfaces of one tile; no OGR feature outlives the call."""
+        self.layer.SetSpatialFilterRect(*grid.rect(key))
+        batch = []
+        for feature in self.layer:
+            xy = _ring(feature, self)
+            if grid.key(*xy[0]) == key:
+                batch.append(surface(feature, xy))
+        return batch
+
+
+def _ring(feature: ogr.Feature, layer: _Layer) -> np.ndarray:
+    """The 2D points of the feature's exterior ring as stored (closing point included)."""
+    geom = feature.GetGeometryRef()
+    flat = ogr.GT_Flatten(geom.GetGeometryType())
+    if flat == ogr.wkbMultiPolygon and geom.GetGeometryCount() == 1:
+        geom, flat = geom.GetGeometryRef(0), ogr.wkbPolygon
+    if flat != ogr.wkbPolygon or geom.GetGeometryCount() == 0:
+        raise InputError(f"Feature {feature.GetFID()} of layer {layer.name!r} in {layer.path} is a "
+                         f"{geom.GetGeometryName()}, not a polygon face: use the unmodified output of the "
+                         "previous step.")
+    return np.array(geom.GetGeometryRef(0).GetPoints(), dtype=np.float64)[:, :2]
+
+
+@dataclass(frozen=True)
+class _Patch:
+    """Texels cut from the ortho and the ground extent (outer texel edges) they cover."""
+
+    pixels: np.ndarray  # rows × columns × 3, uint8
+    extent: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax
+    downscaled: bool
+
+
+class _Ortho:
+    """The merged orthoimage, read window by window."""
+
+    def __init__(self, path: str, config: TextureConfig):
+        self.path, self.scale = path, config.scale
+        try:
+            self.ds = gdal.Open(str(path))
+        except RuntimeError as exc:
+            raise InputError(f"Cannot open the orthoimage {path}: {exc}") from exc
+        if self.ds is None:
+            raise InputError(f"Cannot open the orthoimage {path}: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+        ds = self.ds
+        if ds.RasterCount < 3 or any(ds.GetRasterBand(b).DataType != gdal.GDT_Byte for b in (1, 2, 3)):
+            raise InputError(f"The orthoimage {path} must be RGB with 8-bit bands (it has {ds.RasterCount} band(s)): "
+                             "use the output of wit:mergetiles.")
+        gt = ds.GetGeoTransform(can_return_null=True)
+        if gt is None or gt[2] or gt[4] or gt[5] >= 0:
+            raise InputError(f"The orthoimage {path} is not georeferenced north-up: georeference it "
+                             "(wit:georeferencemapsheets) and merge it (wit:mergetiles) first.")
+        self.x0, self.px, self.y0, self.py = gt[0], gt[1], gt[3], -gt[5]
+        self.width, self.height = ds.RasterXSize, ds.RasterYSize
+        self.extent = (self.x0, self.y0 - self.height * self.py, self.x0 + self.width * self.px, self.y0)
+        self.step = max(1, round(1.0 / config.scale))
+        self.texel_size = max(self.px, self.py) / config.scale
+        wkt = ds.GetProjection()
+        self.srs = osr.SpatialReference(wkt) if wkt else None
+
+    def close(self) -> None:
+        self.ds = None
+
+    def check_covers(self, layer: _Layer) -> None:
+        """Refuse a layer whose CRS differs or whose extent reaches beyond the ortho."""
+        if self.srs is not None and layer.srs is not None and not self.srs.IsSame(
+                layer.srs, ["IGNORE_DATA_AXIS_TO_SRS_AXIS_MAPPING=YES"]):
+            raise InputError(f"Layer {layer.name!r} ({layer.srs.GetName()}) and the orthoimage "
+                             f"({self.srs.GetName()}) have different CRSs: produce both in the same CRS.")
+        lx0, ly0, lx1, ly1 = layer.extent
+        ox0, oy0, ox1, oy1 = self.extent
+        if lx0 < ox0 or ly0 < oy0 or lx1 > ox1 or ly1 > oy1:
+            raise InputError(
+                f"Layer {layer.name!r} in {layer.path} reaches beyond the orthoimage, whose pixels are needed for "
+                f"every textured surface: layer x {lx0:.2f}–{lx1:.2f}, y {ly0:.2f}–{ly1:.2f}; ortho x "
+                f"{ox0:.2f}–{ox1:.2f}, y {oy0:.2f}–{oy1:.2f}. Merge the ortho tiles that cover the whole study "
+                "area (wit:mergetiles) or make the study area smaller.")
+
+    def patch(self, bbox: tuple[float, float, float, float], limit: int, margin: int = 0) -> _Patch:
+        """The texels over ``bbox`` (+ ``margin`` texels, within the ortho), at most ``limit`` a side."""
+        xmin, ymin, xmax, ymax = bbox
+        pad = margin * self.texel_size
+        step = self.step
+        c0 = math.floor((xmin - pad - self.x0) / self.px) // step * step
+        c1 = -(-(math.floor((xmax + pad - self.x0) / self.px) + 1) // step) * step
+        r0 = math.floor((self.y0 - ymax - pad) / self.py) // step * step
+        r1 = -(-(math.floor((self.y0 - ymin + pad) / self.py) + 1) // step) * step
+        c0, r0 = max(c0, 0), max(r0, 0)
+        c1, r1 = min(c1, self.width), min(r1, self.height)
+        w, h = c1 - c0, r1 - r0
+        tw, th = max(1, round(w * self.scale)), max(1, round(h * self.scale))
+        shrink = min(1.0, limit / tw, limit / th)
+        if shrink < 1.0:
+            tw, th = max(1, math.floor(tw * shrink)), max(1, math.floor(th * shrink))
+        resample = gdal.GRIORA_Average if (tw, th) != (w, h) else gdal.GRIORA_NearestNeighbour
+        data = self.ds.ReadAsArray(c0, r0, w, h, buf_xsize=tw, buf_ysize=th, band_list=[1, 2, 3],
+                                   interleave="pixel", resample_alg=resample)
+        if data is None:
+            raise InputError(f"Cannot read the orthoimage {self.path} at pixels {c0},{r0} ({w} × {h}): "
+                             f"{gdal.GetLastErrorMsg() or 'read error'}.")
+        extent = (self.x0 + c0 * self.px, self.y0 - r1 * self.py, self.x0 + c1 * self.px, self.y0 - r0 * self.py)
+        return _Patch(data, extent, shrink < 1.0)
+
+
+class _Grid:
+    """Square ground tiles anchored on the ortho's top-left corner, rows going south."""
+
+    def __init__(self, ortho: _Ortho, config: TextureConfig):
+        self.x0, self.y0 = ortho.x0, ortho.y0
+        self.side = math.floor(config.atlas_size * _TILE_FILL) * ortho.texel_size
+        self._eps = 1e-6 * self.side
+
+    def key(self, x: float, y: float) -> tuple[int, int]:
+        return math.floor((self.y0 - y) / self.side), math.floor((x - self.x0) / self.side)
+
+    def rect(self, key: tuple[int, int]) -> tuple[float, float, float, float]:
+        """The tile's xmin, ymin, xmax, ymax, widened by a hair so rounding cannot drop a boundary vertex."""
+        r, c = key
+        e = self._eps
+        return (self.x0 + c * self.side - e, self.y0 - (r + 1) * self.side - e,
+                self.x0 + (c + 1) * self.side + e, self.y0 - r * self.side + e)
+
+    def keys(self, extent: tuple[float, float, float, float]) -> list[tuple[int, int]]:
+        """The tiles over ``extent``, row by row from the north-west."""
+        (r0, c0), (r1, c1) = self.key(extent[0], extent[3]), self.key(extent[2], extent[1])
+        return [(r, c) for r in range(r0, r1 + 1) for c in range(c0, c1 + 1)]
+
+
+# --- output -------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Placement:
+    """Where a ground extent lies in an image: the texel rectangle (top-left origin) it maps onto."""
+
+    extent: tuple[float, float, float, float]
+    x: int
+    y: int
+    width: int
+    height: int
+
+
+def _uv(xy: np.ndarray, placements: np.ndarray, image_w: int, image_h: int) -> np.ndarray:
+    """(u, v) per point: SPEC §5.1 over its placement's extent, in the image's texture space (v up).
+
+    ``placements`` has one row per point: x, y, width, height, xmin, ymin, xmax, ymax.
+    """
+    x, y, width, height, xmin, ymin, xmax, ymax = placements.T
+    u = (x + (xy[:, 0] - xmin) / (xmax - xmin) * width) / image_w
+    v = 1.0 - (y + (ymax - xy[:, 1]) / (ymax - ymin) * height) / image_h
+    return np.column_stack([u, v])
+
+
+@functools.lru_cache(maxsize=None)
+def _uv_format(values: int) -> str:
+    return " ".join([f"%.{_UV_DIGITS}f"] * values)
+
+
+class _Output:
+    """Images (and their mips) plus the texture-coordinate table, in the staging folder."""
+
+    def __init__(self, folder: Path, ext: str, config: TextureConfig, report: TextureReport):
+        self.folder, self.ext, self.config, self.report = folder, ext, config, report
+        self._driver = gdal.GetDriverByName("JPEG" if ext == "jpg" else "PNG")
+        self._options = [f"QUALITY={config.jpeg_quality}"] if ext == "jpg" else ["ZLEVEL=6"]
+        self._ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(folder / TEXCOORDS_FILE))
+        self._layer = self._ds.CreateLayer(model.TEXCOORD_TABLE, geom_type=ogr.wkbNone)
+        for name, kind in ((model.TEX_TARGET, ogr.OFTString), (model.TEX_FEATURE, ogr.OFTString),
+                           (model.TEX_FACE, ogr.OFTInteger), (model.TEX_IMAGE, ogr.OFTString),
+                           (model.TEX_COORDS, ogr.OFTString)):
+            self._layer.CreateField(ogr.FieldDefn(name, kind))
+        self._defn = self._layer.GetLayerDefn()
+        self._fields = [self._defn.GetFieldIndex(name) for name in (
+            model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)]
+
+    def write(self, stem: str, pixels: np.ndarray, items: list[tuple[_Surface, _Placement]]) -> None:
+        """Write one image and the rows of the surfaces placed in it."""
+        name = f"{stem}.{self.ext}"
+        self._save(name, pixels)
+        self.report.images.append(name)
+        if self.config.write_mipmaps:
+            for k, level in enumerate(mip_chain(pixels)[1:], start=1):
+                self._save(f"{stem}_mip{k}.{self.ext}", level)
+                self.report.mip_files += 1
+        counts = [len(surface.xy) for surface, _ in items]
+        placements = np.array([(p.x, p.y, p.width, p.height, *p.extent) for _, p in items], dtype=np.float64)
+        uv = _uv(np.concatenate([surface.xy for surface, _ in items]), np.repeat(placements, counts, axis=0),
+                 pixels.shape[1], pixels.shape[0]).ravel().tolist()
+        target_i, feature_i, face_i, image_i, coords_i = self._fields
+        self._layer.StartTransaction()
+        start = 0
+        for (surface, _), n in zip(items, counts):
+            row = ogr.Feature(self._defn)
+            row.SetField(target_i, surface.target)
+            row.SetField(feature_i, surface.feature)
+            if surface.face is not None:
+                row.SetField(face_i, surface.face)
+            row.SetField(image_i, name)
+            row.SetField(coords_i, _uv_format(2 * n) % tuple(uv[2 * start:2 * (start + n)]))
+            self._layer.CreateFeature(row)
+            self.report.surfaces[surface.target] += 1
+            start += n
+        self._layer.CommitTransaction()
+
+    def _save(self, name: str, pixels: np.ndarray) -> None:
+        h, w, bands = pixels.shape
+        mem = gdal.GetDriverByName("MEM").Create("", w, h, bands, gdal.GDT_Byte)
+        mem.WriteArray(pixels, interleave="pixel")
+        if self._driver.CreateCopy(str(self.folder / name), mem, options=self._options) is None:
+            raise InputError(f"Cannot write the texture image {self.folder / name}: {gdal.GetLastErrorMsg()}")
+
+    def finish(self) -> None:
+        """Index the table in the order the CityGML writer reads it (image, target, feature, face)."""
+        columns = ", ".join(f'"{c}"' for c in (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE))
+        self._ds.ExecuteSQL(f'CREATE INDEX "{model.TEXCOORD_TABLE}_order" ON "{model.TEXCOORD_TABLE}" ({columns})')
+
+    def close(self) -> None:
+        self._layer = self._defn = None
+        self._ds = None
+
+
+# --- roofs: islands in atlases ------------------------------------------------------------------
+
+class _AtlasPacker:
+    """Shelf packing of padded roof islands into atlases, each written when the next island does not fit."""
+
+    def __init__(self, config: TextureConfig, out: _Output):
+        self.size, self.gutter, self.out = config.atlas_size, config.gutter, out
+        self.align = 1 << (config.gutter.bit_length() - 1) if config.gutter else 1  # largest 2^k ≤ gutter
+        self.count = 0
+        self._reset()
+
+    def _reset(self) -> None:
+        self.pixels = np.full((self.size, self.size, 3), _BACKGROUND, dtype=np.uint8)
+        self.items: list[tuple[_Surface, _Placement]] = []
+        self.x = self.y = self.shelf = self.used_w = 0
+
+    def add(self, surface: _Surface, patch: _Patch) -> None:
+        h, w = patch.pixels.shape[:2]
+        g, a = self.gutter, self.align
+        sw, sh = -(-(w + 2 * g) // a) * a, -(-(h + 2 * g) // a) * a
+        if self.x + sw > self.size:  # next shelf
+            self.x, self.y, self.shelf = 0, self.y + self.shelf, 0
+        if self.y + sh > self.size:
+            self.flush()
+        self.pixels[self.y:self.y + sh, self.x:self.x + sw] = np.pad(
+            patch.pixels, ((g, sh - h - g), (g, sw - w - g), (0, 0)), mode="edge")
+        self.items.append((surface, _Placement(patch.extent, self.x + g, self.y + g, w, h)))
+        self.x += sw
+        self.shelf = max(self.shelf, sh)
+        self.used_w = max(self.used_w, self.x)
+
+    def flush(self) -> None:
+        """Write the current atlas, cropped to powers of two around the used area, and start a new one."""
+        if self.items:
+            w, h = _pow2_ceil(self.used_w), _pow2_ceil(self.y + self.shelf)
+            self.out.write(f"roof_atlas_{self.count:04d}", self.pixels[:h, :w], self.items)
+            self.out.report.atlases += 1
+            self.count += 1
+        self._reset()
+
+
+def _pow2_ceil(n: int) -> int:
+    return 1 << max(0, n - 1).bit_length()
+
+
+def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
+                   feedback: Feedback) -> None:
+    """Roof islands tile by tile (spatial order), tallest first within a tile for tighter shelves."""
+    packer = _AtlasPacker(config, out)
+    limit = config.atlas_size - 2 * config.gutter
+    keys = grid.keys(layer.extent)
+
+    def roof(feature: ogr.Feature, xy: np.ndarray) -> _Surface:
+        return _Surface(ROOF_TARGET, feature.GetFieldAsString(model.WIT_ID),
+                        feature.GetFieldAsInteger(model.FACE_NUMBER), xy)
+
+    for n, (_, batch) in enumerate(layer.tiles(grid, roof)):
+        feedback.check_canceled()
+        patches = [ortho.patch(s.bbox(), limit) for s in batch]
+        for surface, patch in sorted(zip(batch, patches), key=lambda sp: -sp[1].pixels.shape[0]):
+            packer.add(surface, patch)
+            out.report.downscaled += patch.downscaled
+        feedback.progress(100.0 * (n + 1) / len(keys))
+    packer.flush()
+
+
+# --- terrain and roads: one image per ground tile -----------------------------------------------
+
+def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
+                    feedback: Feedback) -> None:
+    """One image per non-empty ground tile, covering its triangles' bounding box plus the gutter."""
+    keys = grid.keys(layer.extent)
+
+    def triangle(feature: ogr.Feature, xy: np.ndarray) -> _Surface:
+        on_road = (feature.GetFieldAsString(model.TIN_SURFACE) == "road"
+                   and feature.IsFieldSetAndNotNull(model.TIN_FEATURE_ID))
+        return _Surface(ROAD_TARGET if on_road else TIN_TARGET, feature.GetFieldAsString(model.TIN_TRIANGLE_ID),
+                        None, xy)
+
+    for n, ((r, c), batch) in enumerate(layer.tiles(grid, triangle)):
+        feedback.check_canceled()
+        if batch:
+            points = np.concatenate([s.xy for s in batch])
+            bbox = (*points.min(axis=0), *points.max(axis=0))
+            patch = ortho.patch(bbox, config.atlas_size, margin=config.gutter)
+            h, w = patch.pixels.shape[:2]
+            placement = _Placement(patch.extent, 0, 0, w, h)
+            out.write(f"ground_r{r:04d}_c{c:04d}", patch.pixels, [(s, placement) for s in batch])
+            out.report.ground_images += 1
+            out.report.downscaled += patch.downscaled
+        feedback.progress(100.0 * (n + 1) / len(keys))
