@@ -8,6 +8,158 @@
       <translation>Cancelled: no output was written.</translation>
     </message>
     <message>
+      <source>Build colour store</source>
+      <translation>Build colour store</translation>
+    </message>
+    <message>
+      <source>Texture</source>
+      <translation>Texture</translation>
+    </message>
+    <message>
+      <source>Query colour store</source>
+      <translation>Query colour store</translation>
+    </message>
+    <message>
+      <source>RGB orthoimage</source>
+      <translation>RGB orthoimage</translation>
+    </message>
+    <message>
+      <source>Colour tolerance (RMS, 0–255)</source>
+      <translation>Colour tolerance (RMS, 0–255)</translation>
+    </message>
+    <message>
+      <source>PostGIS connection (empty = GeoPackage)</source>
+      <translation>PostGIS connection (empty = GeoPackage)</translation>
+    </message>
+    <message>
+      <source>Table</source>
+      <translation>Table</translation>
+    </message>
+    <message>
+      <source>Colour store (GeoPackage)</source>
+      <translation>Colour store (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>GeoPackage (*.gpkg)</source>
+      <translation>GeoPackage (*.gpkg)</translation>
+    </message>
+    <message>
+      <source>Cells</source>
+      <translation>Cells</translation>
+    </message>
+    <message>
+      <source>Store size (bytes)</source>
+      <translation>Store size (bytes)</translation>
+    </message>
+    <message>
+      <source>Image size (bytes)</source>
+      <translation>Image size (bytes)</translation>
+    </message>
+    <message>
+      <source>Give a GeoPackage output or a PostGIS connection.</source>
+      <translation>Give a GeoPackage output or a PostGIS connection.</translation>
+    </message>
+    <message>
+      <source>Colour store (GeoPackage path or PostGIS connection)</source>
+      <translation>Colour store (GeoPackage path or PostGIS connection)</translation>
+    </message>
+    <message>
+      <source>Points to colour</source>
+      <translation>Points to colour</translation>
+    </message>
+    <message>
+      <source>Patch extent</source>
+      <translation>Patch extent</translation>
+    </message>
+    <message>
+      <source>Patch resolution (m)</source>
+      <translation>Patch resolution (m)</translation>
+    </message>
+    <message>
+      <source>Coloured points</source>
+      <translation>Coloured points</translation>
+    </message>
+    <message>
+      <source>Texture patch</source>
+      <translation>Texture patch</translation>
+    </message>
+    <message>
+      <source>Points coloured</source>
+      <translation>Points coloured</translation>
+    </message>
+    <message>
+      <source>Give points to colour, a patch extent, or both.</source>
+      <translation>Give points to colour, a patch extent, or both.</translation>
+    </message>
+    <message>
+      <source>Extrude LoD1 buildings</source>
+      <translation>Extrude LoD1 buildings</translation>
+    </message>
+    <message>
+      <source>Geometry</source>
+      <translation>Geometry</translation>
+    </message>
+    <message>
+      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × storey height when the floor count is known, else the height field, else the expression, else the default height; every building records where its height came from (height_src). Output: PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base height, height, storeys and all source attributes.</source>
+      <translation>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × storey height when the floor count is known, else the height field, else the expression, else the default height; every building records where its height came from (height_src). Output: PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base height, height, storeys and all source attributes.</translation>
+    </message>
+    <message>
+      <source>Building footprints (wit:preparevectors)</source>
+      <translation>Building footprints (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>DEM</source>
+      <translation>DEM</translation>
+    </message>
+    <message>
+      <source>Storey height (m)</source>
+      <translation>Storey height (m)</translation>
+    </message>
+    <message>
+      <source>Height field (m), when floors are unknown</source>
+      <translation>Height field (m), when floors are unknown</translation>
+    </message>
+    <message>
+      <source>Height expression (m), when floors and field are unknown</source>
+      <translation>Height expression (m), when floors and field are unknown</translation>
+    </message>
+    <message>
+      <source>Default height (m)</source>
+      <translation>Default height (m)</translation>
+    </message>
+    <message>
+      <source>Base height from the DEM</source>
+      <translation>Base height from the DEM</translation>
+    </message>
+    <message>
+      <source>LoD1 solids (GeoPackage)</source>
+      <translation>LoD1 solids (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>LoD1 faces</source>
+      <translation>LoD1 faces</translation>
+    </message>
+    <message>
+      <source>Solids</source>
+      <translation>Solids</translation>
+    </message>
+    <message>
+      <source>Buildings with the default height</source>
+      <translation>Buildings with the default height</translation>
+    </message>
+    <message>
+      <source>Minimum on the footprint</source>
+      <translation>Minimum on the footprint</translation>
+    </message>
+    <message>
+      <source>Median on the footprint</source>
+      <translation>Median on the footprint</translation>
+    </message>
+    <message>
+      <source>Invalid height expression: {error}</source>
+      <translation>Invalid height expression: {error}</translation>
+    </message>
+    <message>
       <source>Generate sample data</source>
       <translation>Generate sample data</translation>
     </message>
@@ -62,10 +214,6 @@
     <message>
       <source>Legal dongs (TL_SCCO_EMD)</source>
       <translation>Legal dongs (TL_SCCO_EMD)</translation>
-    </message>
-    <message>
-      <source>DEM</source>
-      <translation>DEM</translation>
     </message>
     <message>
       <source>Orthoimage tile folder</source>
@@ -188,10 +336,6 @@
       <translation>Prepare vector layers</translation>
     </message>
     <message>
-      <source>Geometry</source>
-      <translation>Geometry</translation>
-    </message>
-    <message>
       <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
       <translation>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</translation>
     </message>
@@ -232,10 +376,6 @@
       <translation>Prepared layers (GeoPackage)</translation>
     </message>
     <message>
-      <source>GeoPackage (*.gpkg)</source>
-      <translation>GeoPackage (*.gpkg)</translation>
-    </message>
-    <message>
       <source>Prepared buildings</source>
       <translation>Prepared buildings</translation>
     </message>
@@ -268,12 +408,144 @@
       <translation>WIT City Model: textured CityGML 3.0 from Korean national GIS data</translation>
     </message>
     <message>
-      <source>Validate CityGML 3.0</source>
-      <translation>Validate CityGML 3.0</translation>
+      <source>Quality metrics</source>
+      <translation>Quality metrics</translation>
     </message>
     <message>
       <source>CityGML</source>
       <translation>CityGML</translation>
+    </message>
+    <message>
+      <source>Measures the model against its sources, as the paper's Tables 17 and 19 (paper figures beside ours). Geometry (the CityGML file or the LoD1 layer against the prepared 2D footprints, matched by wit_id): placement error = distance between the centroids of footprint and ground face; coordinate error = each roof vertex to the nearest footprint vertex (mean, max); Hausdorff distance of the outlines; shape similarity index SSI = area(A∩B) / area(A∪B) (intersection over union) of footprint and ground face. Texture: sharpness = variance of the 4-neighbour Laplacian of the grey image (0.299R + 0.587G + 0.114B, as OpenCV's Laplacian().var()) and contrast = standard deviation of the grey values, on the texture images (inside the texture islands) and on the orthoimage for comparison. Seams: mean colour step across tile borders in the mosaic. Writes a CSV table, per-building rows, a GeoPackage and an HTML report.</source>
+      <translation>Measures the model against its sources, as the paper's Tables 17 and 19 (paper figures beside ours). Geometry (the CityGML file or the LoD1 layer against the prepared 2D footprints, matched by wit_id): placement error = distance between the centroids of footprint and ground face; coordinate error = each roof vertex to the nearest footprint vertex (mean, max); Hausdorff distance of the outlines; shape similarity index SSI = area(A∩B) / area(A∪B) (intersection over union) of footprint and ground face. Texture: sharpness = variance of the 4-neighbour Laplacian of the grey image (0.299R + 0.587G + 0.114B, as OpenCV's Laplacian().var()) and contrast = standard deviation of the grey values, on the texture images (inside the texture islands) and on the orthoimage for comparison. Seams: mean colour step across tile borders in the mosaic. Writes a CSV table, per-building rows, a GeoPackage and an HTML report.</translation>
+    </message>
+    <message>
+      <source>Model: CityGML file or LoD1 GeoPackage</source>
+      <translation>Model: CityGML file or LoD1 GeoPackage</translation>
+    </message>
+    <message>
+      <source>2D source footprints (prepared buildings)</source>
+      <translation>2D source footprints (prepared buildings)</translation>
+    </message>
+    <message>
+      <source>Texture folder (wit:wittexture)</source>
+      <translation>Texture folder (wit:wittexture)</translation>
+    </message>
+    <message>
+      <source>Orthoimage for comparison</source>
+      <translation>Orthoimage for comparison</translation>
+    </message>
+    <message>
+      <source>Merged mosaic (seam step)</source>
+      <translation>Merged mosaic (seam step)</translation>
+    </message>
+    <message>
+      <source>Tile footprints (index of wit:georeferencemapsheets)</source>
+      <translation>Tile footprints (index of wit:georeferencemapsheets)</translation>
+    </message>
+    <message>
+      <source>Metrics table (CSV)</source>
+      <translation>Metrics table (CSV)</translation>
+    </message>
+    <message>
+      <source>CSV files (*.csv)</source>
+      <translation>CSV files (*.csv)</translation>
+    </message>
+    <message>
+      <source>HTML report</source>
+      <translation>HTML report</translation>
+    </message>
+    <message>
+      <source>HTML files (*.html)</source>
+      <translation>HTML files (*.html)</translation>
+    </message>
+    <message>
+      <source>Mean placement error (m)</source>
+      <translation>Mean placement error (m)</translation>
+    </message>
+    <message>
+      <source>Maximum coordinate error (m)</source>
+      <translation>Maximum coordinate error (m)</translation>
+    </message>
+    <message>
+      <source>Mean shape similarity (IoU)</source>
+      <translation>Mean shape similarity (IoU)</translation>
+    </message>
+    <message>
+      <source>Texture sharpness (Laplacian variance)</source>
+      <translation>Texture sharpness (Laplacian variance)</translation>
+    </message>
+    <message>
+      <source>Texture contrast (grey std)</source>
+      <translation>Texture contrast (grey std)</translation>
+    </message>
+    <message>
+      <source>Seam step across tile borders</source>
+      <translation>Seam step across tile borders</translation>
+    </message>
+    <message>
+      <source>Triangulate terrain (constrained Delaunay)</source>
+      <translation>Triangulate terrain (constrained Delaunay)</translation>
+    </message>
+    <message>
+      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (measured exactly on every edge and at the DEM cell centres inside every triangle). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
+      <translation>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (measured exactly on every edge and at the DEM cell centres inside every triangle). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</translation>
+    </message>
+    <message>
+      <source>Study area (polygon layer, e.g. study_area of wit:preparevectors)</source>
+      <translation>Study area (polygon layer, e.g. study_area of wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Building footprints (constraints)</source>
+      <translation>Building footprints (constraints)</translation>
+    </message>
+    <message>
+      <source>Road polygons (constraints)</source>
+      <translation>Road polygons (constraints)</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>Maximum edge length (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>Vertical tolerance (m)</translation>
+    </message>
+    <message>
+      <source>Building footprints become</source>
+      <translation>Building footprints become</translation>
+    </message>
+    <message>
+      <source>TIN (GeoPackage)</source>
+      <translation>TIN (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>TIN triangles</source>
+      <translation>TIN triangles</translation>
+    </message>
+    <message>
+      <source>Triangles</source>
+      <translation>Triangles</translation>
+    </message>
+    <message>
+      <source>Measured maximum vertical error (m)</source>
+      <translation>Measured maximum vertical error (m)</translation>
+    </message>
+    <message>
+      <source>Measured maximum edge length (m)</source>
+      <translation>Measured maximum edge length (m)</translation>
+    </message>
+    <message>
+      <source>Holes (buildings stand on them)</source>
+      <translation>Holes (buildings stand on them)</translation>
+    </message>
+    <message>
+      <source>Constrained edges</source>
+      <translation>Constrained edges</translation>
+    </message>
+    <message>
+      <source>Validate CityGML 3.0</source>
+      <translation>Validate CityGML 3.0</translation>
     </message>
     <message>
       <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder, else the folder set in the plugin settings, else the plugin's cache, else a one-time download from schemas.opengis.net; the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports.</source>
@@ -288,20 +560,8 @@
       <translation>Schema folder (with citygml3-all.xsd)</translation>
     </message>
     <message>
-      <source>HTML report</source>
-      <translation>HTML report</translation>
-    </message>
-    <message>
-      <source>HTML files (*.html)</source>
-      <translation>HTML files (*.html)</translation>
-    </message>
-    <message>
       <source>CSV report (one row per problem)</source>
       <translation>CSV report (one row per problem)</translation>
-    </message>
-    <message>
-      <source>CSV files (*.csv)</source>
-      <translation>CSV files (*.csv)</translation>
     </message>
     <message>
       <source>Validation table</source>
@@ -326,10 +586,6 @@
     <message>
       <source>WIT texturing</source>
       <translation>WIT texturing</translation>
-    </message>
-    <message>
-      <source>Texture</source>
-      <translation>Texture</translation>
     </message>
     <message>
       <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
@@ -402,10 +658,6 @@
     <message>
       <source>Legal dongs (wit:preparevectors)</source>
       <translation>Legal dongs (wit:preparevectors)</translation>
-    </message>
-    <message>
-      <source>Texture folder (wit:wittexture)</source>
-      <translation>Texture folder (wit:wittexture)</translation>
     </message>
     <message>
       <source>Copy texture images beside the .gml</source>

@@ -8,6 +8,158 @@
       <translation>취소됨: 출력 파일을 쓰지 않았습니다.</translation>
     </message>
     <message>
+      <source>Build colour store</source>
+      <translation>색상 저장소 구축</translation>
+    </message>
+    <message>
+      <source>Texture</source>
+      <translation>텍스처</translation>
+    </message>
+    <message>
+      <source>Query colour store</source>
+      <translation>색상 저장소 조회</translation>
+    </message>
+    <message>
+      <source>RGB orthoimage</source>
+      <translation>RGB 정사영상</translation>
+    </message>
+    <message>
+      <source>Colour tolerance (RMS, 0–255)</source>
+      <translation>색상 허용오차 (RMS, 0–255)</translation>
+    </message>
+    <message>
+      <source>PostGIS connection (empty = GeoPackage)</source>
+      <translation>PostGIS 연결 (비우면 GeoPackage)</translation>
+    </message>
+    <message>
+      <source>Table</source>
+      <translation>테이블</translation>
+    </message>
+    <message>
+      <source>Colour store (GeoPackage)</source>
+      <translation>색상 저장소 (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>GeoPackage (*.gpkg)</source>
+      <translation>GeoPackage (*.gpkg)</translation>
+    </message>
+    <message>
+      <source>Cells</source>
+      <translation>셀 수</translation>
+    </message>
+    <message>
+      <source>Store size (bytes)</source>
+      <translation>저장소 크기 (바이트)</translation>
+    </message>
+    <message>
+      <source>Image size (bytes)</source>
+      <translation>이미지 크기 (바이트)</translation>
+    </message>
+    <message>
+      <source>Give a GeoPackage output or a PostGIS connection.</source>
+      <translation>GeoPackage 출력 또는 PostGIS 연결을 지정하십시오.</translation>
+    </message>
+    <message>
+      <source>Colour store (GeoPackage path or PostGIS connection)</source>
+      <translation>색상 저장소 (GeoPackage 경로 또는 PostGIS 연결)</translation>
+    </message>
+    <message>
+      <source>Points to colour</source>
+      <translation>색상을 구할 점</translation>
+    </message>
+    <message>
+      <source>Patch extent</source>
+      <translation>패치 범위</translation>
+    </message>
+    <message>
+      <source>Patch resolution (m)</source>
+      <translation>패치 해상도 (m)</translation>
+    </message>
+    <message>
+      <source>Coloured points</source>
+      <translation>색상이 붙은 점</translation>
+    </message>
+    <message>
+      <source>Texture patch</source>
+      <translation>텍스처 패치</translation>
+    </message>
+    <message>
+      <source>Points coloured</source>
+      <translation>색상을 구한 점 수</translation>
+    </message>
+    <message>
+      <source>Give points to colour, a patch extent, or both.</source>
+      <translation>점, 패치 범위, 또는 둘 다를 지정하십시오.</translation>
+    </message>
+    <message>
+      <source>Extrude LoD1 buildings</source>
+      <translation>LoD1 건물 돌출</translation>
+    </message>
+    <message>
+      <source>Geometry</source>
+      <translation>기하</translation>
+    </message>
+    <message>
+      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × storey height when the floor count is known, else the height field, else the expression, else the default height; every building records where its height came from (height_src). Output: PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base height, height, storeys and all source attributes.</source>
+      <translation>건물마다 닫혀 있고 바깥을 향하는 LoD1 솔리드를 만듭니다: 바닥면, 지붕, 외곽선 변마다 하나의 벽(중정 포함). 밑면 높이는 건물마다 하나로, 건물이 떠 있지 않도록 외곽선 위 DEM(쌍선형)의 최솟값, 또는 중앙값입니다. 높이 = 층수를 알면 GRO_FLO_CO × 층고, 아니면 높이 필드, 아니면 표현식, 아니면 기본 높이이며, 각 건물은 높이의 출처(height_src)를 기록합니다. 출력: 건물 ID(wit_id), 면 종류(ground/roof/wall), 면 번호, 밑면 높이, 높이, 층수, 모든 원본 속성을 가진 PolygonZ 면.</translation>
+    </message>
+    <message>
+      <source>Building footprints (wit:preparevectors)</source>
+      <translation>건물 외곽선 (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>DEM</source>
+      <translation>DEM (수치표고모델)</translation>
+    </message>
+    <message>
+      <source>Storey height (m)</source>
+      <translation>층고 (m)</translation>
+    </message>
+    <message>
+      <source>Height field (m), when floors are unknown</source>
+      <translation>높이 필드 (m), 층수를 모를 때</translation>
+    </message>
+    <message>
+      <source>Height expression (m), when floors and field are unknown</source>
+      <translation>높이 표현식 (m), 층수와 필드를 모를 때</translation>
+    </message>
+    <message>
+      <source>Default height (m)</source>
+      <translation>기본 높이 (m)</translation>
+    </message>
+    <message>
+      <source>Base height from the DEM</source>
+      <translation>DEM에서 구한 밑면 높이</translation>
+    </message>
+    <message>
+      <source>LoD1 solids (GeoPackage)</source>
+      <translation>LoD1 솔리드 (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>LoD1 faces</source>
+      <translation>LoD1 면</translation>
+    </message>
+    <message>
+      <source>Solids</source>
+      <translation>솔리드 수</translation>
+    </message>
+    <message>
+      <source>Buildings with the default height</source>
+      <translation>기본 높이를 쓴 건물 수</translation>
+    </message>
+    <message>
+      <source>Minimum on the footprint</source>
+      <translation>외곽선 위 최솟값</translation>
+    </message>
+    <message>
+      <source>Median on the footprint</source>
+      <translation>외곽선 위 중앙값</translation>
+    </message>
+    <message>
+      <source>Invalid height expression: {error}</source>
+      <translation>잘못된 높이 표현식: {error}</translation>
+    </message>
+    <message>
       <source>Generate sample data</source>
       <translation>샘플 데이터 생성</translation>
     </message>
@@ -62,10 +214,6 @@
     <message>
       <source>Legal dongs (TL_SCCO_EMD)</source>
       <translation>법정동 (TL_SCCO_EMD)</translation>
-    </message>
-    <message>
-      <source>DEM</source>
-      <translation>DEM (수치표고모델)</translation>
     </message>
     <message>
       <source>Orthoimage tile folder</source>
@@ -188,10 +336,6 @@
       <translation>벡터 레이어 준비</translation>
     </message>
     <message>
-      <source>Geometry</source>
-      <translation>기하</translation>
-    </message>
-    <message>
       <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
       <translation>건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD) 레이어를 읽습니다(.cpg 없는 셰이프파일은 내용이 CP949이면 CP949로 읽음). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거, 가는 조각은 이유와 함께 제외). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로는 ROAD_BT / 2 만큼 버퍼한 폴리곤이 됩니다(없으면 도로 등급별 기본 폭). 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
     </message>
@@ -232,10 +376,6 @@
       <translation>준비된 레이어 (GeoPackage)</translation>
     </message>
     <message>
-      <source>GeoPackage (*.gpkg)</source>
-      <translation>GeoPackage (*.gpkg)</translation>
-    </message>
-    <message>
       <source>Prepared buildings</source>
       <translation>준비된 건물</translation>
     </message>
@@ -268,12 +408,144 @@
       <translation>WIT 도시모델: 국가 공간정보로 텍스처 CityGML 3.0 생성</translation>
     </message>
     <message>
-      <source>Validate CityGML 3.0</source>
-      <translation>CityGML 3.0 검증</translation>
+      <source>Quality metrics</source>
+      <translation>품질 지표</translation>
     </message>
     <message>
       <source>CityGML</source>
       <translation>CityGML</translation>
+    </message>
+    <message>
+      <source>Measures the model against its sources, as the paper's Tables 17 and 19 (paper figures beside ours). Geometry (the CityGML file or the LoD1 layer against the prepared 2D footprints, matched by wit_id): placement error = distance between the centroids of footprint and ground face; coordinate error = each roof vertex to the nearest footprint vertex (mean, max); Hausdorff distance of the outlines; shape similarity index SSI = area(A∩B) / area(A∪B) (intersection over union) of footprint and ground face. Texture: sharpness = variance of the 4-neighbour Laplacian of the grey image (0.299R + 0.587G + 0.114B, as OpenCV's Laplacian().var()) and contrast = standard deviation of the grey values, on the texture images (inside the texture islands) and on the orthoimage for comparison. Seams: mean colour step across tile borders in the mosaic. Writes a CSV table, per-building rows, a GeoPackage and an HTML report.</source>
+      <translation>논문의 표 17과 19처럼 모델을 원본과 비교해 측정합니다(논문 수치를 함께 표시). 기하(CityGML 파일 또는 LoD1 레이어를 준비된 2D 외곽선과 wit_id로 대응): 배치 오차 = 외곽선과 바닥면 중심 사이 거리, 좌표 오차 = 각 지붕 꼭짓점에서 가장 가까운 외곽선 꼭짓점까지(평균, 최대), 외곽선의 하우스도르프 거리, 형상 유사도 SSI = 외곽선과 바닥면의 면적(A∩B) / 면적(A∪B)(IoU). 텍스처: 선명도 = 회색 영상(0.299R + 0.587G + 0.114B)의 4-이웃 라플라시안 분산(OpenCV Laplacian().var()와 같음), 대비 = 회색 값의 표준편차; 텍스처 이미지(텍스처 섬 내부)와 비교용 정사영상에서 계산. 경계: 모자이크에서 타일 경계를 가로지르는 평균 색상 차. CSV 표, 건물별 행, GeoPackage, HTML 보고서를 씁니다.</translation>
+    </message>
+    <message>
+      <source>Model: CityGML file or LoD1 GeoPackage</source>
+      <translation>모델: CityGML 파일 또는 LoD1 GeoPackage</translation>
+    </message>
+    <message>
+      <source>2D source footprints (prepared buildings)</source>
+      <translation>2D 원본 외곽선 (준비된 건물)</translation>
+    </message>
+    <message>
+      <source>Texture folder (wit:wittexture)</source>
+      <translation>텍스처 폴더 (wit:wittexture)</translation>
+    </message>
+    <message>
+      <source>Orthoimage for comparison</source>
+      <translation>비교용 정사영상</translation>
+    </message>
+    <message>
+      <source>Merged mosaic (seam step)</source>
+      <translation>병합 모자이크 (경계 단차)</translation>
+    </message>
+    <message>
+      <source>Tile footprints (index of wit:georeferencemapsheets)</source>
+      <translation>타일 범위 (wit:georeferencemapsheets 색인)</translation>
+    </message>
+    <message>
+      <source>Metrics table (CSV)</source>
+      <translation>지표 표 (CSV)</translation>
+    </message>
+    <message>
+      <source>CSV files (*.csv)</source>
+      <translation>CSV 파일 (*.csv)</translation>
+    </message>
+    <message>
+      <source>HTML report</source>
+      <translation>HTML 보고서</translation>
+    </message>
+    <message>
+      <source>HTML files (*.html)</source>
+      <translation>HTML 파일 (*.html)</translation>
+    </message>
+    <message>
+      <source>Mean placement error (m)</source>
+      <translation>평균 배치 오차 (m)</translation>
+    </message>
+    <message>
+      <source>Maximum coordinate error (m)</source>
+      <translation>최대 좌표 오차 (m)</translation>
+    </message>
+    <message>
+      <source>Mean shape similarity (IoU)</source>
+      <translation>평균 형상 유사도 (IoU)</translation>
+    </message>
+    <message>
+      <source>Texture sharpness (Laplacian variance)</source>
+      <translation>텍스처 선명도 (라플라시안 분산)</translation>
+    </message>
+    <message>
+      <source>Texture contrast (grey std)</source>
+      <translation>텍스처 대비 (회색 표준편차)</translation>
+    </message>
+    <message>
+      <source>Seam step across tile borders</source>
+      <translation>타일 경계 단차</translation>
+    </message>
+    <message>
+      <source>Triangulate terrain (constrained Delaunay)</source>
+      <translation>지형 삼각분할 (제약 들로네)</translation>
+    </message>
+    <message>
+      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (measured exactly on every edge and at the DEM cell centres inside every triangle). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
+      <translation>연구 지역을 제약 들로네 삼각분할(라이브러리 'triangle')로 메시화합니다: 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(모든 변과 각 삼각형 내부의 DEM 셀 중심에서 정확히 측정). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간. DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
+    </message>
+    <message>
+      <source>Study area (polygon layer, e.g. study_area of wit:preparevectors)</source>
+      <translation>연구 지역 (폴리곤 레이어, 예: wit:preparevectors의 study_area)</translation>
+    </message>
+    <message>
+      <source>Building footprints (constraints)</source>
+      <translation>건물 외곽선 (제약)</translation>
+    </message>
+    <message>
+      <source>Road polygons (constraints)</source>
+      <translation>도로 폴리곤 (제약)</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>최대 변 길이 (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>수직 허용오차 (m)</translation>
+    </message>
+    <message>
+      <source>Building footprints become</source>
+      <translation>건물 외곽선 처리</translation>
+    </message>
+    <message>
+      <source>TIN (GeoPackage)</source>
+      <translation>TIN (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>TIN triangles</source>
+      <translation>TIN 삼각형</translation>
+    </message>
+    <message>
+      <source>Triangles</source>
+      <translation>삼각형 수</translation>
+    </message>
+    <message>
+      <source>Measured maximum vertical error (m)</source>
+      <translation>측정된 최대 수직 오차 (m)</translation>
+    </message>
+    <message>
+      <source>Measured maximum edge length (m)</source>
+      <translation>측정된 최대 변 길이 (m)</translation>
+    </message>
+    <message>
+      <source>Holes (buildings stand on them)</source>
+      <translation>구멍 (건물이 그 위에 섬)</translation>
+    </message>
+    <message>
+      <source>Constrained edges</source>
+      <translation>제약 변</translation>
+    </message>
+    <message>
+      <source>Validate CityGML 3.0</source>
+      <translation>CityGML 3.0 검증</translation>
     </message>
     <message>
       <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder, else the folder set in the plugin settings, else the plugin's cache, else a one-time download from schemas.opengis.net; the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports.</source>
@@ -288,20 +560,8 @@
       <translation>스키마 폴더 (citygml3-all.xsd 포함)</translation>
     </message>
     <message>
-      <source>HTML report</source>
-      <translation>HTML 보고서</translation>
-    </message>
-    <message>
-      <source>HTML files (*.html)</source>
-      <translation>HTML 파일 (*.html)</translation>
-    </message>
-    <message>
       <source>CSV report (one row per problem)</source>
       <translation>CSV 보고서 (문제마다 한 행)</translation>
-    </message>
-    <message>
-      <source>CSV files (*.csv)</source>
-      <translation>CSV 파일 (*.csv)</translation>
     </message>
     <message>
       <source>Validation table</source>
@@ -326,10 +586,6 @@
     <message>
       <source>WIT texturing</source>
       <translation>WIT 텍스처링</translation>
-    </message>
-    <message>
-      <source>Texture</source>
-      <translation>텍스처</translation>
     </message>
     <message>
       <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
@@ -402,10 +658,6 @@
     <message>
       <source>Legal dongs (wit:preparevectors)</source>
       <translation>법정동 (wit:preparevectors)</translation>
-    </message>
-    <message>
-      <source>Texture folder (wit:wittexture)</source>
-      <translation>텍스처 폴더 (wit:wittexture)</translation>
     </message>
     <message>
       <source>Copy texture images beside the .gml</source>

@@ -3,10 +3,14 @@ from qgis.core import QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
 from .base import PLUGIN_DIR, tr
+from .colorstore_algorithms import BuildColorStore, QueryColorStore
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
+from .extrudebuildings import ExtrudeBuildings
 from .mergetiles import MergeTiles
 from .preparevectors import PrepareVectors
+from .qualitymetrics import QualityMetrics
+from .triangulateterrain import TriangulateTerrain
 from .validatecitygml import ValidateCityGML
 from .wittexture import WitTexture
 from .writecitygml import WriteCityGML
@@ -16,9 +20,14 @@ ALGORITHMS = (
     GeoreferenceMapSheets,
     MergeTiles,
     PrepareVectors,
+    TriangulateTerrain,
+    ExtrudeBuildings,
     WitTexture,
     WriteCityGML,
     ValidateCityGML,
+    BuildColorStore,
+    QueryColorStore,
+    QualityMetrics,
 )
 
 

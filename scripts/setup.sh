@@ -51,4 +51,11 @@ for ts in i18n/*.ts; do
         lrelease -silent "$ts" -qm "$qm"
     fi
 done
+# PostgreSQL driver for PostGIS colour stores: Debian's python3-psycopg2 (python3-qgis depends on
+# it; built on Debian's libpq), not a pip wheel bundling its own libpq. The server itself is only
+# needed by the tests (scripts/test.sh starts it with scripts/postgis.sh).
+if ! "$SYS_PY" -c 'import psycopg2' 2>/dev/null; then
+    log "installing python3-psycopg2"
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-psycopg2 >/dev/null
+fi
 [ "$did" = 0 ] || printf '[setup] ready\n' >&2

@@ -38,8 +38,7 @@ def shared_dir() -> Path:
 _KEEP_ALIVE: list = []
 
 
-@pytest.fixture
-def wit_provider(qgis_processing):
+def ensure_wit_provider():
     """The ``wit`` provider registered in the test QGIS, as the plugin does it.
 
     Looked up on every use: a plugin test's unload() removes (and deletes) the provider.
@@ -53,6 +52,11 @@ def wit_provider(qgis_processing):
         _KEEP_ALIVE.append(WitProvider())  # the Python side must outlive its registration
         registry.addProvider(_KEEP_ALIVE[-1])
     return registry.providerById("wit")
+
+
+@pytest.fixture
+def wit_provider(qgis_processing):
+    return ensure_wit_provider()
 
 
 @pytest.fixture

@@ -15,7 +15,8 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS
 
 from conftest import ROOT
 
-EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml"}
+EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
+                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics"}
 
 
 def _without_registered_provider():

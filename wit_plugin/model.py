@@ -19,6 +19,7 @@ WIT_ID = "wit_id"
 PREPARED_BUILDINGS = "buildings"
 PREPARED_ROADS = "roads"  # road polygons: centre lines buffered by ROAD_BT / 2
 PREPARED_DISTRICTS = "districts"
+STUDY_AREA = "study_area"  # the study-area polygon, so later steps need not be told it again
 ROAD_WIDTH = "width_m"  # width used for the buffer
 ROAD_WIDTH_SOURCE = "width_src"  # "ROAD_BT" or "default"
 

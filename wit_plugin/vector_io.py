@@ -223,6 +223,12 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     return ds, lyr, encoding
 
 
+def read_prepared(source: str | os.PathLike, default_layer: str, **options) -> VectorLayer:
+    """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name."""
+    explicit = "layername=" in str(source).partition("|")[2]
+    return read_layer(source, None if explicit else default_layer, **options)
+
+
 def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
                crs: str | None = None, bbox: tuple[float, float, float, float] | None = None,
                bbox_crs: pyproj.CRS | None = None, feedback: Feedback = SILENT) -> VectorLayer:

@@ -839,6 +839,8 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     drop_fields = [FieldDef("layer", ogr.OFTString), FieldDef("source_fid", ogr.OFTInteger64),
                    FieldDef(model.WIT_ID, ogr.OFTString), FieldDef("reason", ogr.OFTString)]
     layers = [_output_layer(p, feedback) for p, _ in results]
+    layers.append(OutputLayer(model.STUDY_AREA, [FieldDef("area_m2", ogr.OFTReal)], {"area_m2": [polygon.area]},
+                              np.array([polygon], dtype=object)))
     layers += [_table(STATS_TABLE, rows, stat_fields), _table(DROPPED_TABLE, [asdict(d) for d in dropped], drop_fields)]
     feedback.check_canceled()
     with atomic_file(output_gpkg) as tmp:

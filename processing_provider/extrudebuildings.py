@@ -1,0 +1,115 @@
+"""wit:extrudebuildings — closed LoD1 solids from footprints, floors and the DEM."""
+from qgis.core import (
+    QgsExpression,
+    QgsExpressionContext,
+    QgsExpressionContextScope,
+    QgsFeature,
+    QgsProcessing,
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingOutputVectorLayer,
+    QgsProcessingParameterEnum,
+    QgsProcessingParameterExpression,
+    QgsProcessingParameterField,
+    QgsProcessingParameterFileDestination,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterLayer,
+    QgsProcessingParameterVectorLayer,
+)
+
+from .base import WitAlgorithm
+
+BASES = ("min", "median")
+
+
+class ExtrudeBuildings(WitAlgorithm):
+    algorithm_id = "extrudebuildings"
+    display_name = "Extrude LoD1 buildings"
+    group_name = "Geometry"
+    help_text = (
+        "Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per "
+        "footprint edge (courtyards included). The base is one height per building: the minimum of the "
+        "DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × "
+        "storey height when the floor count is known, else the height field, else the expression, else "
+        "the default height; every building records where its height came from (height_src). Output: "
+        "PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base "
+        "height, height, storeys and all source attributes."
+    )
+    requirements = ("shapely", "pyproj")
+
+    BUILDINGS = "BUILDINGS"
+    DEM = "DEM"
+    STOREY_HEIGHT = "STOREY_HEIGHT"
+    HEIGHT_FIELD = "HEIGHT_FIELD"
+    HEIGHT_EXPRESSION = "HEIGHT_EXPRESSION"
+    DEFAULT_HEIGHT = "DEFAULT_HEIGHT"
+    BASE = "BASE"
+    OUTPUT = "OUTPUT"
+
+    def initAlgorithm(self, config=None):  # noqa: N802
+        self.addParameter(QgsProcessingParameterVectorLayer(
+            self.BUILDINGS, self.tr("Building footprints (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon]))
+        self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
+        self.addParameter(QgsProcessingParameterNumber(
+            self.STOREY_HEIGHT, self.tr("Storey height (m)"), QgsProcessingParameterNumber.Double,
+            defaultValue=3.0, minValue=0.5))
+        self.addParameter(QgsProcessingParameterField(
+            self.HEIGHT_FIELD, self.tr("Height field (m), when floors are unknown"),
+            parentLayerParameterName=self.BUILDINGS, type=QgsProcessingParameterField.Numeric, optional=True))
+        self.addParameter(QgsProcessingParameterExpression(
+            self.HEIGHT_EXPRESSION, self.tr("Height expression (m), when floors and field are unknown"),
+            parentLayerParameterName=self.BUILDINGS, optional=True))
+        self.addParameter(QgsProcessingParameterNumber(
+            self.DEFAULT_HEIGHT, self.tr("Default height (m)"), QgsProcessingParameterNumber.Double,
+            defaultValue=3.0, minValue=0.1))
+        self.addParameter(QgsProcessingParameterEnum(
+            self.BASE, self.tr("Base height from the DEM"),
+            options=[self.tr("Minimum on the footprint"), self.tr("Median on the footprint")], defaultValue=0))
+        self.addParameter(QgsProcessingParameterFileDestination(
+            self.OUTPUT, self.tr("LoD1 solids (GeoPackage)"), self.tr("GeoPackage (*.gpkg)")))
+        self.addOutput(QgsProcessingOutputVectorLayer("LOD1", self.tr("LoD1 faces")))
+        self.addOutput(QgsProcessingOutputNumber("SOLIDS", self.tr("Solids")))
+        self.addOutput(QgsProcessingOutputNumber("DEFAULT_HEIGHTS", self.tr("Buildings with the default height")))
+
+    def execute(self, parameters, context, feedback):
+        from ..wit_plugin import model
+        from ..wit_plugin.extrude import HeightRule, run
+
+        buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
+        fields = self.parameterAsFields(parameters, self.HEIGHT_FIELD, context)
+        rule = HeightRule(
+            storey_height=self.parameterAsDouble(parameters, self.STOREY_HEIGHT, context),
+            height_field=fields[0] if fields else None,
+            expression=self._expression(self.parameterAsExpression(parameters, self.HEIGHT_EXPRESSION, context),
+                                        buildings, context),
+            default_height=self.parameterAsDouble(parameters, self.DEFAULT_HEIGHT, context),
+        )
+        output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
+        stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
+                    rule, BASES[self.parameterAsEnum(parameters, self.BASE, context)], feedback)
+        return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,
+                "DEFAULT_HEIGHTS": stats.height_sources.get("default", 0)}
+
+    def _expression(self, text: str, layer, context):
+        """The QGIS expression as the callable the core takes (attributes dict → value)."""
+        if not text:
+            return None
+        expression = QgsExpression(text)
+        if expression.hasParserError():
+            raise QgsProcessingException(self.tr("Invalid height expression: {error}").format(
+                error=expression.parserErrorString()))
+        expression_context = QgsExpressionContext()
+        expression_context.appendScopes(context.expressionContext().scopes())
+        expression_context.appendScope(QgsExpressionContextScope())
+        fields = layer.fields()
+        expression.prepare(expression_context)
+
+        def evaluate(attributes: dict):
+            feature = QgsFeature(fields)
+            for name, value in attributes.items():
+                if fields.indexOf(name) >= 0:
+                    feature[name] = value
+            expression_context.setFeature(feature)
+            return expression.evaluate(expression_context)
+
+        return evaluate

@@ -1,0 +1,221 @@
+"""Terrain TIN: constraints kept, vertical error bounded (measured densely), labels, robustness."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from itertools import pairwise
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from osgeo import ogr, osr
+
+from wit_plugin import model, terrain
+from wit_plugin.dem import Dem
+from wit_plugin.errors import InputError
+
+sys.path.insert(0, str(Path(__file__).parent))
+from cdt_worker import check_mesh, hill_dem
+
+AREA = shapely.box(0, 0, 120, 120)
+BUILDINGS = [
+    ("BLD_A", shapely.box(10, 10, 30, 25)),
+    ("BLD_B", shapely.Polygon([(40, 60), (62, 60), (62, 70), (50, 70), (50, 85), (40, 85)])),  # L-shape
+    ("BLD_C", shapely.box(70, 70, 100, 100).difference(shapely.box(80, 80, 90, 90))),  # courtyard
+    ("BLD_D", shapely.Polygon([(5, 100), (20, 96.5), (24, 110), (8, 113)])),
+]
+ROADS = [("RD_1", shapely.box(0, 40, 120, 50)), ("RD_2", shapely.box(60, 0, 66, 120))]
+
+
+def mesh_edges(tin):
+    t = tin.triangles
+    return {tuple(e) for e in np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1).tolist()}
+
+
+def assert_edge_in_mesh(tin, p, q, edges):
+    """The segment p–q is covered by a chain of collinear mesh edges."""
+    xy = tin.vertices[:, :2]
+    d = np.subtract(q, p)
+    length = np.hypot(*d)
+    t = ((xy - p) @ d) / length ** 2
+    off = np.abs((xy[:, 0] - p[0]) * d[1] - (xy[:, 1] - p[1]) * d[0]) / length
+    on = np.flatnonzero((off < 1e-10) & (t > -1e-9) & (t < 1 + 1e-9))  # truly on it: ~1e-14 off
+    chain = on[np.argsort(t[on])]
+    assert np.allclose(xy[chain[0]], p, atol=1e-6) and np.allclose(xy[chain[-1]], q, atol=1e-6)
+    for u, v in pairwise(chain):
+        assert (min(u, v), max(u, v)) in edges, f"edge {p}–{q} is not a union of mesh edges"
+
+
+@pytest.mark.parametrize("holes", [True, False])
+def test_every_building_and_road_edge_is_in_the_mesh(holes):
+    dem = hill_dem()
+    tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=5.0, tolerance=0.5,
+                                     footprints_as_holes=holes)
+    check_mesh(tin, dem, holes)
+    edges = mesh_edges(tin)
+    for _, poly in BUILDINGS:
+        for ring in (poly.exterior, *poly.interiors):
+            for p, q in zip(ring.coords[:-1], ring.coords[1:]):
+                assert_edge_in_mesh(tin, p, q, edges)
+    # road edges outside the footprints (under a building there is no mesh in holes mode)
+    for _, poly in ROADS:
+        for line in shapely.get_parts(poly.boundary.difference(shapely.union_all([g for _, g in BUILDINGS]))):
+            for p, q in zip(line.coords[:-1], line.coords[1:]):
+                assert_edge_in_mesh(tin, p, q, edges)
+    assert stats.max_edge <= 5.0 * (1 + 1e-9)
+    assert stats.max_vertical_error <= 0.5
+    lengths = np.linalg.norm(np.diff(tin.vertices[tin.triangles[:, [0, 1, 2, 0]]][:, :, :2], axis=1), axis=2)
+    assert lengths.max() == pytest.approx(stats.max_edge)
+
+
+def _dense_error(dem, tin, n=12):
+    """Max |DEM − triangle plane| sampled on a barycentric lattice of n+1 points per side."""
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
+    keep = i + j <= n
+    w = np.column_stack([i[keep], j[keep], n - i[keep] - j[keep]]) / n  # (k, 3)
+    corners = tin.vertices[tin.triangles]  # (m, 3, 3)
+    points = np.einsum("kc,mcd->mkd", w, corners)  # (m, k, 3)
+    z = dem.sample(points[..., 0].ravel(), points[..., 1].ravel()).reshape(points.shape[:2])
+    return np.abs(z - points[..., 2]).max()
+
+
+def test_vertical_error_is_within_tolerance_on_a_sharp_hill():
+    # 1 m cells, a 40 m hill with σ ≈ 4 m: far too sharp for 30 m triangles without refinement
+    centres = np.arange(200) + 0.5
+    x, y = np.meshgrid(centres, centres[::-1])
+    dem = Dem(40.0 * np.exp(-((x - 100) ** 2 + (y - 90) ** 2) / 32.0) + 0.02 * x, (0.0, 1.0, 0.0, 200.0, 0.0, -1.0))
+    area = shapely.box(20, 20, 180, 180)
+    building = [("BLD_H", shapely.box(95, 60, 110, 75))]
+
+    coarse, coarse_stats = terrain.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25,
+                                               max_iterations=0)
+    assert _dense_error(dem, coarse) > 1.0  # the hill is badly missed without refinement
+    assert coarse_stats.max_vertical_error >= _dense_error(dem, coarse) - 1e-9  # measured, not guessed
+
+    tin, stats = terrain.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25)
+    dense = _dense_error(dem, tin, n=16)
+    assert stats.refinement_iterations > 0
+    assert stats.max_vertical_error <= 0.25
+    assert dense <= stats.max_vertical_error + 1e-9  # the exact measure bounds any sampling
+    assert dense >= 0.5 * stats.max_vertical_error  # and is not wildly pessimistic
+    np.testing.assert_allclose(tin.vertices[:, 2], dem.sample(tin.vertices[:, 0], tin.vertices[:, 1]),
+                               rtol=0, atol=1e-9)
+
+
+def test_holes_and_constrained_footprints_are_labelled():
+    dem = hill_dem()
+    footprint_area = sum(g.area for _, g in BUILDINGS)
+    for holes in (True, False):
+        tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=8.0, footprints_as_holes=holes)
+        xy = tin.vertices[:, :2][tin.triangles]
+        areas = 0.5 * np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
+        centroids = xy.mean(axis=1)
+        by = {s: areas[tin.surface == s].sum() for s in model.TIN_SURFACES}
+        if holes:
+            assert by["footprint"] == 0 and stats.triangles_by_surface["footprint"] == 0
+            assert areas.sum() == pytest.approx(AREA.area - footprint_area, rel=1e-9)
+        else:
+            assert by["footprint"] == pytest.approx(footprint_area, rel=1e-9)
+            assert areas.sum() == pytest.approx(AREA.area, rel=1e-9)
+        # each triangle belongs to the first building, else the first road, containing it
+        expected = np.full(len(centroids), None, dtype=object)
+        for wit_id, poly in reversed(BUILDINGS + ROADS):
+            expected[shapely.contains_xy(poly, centroids[:, 0], centroids[:, 1])] = wit_id
+        np.testing.assert_array_equal(tin.feature_id, expected)
+        is_road = np.array([f is not None and f.startswith("RD") for f in expected])
+        assert set(tin.surface[is_road]) == {"road"}
+        terrain_tris = tin.surface == "terrain"
+        assert all(f is None for f in tin.feature_id[terrain_tris])
+
+
+def test_bad_input_is_an_input_error():
+    dem = hill_dem()
+    with pytest.raises(InputError, match="study area is empty"):
+        terrain.triangulate(shapely.Polygon([(0, 0), (1, 1), (2, 2)]), [], [], dem)
+    with pytest.raises(InputError, match="positive"):
+        terrain.triangulate(AREA, [], [], dem, max_edge=0)
+    with pytest.raises(InputError, match="outside the DEM"):
+        terrain.triangulate(shapely.box(0, 0, 500, 500), [], [], dem, max_edge=50)
+    with pytest.raises(InputError, match="split the area"):
+        terrain.triangulate(shapely.box(0, 0, 100000, 100000), [], [], dem, max_edge=5)
+    with pytest.raises(InputError, match="cover the whole"):
+        terrain.triangulate(AREA, [("BLD_X", shapely.box(-10, -10, 130, 130))], [], dem)
+
+
+def test_messy_input_never_crashes_triangle(tmp_path):
+    """Random invalid, overlapping, duplicated, near-coincident polygons: a valid mesh or InputError.
+
+    Runs in a subprocess: a segfault in ``triangle`` fails this test instead of killing pytest.
+    """
+    last = tmp_path / "last_example.txt"
+    proc = subprocess.run([sys.executable, str(Path(__file__).with_name("cdt_worker.py")), "200", "20250407",
+                           "--last", str(last)], capture_output=True, text=True, timeout=600, check=False)
+    detail = f"stdout:\n{proc.stdout[-3000:]}\nstderr:\n{proc.stderr[-6000:]}"
+    if proc.returncode < 0:
+        pytest.fail(f"triangulation crashed with signal {-proc.returncode} on:\n{last.read_text()}\n{detail}")
+    assert proc.returncode == 0, detail
+    assert "meshed" in proc.stdout
+
+
+def _write_prepared(path, buildings, roads):
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(5186)
+    for name, features in ((model.PREPARED_BUILDINGS, buildings), (model.PREPARED_ROADS, roads)):
+        lyr = ds.CreateLayer(name, srs, ogr.wkbPolygon)
+        lyr.CreateField(ogr.FieldDefn(model.WIT_ID, ogr.OFTString))
+        for wit_id, geom in features:
+            feat = ogr.Feature(lyr.GetLayerDefn())
+            feat.SetField(model.WIT_ID, wit_id)
+            feat.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geom)))
+            lyr.CreateFeature(feat)
+    ds = None
+
+
+def test_run_on_the_seoul_dem_writes_a_tin(tmp_path, shared_dir):
+    suseo = np.array([209020.9, 543132.8])
+    shift = shapely.affinity.translate
+    buildings = [(w, shift(g, *(suseo - 60))) for w, g in BUILDINGS]
+    roads = [(w, shift(g, *(suseo - 60))) for w, g in ROADS]
+    prepared = tmp_path / "prepared.gpkg"
+    _write_prepared(prepared, buildings, roads)
+    area = shapely.Point(*suseo).buffer(150, quad_segs=16)
+    out = tmp_path / "tin.gpkg"
+    stats = terrain.run(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out, area)
+    assert stats.max_edge <= 5.0 * (1 + 1e-9) and stats.max_vertical_error <= 0.5
+    ds = ogr.Open(str(out))
+    lyr = ds.GetLayerByName(model.TIN_LAYER)
+    assert lyr.GetGeomType() == ogr.wkbPolygon25D
+    assert lyr.GetFeatureCount() == stats.triangles
+    assert lyr.GetSpatialRef().GetAuthorityCode(None) == "5186"
+    defn = lyr.GetLayerDefn()
+    assert [defn.GetFieldDefn(k).GetName() for k in range(defn.GetFieldCount())] == \
+        [model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID]
+    surfaces, zs = set(), []
+    for feat in lyr:
+        surfaces.add(feat[model.TIN_SURFACE])
+        ring = feat.GetGeometryRef().GetGeometryRef(0)
+        assert ring.GetPointCount() == 4
+        zs += [ring.GetZ(k) for k in range(4)]
+    assert surfaces == {"terrain", "road"}
+    assert 10 < min(zs) and max(zs) < 60  # Suseo lies at about 19 m
+    assert not list(tmp_path.glob(".tin*"))
+
+
+def test_cancel_leaves_no_output(tmp_path, shared_dir):
+    from wit_plugin.errors import CanceledError
+    from wit_plugin.feedback import Feedback
+
+    class CancelAtOnce(Feedback):
+        def is_canceled(self) -> bool:
+            return True
+
+    suseo = np.array([209020.9, 543132.8])
+    prepared = tmp_path / "prepared.gpkg"
+    _write_prepared(prepared, [("BLD_A", shapely.box(*(suseo - 5), *(suseo + 5)))], [])
+    out = tmp_path / "tin.gpkg"
+    with pytest.raises(CanceledError):
+        terrain.run(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
+                    shapely.Point(*suseo).buffer(50), feedback=CancelAtOnce())
+    assert not list(tmp_path.glob("*tin*")) and not list(tmp_path.glob(".tin*"))

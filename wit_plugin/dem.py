@@ -1,0 +1,242 @@
+"""Read a DEM window and interpolate heights bilinearly between cell centres (SPEC §4).
+
+The terrain TIN and the building bases both take their Z from here, so they agree exactly.
+Cells that hold NoData (the declared value, else anything ≤ −1000 because real files such as the
+Seoul 90 m DEM store −9999 without declaring it) are filled from their neighbours before any
+interpolation: a −9999 never leaks into a height.
+
+Inside a cell the bilinear surface is a quadratic along any straight segment, and it is linear
+along the grid lines through the cell centres; ``deviation_range`` uses this to find the exact
+extremes of the surface along segments, which the refinement (terrain) and the minimum base
+height (extrude) rely on instead of guessing from a few samples.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from osgeo import gdal
+
+from .errors import InputError
+from .feedback import SILENT, Feedback
+
+#: values at or below this are NoData in files that declare no NoData value (SPEC §4)
+NODATA_THRESHOLD = -1000.0
+
+Bounds = tuple[float, float, float, float]  # xmin, ymin, xmax, ymax
+
+
+class Dem:
+    """A north-up grid of heights with NoData filled, sampled bilinearly between cell centres.
+
+    ``values`` row 0 is the row at ``y0`` (GDAL order). ``open_edges`` says, for the
+    (left, right, top, bottom) side, whether the grid continues beyond the array (a window of a
+    bigger file): there the usable area stops at the outermost cell centres; at a real edge of
+    the raster it reaches the raster edge, holding the outermost centre's value across the last
+    half cell.
+    """
+
+    def __init__(self, values: np.ndarray, geotransform: tuple[float, ...], nodata: float | None = None,
+                 open_edges: tuple[bool, bool, bool, bool] = (False, False, False, False),
+                 feedback: Feedback = SILENT):
+        x0, dx, rx, y0, ry, dy = (float(v) for v in geotransform)
+        if rx != 0.0 or ry != 0.0 or dx == 0.0 or dy == 0.0:
+            raise InputError("The DEM is rotated or has a zero cell size; warp it to a north-up grid first "
+                             "(Raster ▸ Projections ▸ Warp).")
+        grid = np.array(values, dtype=np.float64)
+        if grid.ndim != 2 or grid.size == 0:
+            raise InputError("The DEM window is empty.")
+        missing = ~np.isfinite(grid)
+        missing |= (grid == nodata) if nodata is not None else (grid <= NODATA_THRESHOLD)
+        self.nodata_cells = int(missing.sum())
+        if self.nodata_cells == grid.size:
+            raise InputError("The DEM holds only NoData in the area needed; check that it covers the study area.")
+        if self.nodata_cells:
+            grid = _fill_from_neighbours(grid, missing)
+            feedback.info(f"DEM: {self.nodata_cells} NoData cell(s) filled from their neighbours.")
+        self.values = grid
+        self.geotransform = (x0, dx, 0.0, y0, 0.0, dy)
+        rows, cols = grid.shape
+        left, right, top, bottom = open_edges
+        # usable range in fractional cell-centre indices (u along columns, v along rows)
+        self._u_range = (0.0 if left else -0.5, cols - 1.0 if right else cols - 0.5)
+        self._v_range = (0.0 if top else -0.5, rows - 1.0 if bottom else rows - 0.5)
+
+    @classmethod
+    def open(cls, path: str | Path, bounds: Bounds | None = None, margin_cells: int = 4,
+             feedback: Feedback = SILENT) -> Dem:
+        """Read band 1 of ``path``: only the window covering ``bounds`` (plus a margin), else all.
+
+        Raises ``InputError`` if the file cannot be read or does not cover ``bounds``.
+        """
+        try:
+            ds = gdal.Open(str(path))
+        except RuntimeError as exc:  # with gdal.UseExceptions()
+            raise InputError(f"Cannot open the DEM {path}: {exc}") from exc
+        if ds is None:
+            raise InputError(f"Cannot open the DEM {path}: {gdal.GetLastErrorMsg() or 'not a raster'}")
+        band = ds.GetRasterBand(1)
+        gt = ds.GetGeoTransform()
+        cols, rows = ds.RasterXSize, ds.RasterYSize
+        c0, r0, c1, r1 = 0, 0, cols, rows
+        if bounds is not None:
+            ext = raster_extent(gt, cols, rows)
+            if not (ext[0] <= bounds[0] and ext[1] <= bounds[1] and bounds[2] <= ext[2] and bounds[3] <= ext[3]):
+                raise InputError(
+                    f"The DEM {Path(path).name} (extent {_fmt(ext)}) does not cover the area needed "
+                    f"({_fmt(bounds)}). Use a DEM that covers the study area, in the same CRS.")
+            us = [(x - gt[0]) / gt[1] for x in (bounds[0], bounds[2])]
+            vs = [(y - gt[3]) / gt[5] for y in (bounds[1], bounds[3])]
+            c0 = max(0, math.floor(min(us)) - margin_cells)
+            c1 = min(cols, math.ceil(max(us)) + margin_cells)
+            r0 = max(0, math.floor(min(vs)) - margin_cells)
+            r1 = min(rows, math.ceil(max(vs)) + margin_cells)
+        data = band.ReadAsArray(c0, r0, c1 - c0, r1 - r0)
+        if data is None:
+            raise InputError(f"Cannot read the DEM {path}: {gdal.GetLastErrorMsg()}")
+        window_gt = (gt[0] + c0 * gt[1], gt[1], gt[2], gt[3] + r0 * gt[5], gt[4], gt[5])
+        return cls(data, window_gt, band.GetNoDataValue(),
+                   open_edges=(c0 > 0, c1 < cols, r0 > 0, r1 < rows), feedback=feedback)
+
+    @property
+    def extent(self) -> Bounds:
+        """The area where ``sample`` answers: xmin, ymin, xmax, ymax."""
+        x0, dx, _, y0, _, dy = self.geotransform
+        xs = [x0 + (u + 0.5) * dx for u in self._u_range]
+        ys = [y0 + (v + 0.5) * dy for v in self._v_range]
+        return min(xs), min(ys), max(xs), max(ys)
+
+    def _indices(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Fractional cell-centre indices (u, v) of points, checked to lie in the usable area."""
+        x0, dx, _, y0, _, dy = self.geotransform
+        u = (np.asarray(x, dtype=np.float64) - x0) / dx - 0.5
+        v = (np.asarray(y, dtype=np.float64) - y0) / dy - 0.5
+        eps = 1e-9
+        bad = ~((u >= self._u_range[0] - eps) & (u <= self._u_range[1] + eps)
+                & (v >= self._v_range[0] - eps) & (v <= self._v_range[1] + eps))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            px, py = (np.broadcast_to(a, u.shape).ravel()[k] for a in (x, y))
+            raise InputError(f"{int(bad.sum())} point(s) lie outside the DEM (usable extent {_fmt(self.extent)}), "
+                             f"e.g. ({px:.3f}, {py:.3f}). Use a DEM that covers the study area, in the same CRS.")
+        return u, v
+
+    def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Bilinear height at each (x, y) from the four surrounding cell centres (SPEC §4)."""
+        u, v = self._indices(x, y)
+        rows, cols = self.values.shape
+        u = np.clip(u, 0.0, cols - 1.0)
+        v = np.clip(v, 0.0, rows - 1.0)
+        j0 = np.minimum(np.floor(u), max(cols - 2, 0)).astype(np.intp)
+        i0 = np.minimum(np.floor(v), max(rows - 2, 0)).astype(np.intp)
+        alpha, beta = u - j0, v - i0
+        dj = 1 if cols > 1 else 0
+        di = cols if rows > 1 else 0
+        flat = self.values.ravel()
+        k = i0 * cols + j0
+        f11, f21, f12, f22 = flat[k], flat[k + dj], flat[k + di], flat[k + di + dj]
+        return (f11 * (1 - alpha) * (1 - beta) + f21 * alpha * (1 - beta)
+                + f12 * (1 - alpha) * beta + f22 * alpha * beta)
+
+    def nodes_in_boxes(self, xmin: np.ndarray, ymin: np.ndarray, xmax: np.ndarray,
+                       ymax: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Cell centres inside each box: (box index, x, y, height), concatenated over the boxes."""
+        x0, dx, _, y0, _, dy = self.geotransform
+        rows, cols = self.values.shape
+        ua, ub = (np.asarray(xmin, float) - x0) / dx - 0.5, (np.asarray(xmax, float) - x0) / dx - 0.5
+        va, vb = (np.asarray(ymin, float) - y0) / dy - 0.5, (np.asarray(ymax, float) - y0) / dy - 0.5
+        j_lo = np.maximum(np.ceil(np.minimum(ua, ub)), 0).astype(np.int64)
+        j_hi = np.minimum(np.floor(np.maximum(ua, ub)), cols - 1).astype(np.int64)
+        i_lo = np.maximum(np.ceil(np.minimum(va, vb)), 0).astype(np.int64)
+        i_hi = np.minimum(np.floor(np.maximum(va, vb)), rows - 1).astype(np.int64)
+        nj = np.maximum(j_hi - j_lo + 1, 0)
+        ni = np.maximum(i_hi - i_lo + 1, 0)
+        owner, k = ragged_indices(nj * ni)
+        j = j_lo[owner] + k % np.maximum(nj[owner], 1)
+        i = i_lo[owner] + k // np.maximum(nj[owner], 1)
+        return owner, x0 + (j + 0.5) * dx, y0 + (i + 0.5) * dy, self.values[i, j]
+
+    def deviation_range(self, x0: np.ndarray, y0: np.ndarray, z0: np.ndarray, x1: np.ndarray, y1: np.ndarray,
+                        z1: np.ndarray, ends_on_surface: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Exact min and max, along each segment, of (DEM height − the straight line z0→z1).
+
+        Between the crossings of cell-centre grid lines the bilinear surface is a quadratic in
+        the segment parameter, so its extremes are at the crossings, the ends, or the vertex of
+        the parabola through each piece's ends and midpoint. ``ends_on_surface``: z0 and z1 are
+        the DEM heights at the ends (TIN vertices), so the deviation there is 0 without sampling.
+        """
+        x0, y0, z0, x1, y1, z1 = (np.asarray(a, dtype=np.float64).ravel() for a in (x0, y0, z0, x1, y1, z1))
+        ua, va = self._indices(x0, y0)
+        ub, vb = self._indices(x1, y1)
+        seg_u, t_u = _crossings(ua, ub)
+        seg_v, t_v = _crossings(va, vb)
+        n = len(x0)
+        seg = np.concatenate([np.arange(n), np.arange(n), seg_u, seg_v])
+        t = np.concatenate([np.zeros(n), np.ones(n), t_u, t_v])
+        is_end = np.arange(len(t)) < 2 * n
+        order = np.argsort(seg * 2.0 + t)  # by segment, then parameter (t ∈ [0, 1])
+        seg, t, is_end = seg[order], t[order], is_end[order]
+
+        def dev(s: np.ndarray, tt: np.ndarray) -> np.ndarray:
+            return (self.sample(x0[s] + tt * (x1[s] - x0[s]), y0[s] + tt * (y1[s] - y0[s]))
+                    - (z0[s] + tt * (z1[s] - z0[s])))
+
+        g = np.zeros(len(t))
+        sampled = ~is_end if ends_on_surface else np.ones(len(t), dtype=bool)
+        g[sampled] = dev(seg[sampled], t[sampled])
+        piece = np.flatnonzero(seg[1:] == seg[:-1])  # piece k runs from breakpoint k to k + 1
+        s = seg[piece]
+        ga, gb = g[piece], g[piece + 1]
+        gm = dev(s, 0.5 * (t[piece] + t[piece + 1]))
+        b = -3 * ga + 4 * gm - gb  # q(r) = ga + b r + c r², r ∈ [0, 1] along the piece
+        c = 2 * ga - 4 * gm + 2 * gb
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = -b / (2 * c)
+        r = np.where((c != 0) & (r > 0) & (r < 1), r, 0.0)
+        gv = ga + b * r + c * r * r
+        lo = np.minimum(np.minimum(ga, gb), gv)
+        hi = np.maximum(np.maximum(ga, gb), gv)
+        starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
+        return np.minimum.reduceat(lo, starts), np.maximum.reduceat(hi, starts)
+
+
+def raster_extent(gt: tuple[float, ...], cols: int, rows: int) -> Bounds:
+    """xmin, ymin, xmax, ymax of a north-up raster."""
+    xs = (gt[0], gt[0] + cols * gt[1])
+    ys = (gt[3], gt[3] + rows * gt[5])
+    return min(xs), min(ys), max(xs), max(ys)
+
+
+def _fmt(b: Bounds) -> str:
+    return f"x {b[0]:.1f}–{b[2]:.1f}, y {b[1]:.1f}–{b[3]:.1f}"
+
+
+def ragged_indices(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For ragged groups of ``counts`` items: each item's group index and its index within it."""
+    counts = np.asarray(counts, dtype=np.int64)
+    owner = np.repeat(np.arange(len(counts)), counts)
+    starts = np.cumsum(counts) - counts
+    return owner, np.arange(len(owner)) - starts[owner]
+
+
+def _crossings(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where each segment from index a to b crosses an integer: (segment, parameter in (0, 1))."""
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    first = np.floor(lo) + 1
+    counts = np.maximum(np.ceil(hi) - first, 0).astype(np.int64)
+    seg, k = ragged_indices(counts)
+    return seg, (first[seg] + k - a[seg]) / (b[seg] - a[seg])
+
+
+def _fill_from_neighbours(grid: np.ndarray, missing: np.ndarray) -> np.ndarray:
+    """Fill the ``missing`` cells by inverse-distance weighting of the nearest valid cells (GDAL)."""
+    rows, cols = grid.shape
+    mem = gdal.GetDriverByName("MEM")
+    data_ds = mem.Create("", cols, rows, 1, gdal.GDT_Float64)
+    mask_ds = mem.Create("", cols, rows, 1, gdal.GDT_Byte)
+    data_band, mask_band = data_ds.GetRasterBand(1), mask_ds.GetRasterBand(1)
+    data_band.WriteArray(np.where(missing, 0.0, grid))
+    mask_band.WriteArray((~missing).astype(np.uint8))
+    gdal.FillNodata(data_band, mask_band, max(rows, cols) + 1, 0)
+    return data_band.ReadAsArray().astype(np.float64)

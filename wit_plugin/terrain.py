@@ -1,0 +1,502 @@
+"""Terrain TIN: constrained Delaunay triangulation of the study area (wit:triangulateterrain).
+
+Building footprints and road polygons are constraints, so every triangle lies wholly on terrain,
+on a road or under a building, and the later steps can drape roads and cut holes exactly.
+Heights come from the DEM by bilinear interpolation (``dem.Dem``), and the mesh is refined until
+no edge is longer than ``max_edge`` and the planar triangles stay within ``tolerance`` of the
+interpolated DEM surface everywhere (measured exactly, see ``vertical_error``).
+
+``triangle`` (Shewchuk's Triangle) crashes the whole process on duplicate vertices and crossing
+segments, and QGIS with it. So the constraints are cleaned first: polygons made valid and
+snapped to a 1 mm grid, all boundaries noded by snap rounding (crossings split, overlaps merged,
+duplicates and zero-length pieces gone) and clipped to the area. Each face of the resulting
+arrangement gets one seed point: a hole (outside the area, or a footprint when footprints are
+holes) or a region whose attribute tells which surface and feature its triangles belong to.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import shapely
+from osgeo import ogr, osr
+from shapely.geometry.base import BaseGeometry
+
+from .dem import Dem, ragged_indices
+from .deps import require
+from .errors import InputError
+from .feedback import SILENT, Feedback
+from .fileio import atomic_file
+from .model import (
+    PREPARED_BUILDINGS,
+    PREPARED_ROADS,
+    TIN_FEATURE_ID,
+    TIN_LAYER,
+    TIN_SURFACE,
+    TIN_SURFACES,
+    TIN_TRIANGLE_ID,
+    WIT_ID,
+)
+from .vector_io import FieldDef, VectorLayer, gdal_quiet, read_layer, read_prepared
+
+#: snapping grid for constraint coordinates (m): far below survey accuracy, far above float noise
+GRID = 0.001
+#: polygon parts narrower than this on average (m) are slivers and dropped
+MIN_WIDTH = 0.01
+#: Triangle's minimum angle (degrees). Kept tiny on purpose: what matters is that with any "q"
+#: Triangle keeps new vertices off constraint segments (its encroachment lens, here ~0.4 % of a
+#: segment's length wide), whereas without it refinement can put a vertex a rounding error away
+#: from a segment (a degenerate sliver, then duplicate vertices in the next pass). Larger angles
+#: cost a lot: 5° more than doubles the triangles of the 1 km demo, and thin faces such as
+#: digitising gaps between buildings fill with tiny triangles.
+MIN_ANGLE = 0.5
+DEGENERATE_AREA = 2e-6  # m² at mm precision; validators reject ≤ 1e-6
+#: first-pass area bound as a fraction of max_edge²: √3/4 ≈ 0.43 would fit an equilateral triangle,
+#: but Delaunay triangles of that area often have a longer edge (~40 % of them on a plain disc).
+#: At 0.25 well under 1 % do and one refinement pass fixes them; 0.3 needs two passes and ends
+#: with more triangles (measured on the 1 km demo, 5 m edges)
+AREA_FACTOR = 0.25
+#: refuse meshes that would not fit in memory on an ordinary machine
+MAX_TRIANGLES = 30_000_000
+TERRAIN, ROAD, FOOTPRINT = range(3)  # indices into model.TIN_SURFACES
+
+Feature = tuple[str | None, BaseGeometry]  # (wit_id, polygon)
+
+
+@dataclass
+class Constraints:
+    """Cleaned input for Triangle: coordinates are relative to ``origin`` (better conditioning)."""
+
+    origin: tuple[float, float]
+    vertices: np.ndarray  # (n, 2)
+    segments: np.ndarray  # (m, 2) vertex indices, noded: no crossings, no duplicates
+    holes: np.ndarray  # (h, 2) one point inside each face that is not meshed
+    regions: np.ndarray  # (r, 2) one point inside each meshed face; its attribute is its row + 1
+    region_surface: np.ndarray  # (r,) index into TIN_SURFACES
+    region_feature: np.ndarray  # (r,) wit_id or None
+    faces: np.ndarray  # (f,) polygons: the faces of the noded segments, in world coordinates
+    meshed: np.ndarray  # (f,) bool: the face is triangulated (else it is a hole)
+    area: BaseGeometry  # the cleaned study area
+    footprints: list[Feature]  # cleaned, clipped to the area
+    roads: list[Feature]
+    dropped: int  # input features that vanished (empty, outside the area, thinner than the grid)
+
+
+@dataclass
+class Tin:
+    """The triangulated terrain: world coordinates, one label per triangle."""
+
+    vertices: np.ndarray  # (n, 3)
+    triangles: np.ndarray  # (m, 3), counter-clockwise seen from above
+    surface: np.ndarray  # (m,) one of TIN_SURFACES
+    feature_id: np.ndarray  # (m,) wit_id of the road / building, or None
+    constraints: Constraints
+
+
+@dataclass
+class TinStats:
+    """What the triangulation produced, for the log and the benchmark."""
+
+    vertices: int
+    triangles: int
+    max_edge: float
+    max_vertical_error: float
+    refinement_iterations: int
+    nodata_filled: int
+    constraint_segments: int
+    dropped_features: int
+    triangles_by_surface: dict[str, int]
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+# -- cleaning --------------------------------------------------------------------------------
+
+
+def _polygonal(geoms: np.ndarray) -> np.ndarray:
+    """Keep the polygonal parts of each geometry that are not slivers (None when nothing is left).
+
+    A sliver (mean width 2·area/perimeter under ``MIN_WIDTH``) would make Triangle fill it with
+    thousands of tiny triangles; it carries no information at city scale.
+    """
+    geoms = np.asarray(geoms, dtype=object)
+    out = np.full(len(geoms), None, dtype=object)
+    types = shapely.get_type_id(geoms)
+    area, length = shapely.area(geoms), shapely.length(geoms)
+    one_part = (types == 3) | ((types == 6) & (shapely.get_num_geometries(geoms) == 1))
+    simple = one_part & (area > 0) & (2 * area >= MIN_WIDTH * length)  # the usual case, vectorised
+    out[simple] = geoms[simple]
+    for k in np.flatnonzero(~simple & (types >= 0)):
+        parts = shapely.get_parts(shapely.get_parts(geoms[k]))  # collections hold multi-parts: flatten twice
+        keep = (shapely.get_type_id(parts) == 3) & (2 * shapely.area(parts) >= MIN_WIDTH * shapely.length(parts))
+        keep &= shapely.area(parts) > 0
+        if keep.any():
+            out[k] = shapely.multipolygons(parts[keep]) if keep.sum() > 1 else parts[keep][0]
+    return out
+
+
+def _each(func, geoms: np.ndarray, *args, **kwargs) -> np.ndarray:
+    """``func`` over an array of geometries; where GEOS gives up on one, that one becomes None."""
+    try:
+        return func(geoms, *args, **kwargs)
+    except shapely.errors.GEOSException:
+        out = np.empty(len(geoms), dtype=object)
+        for k, g in enumerate(geoms):
+            try:
+                out[k] = func(g, *args, **kwargs)
+            except shapely.errors.GEOSException:
+                out[k] = None
+        return out
+
+
+def clean_polygons(geoms: Sequence[BaseGeometry | None], area: BaseGeometry | None = None,
+                   grid: float = GRID) -> np.ndarray:
+    """Valid, snapped to ``grid`` and clipped to ``area``; None for what does not survive.
+
+    Repair uses GEOS's "structure" method, which rebuilds areas from the rings (a bow-tie gives
+    both lobes) rather than keeping collapsed lines and points.
+    """
+    geoms = np.array([g if g is not None else shapely.Polygon() for g in geoms], dtype=object)
+    steps = [(shapely.make_valid, (), {"method": "structure"}), (shapely.set_precision, (grid,), {})]
+    if area is not None:
+        steps.append((shapely.intersection, (area,), {"grid_size": grid}))
+    for func, args, kwargs in steps:
+        alive = np.array([g is not None for g in geoms], dtype=bool)
+        if not alive.any():
+            break
+        geoms[alive] = _polygonal(_each(func, geoms[alive], *args, **kwargs))
+    return geoms
+
+
+def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature] = (),
+                      footprints_as_holes: bool = True, grid: float = GRID) -> Constraints:
+    """Turn possibly messy polygons into a noded straight-line graph that Triangle cannot choke on."""
+    (clean_area,) = clean_polygons([area], None, grid)
+    if clean_area is None:
+        raise InputError("The study area is empty or has no area; give a polygon (or a point and a radius).")
+    fps = clean_polygons([g for _, g in buildings], clean_area, grid)
+    rds = clean_polygons([g for _, g in roads], clean_area, grid)
+    footprints = [(fid, g) for (fid, _), g in zip(buildings, fps) if g is not None]
+    road_list = [(rid, g) for (rid, _), g in zip(roads, rds) if g is not None]
+    dropped = len(buildings) + len(roads) - len(footprints) - len(road_list)
+
+    hole_union = shapely.union_all([g for _, g in footprints], grid_size=grid) if footprints else None
+    road_lines = [g.boundary for _, g in road_list]
+    if footprints_as_holes and hole_union is not None:
+        # nothing is meshed under a building, so no road edge may run there
+        lines = [clean_area.boundary, hole_union.boundary,
+                 shapely.difference(shapely.union_all(road_lines, grid_size=grid), hole_union, grid_size=grid)]
+    else:
+        lines = [clean_area.boundary] + [g.boundary for _, g in footprints] + road_lines
+    noded = shapely.get_parts(shapely.union_all(lines, grid_size=grid))
+
+    coords, part = shapely.get_coordinates(noded, return_index=True)
+    origin = (math.floor(clean_area.bounds[0]), math.floor(clean_area.bounds[1]))
+    keys = np.rint((coords - origin) / grid).astype(np.int64)
+    unique_keys, vertex = np.unique(keys, axis=0, return_inverse=True)
+    vertex = vertex.ravel()
+    a, b = vertex[:-1], vertex[1:]
+    keep = (part[:-1] == part[1:]) & (a != b)
+    segments = np.unique(np.sort(np.column_stack([a[keep], b[keep]]), axis=1), axis=0)
+
+    # Snap rounding may bend a boundary by up to half a grid cell, which can leave sub-millimetre
+    # faces whose side is a matter of rounding; each face is decided once, here, by its seed.
+    faces = shapely.get_parts(shapely.polygonize(noded))
+    seeds = shapely.point_on_surface(faces)
+    seed_xy = shapely.get_coordinates(seeds)
+    surface, feature = _classify(seeds, footprints, road_list)
+    in_area = shapely.contains_xy(clean_area, seed_xy[:, 0], seed_xy[:, 1])
+    meshed = in_area & ~((surface == FOOTPRINT) & footprints_as_holes)
+    return Constraints(
+        origin=origin, vertices=unique_keys * grid, segments=segments.astype(np.int32),
+        holes=seed_xy[~meshed] - origin, regions=seed_xy[meshed] - origin,
+        region_surface=surface[meshed], region_feature=feature[meshed], faces=faces, meshed=meshed,
+        area=clean_area, footprints=footprints, roads=road_list, dropped=dropped)
+
+
+def _classify(points: np.ndarray, footprints: Sequence[Feature],
+              roads: Sequence[Feature]) -> tuple[np.ndarray, np.ndarray]:
+    """Surface and feature id at each point: a building wins over a road, the first listed over later ones."""
+    surface = np.full(len(points), TERRAIN, dtype=np.int8)
+    feature = np.full(len(points), None, dtype=object)
+    for code, features in ((ROAD, roads), (FOOTPRINT, footprints)):  # footprints last: they win
+        if not features:
+            continue
+        tree = shapely.STRtree([g for _, g in features])
+        pt, hit = tree.query(points, predicate="within")
+        first = np.full(len(points), len(features), dtype=np.int64)
+        np.minimum.at(first, pt, hit)
+        found = first < len(features)
+        surface[found] = code
+        feature[found] = [features[k][0] for k in first[found]]
+    return surface, feature
+
+
+# -- triangulation and refinement -------------------------------------------------------------
+
+
+def _split_long_segments(vertices: np.ndarray, segments: np.ndarray,
+                         max_edge: float) -> tuple[np.ndarray, np.ndarray]:
+    """Subdivide segments longer than ``max_edge`` into equal pieces (new vertices appended)."""
+    p, q = vertices[segments[:, 0]], vertices[segments[:, 1]]
+    pieces = np.maximum(np.ceil(np.hypot(*(q - p).T) / max_edge - 1e-9), 1).astype(np.int64)
+    owner, k = ragged_indices(pieces - 1)  # interior points of each segment
+    t = ((k + 1) / pieces[owner])[:, None]
+    new = p[owner] + t * (q[owner] - p[owner])
+    ids = np.arange(len(vertices), len(vertices) + len(new))
+    # chain of every segment: start, its interior points, end
+    starts = np.cumsum(pieces) - pieces  # position of each segment's first piece
+    chain_a = np.empty(pieces.sum(), dtype=np.int64)
+    chain_b = np.empty(pieces.sum(), dtype=np.int64)
+    chain_a[starts] = segments[:, 0]
+    chain_b[starts + pieces - 1] = segments[:, 1]
+    inner = starts[owner] + k
+    chain_b[inner] = ids
+    chain_a[inner + 1] = ids
+    return np.vstack([vertices, new]), np.column_stack([chain_a, chain_b]).astype(np.int32)
+
+
+def _triangle_areas(xy: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    a, b, c = xy[tris[:, 0]], xy[tris[:, 1]], xy[tris[:, 2]]
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+
+def _longest_edges(xy: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    p = xy[tris]
+    return np.sqrt(((p - np.roll(p, 1, axis=1)) ** 2).sum(axis=2)).max(axis=1)
+
+
+def vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Exact max |DEM − planar triangle| over each triangle (vertex z must be DEM heights).
+
+    The difference of the piecewise bilinear DEM and a plane is bilinear inside each DEM cell,
+    hence linear along the grid lines through the cell centres: its extremes over a triangle lie
+    on the triangle's edges (``Dem.deviation_range``) or at the cell centres inside it.
+    """
+    n = len(xyz)
+    edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    unique, inverse = np.unique(edges[:, 0].astype(np.int64) * n + edges[:, 1], return_inverse=True)
+    i, j = unique // n, unique % n
+    lo, hi = dem.deviation_range(xyz[i, 0], xyz[i, 1], xyz[i, 2], xyz[j, 0], xyz[j, 1], xyz[j, 2],
+                                 ends_on_surface=True)
+    error = np.maximum(-lo, hi)[inverse.ravel()].reshape(3, -1).max(axis=0)
+
+    a, b, c = xyz[tris[:, 0]], xyz[tris[:, 1]], xyz[tris[:, 2]]
+    corners = np.stack([a, b, c])
+    lower, upper = corners.min(axis=0), corners.max(axis=0)
+    owner, x, y, z = dem.nodes_in_boxes(lower[:, 0], lower[:, 1], upper[:, 0], upper[:, 1])
+    if len(owner):
+        a, b, c = a[owner], b[owner], c[owner]
+        det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        with np.errstate(divide="ignore", invalid="ignore"):  # a sliver too thin for world coordinates
+            wa = ((b[:, 0] - x) * (c[:, 1] - y) - (b[:, 1] - y) * (c[:, 0] - x)) / det
+            wb = ((c[:, 0] - x) * (a[:, 1] - y) - (c[:, 1] - y) * (a[:, 0] - x)) / det
+        wc = 1.0 - wa - wb
+        inside = (wa >= -1e-12) & (wb >= -1e-12) & (wc >= -1e-12)
+        dev = np.abs(z - (wa * a[:, 2] + wb * b[:, 2] + wc * c[:, 2]))
+        np.maximum.at(error, owner[inside], dev[inside])
+    return error
+
+
+def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature], dem: Dem,
+                max_edge: float = 5.0, tolerance: float = 0.5, footprints_as_holes: bool = True,
+                max_iterations: int = 10, feedback: Feedback = SILENT) -> tuple[Tin, TinStats]:
+    """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``."""
+    require(["triangle"])
+    import triangle  # optional dependency: the plugin loads without it
+
+    if not max_edge > 0 or not tolerance > 0:
+        raise InputError("Max edge length and vertical tolerance must be positive.")
+    feedback.progress(0)
+    cons = clean_constraints(area, buildings, roads, footprints_as_holes)
+    estimate = cons.area.area / (AREA_FACTOR * max_edge ** 2)
+    if estimate > MAX_TRIANGLES:
+        raise InputError(f"A max edge length of {max_edge} m would make about {estimate:,.0f} triangles over this "
+                         "area; use a longer max edge or split the area into tiles.")
+    if cons.dropped:
+        feedback.info(f"{cons.dropped} building/road polygon(s) dropped: empty, outside the area or slivers "
+                      f"narrower than {MIN_WIDTH * 100:.0f} cm.")
+    feedback.check_canceled()
+    feedback.progress(10)
+
+    if not len(cons.regions):
+        raise InputError("Nothing is left to triangulate: building footprints cover the whole study area.")
+    vertices, segments = _split_long_segments(cons.vertices, cons.segments, max_edge)
+    max_area = AREA_FACTOR * max_edge ** 2
+    pslg = {"vertices": vertices, "segments": segments, "segment_markers": np.ones(len(segments), dtype=np.int32),
+            "regions": np.column_stack([cons.regions, np.arange(1, len(cons.regions) + 1),
+                                        np.full(len(cons.regions), max_area)])}
+    if len(cons.holes):
+        pslg["holes"] = cons.holes
+    mesh = triangle.triangulate(pslg, f"pq{MIN_ANGLE}aAe")
+
+    origin = np.array(cons.origin, dtype=np.float64)
+    iterations = 0
+    while True:
+        xy = mesh["vertices"]
+        tris = mesh["triangles"]
+        world = xy + origin
+        xyz = np.column_stack([world, dem.sample(world[:, 0], world[:, 1])])
+        longest = _longest_edges(xy, tris)
+        error = vertical_error(dem, xyz, tris)
+        too_long = longest > max_edge * (1 + 1e-9)
+        too_far = error > tolerance
+        feedback.info(f"Mesh pass {iterations}: {len(tris)} triangles, longest edge {longest.max():.2f} m, "
+                      f"max vertical error {error.max():.3f} m.")
+        if not (too_long.any() or too_far.any()) or iterations == max_iterations:
+            break
+        feedback.check_canceled()
+        feedback.progress(10 + 80 * (iterations + 1) / (max_iterations + 1))
+        iterations += 1
+        # error shrinks with the square of the size (area); at least halve what is too far off
+        shrink = np.ones(len(tris))
+        shrink[too_long] = 0.9 * (max_edge / longest[too_long]) ** 2
+        shrink[too_far] = np.minimum(shrink[too_far], np.clip(0.8 * tolerance / error[too_far], 0.05, 0.5))
+        limits = np.where(too_long | too_far, shrink * _triangle_areas(xy, tris), -1.0)
+        # Triangle's output segment list can miss splits made during refinement; the edges that
+        # carry the segment marker are the true constrained pieces, so pass those on
+        pieces = mesh["edges"][mesh["edge_markers"].ravel() == 1]
+        mesh = triangle.triangulate({"vertices": xy, "segments": pieces,
+                                     "segment_markers": np.ones(len(pieces), dtype=np.int32), "triangles": tris,
+                                     "triangle_attributes": mesh["triangle_attributes"],
+                                     "triangle_max_area": limits}, f"prq{MIN_ANGLE}ae")
+    if too_long.any() or too_far.any():
+        feedback.warning(f"After {iterations} refinement passes the mesh still has edges up to {longest.max():.2f} m "
+                         f"and a vertical error up to {error.max():.3f} m.")
+
+    surface, feature = _labels(mesh["triangle_attributes"][:, 0], xyz, tris, cons)
+    tin = Tin(xyz, tris, surface, feature, cons)
+    counts = {name: int((surface == name).sum()) for name in TIN_SURFACES}
+    stats = TinStats(vertices=len(np.unique(tris)), triangles=len(tris), max_edge=float(longest.max()),
+                     max_vertical_error=float(error.max()), refinement_iterations=iterations,
+                     nodata_filled=dem.nodata_cells, constraint_segments=len(cons.segments),
+                     dropped_features=cons.dropped, triangles_by_surface=counts)
+    feedback.progress(100)
+    return tin, stats
+
+
+def _areas_3d(xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Area of each triangle in 3D."""
+    a, b, c = xyz[tris[:, 0]], xyz[tris[:, 1]], xyz[tris[:, 2]]
+    return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+
+def _labels(attribute: np.ndarray, xyz: np.ndarray, tris: np.ndarray,
+            cons: Constraints) -> tuple[np.ndarray, np.ndarray]:
+    """Surface name and feature id per triangle from the region it was grown from."""
+    region = np.rint(attribute).astype(np.int64) - 1
+    unseeded = region < 0
+    surface = np.empty(len(tris), dtype=object)
+    feature = np.empty(len(tris), dtype=object)
+    names = np.array(TIN_SURFACES, dtype=object)
+    surface[~unseeded] = names[cons.region_surface[region[~unseeded]]]
+    feature[~unseeded] = cons.region_feature[region[~unseeded]]
+    if unseeded.any():  # a seed too close to a segment to be located; classify by centroid instead
+        centroids = shapely.points(xyz[tris[unseeded]][:, :, :2].mean(axis=1))
+        codes, ids = _classify(centroids, cons.footprints, cons.roads)
+        surface[unseeded], feature[unseeded] = names[codes], ids
+    return surface, feature
+
+
+# -- files -------------------------------------------------------------------------------------
+
+
+def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[FieldDef],
+                rows: Iterable[tuple[bytes, Sequence]], total: int, geometry_type: int = ogr.wkbPolygon25D,
+                feedback: Feedback = SILENT) -> int:
+    """Write one GeoPackage layer atomically from ``total`` (ISO WKB, field values) rows; returns the count.
+
+    ``vector_io.write_gpkg`` writes 2D MultiPolygons only; the TIN and the LoD1 faces are PolygonZ.
+    """
+    srs = osr.SpatialReference()
+    srs.ImportFromWkt(crs.to_wkt())
+    srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    count = 0
+    with atomic_file(path) as tmp:
+        with gdal_quiet():
+            ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tmp))
+        if ds is None:
+            raise InputError(f"Cannot create the GeoPackage {path}.")
+        lyr = ds.CreateLayer(layer, srs, geometry_type)
+        for fd in fields:
+            defn = ogr.FieldDefn(fd.name, fd.type)
+            defn.SetSubType(fd.subtype)
+            defn.SetWidth(fd.width)
+            defn.SetPrecision(fd.precision)
+            lyr.CreateField(defn)
+        defn = lyr.GetLayerDefn()
+        lyr.StartTransaction()
+        for wkb, values in rows:
+            if count % 10000 == 0:
+                feedback.check_canceled()
+                feedback.progress(100 * count / max(total, 1))
+            feat = ogr.Feature(defn)
+            for k, value in enumerate(values):
+                if value is not None:
+                    feat.SetField(k, value)
+            feat.SetGeometryDirectly(ogr.CreateGeometryFromWkb(wkb))
+            lyr.CreateFeature(feat)
+            count += 1
+        lyr.CommitTransaction()
+        ds = None
+    return count
+
+
+def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, feedback: Feedback = SILENT) -> int:
+    """Write the TIN as PolygonZ triangles (layer ``model.TIN_LAYER``), one feature per triangle.
+
+    Triangles with no area once rounded to the model's precision (mm; CityGML is written in mm)
+    are left out: they cover no ground, and written out they would be degenerate (a validator
+    rejects them). ``tri_id`` keeps the mesh's numbering. Returns the number written.
+    """
+    kept = np.flatnonzero(_areas_3d(np.round(tin.vertices, 3), tin.triangles) > DEGENERATE_AREA)
+    if len(kept) < len(tin.triangles):
+        feedback.info(f"{len(tin.triangles) - len(kept)} triangle(s) with no area at mm precision not written.")
+    rings = tin.vertices[tin.triangles[kept][:, [0, 1, 2, 0]]]
+    wkbs = shapely.to_wkb(shapely.polygons(rings), output_dimension=3, flavor="iso")
+    rows = ((wkb, (int(k), tin.surface[k], tin.feature_id[k])) for k, wkb in zip(kept, wkbs))
+    fields = [FieldDef(TIN_TRIANGLE_ID, ogr.OFTInteger), FieldDef(TIN_SURFACE, ogr.OFTString),
+              FieldDef(TIN_FEATURE_ID, ogr.OFTString)]
+    return write_layer(path, TIN_LAYER, crs, fields, rows, len(kept), feedback=feedback)
+
+
+def features(layer: VectorLayer) -> list[Feature]:
+    """(wit_id, geometry) pairs of a prepared layer."""
+    ids = layer.columns.get(WIT_ID) or [None] * len(layer)
+    return list(zip(ids, layer.geoms))
+
+
+def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
+        area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
+        footprints_as_holes: bool = True, feedback: Feedback = SILENT) -> TinStats:
+    """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
+
+    ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
+    GeoPackage itself); ``area`` is a polygon, or a vector source whose polygons together form it.
+    """
+    layers = {kind: read_prepared(source, name) for kind, source, name in
+              (("buildings", buildings, PREPARED_BUILDINGS), ("roads", roads, PREPARED_ROADS)) if source}
+    if not isinstance(area, BaseGeometry):
+        area_layer = read_layer(area)
+        polygons = [g for g in area_layer.geoms if g is not None]
+        if not polygons:
+            raise InputError(f"The study area {area} has no polygons.")
+        area = shapely.union_all(polygons)
+        crs = area_layer.crs
+    else:
+        crs = next(iter(layers.values())).crs if layers else None
+    if crs is None:
+        raise InputError("Give the study area as a layer (or a constraint layer) so the TIN's CRS is known.")
+    dem = Dem.open(dem_path, area.bounds, feedback=feedback)
+    tin, stats = triangulate(area, features(layers["buildings"]) if "buildings" in layers else [],
+                             features(layers["roads"]) if "roads" in layers else [], dem, max_edge, tolerance,
+                             footprints_as_holes, feedback=feedback.scaled(0, 80))
+    stats.triangles = write_tin(output, tin, crs, feedback.scaled(80, 100))
+    feedback.info("TIN: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))
+    feedback.progress(100)
+    return stats
