@@ -8,6 +8,118 @@
       <translation>Cancelled: no output was written.</translation>
     </message>
     <message>
+      <source>City model (whole chain)</source>
+      <translation>City model (whole chain)</translation>
+    </message>
+    <message>
+      <source>Chain</source>
+      <translation>Chain</translation>
+    </message>
+    <message>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept. Study area: a legal-dong code if given, else the centre point and radius.</source>
+      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept. Study area: a legal-dong code if given, else the centre point and radius.</translation>
+    </message>
+    <message>
+      <source>Orthoimage TIFs or folders</source>
+      <translation>Orthoimage TIFs or folders</translation>
+    </message>
+    <message>
+      <source>DEM</source>
+      <translation>DEM</translation>
+    </message>
+    <message>
+      <source>Buildings (TL_SPBD_BULD)</source>
+      <translation>Buildings (TL_SPBD_BULD)</translation>
+    </message>
+    <message>
+      <source>Roads (TL_SPRD_MANAGE)</source>
+      <translation>Roads (TL_SPRD_MANAGE)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (TL_SCCO_EMD)</source>
+      <translation>Legal dongs (TL_SCCO_EMD)</translation>
+    </message>
+    <message>
+      <source>Centre of the study area</source>
+      <translation>Centre of the study area</translation>
+    </message>
+    <message>
+      <source>Radius of the study area (m)</source>
+      <translation>Radius of the study area (m)</translation>
+    </message>
+    <message>
+      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
+      <translation>Legal-dong code EMD_CD (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Target CRS</source>
+      <translation>Target CRS</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>Maximum edge length (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>Vertical tolerance (m)</translation>
+    </message>
+    <message>
+      <source>Texture scale S (0 &lt; S ≤ 1)</source>
+      <translation>Texture scale S (0 &lt; S ≤ 1)</translation>
+    </message>
+    <message>
+      <source>Schema folder (with citygml3-all.xsd)</source>
+      <translation>Schema folder (with citygml3-all.xsd)</translation>
+    </message>
+    <message>
+      <source>Keep the intermediate files</source>
+      <translation>Keep the intermediate files</translation>
+    </message>
+    <message>
+      <source>Output folder</source>
+      <translation>Output folder</translation>
+    </message>
+    <message>
+      <source>CityGML file</source>
+      <translation>CityGML file</translation>
+    </message>
+    <message>
+      <source>Validation report (HTML)</source>
+      <translation>Validation report (HTML)</translation>
+    </message>
+    <message>
+      <source>Metrics table (CSV)</source>
+      <translation>Metrics table (CSV)</translation>
+    </message>
+    <message>
+      <source>All files valid</source>
+      <translation>All files valid</translation>
+    </message>
+    <message>
+      <source>Number of errors</source>
+      <translation>Number of errors</translation>
+    </message>
+    <message>
+      <source>Buildings written</source>
+      <translation>Buildings written</translation>
+    </message>
+    <message>
+      <source>Seconds per step (JSON)</source>
+      <translation>Seconds per step (JSON)</translation>
+    </message>
+    <message>
+      <source>No orthoimage TIF has a valid map-sheet number.</source>
+      <translation>No orthoimage TIF has a valid map-sheet number.</translation>
+    </message>
+    <message>
+      <source>Seconds per step: {times}</source>
+      <translation>Seconds per step: {times}</translation>
+    </message>
+    <message>
+      <source>Step {n}/{total}: {algorithm}</source>
+      <translation>Step {n}/{total}: {algorithm}</translation>
+    </message>
+    <message>
       <source>Build colour store</source>
       <translation>Build colour store</translation>
     </message>
@@ -108,10 +220,6 @@
       <translation>Building footprints (wit:preparevectors)</translation>
     </message>
     <message>
-      <source>DEM</source>
-      <translation>DEM</translation>
-    </message>
-    <message>
       <source>Storey height (m)</source>
       <translation>Storey height (m)</translation>
     </message>
@@ -172,14 +280,6 @@
       <translation>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).</translation>
     </message>
     <message>
-      <source>Centre of the study area</source>
-      <translation>Centre of the study area</translation>
-    </message>
-    <message>
-      <source>Radius of the study area (m)</source>
-      <translation>Radius of the study area (m)</translation>
-    </message>
-    <message>
       <source>Number of buildings (0 = from the radius)</source>
       <translation>Number of buildings (0 = from the radius)</translation>
     </message>
@@ -200,32 +300,12 @@
       <translation>Generate orthoimage tiles</translation>
     </message>
     <message>
-      <source>Output folder</source>
-      <translation>Output folder</translation>
-    </message>
-    <message>
-      <source>Buildings (TL_SPBD_BULD)</source>
-      <translation>Buildings (TL_SPBD_BULD)</translation>
-    </message>
-    <message>
-      <source>Roads (TL_SPRD_MANAGE)</source>
-      <translation>Roads (TL_SPRD_MANAGE)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (TL_SCCO_EMD)</source>
-      <translation>Legal dongs (TL_SCCO_EMD)</translation>
-    </message>
-    <message>
       <source>Orthoimage tile folder</source>
       <translation>Orthoimage tile folder</translation>
     </message>
     <message>
       <source>Sample manifest (JSON)</source>
       <translation>Sample manifest (JSON)</translation>
-    </message>
-    <message>
-      <source>Buildings written</source>
-      <translation>Buildings written</translation>
     </message>
     <message>
       <source>Orthoimage tiles written</source>
@@ -242,14 +322,6 @@
     <message>
       <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
       <translation>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</translation>
-    </message>
-    <message>
-      <source>Orthoimage TIFs or folders</source>
-      <translation>Orthoimage TIFs or folders</translation>
-    </message>
-    <message>
-      <source>Target CRS</source>
-      <translation>Target CRS</translation>
     </message>
     <message>
       <source>Datum of the sheet degrees</source>
@@ -364,10 +436,6 @@
       <translation>Study area polygons (instead of centre and radius)</translation>
     </message>
     <message>
-      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
-      <translation>Legal-dong code EMD_CD (instead of centre and radius)</translation>
-    </message>
-    <message>
       <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
       <translation>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</translation>
     </message>
@@ -386,6 +454,10 @@
     <message>
       <source>Prepared legal dongs</source>
       <translation>Prepared legal dongs</translation>
+    </message>
+    <message>
+      <source>Study area</source>
+      <translation>Study area</translation>
     </message>
     <message>
       <source>Statistics (CSV)</source>
@@ -444,10 +516,6 @@
       <translation>Tile footprints (index of wit:georeferencemapsheets)</translation>
     </message>
     <message>
-      <source>Metrics table (CSV)</source>
-      <translation>Metrics table (CSV)</translation>
-    </message>
-    <message>
       <source>CSV files (*.csv)</source>
       <translation>CSV files (*.csv)</translation>
     </message>
@@ -504,14 +572,6 @@
       <translation>Road polygons (constraints)</translation>
     </message>
     <message>
-      <source>Maximum edge length (m)</source>
-      <translation>Maximum edge length (m)</translation>
-    </message>
-    <message>
-      <source>Vertical tolerance (m)</source>
-      <translation>Vertical tolerance (m)</translation>
-    </message>
-    <message>
       <source>Building footprints become</source>
       <translation>Building footprints become</translation>
     </message>
@@ -556,24 +616,12 @@
       <translation>CityGML files</translation>
     </message>
     <message>
-      <source>Schema folder (with citygml3-all.xsd)</source>
-      <translation>Schema folder (with citygml3-all.xsd)</translation>
-    </message>
-    <message>
       <source>CSV report (one row per problem)</source>
       <translation>CSV report (one row per problem)</translation>
     </message>
     <message>
       <source>Validation table</source>
       <translation>Validation table</translation>
-    </message>
-    <message>
-      <source>All files valid</source>
-      <translation>All files valid</translation>
-    </message>
-    <message>
-      <source>Number of errors</source>
-      <translation>Number of errors</translation>
     </message>
     <message>
       <source>Schemas used</source>
@@ -602,10 +650,6 @@
     <message>
       <source>Terrain TIN (wit:triangulateterrain)</source>
       <translation>Terrain TIN (wit:triangulateterrain)</translation>
-    </message>
-    <message>
-      <source>Texture scale S (0 &lt; S ≤ 1)</source>
-      <translation>Texture scale S (0 &lt; S ≤ 1)</translation>
     </message>
     <message>
       <source>Image format</source>
@@ -662,10 +706,6 @@
     <message>
       <source>Copy texture images beside the .gml</source>
       <translation>Copy texture images beside the .gml</translation>
-    </message>
-    <message>
-      <source>CityGML file</source>
-      <translation>CityGML file</translation>
     </message>
     <message>
       <source>CityGML files (*.gml)</source>

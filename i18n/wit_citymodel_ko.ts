@@ -8,6 +8,118 @@
       <translation>취소됨: 출력 파일을 쓰지 않았습니다.</translation>
     </message>
     <message>
+      <source>City model (whole chain)</source>
+      <translation>도시모델 (전체 처리)</translation>
+    </message>
+    <message>
+      <source>Chain</source>
+      <translation>전체 처리</translation>
+    </message>
+    <message>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept. Study area: a legal-dong code if given, else the centre point and radius.</source>
+      <translation>전체 처리를 한 번에 실행합니다(하나의 진행 막대, 모든 단계에서 취소 가능): NGII 도엽 TIF에 좌표 부여, 병합(WIT 페더링 + 게인), 연구 지역의 건물·도로·법정동 레이어 준비, 지형 삼각분할, LoD1 건물 돌출, 정사영상 텍스처, CityGML 3.0 쓰기, 검증, 품질 측정. 출력 폴더에는 model.gml과 텍스처, validation.html, metrics.csv(및 metrics.html), steps.json(단계별 시간)이 생깁니다. 중간 파일은 작업 폴더에 두며, 유지를 선택하지 않으면 끝에 지웁니다. 연구 지역: 법정동 코드가 있으면 그것, 없으면 중심점과 반경.</translation>
+    </message>
+    <message>
+      <source>Orthoimage TIFs or folders</source>
+      <translation>정사영상 TIF 또는 폴더</translation>
+    </message>
+    <message>
+      <source>DEM</source>
+      <translation>DEM (수치표고모델)</translation>
+    </message>
+    <message>
+      <source>Buildings (TL_SPBD_BULD)</source>
+      <translation>건물 (TL_SPBD_BULD)</translation>
+    </message>
+    <message>
+      <source>Roads (TL_SPRD_MANAGE)</source>
+      <translation>도로 (TL_SPRD_MANAGE)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (TL_SCCO_EMD)</source>
+      <translation>법정동 (TL_SCCO_EMD)</translation>
+    </message>
+    <message>
+      <source>Centre of the study area</source>
+      <translation>연구 지역 중심</translation>
+    </message>
+    <message>
+      <source>Radius of the study area (m)</source>
+      <translation>연구 지역 반경 (m)</translation>
+    </message>
+    <message>
+      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
+      <translation>법정동 코드 EMD_CD (중심·반경 대신)</translation>
+    </message>
+    <message>
+      <source>Target CRS</source>
+      <translation>대상 좌표계</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>최대 변 길이 (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>수직 허용오차 (m)</translation>
+    </message>
+    <message>
+      <source>Texture scale S (0 &lt; S ≤ 1)</source>
+      <translation>텍스처 배율 S (0 &lt; S ≤ 1)</translation>
+    </message>
+    <message>
+      <source>Schema folder (with citygml3-all.xsd)</source>
+      <translation>스키마 폴더 (citygml3-all.xsd 포함)</translation>
+    </message>
+    <message>
+      <source>Keep the intermediate files</source>
+      <translation>중간 파일 유지</translation>
+    </message>
+    <message>
+      <source>Output folder</source>
+      <translation>출력 폴더</translation>
+    </message>
+    <message>
+      <source>CityGML file</source>
+      <translation>CityGML 파일</translation>
+    </message>
+    <message>
+      <source>Validation report (HTML)</source>
+      <translation>검증 보고서 (HTML)</translation>
+    </message>
+    <message>
+      <source>Metrics table (CSV)</source>
+      <translation>지표 표 (CSV)</translation>
+    </message>
+    <message>
+      <source>All files valid</source>
+      <translation>모든 파일 유효</translation>
+    </message>
+    <message>
+      <source>Number of errors</source>
+      <translation>오류 수</translation>
+    </message>
+    <message>
+      <source>Buildings written</source>
+      <translation>생성된 건물 수</translation>
+    </message>
+    <message>
+      <source>Seconds per step (JSON)</source>
+      <translation>단계별 시간(초, JSON)</translation>
+    </message>
+    <message>
+      <source>No orthoimage TIF has a valid map-sheet number.</source>
+      <translation>유효한 도엽번호를 가진 정사영상 TIF가 없습니다.</translation>
+    </message>
+    <message>
+      <source>Seconds per step: {times}</source>
+      <translation>단계별 시간(초): {times}</translation>
+    </message>
+    <message>
+      <source>Step {n}/{total}: {algorithm}</source>
+      <translation>단계 {n}/{total}: {algorithm}</translation>
+    </message>
+    <message>
       <source>Build colour store</source>
       <translation>색상 저장소 구축</translation>
     </message>
@@ -108,10 +220,6 @@
       <translation>건물 외곽선 (wit:preparevectors)</translation>
     </message>
     <message>
-      <source>DEM</source>
-      <translation>DEM (수치표고모델)</translation>
-    </message>
-    <message>
       <source>Storey height (m)</source>
       <translation>층고 (m)</translation>
     </message>
@@ -172,14 +280,6 @@
       <translation>중심점 주변의 국가 공간정보 형식 샘플을 항상 같은 결과로(시드 기준) 생성합니다: 건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD)은 .cpg 없는 CP949 셰이프파일(EPSG:5179)이며 실제 데이터에 있는 몇 가지 오류를 포함합니다. DEM은 EPSG:5186 GeoTIFF로 NoData 지정 없이 -9999 셀을 가지며, 정사영상은 NGII 1:5,000 도엽번호로 이름 붙인 좌표 없는 TIF(도엽 범위 + 50 m, 타일마다 다른 밝기)입니다. 반경 또는 건물 수(0 = 반경으로 결정) 중 하나를 지정하십시오.</translation>
     </message>
     <message>
-      <source>Centre of the study area</source>
-      <translation>연구 지역 중심</translation>
-    </message>
-    <message>
-      <source>Radius of the study area (m)</source>
-      <translation>연구 지역 반경 (m)</translation>
-    </message>
-    <message>
       <source>Number of buildings (0 = from the radius)</source>
       <translation>건물 수 (0 = 반경으로 결정)</translation>
     </message>
@@ -200,32 +300,12 @@
       <translation>정사영상 타일 생성</translation>
     </message>
     <message>
-      <source>Output folder</source>
-      <translation>출력 폴더</translation>
-    </message>
-    <message>
-      <source>Buildings (TL_SPBD_BULD)</source>
-      <translation>건물 (TL_SPBD_BULD)</translation>
-    </message>
-    <message>
-      <source>Roads (TL_SPRD_MANAGE)</source>
-      <translation>도로 (TL_SPRD_MANAGE)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (TL_SCCO_EMD)</source>
-      <translation>법정동 (TL_SCCO_EMD)</translation>
-    </message>
-    <message>
       <source>Orthoimage tile folder</source>
       <translation>정사영상 타일 폴더</translation>
     </message>
     <message>
       <source>Sample manifest (JSON)</source>
       <translation>샘플 목록 (JSON)</translation>
-    </message>
-    <message>
-      <source>Buildings written</source>
-      <translation>생성된 건물 수</translation>
     </message>
     <message>
       <source>Orthoimage tiles written</source>
@@ -242,14 +322,6 @@
     <message>
       <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
       <translation>각 TIF 파일 이름의 어느 위치에서든 NGII 도엽번호(1:50,000~1:1,000)를 읽고, 원본 측지계(기본: Korea 2000 / GRS80, EPSG:4737)의 도엽 경위도 범위로부터 대상 좌표계에서의 도엽 범위를 계산한 뒤 여백(NGII 타일은 도엽 + 약 50 m)을 더해, 좌표가 부여된 타일·압축 GeoTIFF 또는 원본 픽셀을 그대로 가리키는 VRT를 씁니다. 유효한 도엽번호가 없는 이름과 GDAL이 열 수 없는 파일은 건너뛰고 그 이유를 로그와 도엽 색인에 남깁니다. 추측하지 않습니다. 입력: TIF 파일 및/또는 폴더(그 안의 *.tif, 하위 폴더 제외).</translation>
-    </message>
-    <message>
-      <source>Orthoimage TIFs or folders</source>
-      <translation>정사영상 TIF 또는 폴더</translation>
-    </message>
-    <message>
-      <source>Target CRS</source>
-      <translation>대상 좌표계</translation>
     </message>
     <message>
       <source>Datum of the sheet degrees</source>
@@ -364,10 +436,6 @@
       <translation>연구 지역 폴리곤 (중심·반경 대신)</translation>
     </message>
     <message>
-      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
-      <translation>법정동 코드 EMD_CD (중심·반경 대신)</translation>
-    </message>
-    <message>
       <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
       <translation>셰이프파일 문자 인코딩 (비우면 자동 감지, juso.go.kr 파일은 CP949)</translation>
     </message>
@@ -386,6 +454,10 @@
     <message>
       <source>Prepared legal dongs</source>
       <translation>준비된 법정동</translation>
+    </message>
+    <message>
+      <source>Study area</source>
+      <translation>연구 지역</translation>
     </message>
     <message>
       <source>Statistics (CSV)</source>
@@ -444,10 +516,6 @@
       <translation>타일 범위 (wit:georeferencemapsheets 색인)</translation>
     </message>
     <message>
-      <source>Metrics table (CSV)</source>
-      <translation>지표 표 (CSV)</translation>
-    </message>
-    <message>
       <source>CSV files (*.csv)</source>
       <translation>CSV 파일 (*.csv)</translation>
     </message>
@@ -504,14 +572,6 @@
       <translation>도로 폴리곤 (제약)</translation>
     </message>
     <message>
-      <source>Maximum edge length (m)</source>
-      <translation>최대 변 길이 (m)</translation>
-    </message>
-    <message>
-      <source>Vertical tolerance (m)</source>
-      <translation>수직 허용오차 (m)</translation>
-    </message>
-    <message>
       <source>Building footprints become</source>
       <translation>건물 외곽선 처리</translation>
     </message>
@@ -556,24 +616,12 @@
       <translation>CityGML 파일</translation>
     </message>
     <message>
-      <source>Schema folder (with citygml3-all.xsd)</source>
-      <translation>스키마 폴더 (citygml3-all.xsd 포함)</translation>
-    </message>
-    <message>
       <source>CSV report (one row per problem)</source>
       <translation>CSV 보고서 (문제마다 한 행)</translation>
     </message>
     <message>
       <source>Validation table</source>
       <translation>검증 결과 표</translation>
-    </message>
-    <message>
-      <source>All files valid</source>
-      <translation>모든 파일 유효</translation>
-    </message>
-    <message>
-      <source>Number of errors</source>
-      <translation>오류 수</translation>
     </message>
     <message>
       <source>Schemas used</source>
@@ -602,10 +650,6 @@
     <message>
       <source>Terrain TIN (wit:triangulateterrain)</source>
       <translation>지형 TIN (wit:triangulateterrain)</translation>
-    </message>
-    <message>
-      <source>Texture scale S (0 &lt; S ≤ 1)</source>
-      <translation>텍스처 배율 S (0 &lt; S ≤ 1)</translation>
     </message>
     <message>
       <source>Image format</source>
@@ -662,10 +706,6 @@
     <message>
       <source>Copy texture images beside the .gml</source>
       <translation>텍스처 이미지를 .gml 옆에 복사</translation>
-    </message>
-    <message>
-      <source>CityGML file</source>
-      <translation>CityGML 파일</translation>
     </message>
     <message>
       <source>CityGML files (*.gml)</source>

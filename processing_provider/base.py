@@ -46,6 +46,11 @@ class QgisFeedback(Feedback):
     def __init__(self, feedback: QgsProcessingFeedback | None):
         self._feedback = feedback or QgsProcessingFeedback()
 
+    @property
+    def processing_feedback(self) -> QgsProcessingFeedback:
+        """The wrapped QGIS feedback, for running child algorithms."""
+        return self._feedback
+
     def progress(self, percent: float) -> None:
         self._feedback.setProgress(percent)
 

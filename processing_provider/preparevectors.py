@@ -84,6 +84,7 @@ class PrepareVectors(WitAlgorithm):
         self.addOutput(QgsProcessingOutputVectorLayer("BUILDINGS_OUT", self.tr("Prepared buildings")))
         self.addOutput(QgsProcessingOutputVectorLayer("ROADS_OUT", self.tr("Prepared road polygons")))
         self.addOutput(QgsProcessingOutputVectorLayer("DISTRICTS_OUT", self.tr("Prepared legal dongs")))
+        self.addOutput(QgsProcessingOutputVectorLayer("AREA_OUT", self.tr("Study area")))
         self.addOutput(QgsProcessingOutputFile("STATS", self.tr("Statistics (CSV)")))
         self.addOutput(QgsProcessingOutputNumber("BUILDING_COUNT", self.tr("Buildings kept")))
 
@@ -135,6 +136,7 @@ class PrepareVectors(WitAlgorithm):
             "BUILDINGS_OUT": layer_uri[model.PREPARED_BUILDINGS],
             "ROADS_OUT": layer_uri[model.PREPARED_ROADS],
             "DISTRICTS_OUT": layer_uri[model.PREPARED_DISTRICTS],
+            "AREA_OUT": f"{output}|layername={model.STUDY_AREA}",
             "STATS": report.stats_csv,
             "BUILDING_COUNT": kept.get(model.PREPARED_BUILDINGS, 0),
         }

@@ -3,6 +3,7 @@ from qgis.core import QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
 from .base import PLUGIN_DIR, tr
+from .citymodel import CityModel
 from .colorstore_algorithms import BuildColorStore, QueryColorStore
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
@@ -28,6 +29,7 @@ ALGORITHMS = (
     BuildColorStore,
     QueryColorStore,
     QualityMetrics,
+    CityModel,
 )
 
 

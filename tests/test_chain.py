@@ -2,6 +2,7 @@
 and the CityGML 3.0 result is valid for xmllint (an independent tool) and for our validator."""
 from __future__ import annotations
 
+import json
 import subprocess
 
 import pytest
@@ -122,3 +123,24 @@ def test_building_positions_match_the_prepared_footprints_to_the_millimetre(chai
             assert boundary.Distance(point) <= 0.0015, (gid, x, y)
         checked += 1
     assert checked > 50
+
+
+def test_citymodel_in_one_call_gives_the_same_model(chain, shared_dir, tmp_path):
+    import processing
+
+    ensure_wit_provider()
+    sample = chain["sample"]
+    result = processing.run("wit:citymodel", {
+        "ORTHO_INPUT": [str(sample.ortho_tiles[0].parent)], "DEM": str(sample.dem),
+        "BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads), "DISTRICTS": str(sample.districts),
+        "RADIUS": 200.0, "SCHEMA_DIR": str(shared_dir / "schemas"), "OUTPUT": str(tmp_path / "city")})
+    assert result["VALID"] is True and result["ERROR_COUNT"] == 0
+    ids = lambda path: {b.get("{http://www.opengis.net/gml/3.2}id")  # noqa: E731
+                        for b in etree.parse(path).iterfind(".//bldg:Building", NS)}
+    assert ids(result["GML"]) == ids(chain["gml"]["OUTPUT"])
+    assert result["BUILDINGS_WRITTEN"] == chain["gml"]["BUILDINGS"]
+    produced = {p.name for p in (tmp_path / "city").iterdir()}
+    assert {"model.gml", "model_textures", "validation.html", "metrics.csv", "metrics.html", "steps.json"} <= produced
+    assert not any(name.startswith("wit-work-") for name in produced), "work folder not cleaned up"
+    assert set(json.loads(result["STEP_TIMES"])) == {"georeference", "merge", "prepare", "terrain", "extrude",
+                                                      "texture", "citygml", "validate", "metrics"}

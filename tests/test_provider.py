@@ -16,7 +16,7 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS
 from conftest import ROOT
 
 EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
-                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics"}
+                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics", "wit:citymodel"}
 
 
 def _without_registered_provider():

@@ -732,13 +732,13 @@ def _read_lod1(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding]
     return buildings, srs.Clone() if srs else None
 
 
-def _read_sources(path: str) -> tuple[list[str], np.ndarray, osr.SpatialReference | None]:
+def _read_sources(path: str, name: str) -> tuple[list[str], np.ndarray, osr.SpatialReference | None]:
     ds = _open_vector(path)
     layer = None
     if ds is not None:
-        layer = ds.GetLayerByName(model.PREPARED_BUILDINGS) or (ds.GetLayer(0) if ds.GetLayerCount() == 1 else None)
+        layer = ds.GetLayerByName(name) or (ds.GetLayer(0) if ds.GetLayerCount() == 1 else None)
     if layer is None:
-        raise InputError(f"{path} has no layer '{model.PREPARED_BUILDINGS}': give the output of wit:preparevectors.")
+        raise InputError(f"{path} has no layer '{name}': give the output of wit:preparevectors.")
     if layer.GetLayerDefn().GetFieldIndex(model.WIT_ID) < 0:
         raise InputError(f"{path}: the buildings have no '{model.WIT_ID}' field; give the output of "
                          "wit:preparevectors, whose ids the model keeps.")
@@ -816,13 +816,16 @@ def geometry_metrics(model_source: str, source_buildings: str, feedback: Feedbac
     """Compare the model's buildings with the 2D source footprints (Table 17; see the module docstring).
 
     ``model_source``: the CityGML file (``.gml``/``.xml``) or the LoD1 faces GeoPackage;
-    ``source_buildings``: the wit:preparevectors GeoPackage (layer ``buildings`` with ``wit_id``).
+    ``source_buildings``: the wit:preparevectors GeoPackage (layer ``buildings`` with ``wit_id``),
+    or one of its layers as ``file.gpkg|layername=…``.
     """
     if not Path(model_source).is_file():
         raise InputError(f"The model {model_source} does not exist.")
-    if not Path(source_buildings).is_file():
+    source_path, _, options = str(source_buildings).partition("|")
+    if not Path(source_path).is_file():
         raise InputError(f"The source buildings {source_buildings} do not exist.")
-    ids, sources, source_srs = _read_sources(source_buildings)
+    layer_name = options.partition("layername=")[2].split("|")[0] or model.PREPARED_BUILDINGS
+    ids, sources, source_srs = _read_sources(source_path, layer_name)
     if not ids:
         raise InputError(f"{source_buildings} has no building footprints.")
     if len(set(ids)) != len(ids):
