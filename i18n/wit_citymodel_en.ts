@@ -16,8 +16,8 @@
       <translation>Chain</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept. Study area: a legal-dong code if given, else the centre point and radius.</source>
-      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept. Study area: a legal-dong code if given, else the centre point and radius.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept (then it is &lt;output&gt;/work). Study area: a legal-dong code if given, else the centre point and radius.</source>
+      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept (then it is &lt;output&gt;/work). Study area: a legal-dong code if given, else the centre point and radius.</translation>
     </message>
     <message>
       <source>Orthoimage TIFs or folders</source>
@@ -470,6 +470,10 @@
     <message>
       <source>Give at least one of the building, road and district layers.</source>
       <translation>Give at least one of the building, road and district layers.</translation>
+    </message>
+    <message>
+      <source>City model (graphical model)</source>
+      <translation>City model (graphical model)</translation>
     </message>
     <message>
       <source>WIT City Model</source>

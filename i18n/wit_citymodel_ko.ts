@@ -16,8 +16,8 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept. Study area: a legal-dong code if given, else the centre point and radius.</source>
-      <translation>전체 처리를 한 번에 실행합니다(하나의 진행 막대, 모든 단계에서 취소 가능): NGII 도엽 TIF에 좌표 부여, 병합(WIT 페더링 + 게인), 연구 지역의 건물·도로·법정동 레이어 준비, 지형 삼각분할, LoD1 건물 돌출, 정사영상 텍스처, CityGML 3.0 쓰기, 검증, 품질 측정. 출력 폴더에는 model.gml과 텍스처, validation.html, metrics.csv(및 metrics.html), steps.json(단계별 시간)이 생깁니다. 중간 파일은 작업 폴더에 두며, 유지를 선택하지 않으면 끝에 지웁니다. 연구 지역: 법정동 코드가 있으면 그것, 없으면 중심점과 반경.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept (then it is &lt;output&gt;/work). Study area: a legal-dong code if given, else the centre point and radius.</source>
+      <translation>전체 처리를 한 번에 실행합니다(하나의 진행 막대, 모든 단계에서 취소 가능): NGII 도엽 TIF에 좌표 부여, 병합(WIT 페더링 + 게인), 연구 지역의 건물·도로·법정동 레이어 준비, 지형 삼각분할, LoD1 건물 돌출, 정사영상 텍스처, CityGML 3.0 쓰기, 검증, 품질 측정. 출력 폴더에는 model.gml과 텍스처, validation.html, metrics.csv(및 metrics.html), steps.json(단계별 시간)이 생깁니다. 중간 파일은 작업 폴더에 두며, 유지를 선택하지 않으면 끝에 지웁니다(유지하면 &lt;출력&gt;/work). 연구 지역: 법정동 코드가 있으면 그것, 없으면 중심점과 반경.</translation>
     </message>
     <message>
       <source>Orthoimage TIFs or folders</source>
@@ -470,6 +470,10 @@
     <message>
       <source>Give at least one of the building, road and district layers.</source>
       <translation>건물, 도로, 법정동 레이어 중 적어도 하나를 지정하십시오.</translation>
+    </message>
+    <message>
+      <source>City model (graphical model)</source>
+      <translation>도시모델 (그래픽 모델)</translation>
     </message>
     <message>
       <source>WIT City Model</source>

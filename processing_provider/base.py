@@ -35,6 +35,11 @@ def layer_file(layer) -> str | None:
     return layer.source().split("|")[0] if layer is not None else None
 
 
+def translatable(text: str) -> str:
+    """Mark a literal for scripts/i18n.py that is translated later, through ``tr`` on a variable."""
+    return text
+
+
 def tr(text: str) -> str:
     """Translate in the plugin's single translation context."""
     return QCoreApplication.translate("WitCityModel", text)

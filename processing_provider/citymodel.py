@@ -53,8 +53,8 @@ class CityModel(WitAlgorithm):
         "buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its "
         "quality. The output folder receives model.gml with its textures, validation.html, "
         "metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a "
-        "work folder that is deleted at the end unless it is kept. Study area: a legal-dong code if "
-        "given, else the centre point and radius."
+        "work folder that is deleted at the end unless it is kept (then it is <output>/work). Study "
+        "area: a legal-dong code if given, else the centre point and radius."
     )
     requirements = ("shapely", "triangle", "pyproj", "lxml")
 
@@ -128,8 +128,13 @@ class CityModel(WitAlgorithm):
 
         output = Path(self.parameterAsString(parameters, self.OUTPUT, context))
         output.mkdir(parents=True, exist_ok=True)
-        work = Path(tempfile.mkdtemp(prefix="wit-work-", dir=output))
         keep = self.parameterAsBool(parameters, self.KEEP_WORK, context)
+        if keep:  # a fixed place the user can find: <output>/work
+            work = output / "work"
+            shutil.rmtree(work, ignore_errors=True)
+            work.mkdir()
+        else:
+            work = Path(tempfile.mkdtemp(prefix="wit-work-", dir=output))
         steps = QgsProcessingMultiStepFeedback(len(STEPS), feedback.processing_feedback)
         times: dict[str, float] = {}
         results: dict[str, dict] = {}

@@ -1,6 +1,6 @@
 """Keep i18n/*.ts in step with the code: every user-visible string of the plugin.
 
-Collects ``tr("…")`` / ``self.tr("…")`` literals and the ``display_name``, ``group_name`` and
+Collects ``tr("…")`` / ``self.tr("…")`` / ``translatable("…")`` literals and the ``display_name``, ``group_name`` and
 ``help_text`` class attributes of the algorithms (they are translated through ``tr`` at run
 time), adds new ones to each .ts (unfinished for Korean, identity for English), drops strings
 the code no longer has and keeps existing translations. ``--check`` only reports.
@@ -38,7 +38,7 @@ def user_strings() -> list[str]:
                 func = node.func
                 name = func.id if isinstance(func, ast.Name) else getattr(func, "attr", None)
                 arg = node.args[0]
-                if name == "tr" and isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                if name in ("tr", "translatable") and isinstance(arg, ast.Constant) and isinstance(arg.value, str):
                     found[arg.value] = None
             elif isinstance(node, ast.ClassDef):
                 for stmt in node.body:

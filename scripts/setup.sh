@@ -19,6 +19,8 @@ command -v qgis_process.bin >/dev/null || need_apt+=(qgis-providers)
 command -v xmllint >/dev/null || need_apt+=(libxml2-utils)
 command -v lrelease >/dev/null || need_apt+=(qttools5-dev-tools)
 command -v geos-config >/dev/null || need_apt+=(libgeos-dev)  # shapely is built against it
+command -v Xvfb >/dev/null || need_apt+=(xvfb)  # the real QGIS window in tests and screenshots
+[ -d /usr/share/fonts/truetype/nanum ] || need_apt+=(fonts-nanum)  # Korean labels render as boxes without
 [ -f /usr/include/python3.11/Python.h ] || need_apt+=(python3-dev)
 "$SYS_PY" -c 'import venv, ensurepip' 2>/dev/null || need_apt+=(python3-venv)
 if [ ${#need_apt[@]} -gt 0 ]; then

@@ -11,7 +11,7 @@ from qgis.core import QgsApplication
 import wit_citymodel
 from wit_citymodel import plugin as plugin_module
 from wit_citymodel.processing_provider.base import tr
-from wit_citymodel.processing_provider.provider import ALGORITHMS
+from wit_citymodel.processing_provider.provider import ALGORITHMS, MODELS
 
 from conftest import ROOT
 
@@ -58,7 +58,7 @@ def test_every_algorithm_is_documented(loaded_plugin):
         for parameter in algorithm.parameterDefinitions():
             assert parameter.name() == parameter.name().upper(), (algorithm.id(), parameter.name())
             assert parameter.description(), (algorithm.id(), parameter.name())
-    assert len(ALGORITHMS) == len(provider.algorithms())
+    assert len(ALGORITHMS) + len(MODELS) == len(provider.algorithms())
 
 
 def test_korean_locale_translates_labels(loaded_plugin):
