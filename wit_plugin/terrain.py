@@ -55,6 +55,7 @@ MIN_WIDTH = 0.01
 #: digitising gaps between buildings fill with tiny triangles.
 MIN_ANGLE = 0.5
 DEGENERATE_AREA = 2e-6  # m² at mm precision; validators reject ≤ 1e-6
+ROUNDING = 1e-3  # m: the precision coordinates are written with
 #: first-pass area bound as a fraction of max_edge²: √3/4 ≈ 0.43 would fit an equilateral triangle,
 #: but Delaunay triangles of that area often have a longer edge (~40 % of them on a plain disc).
 #: At 0.25 well under 1 % do and one refinement pass fixes them; 0.3 needs two passes and ends
@@ -450,13 +451,17 @@ def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[
 def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, feedback: Feedback = SILENT) -> int:
     """Write the TIN as PolygonZ triangles (layer ``model.TIN_LAYER``), one feature per triangle.
 
-    Triangles with no area once rounded to the model's precision (mm; CityGML is written in mm)
-    are left out: they cover no ground, and written out they would be degenerate (a validator
-    rejects them). ``tri_id`` keeps the mesh's numbering. Returns the number written.
+    Slivers that could lose their area once rounded to the model's precision (mm; CityGML is
+    written in mm) are left out: rounding moves each corner by up to 0.5 mm, which changes the area
+    by up to about 1 mm × the longest edge, so a triangle is kept only when its area exceeds that
+    margin. The dropped ones cover no visible ground, and written out they could be degenerate
+    (a validator rejects them). ``tri_id`` keeps the mesh's numbering. Returns the number written.
     """
-    kept = np.flatnonzero(_areas_3d(np.round(tin.vertices, 3), tin.triangles) > DEGENERATE_AREA)
+    corners = tin.vertices[tin.triangles]
+    longest = np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=2).max(axis=1)
+    kept = np.flatnonzero(_areas_3d(tin.vertices, tin.triangles) > DEGENERATE_AREA + ROUNDING * longest)
     if len(kept) < len(tin.triangles):
-        feedback.info(f"{len(tin.triangles) - len(kept)} triangle(s) with no area at mm precision not written.")
+        feedback.info(f"{len(tin.triangles) - len(kept)} sliver triangle(s) narrower than about 2 mm not written.")
     rings = tin.vertices[tin.triangles[kept][:, [0, 1, 2, 0]]]
     wkbs = shapely.to_wkb(shapely.polygons(rings), output_dimension=3, flavor="iso")
     rows = ((wkb, (int(k), tin.surface[k], tin.feature_id[k])) for k, wkb in zip(kept, wkbs))
