@@ -310,3 +310,23 @@ def test_failed_download_leaves_no_cache(tmp_path):
 
 def test_schema_compiled_once(schema_dir):
     assert schemas.load_schema(schema_dir) is schemas.load_schema(Path(str(schema_dir) + "/"))
+
+
+def test_big_member_move_keeps_content_and_lines():
+    """A huge member (a TIN's texture associations) leaves the parsed tree whole and in order.
+
+    The move is piecewise because lxml 4.9's plain append re-links namespaces in quadratic time
+    (~30 s for this member); its speed is measured by benchmarks/bench_validate.py, not here.
+    """
+    from lxml import etree
+
+    def parsed(n):
+        body = '<a:t a:i="x"><a:c>1 2</a:c><b:x b:h="#x">#x</b:x></a:t>\n' * n
+        root = etree.fromstring(f'<r xmlns:a="urn:a" xmlns:b="urn:b"><a:m>\n<a:p>{body}</a:p>\n</a:m>t</r>'.encode())
+        return root, root[0], etree.Element(root.tag, nsmap=root.nsmap)
+
+    root, member, mini = parsed(70_000)
+    before, lines = etree.tostring(member), [n.sourceline for n in member.iter()]
+    validate._move_into(member, mini)
+    assert etree.tostring(mini[0]) == before and len(mini) == 1 and len(root) == 0
+    assert [n.sourceline for n in mini[0].iter()] == lines and max(lines) > 65_535

@@ -19,6 +19,7 @@ import time
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from difflib import get_close_matches
+from itertools import islice
 from pathlib import Path
 from typing import NamedTuple, Sequence
 
@@ -255,7 +256,7 @@ class _FileCheck:
         if prev is None or prev.tag != el.tag or len(prev) or prev.attrib:
             el.addprevious(etree.Element(el.tag))  # an empty member keeps the root's structure valid
         mini = etree.Element(root.tag, nsmap=root.nsmap)
-        mini.append(el)  # moves the member out of the parsed tree: this is what frees its memory
+        _move_into(el, mini)  # moves the member out of the parsed tree: this is what frees its memory
         self._validate(mini, _neutral_ids(mini))
 
     def _scan(self, el: etree._Element) -> dict:
@@ -806,6 +807,40 @@ def _inherited(node: etree._Element | None, attribute: str) -> str | None:
             return value
         node = node.getparent()
     return None
+
+
+def _move_into(node: etree._Element, parent: etree._Element, small: int = 256) -> None:
+    """Move ``node`` (with its tail) to the end of ``parent``, in time linear in its size.
+
+    lxml (4.9) re-links the namespaces of a moved subtree in time quadratic in its size when they
+    are declared outside it, as here (on the CityModel): its namespace cache is keyed by the new
+    namespace instead of the old one, so every node misses it and adds an entry. One appearance
+    member with 600k texture associations then took many minutes. Nodes that already use the
+    destination's namespace declarations do hit that cache, so a big subtree is moved in small
+    pieces into a stash inside the destination first, then reassembled there. The nodes themselves
+    are moved (not copied): their source lines, also those beyond 65535, stay right.
+    """
+    if not _is_big(node, small):
+        parent.append(node)
+        return
+    stash = etree.SubElement(parent, "stash")
+    _move_big(node, parent, stash, small)
+    parent.remove(stash)
+
+
+def _move_big(node: etree._Element, dest: etree._Element, stash: etree._Element, small: int) -> None:
+    children = list(node)
+    for child in children:
+        if _is_big(child, small):
+            _move_big(child, stash, stash, small)
+        else:
+            stash.append(child)
+    dest.append(node)  # childless now, so cheap
+    node.extend(children)  # already in the destination's namespaces: linear
+
+
+def _is_big(node: etree._Element, small: int) -> bool:
+    return len(node) > 0 and next(islice(node.iter(), small, None), None) is not None
 
 
 def _remove_keep_tail(node: etree._Element) -> None:
