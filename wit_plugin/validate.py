@@ -60,9 +60,20 @@ PREFIXES = {  # conventional prefixes, for messages that read like the XML
     "http://www.w3.org/2001/XMLSchema": "xs"}
 
 _PARSE = dict(resolve_entities=False, no_network=True, load_dtd=False, remove_comments=True, remove_pis=True)
-_WITH_ID = etree.XPath("descendant-or-self::*[@gml:id]", namespaces={"gml": GML})
-_WITH_HREF = etree.XPath("descendant-or-self::*[@xlink:href]", namespaces={"xlink": XLINK})
-_WITH_DIM = etree.XPath("descendant-or-self::*[@srsDimension]")
+def _having(attribute: str):
+    """Elements of a subtree (itself included) carrying ``attribute``.
+
+    Plain iteration, not XPath: libxml2's XPath fails ("Error in xpath expression") once a node
+    set grows past its limit, which a multi-GB model's appearance member reaches.
+    """
+    def find(tree: etree._Element) -> list[etree._Element]:
+        return [node for node in tree.iter(etree.Element) if attribute in node.attrib]
+    return find
+
+
+_WITH_ID = _having(f"{{{GML}}}id")
+_WITH_HREF = _having(f"{{{XLINK}}}href")
+_WITH_DIM = _having("srsDimension")
 _QNAME_IN_MSG = re.compile(r"\{([^}]*)\}([\w.\-]+)")
 _ELEMENT_IN_MSG = re.compile(r"^Element '([^']+)'")
 _NCNAME = re.compile(r"^[^\W\d][\w.\-]*$")
