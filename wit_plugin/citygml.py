@@ -48,6 +48,7 @@ from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
 from .schemas import CITYGML_MODULES
+from .vector_io import open_step_layer
 
 APPEARANCE_THEME = "rgbTexture"
 DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-address data
@@ -183,23 +184,7 @@ class _Layer:
     @contextlib.contextmanager
     def open(cls, path: str, name: str, role: str, fields: Iterable[str],
              geometry_z: bool = False) -> Iterator["_Layer"]:
-        if not Path(path).is_file():
-            raise InputError(f"The {role} file {path} does not exist.")
-        try:
-            ds = ogr.Open(str(path), 0)
-        except RuntimeError as exc:
-            raise InputError(f"Cannot open the {role} file {path}: {exc}") from exc
-        if ds is None:
-            raise InputError(f"Cannot open the {role} file {path} as a vector dataset.")
-        layer = ds.GetLayerByName(name)
-        if layer is None:
-            raise InputError(f"{path} has no layer '{name}': give the {role} output.")
-        defn = layer.GetLayerDefn()
-        present = {defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())}
-        missing = [f for f in fields if f not in present]
-        if missing:
-            raise InputError(f"Layer '{name}' in {path} lacks the field(s) {', '.join(missing)}: "
-                             f"re-create it with the current {role}.")
+        ds, layer, _ = open_step_layer(path, name, role, fields)
         if geometry_z and not ogr.GT_HasZ(layer.GetGeomType()):
             raise InputError(f"Layer '{name}' in {path} has no Z coordinates: re-create it with the {role}.")
         yield cls(ds, layer, path, name)

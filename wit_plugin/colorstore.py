@@ -63,6 +63,7 @@ from osgeo import gdal, ogr, osr
 from .errors import InputError, MissingDependencyError, WitError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .gdal_env import open_raster
 from .gdal_env import capped_block_cache
 
 DEFAULT_TABLE = "color_cells"
@@ -201,12 +202,7 @@ def _open_ortho(path: str | os.PathLike) -> gdal.Dataset:
     """Open the ortho and refuse what the store cannot represent, saying what to do instead."""
     if not os.path.exists(path):
         raise InputError(f"Orthoimage {path} does not exist.")
-    try:
-        ds = gdal.Open(str(path))
-    except RuntimeError as exc:
-        raise InputError(f"Cannot open {path} as a raster: {exc}") from exc
-    if ds is None:
-        raise InputError(f"Cannot open {path} as a raster: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+    ds = open_raster(path)
     types = {gdal.GetDataTypeName(ds.GetRasterBand(b).DataType) for b in range(1, min(ds.RasterCount, 3) + 1)}
     if ds.RasterCount < 3 or types != {"Byte"}:
         raise InputError(f"{path} is not an RGB orthoimage: the colour store needs 3 bands of Byte, it has "

@@ -1,10 +1,12 @@
-"""GDAL settings shared by the raster steps."""
+"""GDAL settings and opening shared by the raster steps."""
 from __future__ import annotations
 
 import contextlib
 from typing import Iterator
 
 from osgeo import gdal
+
+from .errors import InputError
 
 CACHE_BYTES = 64 * 1024 * 1024  # GDAL block cache cap during a raster step (bounds peak memory)
 
@@ -23,3 +25,14 @@ def capped_block_cache() -> Iterator[None]:
         yield
     finally:
         gdal.SetCacheMax(old_cache)
+
+
+def open_raster(path: str) -> gdal.Dataset:
+    """Open a raster or raise ``InputError`` with GDAL's reason (with or without GDAL exceptions)."""
+    try:
+        ds = gdal.Open(str(path))
+    except RuntimeError as exc:
+        raise InputError(f"Cannot open {path} as a raster: {exc}") from exc
+    if ds is None:
+        raise InputError(f"Cannot open {path} as a raster: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+    return ds

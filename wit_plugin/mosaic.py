@@ -34,7 +34,7 @@ import numpy as np
 from osgeo import gdal, gdal_array, osr
 
 from .errors import InputError, WitError
-from .gdal_env import capped_block_cache
+from .gdal_env import capped_block_cache, open_raster
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
 
@@ -183,12 +183,7 @@ def merge_tiles(
 # --- inputs -------------------------------------------------------------------------------------
 
 def _open(path: str) -> gdal.Dataset:
-    try:
-        ds = gdal.Open(str(path))
-    except RuntimeError as exc:
-        raise InputError(f"Cannot open {path} as a raster: {exc}") from exc
-    if ds is None:
-        raise InputError(f"Cannot open {path} as a raster: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+    ds = open_raster(path)
     if ds.RasterCount == 0:
         raise InputError(f"{path} has no raster bands.")
     return ds

@@ -50,6 +50,7 @@ from .errors import InputError, WitError
 from .feedback import SILENT, Feedback, LoggingFeedback
 from .fileio import atomic_file
 from .texture import mip_chain
+from .vector_io import open_step_layer
 
 SUPERSAMPLE = 2  # rendered at this multiple of the output size, then box-filtered down
 DISTANCE = 3.0  # camera distance in model radii (a field of view of about 35°)
@@ -166,28 +167,12 @@ def render_preview(lod1_gpkg: str, tin_gpkg: str | None, textures: str | None, o
 
 @contextlib.contextmanager
 def _open_layer(path: str, name: str, role: str, fields: tuple[str, ...]) -> Iterator[ogr.Layer]:
-    if not Path(path).is_file():
-        raise InputError(f"The {role} file {path} does not exist.")
-    try:
-        ds = ogr.Open(str(path), 0)
-    except RuntimeError as exc:
-        raise InputError(f"Cannot open the {role} file {path}: {exc}") from exc
-    if ds is None:
-        raise InputError(f"Cannot open the {role} file {path} as a vector dataset.")
-    layer = ds.GetLayerByName(name)
-    if layer is None:
-        raise InputError(f"{path} has no layer '{name}': give the {role} output.")
-    defn = layer.GetLayerDefn()
-    present = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
-    missing = [f for f in fields if f not in present]
-    if missing:
-        raise InputError(f"Layer '{name}' in {path} lacks the field(s) {', '.join(missing)}: give the {role} output.")
+    ds, layer, present = open_step_layer(path, name, role, fields)
     layer.SetIgnoredFields([f for f in present if f not in fields])
     try:
         yield layer
     finally:
-        layer = None
-        ds = None
+        del layer, ds  # the layer before its dataset
 
 
 def _read_columns(layer: ogr.Layer, fields: tuple[str, ...],

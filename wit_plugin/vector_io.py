@@ -223,6 +223,33 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     return ds, lyr, encoding
 
 
+def open_step_layer(path: str, name: str, role: str, fields: Sequence[str] = ()
+                    ) -> tuple[gdal.Dataset, ogr.Layer, list[str]]:
+    """Layer ``name`` that another step wrote into ``path``, checked for ``fields``.
+
+    Returns the dataset (keep it alive while using the layer), the layer and its field names;
+    every problem is an ``InputError`` that names the step (``role``) to re-run.
+    """
+    if not Path(path).is_file():
+        raise InputError(f"The {role} file {path} does not exist.")
+    try:
+        ds = ogr.Open(str(path), 0)
+    except RuntimeError as exc:
+        raise InputError(f"Cannot open the {role} file {path}: {exc}") from exc
+    if ds is None:
+        raise InputError(f"Cannot open the {role} file {path} as a vector dataset.")
+    layer = ds.GetLayerByName(name)
+    if layer is None:
+        raise InputError(f"{path} has no layer '{name}': give the {role} output.")
+    defn = layer.GetLayerDefn()
+    present = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
+    missing = [f for f in fields if f not in present]
+    if missing:
+        raise InputError(f"Layer '{name}' in {path} lacks the field(s) {', '.join(missing)}: "
+                         f"re-create it with the current {role}.")
+    return ds, layer, present
+
+
 def read_prepared(source: str | os.PathLike, default_layer: str, **options) -> VectorLayer:
     """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name."""
     explicit = "layername=" in str(source).partition("|")[2]
