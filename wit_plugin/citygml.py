@@ -16,8 +16,9 @@ the number of buildings:
   carry a gml:id, so a terrain triangle is identified by its ring ``tri_<tri_id>_r``.
 * ``grp:CityObjectGroup`` per legal dong (gml:id = district wit_id) listing the buildings whose
   footprint's representative point lies in it; districts without buildings are left out.
-* One global ``app:Appearance`` (``core:appearanceMember`` last) with one
-  ``app:ParameterizedTexture`` per image; texture-table rows are read ORDER BY image.
+* Per image one ``core:appearanceMember`` / ``app:Appearance`` (after the city objects) with its
+  ``app:ParameterizedTexture``; texture-table rows are read ORDER BY image. One member per image
+  keeps what a member-by-member reader must hold to one image's associations.
 
 Threading: lxml used from a QGIS Processing background thread has crashed QGIS on Windows
 (qgis/QGIS#54751), so the Processing algorithm runs this writer in the main thread
@@ -586,23 +587,25 @@ class _Writer:
             self.report.groups += 1
 
     def appearance(self, texcoords: _Layer, uris: dict[str, str]) -> None:
-        """One global ``app:Appearance``; per image a ``ParameterizedTexture`` (ids ``tex_1``… by image name)."""
+        """Per image one ``app:Appearance`` (``app_1``…) with its ``ParameterizedTexture`` (``tex_1``…)."""
         order = (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE)
-        self.xf.write("\n")
-        with self.el(CORE + "appearanceMember"), self.el(APP + "Appearance", {GML_ID: "app_texture"}), \
-                texcoords.select(order=order) as result:
-            self.leaf(APP + "theme", APPEARANCE_THEME)
+        with texcoords.select(order=order) as result:
             col = _columns(result)
             image_col, target_col = col[model.TEX_IMAGE], col[model.TEX_TARGET]
             for number, (image, rows) in enumerate(groupby(result, key=lambda f: f.GetFieldAsString(image_col)), 1):
+                # one appearanceMember per image: a reader (or validator) streaming member by member
+                # then holds one image's associations, not the whole model's
                 self.xf.write("\n")
-                with self.el(APP + "surfaceData"), self.el(APP + "ParameterizedTexture", {GML_ID: f"tex_{number}"}):
-                    self.leaf(APP + "imageURI", uris[image])
-                    mime = mimetypes.guess_type(image)[0]
-                    if mime:
-                        self.leaf(APP + "mimeType", mime)
-                    for target, group in groupby(rows, key=lambda f: f.GetFieldAsString(target_col)):
-                        self.textured(target, group, col, texcoords.path)
+                with self.el(CORE + "appearanceMember"), self.el(APP + "Appearance", {GML_ID: f"app_{number}"}):
+                    self.leaf(APP + "theme", APPEARANCE_THEME)
+                    with self.el(APP + "surfaceData"), \
+                            self.el(APP + "ParameterizedTexture", {GML_ID: f"tex_{number}"}):
+                        self.leaf(APP + "imageURI", uris[image])
+                        mime = mimetypes.guess_type(image)[0]
+                        if mime:
+                            self.leaf(APP + "mimeType", mime)
+                        for target, group in groupby(rows, key=lambda f: f.GetFieldAsString(target_col)):
+                            self.textured(target, group, col, texcoords.path)
                 self.report.textures += 1
 
     def textured(self, target: str, rows: Iterator[ogr.Feature], col: dict[str, int], path: str) -> None:
