@@ -152,19 +152,11 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         seconds = time.perf_counter() - start
         info = {s.layer: s.features_out for s in report.stats}
     elif step == "terrain":
-        import triangle
 
-        from benchmarks.bench_geometry import _Clock
+        from benchmarks.bench_geometry import terrain_clock
         from wit_plugin import model, terrain
-        from wit_plugin.dem import Dem
 
-        clock = _Clock()
-        clock.wrap(terrain, "clean_constraints", "mesh")
-        clock.wrap(triangle, "triangulate", "mesh")
-        clock.wrap(Dem, "open", "dem_mapping")
-        clock.wrap(Dem, "sample", "dem_mapping")
-        clock.wrap(terrain, "vertical_error", "dem_mapping")
-        clock.wrap(terrain, "write_tin", "write")
+        clock = terrain_clock()
         start = time.perf_counter()
         stats = terrain.run(p["dem"], p["prepared"], p["prepared"], p["tin"],
                             f"{p['prepared']}|layername={model.STUDY_AREA}")

@@ -82,12 +82,12 @@ class GeoreferenceMapSheets(WitAlgorithm):
             fmt=FORMATS[self.parameterAsEnum(parameters, self.FORMAT, context)],
             feedback=feedback,
         )
-        sink, index_id = self.parameterAsSink(parameters, self.OUTPUT_INDEX, context, index_fields(),
+        fields = index_fields()
+        sink, index_id = self.parameterAsSink(parameters, self.OUTPUT_INDEX, context, fields,
                                               QgsWkbTypes.Polygon, target_crs)
         for result in results:
-            feature = QgsFeature(index_fields())
-            feature.setAttributes([result.sheet, result.scale, result.source, result.status,
-                                   result.reason, result.output])
+            feature = QgsFeature(fields)
+            feature.setAttributes([getattr(result, name) for name in fields.names()])
             if result.bounds:
                 feature.setGeometry(QgsGeometry.fromRect(QgsRectangle(*result.bounds)))
             sink.addFeature(feature, QgsFeatureSink.FastInsert)
@@ -102,9 +102,10 @@ class GeoreferenceMapSheets(WitAlgorithm):
 
 
 def index_fields() -> QgsFields:
-    """The footprint index's columns (as wit_plugin.georef.write_footprint_index writes them)."""
+    """The footprint index's columns, as the core's ``write_footprint_index`` writes them."""
+    from ..wit_plugin.georef import INDEX_FIELDS
+
     fields = QgsFields()
-    for name, kind in (("sheet", QVariant.String), ("scale", QVariant.Int), ("source", QVariant.String),
-                       ("status", QVariant.String), ("reason", QVariant.String), ("output", QVariant.String)):
-        fields.append(QgsField(name, kind))
+    for name, kind in INDEX_FIELDS:
+        fields.append(QgsField(name, QVariant.Int if kind is int else QVariant.String))
     return fields

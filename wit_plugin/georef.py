@@ -30,6 +30,8 @@ OK, SKIPPED, FAILED = "ok", "skipped", "failed"
 FORMATS = {"GTiff": ".tif", "VRT": ".vrt"}
 TIF_SUFFIXES = (".tif", ".tiff")
 INDEX_LAYER = "footprints"
+#: columns of the footprint index (SheetResult attributes), shared with the Processing glue
+INDEX_FIELDS = (("sheet", str), ("scale", int), ("source", str), ("status", str), ("reason", str), ("output", str))
 
 
 @dataclass
@@ -249,8 +251,7 @@ def _fail(result: SheetResult, reason: str, feedback: Feedback) -> None:
 def write_footprint_index(results: Sequence[SheetResult], path: str | os.PathLike, crs: str = "EPSG:5186") -> None:
     """A GeoPackage layer with one row per input: footprint polygon (none if skipped) and outcome."""
     srs = _srs(crs)
-    fields = [("sheet", ogr.OFTString), ("scale", ogr.OFTInteger), ("source", ogr.OFTString),
-              ("status", ogr.OFTString), ("reason", ogr.OFTString), ("output", ogr.OFTString)]
+    fields = [(name, ogr.OFTInteger if kind is int else ogr.OFTString) for name, kind in INDEX_FIELDS]
     with atomic_file(path) as tmp:
         try:
             with _gdal_errors():
