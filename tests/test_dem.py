@@ -173,3 +173,29 @@ def test_seoul_dem_never_samples_nodata(seoul):
     assert z.min() >= 1.05 - 1e-6  # the lowest valid height in the file; −9999 never leaks in
     edge = dem.sample(np.array([xmin, xmax, xmin, xmax]), np.array([ymin, ymin, ymax, ymax]))
     assert edge.min() > -1000
+
+
+@pytest.mark.parametrize("cell", [1.0, 7.0])
+def test_plane_deviation_bound_never_underestimates(cell):
+    """The cheap bound ≥ the exact error on random triangles, small and large against the cells,
+    and infinite for slivers and for triangles reaching the flat rim beyond the outermost centres."""
+    from wit_plugin.terrain import exact_vertical_error
+
+    rng = np.random.default_rng(5)
+    rows = cols = 30
+    dem = Dem(rng.uniform(0, 10, (rows, cols)), (0.0, cell, 0.0, rows * cell, 0.0, -cell))
+    m = 400
+    a = rng.uniform(0, cols * cell, (m, 2))
+    tri_xy = np.stack([a, a + rng.normal(0, 2 * cell, (m, 2)), a + rng.normal(0, 2 * cell, (m, 2))], axis=1)
+    tri_xy = np.clip(tri_xy, 0, cols * cell)
+    xyz = np.column_stack([tri_xy.reshape(-1, 2), dem.sample(*tri_xy.reshape(-1, 2).T)])
+    tris = np.arange(3 * m).reshape(m, 3)
+    bound = dem.plane_deviation_bound(xyz[tris[:, 0]], xyz[tris[:, 1]], xyz[tris[:, 2]])
+    exact = exact_vertical_error(dem, xyz, tris)
+    assert (bound >= exact - 1e-9).all()
+    rim = (tri_xy.min(axis=1) < 0.5 * cell).any(axis=1) | (tri_xy.max(axis=1) > (cols - 0.5) * cell).any(axis=1)
+    assert np.isinf(bound[rim]).all() and np.isfinite(bound[~rim]).any()
+    inner = np.isfinite(bound)
+    assert np.median(bound[inner] / np.maximum(exact[inner], 1e-9)) < 20  # a bound, not a shrug
+    flat = np.array([[10.0, 10.0, 1.0], [12.0, 12.0, 1.0], [14.0, 14.0, 1.0]])  # collinear
+    assert np.isinf(dem.plane_deviation_bound(flat[:1], flat[1:2], flat[2:]))[0]

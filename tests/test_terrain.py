@@ -219,3 +219,55 @@ def test_cancel_leaves_no_output(tmp_path, shared_dir):
         terrain.run(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
                     shapely.Point(*suseo).buffer(50), feedback=CancelAtOnce())
     assert not list(tmp_path.glob("*tin*")) and not list(tmp_path.glob(".tin*"))
+
+
+@pytest.mark.parametrize("tolerance", [0.0, 0.05, 0.3, 10.0])
+def test_vertical_error_is_exact_where_it_matters(tolerance):
+    """Exact above the tolerance (so refinement picks exactly the right triangles), a bound within
+    it elsewhere, and the exact maximum over all triangles whatever the tolerance."""
+    dem = hill_dem()
+    tin, _ = terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=12.0, tolerance=100.0, max_iterations=0)
+    exact = terrain.exact_vertical_error(dem, tin.vertices, tin.triangles)
+    error, max_error = terrain.vertical_error(dem, tin.vertices, tin.triangles, tolerance)
+    assert max_error == pytest.approx(exact.max(), abs=1e-12) and exact.max() > 0.05
+    np.testing.assert_array_equal(error > tolerance, exact > tolerance)
+    over = exact > tolerance
+    np.testing.assert_allclose(error[over], exact[over], rtol=0, atol=1e-12)
+    assert (error >= exact - 1e-12).all()
+
+
+def test_segments_are_split_at_vertices_snap_rounding_left_beside_them():
+    # a cluster of vertices a millimetre apart, as snap rounding leaves where lines meet at a
+    # shallow angle: 0–2 passes through vertex 1, and 3–1 / 1–4 pass within 0.7 mm of 0 and 2
+    v = np.array([[16.766, 1177.943], [16.766, 1177.944], [16.766, 1177.945], [15.61, 1171.734],
+                  [29.447, 1142.441], [20.103, 1195.863], [0.0, 0.0], [10.0, 0.0005], [20.0, 0.0]])
+    s = np.array([[3, 1], [0, 2], [1, 4], [1, 5], [6, 8], [7, 6]])
+    out = terrain._split_at_near_vertices(v, s, 0.7 * terrain.GRID)
+    assert {tuple(e) for e in out.tolist()} == {(0, 1), (0, 3), (0, 4), (1, 2), (2, 5), (6, 7), (7, 8)}
+    lines = shapely.linestrings(v[out])
+    i, j = shapely.STRtree(lines).query(lines, predicate="intersects")
+    i, j = i[i < j], j[i < j]
+    touching = shapely.intersection(lines[i], lines[j])
+    assert (shapely.get_type_id(touching) == 0).all()  # pieces meet at single points only: no overlaps
+
+
+def test_millimetre_slivers_between_roads_and_walls_cost_no_triangles(monkeypatch):
+    """A road edge 1 mm off a wall leaves a sliver face; merged into its neighbour it is not
+    filled with needles, and the mesh still tiles the area exactly."""
+    dem = hill_dem()
+    road = [("RD_S", shapely.box(0, 40.001, 120, 50))]  # 1 mm from the buildings' north walls
+    building = [("BLD_S", shapely.box(0, 20, 60, 40)), ("BLD_T", shapely.box(60, 20, 120, 40))]
+    tin, stats = terrain.triangulate(AREA, building, road, dem, max_edge=8.0)
+    check_mesh(tin, dem, True)
+    cons = tin.constraints
+    widths = 2 * shapely.area(cons.faces) / shapely.length(cons.faces)
+    assert (cons.meshed & (widths < terrain.MIN_WIDTH)).sum() == 1  # the sliver is there
+    reference, ref_stats = terrain.triangulate(AREA, building, [("RD_S", shapely.box(0, 40, 120, 50))], dem,
+                                               max_edge=8.0)
+    assert stats.triangles <= 1.05 * ref_stats.triangles
+    xy = tin.vertices[:, :2][tin.triangles]
+    areas = 0.5 * np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
+    assert (areas < 0.01).sum() <= 4  # only where the sliver meets the area's edge
+    monkeypatch.setattr(terrain, "_sliver_hosts", lambda faces, meshed: np.arange(len(faces)))
+    _, unmerged = terrain.triangulate(AREA, building, road, dem, max_edge=8.0)
+    assert unmerged.triangles > 2 * stats.triangles  # the needles the merge saves

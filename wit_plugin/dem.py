@@ -139,23 +139,67 @@ class Dem:
         return (f11 * (1 - alpha) * (1 - beta) + f21 * alpha * (1 - beta)
                 + f12 * (1 - alpha) * beta + f22 * alpha * beta)
 
-    def nodes_in_boxes(self, xmin: np.ndarray, ymin: np.ndarray, xmax: np.ndarray,
-                       ymax: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Cell centres inside each box: (box index, x, y, height), concatenated over the boxes."""
+    def nodes_in_boxes(self, xmin: np.ndarray, ymin: np.ndarray, xmax: np.ndarray, ymax: np.ndarray,
+                       covering: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Cell centres inside each box: (box index, x, y, height), concatenated over the boxes.
+
+        ``covering``: also the centres just outside, so that the interpolation cells spanned by
+        the returned centres cover the whole box (every box then gets at least one).
+        """
         x0, dx, _, y0, _, dy = self.geotransform
         rows, cols = self.values.shape
         ua, ub = (np.asarray(xmin, float) - x0) / dx - 0.5, (np.asarray(xmax, float) - x0) / dx - 0.5
         va, vb = (np.asarray(ymin, float) - y0) / dy - 0.5, (np.asarray(ymax, float) - y0) / dy - 0.5
-        j_lo = np.maximum(np.ceil(np.minimum(ua, ub)), 0).astype(np.int64)
-        j_hi = np.minimum(np.floor(np.maximum(ua, ub)), cols - 1).astype(np.int64)
-        i_lo = np.maximum(np.ceil(np.minimum(va, vb)), 0).astype(np.int64)
-        i_hi = np.minimum(np.floor(np.maximum(va, vb)), rows - 1).astype(np.int64)
+        if covering:
+            j_lo, j_hi = (np.clip(f(g(ua, ub)), 0, cols - 1).astype(np.int64)
+                          for f, g in ((np.floor, np.minimum), (np.ceil, np.maximum)))
+            i_lo, i_hi = (np.clip(f(g(va, vb)), 0, rows - 1).astype(np.int64)
+                          for f, g in ((np.floor, np.minimum), (np.ceil, np.maximum)))
+        else:
+            j_lo = np.maximum(np.ceil(np.minimum(ua, ub)), 0).astype(np.int64)
+            j_hi = np.minimum(np.floor(np.maximum(ua, ub)), cols - 1).astype(np.int64)
+            i_lo = np.maximum(np.ceil(np.minimum(va, vb)), 0).astype(np.int64)
+            i_hi = np.minimum(np.floor(np.maximum(va, vb)), rows - 1).astype(np.int64)
         nj = np.maximum(j_hi - j_lo + 1, 0)
         ni = np.maximum(i_hi - i_lo + 1, 0)
         owner, k = ragged_indices(nj * ni)
         j = j_lo[owner] + k % np.maximum(nj[owner], 1)
         i = i_lo[owner] + k // np.maximum(nj[owner], 1)
         return owner, x0 + (j + 0.5) * dx, y0 + (i + 0.5) * dy, self.values[i, j]
+
+    def plane_deviation_bound(self, a: np.ndarray, b: np.ndarray, c: np.ndarray,
+                              chunk: int = 65536) -> np.ndarray:
+        """An upper bound of max |DEM − plane through a, b, c| over each triangle abc, cheap to get.
+
+        Inside each interpolation cell the DEM minus a plane is bilinear, so its extremes over the
+        cell are at the cell's corners: the largest |corner height − plane| over the cells covering
+        the triangle's bounding box bounds it (rigorously; usually within a few times the exact
+        value). Triangles reaching beyond the outermost cell centres, where the surface is held
+        flat, and degenerate triangles get infinity: measure those exactly. Works in chunks of
+        triangles so that the per-node arrays stay small.
+        """
+        bound = np.empty(len(a))
+        rows, cols = self.values.shape
+        for lo in range(0, len(a), chunk):
+            pa, pb, pc = a[lo:lo + chunk], b[lo:lo + chunk], c[lo:lo + chunk]
+            lower = np.minimum(np.minimum(pa, pb), pc)
+            upper = np.maximum(np.maximum(pa, pb), pc)
+            e1, e2 = pb - pa, pc - pa
+            det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):  # plane z = za + gx·(x − xa) + gy·(y − ya)
+                gx = (e1[:, 2] * e2[:, 1] - e2[:, 2] * e1[:, 1]) / det
+                gy = (e2[:, 2] * e1[:, 0] - e1[:, 2] * e2[:, 0]) / det
+            owner, x, y, z = self.nodes_in_boxes(lower[:, 0], lower[:, 1], upper[:, 0], upper[:, 1], covering=True)
+            with np.errstate(invalid="ignore"):
+                dev = np.abs(z - pa[owner, 2] - gx[owner] * (x - pa[owner, 0]) - gy[owner] * (y - pa[owner, 1]))
+            dev[np.isnan(dev)] = np.inf
+            part = np.maximum.reduceat(dev, np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]]))
+            u_lo, v_lo = self._indices(lower[:, 0], lower[:, 1])
+            u_hi, v_hi = self._indices(upper[:, 0], upper[:, 1])
+            part[(np.minimum(u_lo, u_hi) < 0) | (np.maximum(u_lo, u_hi) > cols - 1)
+                 | (np.minimum(v_lo, v_hi) < 0) | (np.maximum(v_lo, v_hi) > rows - 1)] = np.inf
+            bound[lo:lo + chunk] = part
+        return bound
 
     def deviation_range(self, x0: np.ndarray, y0: np.ndarray, z0: np.ndarray, x1: np.ndarray, y1: np.ndarray,
                         z1: np.ndarray, ends_on_surface: bool = False) -> tuple[np.ndarray, np.ndarray]:

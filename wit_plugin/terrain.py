@@ -166,10 +166,13 @@ def clean_polygons(geoms: Sequence[BaseGeometry | None], area: BaseGeometry | No
     steps = [(shapely.make_valid, (), {"method": "structure"}), (shapely.set_precision, (grid,), {})]
     if area is not None:
         steps.append((shapely.intersection, (area,), {"grid_size": grid}))
+        shapely.prepare(area)
     for func, args, kwargs in steps:
         alive = np.array([g is not None for g in geoms], dtype=bool)
+        if func is shapely.intersection:  # most lie well inside: already clipped (and on the grid)
+            alive[alive] = ~shapely.contains_properly(area, geoms[alive])
         if not alive.any():
-            break
+            continue
         geoms[alive] = _polygonal(_each(func, geoms[alive], *args, **kwargs))
     return geoms
 
@@ -186,24 +189,10 @@ def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: S
     road_list = [(rid, g) for (rid, _), g in zip(roads, rds) if g is not None]
     dropped = len(buildings) + len(roads) - len(footprints) - len(road_list)
 
-    hole_union = shapely.union_all([g for _, g in footprints], grid_size=grid) if footprints else None
-    road_lines = [g.boundary for _, g in road_list]
-    if footprints_as_holes and hole_union is not None:
-        # nothing is meshed under a building, so no road edge may run there
-        lines = [clean_area.boundary, hole_union.boundary,
-                 shapely.difference(shapely.union_all(road_lines, grid_size=grid), hole_union, grid_size=grid)]
-    else:
-        lines = [clean_area.boundary] + [g.boundary for _, g in footprints] + road_lines
+    # All boundaries noded together; faces under footprints become holes below when they are
+    # holes (a union of the footprints first would cost several times the noding itself)
+    lines = [clean_area.boundary] + [g.boundary for _, g in footprints] + [g.boundary for _, g in road_list]
     noded = shapely.get_parts(shapely.union_all(lines, grid_size=grid))
-
-    coords, part = shapely.get_coordinates(noded, return_index=True)
-    origin = (math.floor(clean_area.bounds[0]), math.floor(clean_area.bounds[1]))
-    keys = np.rint((coords - origin) / grid).astype(np.int64)
-    unique_keys, vertex = np.unique(keys, axis=0, return_inverse=True)
-    vertex = vertex.ravel()
-    a, b = vertex[:-1], vertex[1:]
-    keep = (part[:-1] == part[1:]) & (a != b)
-    segments = np.unique(np.sort(np.column_stack([a[keep], b[keep]]), axis=1), axis=0)
 
     # Snap rounding may bend a boundary by up to half a grid cell, which can leave sub-millimetre
     # faces whose side is a matter of rounding; each face is decided once, here, by its seed.
@@ -213,11 +202,96 @@ def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: S
     surface, feature = _classify(seeds, footprints, road_list)
     in_area = shapely.contains_xy(clean_area, seed_xy[:, 0], seed_xy[:, 1])
     meshed = in_area & ~((surface == FOOTPRINT) & footprints_as_holes)
+
+    host = _sliver_hosts(faces, meshed)
+
+    # The segments are the edges of the meshed faces (the noded pieces, vertex for vertex) but
+    # those between a sliver and its host: walls shared by two buildings and road edges under
+    # buildings bound no mesh, and left in they would only make Triangle work around them
+    mesh_faces = np.flatnonzero(meshed)
+    rings = shapely.get_rings(faces[mesh_faces])
+    coords, part = shapely.get_coordinates(rings, return_index=True)
+    ring_face = mesh_faces[np.repeat(np.arange(len(mesh_faces)), shapely.get_num_interior_rings(faces[mesh_faces]) + 1)]
+    origin = (math.floor(clean_area.bounds[0]), math.floor(clean_area.bounds[1]))
+    keys = np.rint((coords - origin) / grid).astype(np.int64)
+    unique_keys, vertex = np.unique(keys, axis=0, return_inverse=True)
+    vertex = vertex.ravel()
+    a, b = vertex[:-1], vertex[1:]
+    keep = (part[:-1] == part[1:]) & (a != b)
+    edges = np.column_stack([np.sort(np.column_stack([a[keep], b[keep]]), axis=1), host[ring_face[part[:-1][keep]]]])
+    rows, count = np.unique(edges, axis=0, return_counts=True)  # an edge twice in one host is inside it
+    segments = _split_at_near_vertices(unique_keys * grid, rows[count == 1, :2], 0.7 * grid)
+    # a sliver keeps its seed (snap rounding can leave it cut off from its host after all) with its host's labels
+    surface, feature = surface[host], feature[host]
     return Constraints(
-        origin=origin, vertices=unique_keys * grid, segments=segments.astype(np.int32),
+        origin=origin, vertices=unique_keys * grid, segments=segments,
         holes=seed_xy[~meshed] - origin, regions=seed_xy[meshed] - origin,
         region_surface=surface[meshed], region_feature=feature[meshed], faces=faces, meshed=meshed,
         area=clean_area, footprints=footprints, roads=road_list, dropped=dropped)
+
+
+def _sliver_hosts(faces: np.ndarray, meshed: np.ndarray) -> np.ndarray:
+    """For each face, the face it is meshed with: a meshed sliver's meshed neighbour along its
+    longest shared boundary, else the face itself.
+
+    Snap rounding leaves slivers a millimetre wide where a road edge runs along a wall; on their
+    own Triangle would fill them with thousands of needle triangles (its minimum angle applies
+    everywhere), merged into their neighbour they cost nothing.
+    """
+    host = np.arange(len(faces))
+    sliver = meshed & (2 * shapely.area(faces) < MIN_WIDTH * shapely.length(faces))
+    if not sliver.any():
+        return host
+    targets = np.flatnonzero(meshed & ~sliver)
+    slivers = np.flatnonzero(sliver)
+    s, t = shapely.STRtree(faces[targets]).query(faces[slivers], predicate="touches")
+    if not len(s):
+        return host
+    shared = shapely.length(shapely.intersection(shapely.boundary(faces[slivers[s]]),
+                                                 shapely.boundary(faces[targets[t]])))
+    order = np.lexsort((-shared, s))  # per sliver, the longest shared boundary first
+    s, t, shared = s[order], t[order], shared[order]
+    first = np.r_[True, s[1:] != s[:-1]] & (shared > 0)
+    host[slivers[s[first]]] = targets[t[first]]
+    return host
+
+
+def _split_at_near_vertices(vertices: np.ndarray, segments: np.ndarray, tol: float,
+                            max_passes: int = 5) -> np.ndarray:
+    """Unique segments, each split at every vertex that lies within ``tol`` of it (but not at its ends).
+
+    GEOS's snap-rounded noding can leave a vertex a fraction of a grid cell beside a segment it
+    should split (near-collinear edges meeting at a shallow angle). Triangle then sees an edge
+    that almost touches a vertex and fills the gap with slivers and tiny triangles (tens of
+    thousands on the 1 km demo); routing the segment through the vertex moves it by at most
+    ``tol``. Repeated, as a bent segment can come near another vertex.
+    """
+    segments = np.unique(np.sort(segments, axis=1), axis=0)
+    points = shapely.points(vertices)
+    for _ in range(max_passes):
+        lines = shapely.linestrings(vertices[segments])
+        vert, seg = shapely.STRtree(lines).query(points, predicate="dwithin", distance=tol)
+        inner = (segments[seg, 0] != vert) & (segments[seg, 1] != vert)
+        vert, seg = vert[inner], seg[inner]
+        if not len(vert):
+            break
+        p, q = vertices[segments[seg, 0]], vertices[segments[seg, 1]]
+        t = ((vertices[vert] - p) * (q - p)).sum(axis=1) / ((q - p) ** 2).sum(axis=1)
+        order = np.lexsort((t, seg))
+        seg, vert = seg[order], vert[order]
+        # each split segment becomes the chain start, its near vertices in order, end
+        split = np.unique(seg)
+        first = np.searchsorted(seg, split)
+        last = np.r_[first[1:], len(seg)] - 1
+        starts = np.column_stack([segments[split, 0], vert[first]])
+        middles = np.column_stack([vert[:-1], vert[1:]])[seg[:-1] == seg[1:]]
+        ends = np.column_stack([vert[last], segments[split, 1]])
+        kept = np.ones(len(segments), dtype=bool)
+        kept[split] = False
+        pieces = np.vstack([segments[kept], starts, middles, ends])
+        pieces = pieces[pieces[:, 0] != pieces[:, 1]]
+        segments = np.unique(np.sort(pieces, axis=1), axis=0)
+    return segments.astype(np.int32)
 
 
 def _classify(points: np.ndarray, footprints: Sequence[Feature],
@@ -268,17 +342,47 @@ def _triangle_areas(xy: np.ndarray, tris: np.ndarray) -> np.ndarray:
 
 
 def _longest_edges(xy: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    p = xy[tris]
-    return np.sqrt(((p - np.roll(p, 1, axis=1)) ** 2).sum(axis=2)).max(axis=1)
+    a, b, c = xy[tris[:, 0]], xy[tris[:, 1]], xy[tris[:, 2]]
+    squared = [((q - p) ** 2).sum(axis=1) for p, q in ((a, b), (b, c), (c, a))]
+    return np.sqrt(np.maximum(np.maximum(squared[0], squared[1]), squared[2]))
 
 
-def vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
+def vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray, tolerance: float = 0.0) -> tuple[np.ndarray, float]:
+    """Max |DEM − planar triangle| per triangle (vertex z must be DEM heights), and its exact maximum.
+
+    Per triangle the value is exact wherever it exceeds ``tolerance`` (0: everywhere); elsewhere it
+    may be an upper bound that is itself within ``tolerance``, so ``error > tolerance`` picks exactly
+    the triangles that are too far off. Most triangles are settled by ``Dem.plane_deviation_bound``;
+    the rest are measured exactly (``exact_vertical_error``), then the largest bounds, in falling
+    order, until none can beat the largest exact value (by a nanometre): that is the maximum.
+    """
+    if not len(tris):
+        return np.zeros(0), 0.0
+    error = dem.plane_deviation_bound(xyz[tris[:, 0]], xyz[tris[:, 1]], xyz[tris[:, 2]])
+    over = np.flatnonzero(error > tolerance)
+    error[over] = exact_vertical_error(dem, xyz, tris[over])
+    exact_max = float(error[over].max()) if len(over) else 0.0
+    slack = 1e-9  # m: the maximum is exact to a nanometre, so rounding noise in the bounds costs nothing
+    rest = np.flatnonzero((error <= tolerance) & (error > exact_max + slack))
+    rest = rest[np.argsort(-error[rest], kind="stable")]
+    start, size = 0, 1024  # growing batches: few calls, little wasted work
+    while start < len(rest) and error[rest[start]] > exact_max + slack:
+        batch = rest[start:start + size]
+        error[batch] = exact_vertical_error(dem, xyz, tris[batch])
+        exact_max = max(exact_max, float(error[batch].max()))
+        start, size = start + size, 2 * size
+    return error, exact_max
+
+
+def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
     """Exact max |DEM − planar triangle| over each triangle (vertex z must be DEM heights).
 
     The difference of the piecewise bilinear DEM and a plane is bilinear inside each DEM cell,
     hence linear along the grid lines through the cell centres: its extremes over a triangle lie
     on the triangle's edges (``Dem.deviation_range``) or at the cell centres inside it.
     """
+    if not len(tris):
+        return np.zeros(0)
     n = len(xyz)
     edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
     unique, inverse = np.unique(edges[:, 0].astype(np.int64) * n + edges[:, 1], return_inverse=True)
@@ -334,21 +438,25 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
                                         np.full(len(cons.regions), max_area)])}
     if len(cons.holes):
         pslg["holes"] = cons.holes
-    mesh = triangle.triangulate(pslg, f"pq{MIN_ANGLE}aAe")
+    # the area bound both fixed and per region: snapping can pinch a face into parts that
+    # Triangle's flood fill from the one seed does not reach (labelled afterwards by _labels)
+    mesh = triangle.triangulate(pslg, f"pq{MIN_ANGLE}a{max_area!r}aAe")
 
     origin = np.array(cons.origin, dtype=np.float64)
     iterations = 0
+    xy, xyz = np.empty((0, 2)), np.empty((0, 3))
     while True:
+        known = len(xy) if np.array_equal(mesh["vertices"][:len(xy)], xy) else 0  # refining keeps the vertices
         xy = mesh["vertices"]
         tris = mesh["triangles"]
-        world = xy + origin
-        xyz = np.column_stack([world, dem.sample(world[:, 0], world[:, 1])])
+        world = xy[known:] + origin
+        xyz = np.vstack([xyz[:known], np.column_stack([world, dem.sample(world[:, 0], world[:, 1])])])
         longest = _longest_edges(xy, tris)
-        error = vertical_error(dem, xyz, tris)
+        error, max_error = vertical_error(dem, xyz, tris, tolerance)
         too_long = longest > max_edge * (1 + 1e-9)
         too_far = error > tolerance
         feedback.info(f"Mesh pass {iterations}: {len(tris)} triangles, longest edge {longest.max():.2f} m, "
-                      f"max vertical error {error.max():.3f} m.")
+                      f"max vertical error {max_error:.3f} m.")
         if not (too_long.any() or too_far.any()) or iterations == max_iterations:
             break
         feedback.check_canceled()
@@ -368,13 +476,13 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
                                      "triangle_max_area": limits}, f"prq{MIN_ANGLE}ae")
     if too_long.any() or too_far.any():
         feedback.warning(f"After {iterations} refinement passes the mesh still has edges up to {longest.max():.2f} m "
-                         f"and a vertical error up to {error.max():.3f} m.")
+                         f"and a vertical error up to {max_error:.3f} m.")
 
     surface, feature = _labels(mesh["triangle_attributes"][:, 0], xyz, tris, cons)
     tin = Tin(xyz, tris, surface, feature, cons)
     counts = {name: int((surface == name).sum()) for name in TIN_SURFACES}
     stats = TinStats(vertices=len(np.unique(tris)), triangles=len(tris), max_edge=float(longest.max()),
-                     max_vertical_error=float(error.max()), refinement_iterations=iterations,
+                     max_vertical_error=max_error, refinement_iterations=iterations,
                      nodata_filled=dem.nodata_cells, constraint_segments=len(cons.segments),
                      dropped_features=cons.dropped, triangles_by_surface=counts)
     feedback.progress(100)
