@@ -526,7 +526,7 @@ def _arc_owners(arcs: np.ndarray, polygons: np.ndarray, grid_size: float) -> tup
     exactly one of the (one or two) faces beside it belongs to that polygon.
     """
     faces = shapely.get_parts(shapely.polygonize(arcs))
-    face_of, poly_of = shapely.STRtree(polygons).query(shapely.point_on_surface(faces), predicate="within")
+    face_of, poly_of = shapely.STRtree(polygons).query(shapely.point_on_surface(faces), predicate="intersects")
     first_mid = (shapely.get_coordinates(shapely.get_point(arcs, 0))
                  + shapely.get_coordinates(shapely.get_point(arcs, 1))) / 2
     arc_at, face_at = shapely.STRtree(shapely.boundary(faces)).query(shapely.points(first_mid), predicate="dwithin",
