@@ -158,7 +158,8 @@ def case_mesh_only(paths: dict) -> dict:
     _, footprints, roads = _inputs(paths)
     area = _study_area()
     x0, y0, x1, y1 = area.bounds
-    flat = Dem(np.zeros((2, 2)), (x0 - 1, (x1 - x0 + 2) / 2, 0.0, y1 + 1, 0.0, -(y1 - y0 + 2) / 2))
+    cx, cy = (x1 - x0 + 2) / 2, (y1 - y0 + 2) / 2  # 4 x 4 cells: the area lies between the cell centres
+    flat = Dem(np.zeros((4, 4)), (x0 - 1 - cx, cx, 0.0, y1 + 1 + cy, 0.0, -cy))
     start = time.perf_counter()
     _, stats = terrain.triangulate(area, footprints, roads, flat)
     return {"seconds": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb(), "triangles": stats.triangles,
