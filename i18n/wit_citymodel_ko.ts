@@ -4,6 +4,10 @@
   <context>
     <name>WitCityModel</name>
     <message>
+      <source>Build a spatial index (slower to write, faster to display)</source>
+      <translation>공간 인덱스 생성 (쓰기는 느려지고 표시는 빨라짐)</translation>
+    </message>
+    <message>
       <source>Cancelled: no output was written.</source>
       <translation>취소됨: 출력 파일을 쓰지 않았습니다.</translation>
     </message>
@@ -560,8 +564,8 @@
       <translation>지형 삼각분할 (제약 들로네)</translation>
     </message>
     <message>
-      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (measured exactly on every edge and at the DEM cell centres inside every triangle). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
-      <translation>연구 지역을 제약 들로네 삼각분할(라이브러리 'triangle')로 메시화합니다: 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(모든 변과 각 삼각형 내부의 DEM 셀 중심에서 정확히 측정). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간. DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
+      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
+      <translation>연구 지역을 제약 들로네 삼각분할(라이브러리 'triangle')로 메시화합니다: 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(엄밀한 상한으로 대부분의 삼각형을 확인하고, 나머지는 모든 변과 내부의 DEM 셀 중심에서 정확히 측정하며, 보고하는 최대값도 정확한 값입니다). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간. DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
     </message>
     <message>
       <source>Study area (polygon layer, e.g. study_area of wit:preparevectors)</source>

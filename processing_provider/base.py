@@ -13,6 +13,8 @@ from qgis.core import (
     QgsProcessingAlgorithm,
     QgsProcessingException,
     QgsProcessingFeedback,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterDefinition,
 )
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
@@ -131,3 +133,14 @@ class WitAlgorithm(QgsProcessingAlgorithm):
     def execute(self, parameters, context, feedback: QgisFeedback) -> dict:
         """Convert the parameters, call the core, return the outputs."""
         raise NotImplementedError
+
+    SPATIAL_INDEX = "SPATIAL_INDEX"
+
+    def add_spatial_index_parameter(self) -> None:
+        """Advanced: big GeoPackage layers write several times faster without an R-tree (the chain's
+        intermediate files need none); on by default for layers a user opens."""
+        param = QgsProcessingParameterBoolean(
+            self.SPATIAL_INDEX, self.tr("Build a spatial index (slower to write, faster to display)"),
+            defaultValue=True)
+        param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        self.addParameter(param)

@@ -176,9 +176,9 @@ class CityModel(WitAlgorithm):
             tin = run(3, "wit:triangulateterrain", {
                 "DEM": dem, "AREA": prepared["AREA_OUT"], "BUILDINGS": prepared["BUILDINGS_OUT"],
                 "ROADS": prepared["ROADS_OUT"], "MAX_EDGE": parameters.get(self.MAX_EDGE),
-                "TOLERANCE": parameters.get(self.TOLERANCE), "OUTPUT": str(work / "tin.gpkg")})
+                "TOLERANCE": parameters.get(self.TOLERANCE), "SPATIAL_INDEX": keep, "OUTPUT": str(work / "tin.gpkg")})
             lod1 = run(4, "wit:extrudebuildings", {"BUILDINGS": prepared["BUILDINGS_OUT"], "DEM": dem,
-                                                   "OUTPUT": str(work / "lod1.gpkg")})
+                                                   "SPATIAL_INDEX": keep, "OUTPUT": str(work / "lod1.gpkg")})
             textures = run(5, "wit:wittexture", {
                 "ORTHO": mosaic["OUTPUT"], "LOD1": lod1["LOD1"], "TIN": tin["TIN"],
                 "SCALE": parameters.get(self.TEXTURE_SCALE), "OUTPUT": str(work / "textures")})

@@ -65,6 +65,7 @@ class ExtrudeBuildings(WitAlgorithm):
         self.addParameter(QgsProcessingParameterEnum(
             self.BASE, self.tr("Base height from the DEM"),
             options=[self.tr("Minimum on the footprint"), self.tr("Median on the footprint")], defaultValue=0))
+        self.add_spatial_index_parameter()
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT, self.tr("LoD1 solids (GeoPackage)"), self.tr("GeoPackage (*.gpkg)")))
         self.addOutput(QgsProcessingOutputVectorLayer("LOD1", self.tr("LoD1 faces")))
@@ -86,7 +87,8 @@ class ExtrudeBuildings(WitAlgorithm):
         )
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
-                    rule, BASES[self.parameterAsEnum(parameters, self.BASE, context)], feedback)
+                    rule, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
+                    self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
         return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,
                 "DEFAULT_HEIGHTS": stats.height_sources.get("default", 0)}
 

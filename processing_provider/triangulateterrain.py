@@ -22,8 +22,8 @@ class TriangulateTerrain(WitAlgorithm):
         "footprints and road polygons are constraints whose edges appear in the mesh; footprints become "
         "holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge "
         "length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more "
-        "than the vertical tolerance (measured exactly on every edge and at the DEM cell centres inside "
-        "every triangle). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM "
+        "than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly "
+        "along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM "
         "NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. "
         "Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot "
         "crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, "
@@ -59,6 +59,7 @@ class TriangulateTerrain(WitAlgorithm):
         self.addParameter(QgsProcessingParameterEnum(
             self.FOOTPRINTS, self.tr("Building footprints become"),
             options=[self.tr("Holes (buildings stand on them)"), self.tr("Constrained edges")], defaultValue=0))
+        self.add_spatial_index_parameter()
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT, self.tr("TIN (GeoPackage)"), self.tr("GeoPackage (*.gpkg)")))
         self.addOutput(QgsProcessingOutputVectorLayer("TIN", self.tr("TIN triangles")))
@@ -81,6 +82,7 @@ class TriangulateTerrain(WitAlgorithm):
             max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
             footprints_as_holes=self.parameterAsEnum(parameters, self.FOOTPRINTS, context) == 0,
+            spatial_index=self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context),
             feedback=feedback,
         )
         return {self.OUTPUT: output, "TIN": f"{output}|layername={model.TIN_LAYER}",

@@ -141,9 +141,10 @@ def build_model():
           "CENTER": param("CENTER"), "RADIUS": param("RADIUS")}),
         ("TERRAIN", "wit:triangulateterrain", "4 Triangulate the terrain (TIN)",
          {"DEM": param("DEM"), "AREA": child("PREPARE", "AREA_OUT"), "BUILDINGS": child("PREPARE", "BUILDINGS_OUT"),
-          "ROADS": child("PREPARE", "ROADS_OUT"), "MAX_EDGE": param("MAX_EDGE")}),
+          "ROADS": child("PREPARE", "ROADS_OUT"), "MAX_EDGE": param("MAX_EDGE"),
+          "SPATIAL_INDEX": static(False)}),  # temporary files, read whole by the next steps
         ("EXTRUDE", "wit:extrudebuildings", "5 Extrude LoD1 buildings",
-         {"BUILDINGS": child("PREPARE", "BUILDINGS_OUT"), "DEM": param("DEM")}),
+         {"BUILDINGS": child("PREPARE", "BUILDINGS_OUT"), "DEM": param("DEM"), "SPATIAL_INDEX": static(False)}),
         ("TEXTURE", "wit:wittexture", "6 Texture buildings and terrain",
          {"ORTHO": child("MERGE", "OUTPUT"), "LOD1": child("EXTRUDE", "LOD1"), "TIN": child("TERRAIN", "TIN")}),
         ("CITYGML", "wit:writecitygml", "7 Write CityGML 3.0",

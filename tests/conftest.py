@@ -68,3 +68,19 @@ def run_algorithm(wit_provider):
         return processing.run(algorithm_id, parameters)
 
     return run
+
+
+@pytest.fixture
+def cancel_after_checks():
+    """A core Feedback factory: ``cancel_after_checks(n)`` answers "cancel" from its (n+1)-th check on."""
+    from wit_plugin.feedback import Feedback
+
+    class CancelAfter(Feedback):
+        def __init__(self, checks: int):
+            self.checks = checks
+
+        def is_canceled(self) -> bool:
+            self.checks -= 1
+            return self.checks < 0
+
+    return CancelAfter

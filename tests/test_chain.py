@@ -44,7 +44,8 @@ def chain(tmp_path_factory, qgis_processing):
         "BUILDINGS": results["prepared"]["BUILDINGS_OUT"], "ROADS": results["prepared"]["ROADS_OUT"],
         "OUTPUT": str(out / "tin.gpkg")})
     results["lod1"] = run("wit:extrudebuildings", {
-        "BUILDINGS": results["prepared"]["BUILDINGS_OUT"], "DEM": str(sample.dem), "OUTPUT": str(out / "lod1.gpkg")})
+        "BUILDINGS": results["prepared"]["BUILDINGS_OUT"], "DEM": str(sample.dem), "SPATIAL_INDEX": False,
+        "OUTPUT": str(out / "lod1.gpkg")})
     results["texture"] = run("wit:wittexture", {
         "ORTHO": results["mosaic"]["OUTPUT"], "LOD1": results["lod1"]["LOD1"], "TIN": results["tin"]["TIN"],
         "OUTPUT": str(out / "textures")})
@@ -67,6 +68,18 @@ def test_steps_produce_consistent_counts(chain):
     assert chain["gml"]["GROUPS"] >= 1
     tin = QgsVectorLayer(chain["tin"]["TIN"], "tin", "ogr")
     assert tin.featureCount() == chain["tin"]["TRIANGLES"]
+
+
+def test_spatial_index_only_where_asked(chain):
+    """The TIN (default) has a sound R-tree holding every triangle; the LoD1 faces were asked for none."""
+    import sqlite3
+
+    tin = sqlite3.connect(chain["tin"]["OUTPUT"])
+    assert tin.execute("SELECT rtreecheck('rtree_tin_geom')").fetchone() == ("ok",)
+    assert tin.execute("SELECT count(*) FROM rtree_tin_geom").fetchone() == (chain["tin"]["TRIANGLES"],)
+    lod1 = sqlite3.connect(chain["lod1"]["OUTPUT"])
+    assert lod1.execute("SELECT count(*) FROM sqlite_master WHERE name LIKE 'rtree%'").fetchone() == (0,)
+    assert lod1.execute("SELECT count(*) FROM lod1_faces").fetchone()[0] > 6 * chain["lod1"]["SOLIDS"] - 1
 
 
 def test_citygml_is_valid_for_xmllint(chain, shared_dir):

@@ -22,7 +22,6 @@ from osgeo import gdal, osr
 
 from wit_plugin import colorstore
 from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
 
 ROOT = Path(__file__).resolve().parents[1]
 W, H, PX = 700, 500, 0.5
@@ -283,20 +282,11 @@ def test_postgis_round_trip_identical_to_geopackage(pg_dsn, pg_schema, ortho, bu
     assert cur.fetchone()[0] == again.cells < report.cells
 
 
-class _CancelAfter(Feedback):
-    def __init__(self, checks: int):
-        self.checks = checks
-
-    def is_canceled(self) -> bool:
-        self.checks -= 1
-        return self.checks < 0
-
-
-def test_cancel_leaves_no_postgis_table(pg_dsn, pg_schema, ortho):
+def test_cancel_leaves_no_postgis_table(pg_dsn, pg_schema, ortho, cancel_after_checks):
     schema, conn = pg_schema
     with pytest.raises(CanceledError):
         colorstore.build_color_store(ortho, None, postgis_dsn=pg_dsn, table=f"{schema}.cells",
-                                     feedback=_CancelAfter(2))
+                                     feedback=cancel_after_checks(2))
     cur = conn.cursor()
     cur.execute("SELECT count(*) FROM pg_tables WHERE schemaname = %s", (schema,))
     assert cur.fetchone()[0] == 0
@@ -353,7 +343,7 @@ def test_bad_inputs(tmp_path, ortho):
         colorstore.ColorStore.open(other)
 
 
-def test_cancel_leaves_no_geopackage(tmp_path, ortho):
+def test_cancel_leaves_no_geopackage(tmp_path, ortho, cancel_after_checks):
     with pytest.raises(CanceledError):
-        colorstore.build_color_store(ortho, tmp_path / "s.gpkg", feedback=_CancelAfter(3))
+        colorstore.build_color_store(ortho, tmp_path / "s.gpkg", feedback=cancel_after_checks(3))
     assert list(tmp_path.iterdir()) == []

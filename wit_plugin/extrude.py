@@ -36,6 +36,7 @@ from shapely.geometry.base import BaseGeometry
 from .dem import Dem
 from .errors import InputError
 from .feedback import SILENT, Feedback
+from .gpkg_bulk import write_layer
 from .model import (
     BASE_Z,
     FACE_NUMBER,
@@ -48,7 +49,7 @@ from .model import (
     STOREYS_BELOW,
     WIT_ID,
 )
-from .terrain import clean_polygons, write_layer
+from .terrain import clean_polygons
 from .vector_io import FieldDef, read_prepared
 
 FLOORS_FIELD = "GRO_FLO_CO"  # storeys above ground (road-name-address building layer)
@@ -226,7 +227,8 @@ def extrude(buildings: Sequence[tuple[str | None, BaseGeometry | None, dict]], d
 
 
 def write_solids(path: str | Path, solids: Sequence[Solid], crs: pyproj.CRS,
-                 source_fields: Sequence[FieldDef] = (), feedback: Feedback = SILENT) -> int:
+                 source_fields: Sequence[FieldDef] = (), spatial_index: bool = True,
+                 feedback: Feedback = SILENT) -> int:
     """Write the faces as PolygonZ features (layer ``model.LOD1_LAYER``) with the solid's fields.
 
     Source fields keep their types; one whose name clashes with ours is left out.
@@ -237,21 +239,20 @@ def write_solids(path: str | Path, solids: Sequence[Solid], crs: pyproj.CRS,
     taken = {fd.name.lower() for fd in own}
     extra = [fd for fd in source_fields if fd.name.lower() not in taken]
 
-    def rows():
-        for s in solids:
-            values = [s.wit_id, None, None, s.base_z, s.height, s.height_source, s.storeys_above, s.storeys_below]
-            values += [s.attributes.get(fd.name) for fd in extra]
-            for number, (kind, rings) in enumerate(s.faces):
-                values[1], values[2] = kind, number
-                wkb = shapely.to_wkb(shapely.Polygon(rings[0], rings[1:]), output_dimension=3, flavor="iso")
-                yield wkb, values
-
-    total = sum(len(s.faces) for s in solids)
-    return write_layer(path, LOD1_LAYER, crs, own + extra, rows(), total, feedback=feedback)
+    geoms, rows = [], []
+    for s in solids:
+        values = [s.wit_id, s.base_z, s.height, s.height_source, s.storeys_above, s.storeys_below]
+        values += [s.attributes.get(fd.name) for fd in extra]
+        for number, (kind, rings) in enumerate(s.faces):
+            geoms.append(shapely.Polygon(rings[0], rings[1:]))
+            rows.append((values[0], kind, number, *values[1:]))
+    columns = list(zip(*rows)) if rows else [[] for _ in own + extra]
+    return write_layer(path, LOD1_LAYER, crs, own + extra, np.array(geoms, dtype=object), columns,
+                       spatial_index=spatial_index, feedback=feedback)
 
 
 def run(vectors: str | Path, dem_path: str | Path, output: str | Path, rule: HeightRule | None = None,
-        base: str = "min", feedback: Feedback = SILENT) -> ExtrudeStats:
+        base: str = "min", spatial_index: bool = True, feedback: Feedback = SILENT) -> ExtrudeStats:
     """wit:extrudebuildings: read the prepared buildings and the DEM, write the LoD1 faces GeoPackage.
 
     ``vectors`` is the prepared buildings layer (``file.gpkg|layername=…``) or the prepared GeoPackage.
@@ -264,7 +265,7 @@ def run(vectors: str | Path, dem_path: str | Path, output: str | Path, rule: Hei
     ids = layer.columns.get(WIT_ID) or [None] * len(layer)
     rows = [{name: column[k] for name, column in layer.columns.items()} for k in range(len(layer))]
     solids, stats = extrude(list(zip(ids, layer.geoms, rows)), dem, rule, base, feedback.scaled(0, 80))
-    write_solids(output, solids, layer.crs, layer.fields, feedback.scaled(80, 100))
+    write_solids(output, solids, layer.crs, layer.fields, spatial_index, feedback.scaled(80, 100))
     feedback.info("LoD1: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))
     feedback.progress(100)
     return stats

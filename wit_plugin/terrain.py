@@ -20,21 +20,21 @@ as part of their neighbour.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 import pyproj
 import shapely
-from osgeo import ogr, osr
+from osgeo import ogr
 from shapely.geometry.base import BaseGeometry
 
 from .dem import Dem, ragged_indices
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file
+from .gpkg_bulk import write_layer
 from .model import (
     PREPARED_BUILDINGS,
     PREPARED_ROADS,
@@ -45,7 +45,7 @@ from .model import (
     TIN_TRIANGLE_ID,
     WIT_ID,
 )
-from .vector_io import FieldDef, VectorLayer, gdal_quiet, read_layer, read_prepared
+from .vector_io import FieldDef, VectorLayer, read_layer, read_prepared
 
 #: snapping grid for constraint coordinates (m): far below survey accuracy, far above float noise
 GRID = 0.001
@@ -610,48 +610,8 @@ def _labels(attribute: np.ndarray, xyz: np.ndarray, tris: np.ndarray,
 # -- files -------------------------------------------------------------------------------------
 
 
-def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[FieldDef],
-                rows: Iterable[tuple[bytes, Sequence]], total: int, geometry_type: int = ogr.wkbPolygon25D,
-                feedback: Feedback = SILENT) -> int:
-    """Write one GeoPackage layer atomically from ``total`` (ISO WKB, field values) rows; returns the count.
-
-    ``vector_io.write_gpkg`` writes 2D MultiPolygons only; the TIN and the LoD1 faces are PolygonZ.
-    """
-    srs = osr.SpatialReference()
-    srs.ImportFromWkt(crs.to_wkt())
-    srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
-    count = 0
-    with atomic_file(path) as tmp:
-        with gdal_quiet():
-            ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tmp))
-        if ds is None:
-            raise InputError(f"Cannot create the GeoPackage {path}.")
-        lyr = ds.CreateLayer(layer, srs, geometry_type)
-        for fd in fields:
-            defn = ogr.FieldDefn(fd.name, fd.type)
-            defn.SetSubType(fd.subtype)
-            defn.SetWidth(fd.width)
-            defn.SetPrecision(fd.precision)
-            lyr.CreateField(defn)
-        defn = lyr.GetLayerDefn()
-        lyr.StartTransaction()
-        for wkb, values in rows:
-            if count % 10000 == 0:
-                feedback.check_canceled()
-                feedback.progress(100 * count / max(total, 1))
-            feat = ogr.Feature(defn)
-            for k, value in enumerate(values):
-                if value is not None:
-                    feat.SetField(k, value)
-            feat.SetGeometryDirectly(ogr.CreateGeometryFromWkb(wkb))
-            lyr.CreateFeature(feat)
-            count += 1
-        lyr.CommitTransaction()
-        ds = None
-    return count
-
-
-def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, feedback: Feedback = SILENT) -> int:
+def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, spatial_index: bool = True,
+              feedback: Feedback = SILENT) -> int:
     """Write the TIN as PolygonZ triangles (layer ``model.TIN_LAYER``), one feature per triangle.
 
     Slivers that could lose their area once rounded to the model's precision (mm; CityGML is
@@ -665,12 +625,11 @@ def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, feedback: Feedback = 
     kept = np.flatnonzero(_areas_3d(tin.vertices, tin.triangles) > DEGENERATE_AREA + ROUNDING * longest)
     if len(kept) < len(tin.triangles):
         feedback.info(f"{len(tin.triangles) - len(kept)} sliver triangle(s) narrower than about 2 mm not written.")
-    rings = tin.vertices[tin.triangles[kept][:, [0, 1, 2, 0]]]
-    wkbs = shapely.to_wkb(shapely.polygons(rings), output_dimension=3, flavor="iso")
-    rows = ((wkb, (int(k), tin.surface[k], tin.feature_id[k])) for k, wkb in zip(kept, wkbs))
+    triangles = shapely.polygons(tin.vertices[tin.triangles[kept][:, [0, 1, 2, 0]]])
     fields = [FieldDef(TIN_TRIANGLE_ID, ogr.OFTInteger), FieldDef(TIN_SURFACE, ogr.OFTString),
               FieldDef(TIN_FEATURE_ID, ogr.OFTString)]
-    return write_layer(path, TIN_LAYER, crs, fields, rows, len(kept), feedback=feedback)
+    return write_layer(path, TIN_LAYER, crs, fields, triangles, [kept, tin.surface[kept], tin.feature_id[kept]],
+                       spatial_index=spatial_index, feedback=feedback)
 
 
 def features(layer: VectorLayer) -> list[Feature]:
@@ -681,7 +640,7 @@ def features(layer: VectorLayer) -> list[Feature]:
 
 def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
         area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
-        footprints_as_holes: bool = True, feedback: Feedback = SILENT) -> TinStats:
+        footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT) -> TinStats:
     """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
@@ -704,7 +663,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     tin, stats = triangulate(area, features(layers["buildings"]) if "buildings" in layers else [],
                              features(layers["roads"]) if "roads" in layers else [], dem, max_edge, tolerance,
                              footprints_as_holes, feedback=feedback.scaled(0, 80))
-    stats.triangles = write_tin(output, tin, crs, feedback.scaled(80, 100))
+    stats.triangles = write_tin(output, tin, crs, spatial_index, feedback.scaled(80, 100))
     feedback.info("TIN: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))
     feedback.progress(100)
     return stats

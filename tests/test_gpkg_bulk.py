@@ -1,0 +1,84 @@
+"""Bulk GeoPackage writer: what OGR reads back is exactly what was written, index and all."""
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pyproj
+import pytest
+import shapely
+from osgeo import ogr
+
+from wit_plugin import gpkg_bulk
+from wit_plugin.errors import CanceledError
+from wit_plugin.vector_io import FieldDef
+
+CRS = pyproj.CRS.from_epsg(5186)
+FIELDS = [FieldDef("n", ogr.OFTInteger), FieldDef("h", ogr.OFTReal), FieldDef("name", ogr.OFTString)]
+COURTYARD = shapely.Polygon([(0, 0, 1), (30, 0, 1), (30, 20, 1.5), (0, 20, 1.5)],
+                            [[(10, 5, 1.25), (10, 15, 1.25), (20, 15, 1.25), (20, 5, 1.25)]])
+
+
+def _geoms(n: int) -> np.ndarray:
+    xy = np.random.default_rng(1).uniform(200000, 201000, (n, 2)).round(3)
+    tris = [shapely.Polygon([(x, y, 10.123), (x + 4, y, 11.456), (x, y + 3, 12.789)]) for x, y in xy]
+    return np.array([shapely.affinity.translate(COURTYARD, 200000, 540000)] + tris, dtype=object)
+
+
+def _read(path):
+    ds = ogr.Open(str(path))
+    lyr = ds.GetLayer("faces")
+    rows = [(f.GetFID(), f.GetGeometryRef().ExportToIsoWkt(), f.GetField("n"), f.GetField("h"), f.GetField("name"))
+            for f in lyr]
+    return ds, lyr, rows
+
+
+@pytest.mark.parametrize("index", [True, False])
+def test_written_layer_reads_back_exactly(tmp_path, index):
+    geoms = _geoms(50)
+    names = ["수서동 건물"] + [None if k % 7 == 0 else f"b{k}" for k in range(1, len(geoms))]
+    columns = [np.arange(len(geoms)), [None] + [1.5 * k for k in range(1, len(geoms))], names]
+    path = tmp_path / "faces.gpkg"
+    assert gpkg_bulk.write_layer(path, "faces", CRS, FIELDS, geoms, columns, spatial_index=index) == len(geoms)
+    ds, lyr, rows = _read(path)
+    assert lyr.GetGeomType() == ogr.wkbPolygon25D
+    assert lyr.GetSpatialRef().GetAuthorityCode(None) == "5186"
+    assert [r[0] for r in rows] == list(range(1, len(geoms) + 1))
+    for (_, wkt, n, h, name), geom, k in zip(rows, geoms, range(len(geoms))):
+        assert shapely.equals_exact(shapely.from_wkt(wkt), geom, tolerance=0)
+        assert shapely.get_coordinates(shapely.from_wkt(wkt), include_z=True).tolist() == \
+            shapely.get_coordinates(geom, include_z=True).tolist()
+        assert (n, h, name) == (k, columns[1][k], names[k])
+    x0, y0, x1, y1 = shapely.total_bounds(geoms)
+    assert lyr.GetExtent() == pytest.approx((x0, x1, y0, y1), abs=0)
+    lyr.SetSpatialFilterRect(200000, 540000, 200031, 540021)  # only the courtyard building
+    assert [f.GetFID() for f in lyr] == [1]
+    del lyr, ds  # close before reading the file with sqlite3
+    db = sqlite3.connect(path)
+    tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    assert ("rtree_faces_geom" in tables) == index
+    if index:
+        assert db.execute("SELECT rtreecheck('rtree_faces_geom')").fetchone() == ("ok",)
+        assert db.execute("SELECT count(*) FROM rtree_faces_geom").fetchone() == (len(geoms),)
+
+
+def test_an_empty_layer_is_a_valid_geopackage(tmp_path):
+    path = tmp_path / "faces.gpkg"
+    assert gpkg_bulk.write_layer(path, "faces", CRS, FIELDS, np.array([], dtype=object), [[], [], []]) == 0
+    ds, lyr, rows = _read(path)
+    assert rows == [] and lyr.GetGeomType() == ogr.wkbPolygon25D
+
+
+def test_cancel_between_batches_leaves_no_file(tmp_path, monkeypatch, cancel_after_checks):
+    monkeypatch.setattr(gpkg_bulk, "BATCH", 10)
+    path = tmp_path / "faces.gpkg"
+    geoms = _geoms(50)
+    with pytest.raises(CanceledError):
+        gpkg_bulk.write_layer(path, "faces", CRS, FIELDS, geoms, [range(51), [1.0] * 51, ["x"] * 51],
+                              feedback=cancel_after_checks(2))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_columns_must_match_fields_and_rows(tmp_path):
+    with pytest.raises(ValueError):
+        gpkg_bulk.write_layer(tmp_path / "x.gpkg", "faces", CRS, FIELDS, _geoms(2), [[1, 2, 3]])

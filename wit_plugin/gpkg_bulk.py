@@ -1,0 +1,105 @@
+"""Write one big GeoPackage layer fast: OGR makes the file, SQLite takes the rows in bulk.
+
+The TIN of the 1 km demo has ~600,000 triangles. Through OGR one feature at a time that took
+14 s (about 23 µs a feature: a Python call per field and per geometry). Here the GeoPackage
+geometry blobs (header + envelope + ISO WKB, as the GeoPackage standard §2.1.3 defines them)
+are built with numpy and shapely for all rows at once and inserted with ``executemany``; OGR
+creates the file and the layer first (tables, SRS, metadata) and builds the R-tree spatial index
+at the end in one go, so the result is what OGR would have written.
+
+The R-tree costs most of the time left (SQLite inserts ~10 µs a row whatever the order; GDAL
+3.6 has no bulk loader): worth it for a layer a user opens in QGIS, not for an intermediate
+file that the next step reads whole, so callers may leave it out.
+"""
+from __future__ import annotations
+
+import sqlite3
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import shapely
+from osgeo import ogr, osr
+
+from .errors import InputError
+from .feedback import SILENT, Feedback
+from .fileio import atomic_file
+from .vector_io import FieldDef, gdal_quiet
+
+#: GeoPackage geometry header: "GP", version 0, flags (little-endian, XY envelope), srs_id, envelope
+_HEADER = np.dtype([("magic", "S2"), ("version", "u1"), ("flags", "u1"), ("srs_id", "<i4"),
+                    ("envelope", "<f8", 4)])
+_FLAGS_LE_XY_ENVELOPE = 0b0000_0011
+BATCH = 20_000  # rows per executemany: progress and Cancel between batches
+
+
+def geometry_blobs(geoms: np.ndarray, srs_id: int) -> list[bytes]:
+    """GeoPackage geometry blobs of non-empty 3D shapely geometries."""
+    header = np.zeros(len(geoms), dtype=_HEADER)
+    header["magic"] = b"GP"
+    header["flags"] = _FLAGS_LE_XY_ENVELOPE
+    header["srs_id"] = srs_id
+    header["envelope"] = shapely.bounds(geoms)[:, [0, 2, 1, 3]]  # minx, maxx, miny, maxy
+    wkbs = shapely.to_wkb(geoms, output_dimension=3, flavor="iso", byte_order=1)
+    raw = header.tobytes()
+    size = _HEADER.itemsize
+    return [raw[k * size:(k + 1) * size] + wkb for k, wkb in enumerate(wkbs)]
+
+
+def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[FieldDef], geoms: np.ndarray,
+                columns: Sequence[Sequence], geometry_type: int = ogr.wkbPolygon25D, spatial_index: bool = True,
+                feedback: Feedback = SILENT) -> int:
+    """Write one GeoPackage layer atomically: ``geoms`` (3D shapely) and one column per field.
+
+    Column values must be None, int, float or str (numpy arrays are converted). Returns the count.
+    """
+    geoms = np.asarray(geoms, dtype=object)
+    columns = [c.tolist() if isinstance(c, np.ndarray) else list(c) for c in columns]
+    if len(columns) != len(fields) or any(len(c) != len(geoms) for c in columns):
+        raise ValueError("one column per field, one value per geometry")
+    srs = osr.SpatialReference()
+    srs.ImportFromWkt(crs.to_wkt())
+    srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    with atomic_file(path) as tmp:
+        with gdal_quiet():
+            ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tmp))
+        if ds is None:
+            raise InputError(f"Cannot create the GeoPackage {path}.")
+        lyr = ds.CreateLayer(layer, srs, geometry_type, options=["SPATIAL_INDEX=NO"])
+        for fd in fields:
+            defn = ogr.FieldDefn(fd.name, fd.type)
+            defn.SetSubType(fd.subtype)
+            defn.SetWidth(fd.width)
+            defn.SetPrecision(fd.precision)
+            lyr.CreateField(defn)
+        geom_column = lyr.GetGeometryColumn()
+        ds = None
+
+        db = sqlite3.connect(tmp)
+        try:
+            (srs_id,) = db.execute("SELECT srs_id FROM gpkg_geometry_columns WHERE table_name = ?",
+                                   (layer,)).fetchone()
+            names = ", ".join(f'"{name}"' for name in [geom_column] + [fd.name for fd in fields])
+            insert = f'INSERT INTO "{layer}" ({names}) VALUES ({", ".join("?" * (len(fields) + 1))})'
+            for start in range(0, len(geoms), BATCH):
+                feedback.check_canceled()
+                feedback.progress(90 * start / max(len(geoms), 1))
+                stop = start + BATCH
+                blobs = geometry_blobs(geoms[start:stop], srs_id)
+                db.executemany(insert, zip(blobs, *(c[start:stop] for c in columns)))
+            if len(geoms):
+                x0, y0, x1, y1 = shapely.total_bounds(geoms)
+                db.execute("UPDATE gpkg_contents SET min_x = ?, min_y = ?, max_x = ?, max_y = ? WHERE table_name = ?",
+                           (x0, y0, x1, y1, layer))
+            db.commit()
+        finally:
+            db.close()
+        if spatial_index:
+            feedback.check_canceled()
+            with gdal_quiet():
+                ds = ogr.Open(str(tmp), update=1)
+                ds.ExecuteSQL(f"SELECT CreateSpatialIndex('{layer}', '{geom_column}')")
+                ds = None
+    feedback.progress(100)
+    return len(geoms)
