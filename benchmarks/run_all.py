@@ -13,7 +13,10 @@ Sizes (``--sizes``): ``default`` = the default sample (1 km around Suseo station
    peak memory is the child's ``VmHWM`` from ``/proc/self/status`` (reset at exec, so it is the
    step's own, not the parent's RSS at fork as ``ru_maxrss`` would carry). The terrain step is
    split like ``bench_geometry.py``: mesh (constraint cleaning + Triangle), DEM mapping (DEM read,
-   bilinear Z, vertical error) and writing the TIN. "total" = the sum of the eight steps. A step
+   bilinear Z, vertical error) and writing the TIN. Table 20's "total" row is what the paper's is,
+   the sum of its three stages (15 s = 0.5 loading + 6.5 mesh + 8 DEM mapping): our loading
+   (wit:preparevectors) + mesh + DEM mapping; beside it, all 3D objects on disk (loading, the whole
+   terrain step with the TIN written, LoD1 extrusion) and the whole chain (the eight steps). A step
    running longer than ``--step-timeout`` (default 300 s) is killed, and one that fails is
    recorded with its error; either is reported as "≥ its time" and ends that run, so ``make bench``
    stays bounded and always writes its tables.
@@ -159,7 +162,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         clock = terrain_clock()
         start = time.perf_counter()
         stats = terrain.run(p["dem"], p["prepared"], p["prepared"], p["tin"],
-                            f"{p['prepared']}|layername={model.STUDY_AREA}")
+                            f"{p['prepared']}|layername={model.STUDY_AREA}", spatial_index=False)  # as wit:citymodel
         seconds = time.perf_counter() - start
         split = {k: round(v, 3) for k, v in clock.seconds.items()}
         split["other"] = round(seconds - sum(clock.seconds.values()), 3)  # reading the layers, bookkeeping
@@ -169,7 +172,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         from wit_plugin import extrude
 
         start = time.perf_counter()
-        stats = extrude.run(p["prepared"], p["dem"], p["lod1"])
+        stats = extrude.run(p["prepared"], p["dem"], p["lod1"], spatial_index=False)
         seconds = time.perf_counter() - start
         info = stats.as_dict()
     elif step == "texture":
@@ -329,13 +332,18 @@ def run_chain(name: str, sample: str, radius: float, runs: int, timeout: float |
             if cut:
                 break
         total = sum(s["seconds"] for s in steps.values())
+        split_s = steps.get("terrain", {}).get("info", {}).get("split_s", {})
+        table20 = sum(steps[s]["seconds"] for s in ("prepare",) if s in steps) + split_s.get("mesh", 0.0) + \
+            split_s.get("dem_mapping", 0.0)
+        objects = sum(steps[s]["seconds"] for s in ("prepare", "terrain", "extrude") if s in steps)
         total_wall = sum(s["wall_s"] for s in steps.values())
         complete = len(steps) == len(STEPS) and not any(s.get("timed_out") or s.get("failed")
                                                          for s in steps.values())
         log(f"  [{name} run {k}] total {'' if complete else '≥ '}{total:.2f} s in the calls, "
             f"{total_wall:.2f} s with start-ups")
         per_run.append({"run": k, "steps": steps, "complete": complete, "total_s": round(total, 3),
-                        "total_wall_s": round(total_wall, 3)})
+                        "total_wall_s": round(total_wall, 3), "table20_total_s": round(table20, 3),
+                        "objects_s": round(objects, 3)})
 
     def over(step: str, key: str) -> dict | None:
         values = [r["steps"][step][key] for r in per_run if step in r["steps"]]
@@ -354,9 +362,12 @@ def run_chain(name: str, sample: str, radius: float, runs: int, timeout: float |
     complete = all(r["complete"] for r in per_run)
     total, total_wall = stats([r["total_s"] for r in per_run]), stats([r["total_wall_s"] for r in per_run])
     total["lower_bound"] = total_wall["lower_bound"] = not complete
+    table20, objects = stats([r["table20_total_s"] for r in per_run]), stats([r["objects_s"] for r in per_run])
+    objects["lower_bound"] = table20["lower_bound"] = not all("extrude" in r["steps"] for r in per_run)
     peaks = [s["peak_rss_mb"]["mean"] for s in summary.values() if s["peak_rss_mb"]]
     return {"runs": per_run, "steps": summary, "terrain_split": split, "complete": complete,
-            "step_timeout_s": timeout, "total_s": total, "total_wall_s": total_wall, "peak_rss_mb": max(peaks)}
+            "step_timeout_s": timeout, "total_s": total, "total_wall_s": total_wall, "table20_total_s": table20,
+            "objects_s": objects, "peak_rss_mb": max(peaks)}
 
 
 def run_colorstore(name: str, data: Path, mosaic: str, radius: float, quick: bool, dsn: str | None) -> dict:
@@ -427,9 +438,11 @@ def markdown(report: dict) -> str:
 
     # Table 20
     md += ["## Table 20 — 3D object generation time (s)", "",
-           ("Paper: Method A / B / proposed, as printed. Ours: seconds inside the library calls, mean ± std over "
-           "the runs; vector data loading = wit:preparevectors (read, clean, write); mesh generation and DEM "
-           "mapping = the split of wit:triangulateterrain; total = the whole chain (8 steps below)."), ""]
+           ("Paper: Method A / B / proposed, as printed; its total (15 s) is the sum of its three stages. Ours: "
+           "seconds inside the library calls, mean ± std over the runs; vector data loading = "
+           "wit:preparevectors (read, clean, write); mesh generation and DEM mapping = the split of "
+           "wit:triangulateterrain; total = the same three stages. The two rows below it are not in the "
+           "paper: every 3D object on disk, and the whole chain (8 steps, the next table)."), ""]
     head = "| No. | Processing stage | Method A | Method B | Proposed (paper) | " + " | ".join(
         f"ours, {n}" for n in names) + " |"
     md += [head, "|" + "---|" * (5 + len(names))]
@@ -446,32 +459,36 @@ def markdown(report: dict) -> str:
             elif k == 3:
                 ours.append(fmt(ch["terrain_split"]["dem_mapping"]))
             else:
-                ours.append(f"**{fmt(ch['total_s'])}**")
+                ours.append(f"**{fmt(ch['table20_total_s'])}**")
         md.append(f"| {k} | {stage} | {a} | {b} | {paper:g} | " + " | ".join(ours) + " |")
+    for label, key in (("+ TIN read/written, LoD1 extruded and written (all 3D objects on disk)", "objects_s"),
+                       ("whole chain: imagery, texture, CityGML, validation too", "total_s")):
+        cells = [fmt(sizes[n]["chain"][key]) if sizes[n].get("chain") else "–" for n in names]
+        md.append(f"| – | {label} | – | – | – | " + " | ".join(cells) + " |")
     md.append("")
     for n in names:
         ch = sizes[n].get("chain")
         if not ch:
             continue
-        total = ch["total_s"]["mean"]
+        total = ch["table20_total_s"]["mean"]
         goal = ""
         if n == "default":
-            goal = (f" Goal total ≤ {GOAL_TOTAL_S:g} s on the default sample: "
-                    f"**{'met' if total <= GOAL_TOTAL_S else 'NOT met'}** ({total:.1f} s).")
-        md.append(f"*{n}*: total {fmt(ch['total_s'])} s in the calls, {fmt(ch['total_wall_s'])} s wall "
-                  f"(one Python start-up + imports per step); paper 15 s.{goal}")
+            goal = (f" Goal Table 20 total ≤ {GOAL_TOTAL_S:g} s on the default sample: "
+                    f"**{'met' if total <= GOAL_TOTAL_S else 'NOT met'}** ({total:.2f} s; paper 15 s).")
+        md.append(f"*{n}*: Table 20 total {fmt(ch['table20_total_s'])} s; whole chain {fmt(ch['total_s'])} s "
+                  f"in the calls, {fmt(ch['total_wall_s'])} s wall (one Python start-up + imports per step).{goal}")
     md.append("")
     md += ["### Per step (time s, peak RSS MB of the step's process)", ""]
     md += ["| step | " + " | ".join(f"{n} s | {n} wall s | {n} peak MB" for n in names) + " |",
            "|---|" + "---|---|---|" * len(names)]
     for step in STEPS + ("terrain: mesh", "terrain: DEM mapping", "terrain: write TIN", "terrain: read/other",
-                         "total"):
+                         "whole chain"):
         cells = []
         for n in names:
             ch = sizes[n].get("chain")
             if not ch:
                 cells += ["–"] * 3
-            elif step == "total":
+            elif step == "whole chain":
                 cells += [f"**{fmt(ch['total_s'])}**", fmt(ch["total_wall_s"]), f"{ch['peak_rss_mb']:.0f} (max)"]
             elif step.startswith("terrain:"):
                 part = {"mesh": "mesh", "DEM mapping": "dem_mapping", "write TIN": "write",
