@@ -272,3 +272,24 @@ def test_millimetre_slivers_between_roads_and_walls_cost_no_triangles(monkeypatc
     monkeypatch.setattr(terrain, "_sliver_hosts", lambda faces, meshed: np.arange(len(faces)))
     _, unmerged = terrain.triangulate(AREA, building, road, dem, max_edge=8.0)
     assert unmerged.triangles > 2 * stats.triangles  # the needles the merge saves
+
+
+def test_long_edges_are_fixed_by_refining_patches_only(monkeypatch):
+    """On a plane (no vertical error) only edge length drives refinement: the few triangles with a
+    long edge are re-meshed in patches that fit the untouched mesh exactly."""
+    centres = np.arange(-60, 180, 2.0) + 1.0
+    x, y = np.meshgrid(centres, centres[::-1])
+    plane = Dem(20.0 + 0.03 * x - 0.02 * y, (-60.0, 2.0, 0.0, 180.0, 0.0, -2.0))
+    patches = []
+    refine = terrain._refine_patch
+    monkeypatch.setattr(terrain, "_refine_patch", lambda *a: patches.append(len(a[2])) or refine(*a))
+    tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, plane, max_edge=5.0)
+    assert patches and max(patches) < 0.2 * stats.triangles  # patches, not the whole mesh
+    assert stats.refinement_iterations == len(patches)
+    check_mesh(tin, plane, True)  # conforming, constraints kept, exact cover
+    lengths = np.linalg.norm(np.diff(tin.vertices[tin.triangles[:, [0, 1, 2, 0]]][:, :, :2], axis=1), axis=2)
+    assert lengths.max() <= 5.0 * (1 + 1e-9) and stats.max_vertical_error < 1e-9
+    t = tin.triangles
+    _, count = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1), axis=0,
+                         return_counts=True)
+    assert count.max() == 2  # every edge between at most two triangles: no overlap at the patch seams

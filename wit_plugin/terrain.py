@@ -544,7 +544,9 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
         shrink = np.ones(len(tris))
         shrink[too_long] = 0.9 * (max_edge / longest[too_long]) ** 2
         shrink[too_far] = np.minimum(shrink[too_far], np.clip(0.8 * tolerance / error[too_far], 0.05, 0.5))
-        limits = np.where(too_long | too_far, shrink * _triangle_areas(xy, tris), -1.0)
+        bad = too_long | too_far
+        limits = np.full(len(tris), -1.0)
+        limits[bad] = shrink[bad] * _triangle_areas(xy, tris[bad])
         if too_far.any():
             # new vertices must go where the surface bends, wherever that leads: refine everything,
             # splitting constraint pieces too (they carry the segment marker in the output)
