@@ -28,8 +28,8 @@ def _geoms(n: int) -> np.ndarray:
 def _read(path):
     ds = ogr.Open(str(path))
     lyr = ds.GetLayer("faces")
-    rows = [(f.GetFID(), f.GetGeometryRef().ExportToIsoWkt(), f.GetField("n"), f.GetField("h"), f.GetField("name"))
-            for f in lyr]
+    rows = [(f.GetFID(), bytes(f.GetGeometryRef().ExportToIsoWkb()), f.GetField("n"), f.GetField("h"),
+             f.GetField("name")) for f in lyr]
     return ds, lyr, rows
 
 
@@ -44,13 +44,13 @@ def test_written_layer_reads_back_exactly(tmp_path, index):
     assert lyr.GetGeomType() == ogr.wkbPolygon25D
     assert lyr.GetSpatialRef().GetAuthorityCode(None) == "5186"
     assert [r[0] for r in rows] == list(range(1, len(geoms) + 1))
-    for (_, wkt, n, h, name), geom, k in zip(rows, geoms, range(len(geoms))):
-        assert shapely.equals_exact(shapely.from_wkt(wkt), geom, tolerance=0)
-        assert shapely.get_coordinates(shapely.from_wkt(wkt), include_z=True).tolist() == \
+    for (_, wkb, n, h, name), geom, k in zip(rows, geoms, range(len(geoms))):
+        assert shapely.equals_exact(shapely.from_wkb(wkb), geom, tolerance=0)
+        assert shapely.get_coordinates(shapely.from_wkb(wkb), include_z=True).tolist() == \
             shapely.get_coordinates(geom, include_z=True).tolist()
         assert (n, h, name) == (k, columns[1][k], names[k])
     x0, y0, x1, y1 = shapely.total_bounds(geoms)
-    assert lyr.GetExtent() == pytest.approx((x0, x1, y0, y1), abs=0)
+    assert lyr.GetExtent() == pytest.approx((x0, x1, y0, y1), abs=1e-6)
     lyr.SetSpatialFilterRect(200000, 540000, 200031, 540021)  # only the courtyard building
     assert [f.GetFID() for f in lyr] == [1]
     del lyr, ds  # close before reading the file with sqlite3
@@ -82,3 +82,16 @@ def test_cancel_between_batches_leaves_no_file(tmp_path, monkeypatch, cancel_aft
 def test_columns_must_match_fields_and_rows(tmp_path):
     with pytest.raises(ValueError):
         gpkg_bulk.write_layer(tmp_path / "x.gpkg", "faces", CRS, FIELDS, _geoms(2), [[1, 2, 3]])
+
+
+def test_triangle_corners_give_the_same_blobs_as_shapely(tmp_path):
+    corners = np.random.default_rng(2).uniform(0, 1000, (40, 3, 3)) + [200000, 540000, 0]
+    polygons = shapely.polygons(corners[:, [0, 1, 2, 0]])
+    assert gpkg_bulk.geometry_blobs(corners, 7) == gpkg_bulk.geometry_blobs(polygons, 7)
+    path = tmp_path / "faces.gpkg"
+    gpkg_bulk.write_layer(path, "faces", CRS, FIELDS, corners, [range(40), [0.5] * 40, ["t"] * 40])
+    ds, lyr, rows = _read(path)
+    assert [shapely.get_coordinates(shapely.from_wkb(r[1]), include_z=True).tolist() for r in rows] == \
+        corners[:, [0, 1, 2, 0]].tolist()
+    x0, y0, x1, y1 = shapely.total_bounds(polygons)
+    assert lyr.GetExtent() == pytest.approx((x0, x1, y0, y1), abs=1e-6)

@@ -627,7 +627,7 @@ def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, spatial_index: bool =
     kept = np.flatnonzero(_areas_3d(tin.vertices, tin.triangles) > DEGENERATE_AREA + ROUNDING * longest)
     if len(kept) < len(tin.triangles):
         feedback.info(f"{len(tin.triangles) - len(kept)} sliver triangle(s) narrower than about 2 mm not written.")
-    triangles = shapely.polygons(tin.vertices[tin.triangles[kept][:, [0, 1, 2, 0]]])
+    triangles = tin.vertices[tin.triangles[kept]]
     fields = [FieldDef(TIN_TRIANGLE_ID, ogr.OFTInteger), FieldDef(TIN_SURFACE, ogr.OFTString),
               FieldDef(TIN_FEATURE_ID, ogr.OFTString)]
     return write_layer(path, TIN_LAYER, crs, fields, triangles, [kept, tin.surface[kept], tin.feature_id[kept]],
