@@ -189,17 +189,49 @@ class Dem:
             with np.errstate(divide="ignore", invalid="ignore"):  # plane z = za + gx·(x − xa) + gy·(y − ya)
                 gx = (e1[:, 2] * e2[:, 1] - e2[:, 2] * e1[:, 1]) / det
                 gy = (e2[:, 2] * e1[:, 0] - e1[:, 2] * e2[:, 0]) / det
-            owner, x, y, z = self.nodes_in_boxes(lower[:, 0], lower[:, 1], upper[:, 0], upper[:, 1], covering=True)
-            with np.errstate(invalid="ignore"):
-                dev = np.abs(z - pa[owner, 2] - gx[owner] * (x - pa[owner, 0]) - gy[owner] * (y - pa[owner, 1]))
-            dev[np.isnan(dev)] = np.inf
-            part = np.maximum.reduceat(dev, np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]]))
+            part = self._window_deviation(pa, gx, gy, lower, upper)
             u_lo, v_lo = self._indices(lower[:, 0], lower[:, 1])
             u_hi, v_hi = self._indices(upper[:, 0], upper[:, 1])
             part[(np.minimum(u_lo, u_hi) < 0) | (np.maximum(u_lo, u_hi) > cols - 1)
                  | (np.minimum(v_lo, v_hi) < 0) | (np.maximum(v_lo, v_hi) > rows - 1)] = np.inf
             bound[lo:lo + chunk] = part
         return bound
+
+    def _window_deviation(self, a: np.ndarray, gx: np.ndarray, gy: np.ndarray, lower: np.ndarray,
+                          upper: np.ndarray) -> np.ndarray:
+        """Max |height − plane| over the cell centres covering each box (``plane_deviation_bound``).
+
+        Boxes spanning at most 3 × 3 centres (triangles no bigger than the cells, the usual case)
+        take nine whole-array passes; the others go through ``nodes_in_boxes``.
+        """
+        x0, dx, _, y0, _, dy = self.geotransform
+        rows, cols = self.values.shape
+        u = (np.stack([lower[:, 0], upper[:, 0]]) - x0) / dx - 0.5
+        v = (np.stack([lower[:, 1], upper[:, 1]]) - y0) / dy - 0.5  # dy < 0: upper y gives the lower row
+        j_lo = np.clip(np.floor(u.min(axis=0)), 0, cols - 1).astype(np.int64)
+        j_hi = np.clip(np.ceil(u.max(axis=0)), 0, cols - 1).astype(np.int64)
+        i_lo = np.clip(np.floor(v.min(axis=0)), 0, rows - 1).astype(np.int64)
+        i_hi = np.clip(np.ceil(v.max(axis=0)), 0, rows - 1).astype(np.int64)
+        flat = self.values.ravel()
+        out = np.zeros(len(a))
+        with np.errstate(invalid="ignore"):
+            for di in range(3):
+                i = np.minimum(i_lo + di, i_hi)  # repeats the last centre: harmless for a maximum
+                y = y0 + (i + 0.5) * dy - a[:, 1]
+                for dj in range(3):
+                    j = np.minimum(j_lo + dj, j_hi)
+                    x = x0 + (j + 0.5) * dx - a[:, 0]
+                    out = np.fmax(out, np.abs(flat[i * cols + j] - a[:, 2] - gx * x - gy * y))
+            out[np.isnan(gx) | np.isnan(gy) | np.isinf(gx) | np.isinf(gy)] = np.inf
+            big = np.flatnonzero((j_hi - j_lo > 2) | (i_hi - i_lo > 2))
+            if len(big):
+                owner, x, y, z = self.nodes_in_boxes(lower[big, 0], lower[big, 1], upper[big, 0], upper[big, 1],
+                                                     covering=True)
+                k = big[owner]
+                dev = np.abs(z - a[k, 2] - gx[k] * (x - a[k, 0]) - gy[k] * (y - a[k, 1]))
+                dev[np.isnan(dev)] = np.inf
+                out[big] = np.maximum.reduceat(dev, np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]]))
+        return out
 
     def deviation_range(self, x0: np.ndarray, y0: np.ndarray, z0: np.ndarray, x1: np.ndarray, y1: np.ndarray,
                         z1: np.ndarray, ends_on_surface: bool = False) -> tuple[np.ndarray, np.ndarray]:

@@ -272,37 +272,39 @@ def _split_at_near_vertices(vertices: np.ndarray, segments: np.ndarray, tol: flo
     thousands on the 1 km demo); routing the segment through the vertex moves it by at most
     ``tol``. Repeated, as a bent segment can come near another vertex.
     """
-    segments = np.unique(np.sort(segments, axis=1), axis=0)
-    boxes = shapely.box(*(vertices - tol).T, *(vertices + tol).T)
+    done = np.empty((0, 2), dtype=np.int64)  # checked: no vertex near them
+    todo = np.unique(np.sort(segments, axis=1), axis=0)
+    tree = shapely.STRtree(shapely.points(vertices))
     for _ in range(max_passes):
-        p, q = vertices[segments[:, 0]], vertices[segments[:, 1]]
-        envelopes = shapely.box(*np.minimum(p, q).T, *np.maximum(p, q).T)
-        vert, seg = shapely.STRtree(envelopes).query(boxes)  # candidates by box; exact distance below
-        inner = (segments[seg, 0] != vert) & (segments[seg, 1] != vert)
+        p, q = vertices[todo[:, 0]], vertices[todo[:, 1]]
+        seg, vert = tree.query(shapely.box(*(np.minimum(p, q) - tol).T, *(np.maximum(p, q) + tol).T))
+        inner = (todo[seg, 0] != vert) & (todo[seg, 1] != vert)
         vert, seg = vert[inner], seg[inner]
-        p, q = vertices[segments[seg, 0]], vertices[segments[seg, 1]]
+        p, q = vertices[todo[seg, 0]], vertices[todo[seg, 1]]
         d = q - p
         t = ((vertices[vert] - p) * d).sum(axis=1) / (d ** 2).sum(axis=1)
         gap = vertices[vert] - (p + np.clip(t, 0.0, 1.0)[:, None] * d)
         near = (gap ** 2).sum(axis=1) <= tol ** 2
         vert, seg, t = vert[near], seg[near], t[near]
+        untouched = np.ones(len(todo), dtype=bool)
+        untouched[seg] = False
+        done = np.vstack([done, todo[untouched]])
         if not len(vert):
+            todo = todo[:0]
             break
         order = np.lexsort((t, seg))
         seg, vert = seg[order], vert[order]
-        # each split segment becomes the chain start, its near vertices in order, end
+        # each split segment becomes the chain start, its near vertices in order, end; the new
+        # pieces are checked again (only they can have come near another vertex)
         split = np.unique(seg)
         first = np.searchsorted(seg, split)
         last = np.r_[first[1:], len(seg)] - 1
-        starts = np.column_stack([segments[split, 0], vert[first]])
-        middles = np.column_stack([vert[:-1], vert[1:]])[seg[:-1] == seg[1:]]
-        ends = np.column_stack([vert[last], segments[split, 1]])
-        kept = np.ones(len(segments), dtype=bool)
-        kept[split] = False
-        pieces = np.vstack([segments[kept], starts, middles, ends])
+        pieces = np.vstack([np.column_stack([todo[split, 0], vert[first]]),
+                            np.column_stack([vert[:-1], vert[1:]])[seg[:-1] == seg[1:]],
+                            np.column_stack([vert[last], todo[split, 1]])])
         pieces = pieces[pieces[:, 0] != pieces[:, 1]]
-        segments = np.unique(np.sort(pieces, axis=1), axis=0)
-    return segments.astype(np.int32)
+        todo = np.unique(np.sort(pieces, axis=1), axis=0)
+    return np.unique(np.vstack([done, todo]), axis=0).astype(np.int32)
 
 
 def _classify(points: np.ndarray, footprints: Sequence[Feature],
