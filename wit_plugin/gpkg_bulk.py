@@ -124,6 +124,8 @@ def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[
                 x0, y0, x1, y1 = _total_bounds(geoms)
                 db.execute("UPDATE gpkg_contents SET min_x = ?, min_y = ?, max_x = ?, max_y = ? WHERE table_name = ?",
                            (x0, y0, x1, y1, layer))
+            # GDAL keeps a feature count here; rows added behind its back must be counted in
+            db.execute("UPDATE gpkg_ogr_contents SET feature_count = ? WHERE table_name = ?", (len(geoms), layer))
             db.commit()
         finally:
             db.close()
