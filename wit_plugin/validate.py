@@ -42,9 +42,9 @@ from .fileio import atomic_file
 from .schemas import content_model, load_schema, schema_namespaces
 
 BATCH_ELEMENTS = 2048
-"""Children of one container XSD-validated per call once the container is streamed."""
+"""A container with more children than this is streamed, and its children XSD-validated this many per call."""
 BATCH_BYTES = 8 << 20
-"""... or fewer, when they take more than this many bytes of the file."""
+"""... or fewer, when they take more than this many bytes of the file (a container past it is streamed too)."""
 ID_BUFFER = 65536
 """New ids, references or texture rings held as strings before they are resolved against the id hashes."""
 
@@ -277,13 +277,12 @@ class _FileCheck:
         self.max_issues, self.feedback, self.on_progress = max_issues, feedback, on_progress
         self.batch_elements, self.batch_bytes, self.id_buffer = BATCH_ELEMENTS, BATCH_BYTES, ID_BUFFER
         self.issues: list[Issue] = []
-        self._seen: set[tuple] = set()
         self._per_check: Counter = Counter()
         self.ids = _IdStore()
         self.refs: list[tuple[str, int | None, str]] = []  # referenced id, line, how it is referenced
-        self.rings: list[tuple[str, int, int | None, str | None]] = []  # ring id, texture pairs, line, texture
+        self.tex_rings: list[tuple[str, int, int | None, str | None]] = []  # ring id, texture pairs, line, texture
         self.forward_refs: dict[str, tuple[int | None, str]] = {}  # to ids not seen yet: resolved at the end
-        self.forward_rings: list[tuple[str, int, int | None, str | None]] = []
+        self.forward_tex_rings: list[tuple[str, int, int | None, str | None]] = []
         self.images: set[str] = set()
         self.ade_reported: set[str] = set()
         self.entities_possible = False
@@ -299,10 +298,6 @@ class _FileCheck:
 
     # -- reporting -------------------------------------------------------------------------------
     def add(self, check: str, line: int | None, gml_id: str | None, message: str, severity: str = "error") -> None:
-        key = (check, line, message)
-        if key in self._seen:
-            return
-        self._seen.add(key)
         self._per_check[check, severity] += 1
         if self._per_check[check, severity] <= self.max_issues:
             self.issues.append(Issue(self.name, check, severity, line, gml_id, message))
@@ -350,10 +345,10 @@ class _FileCheck:
         self._flush_triangles()
         self._flush_solids()
         self._resolve(final=True)
-        for (check, severity), count_ in self._per_check.items():
-            if count_ > self.max_issues:
+        for (check, severity), number in self._per_check.items():
+            if number > self.max_issues:
                 self.issues.append(Issue(self.name, check, severity, None, None,
-                                         f"... and {count_ - self.max_issues} more {check} {severity}s not listed."))
+                                         f"... and {number - self.max_issues} more {check} {severity}s not listed."))
         return self.issues
 
     def _start_document(self, el: etree._Element) -> None:
@@ -378,19 +373,19 @@ class _FileCheck:
         for (ref, line, how), found in zip(refs, self.ids.find([r for r, _, _ in refs])[0]):
             if not found:
                 self.forward_refs.setdefault(ref, (line, how))
-        rings, self.rings = self.rings, []
-        self._compare_tex(rings, self.forward_rings)
+        tex_rings, self.tex_rings = self.tex_rings, []
+        self._compare_tex(tex_rings, self.forward_tex_rings)
         if final:
             forward = self.forward_refs
             for (ref, (line, how)), found in zip(forward.items(), self.ids.find(list(forward))[0]):
                 if not found:
                     self.add("reference", line, None, f"{how} '#{ref}' points to no gml:id in this file.")
-            self._compare_tex(self.forward_rings, [])
+            self._compare_tex(self.forward_tex_rings, [])
 
-    def _compare_tex(self, rings: list[tuple[str, int, int | None, str | None]], unknown: list) -> None:
-        """Compare texture pairs with the points of rings already seen; put the others in ``unknown``."""
-        found, points = self.ids.find([r[0] for r in rings])
-        for (ring_id, pairs, line, tex_id), ok, n in zip(rings, found.tolist(), points.tolist()):
+    def _compare_tex(self, tex_rings: list[tuple[str, int, int | None, str | None]], unknown: list) -> None:
+        """Compare texture pairs with the points of the rings already seen; put the others in ``unknown``."""
+        found, points = self.ids.find([r[0] for r in tex_rings])
+        for (ring_id, pairs, line, tex_id), ok, n in zip(tex_rings, found.tolist(), points.tolist()):
             if not ok:
                 unknown.append((ring_id, pairs, line, tex_id))
             elif n and pairs != n:
@@ -404,7 +399,7 @@ class _FileCheck:
         self._check_triangles(el, rings)
         self._check_solids(el, rings)
         self._check_textures(el)
-        if max(self.ids.waiting, len(self.refs), len(self.rings)) >= self.id_buffer:
+        if max(self.ids.waiting, len(self.refs), len(self.tex_rings)) >= self.id_buffer:
             self._resolve()
 
     def _release(self) -> None:
@@ -461,8 +456,7 @@ class _FileCheck:
         self._check_unit(el)
         if state.pairs is not None:
             state.pairs.add(el)
-        prev = el.getprevious()
-        run = self._stand_in(prev) if prev is not None else None
+        run = self._stand_in(el.getprevious())
         if run is None or run.tag != el.tag:
             key = next(self._markers)
             self.stand_ins[key] = el
@@ -476,9 +470,9 @@ class _FileCheck:
         if state.batched >= self.batch_elements or self.pos - state.batch_start >= self.batch_bytes:
             self._flush_batch(state)
 
-    def _stand_in(self, node: etree._Element) -> etree._Element | None:
+    def _stand_in(self, node: etree._Element | None) -> etree._Element | None:
         """The hidden child that ``node`` marks, if it is a marker."""
-        return self.stand_ins[int(node.text)] if node.tag is etree.Comment else None
+        return self.stand_ins[int(node.text)] if node is not None and node.tag is etree.Comment else None
 
     def _context(self, first: etree._Element) -> tuple[etree._Element, etree._Element]:
         """A copy of ``first``'s ancestors in which a batch of its siblings is validated as in the file.
@@ -494,8 +488,9 @@ class _FileCheck:
             if depth:
                 copy = etree.SubElement(copy, node.tag, node.attrib)
             for sibling in reversed(list(child.itersiblings(preceding=True))):
-                tag = sibling.tag if isinstance(sibling.tag, str) else getattr(self._stand_in(sibling), "tag", None)
-                if tag is not None:
+                stand_in = self._stand_in(sibling)
+                tag = sibling.tag if stand_in is None else stand_in.tag
+                if isinstance(tag, str):  # not an entity reference (reported by _scan)
                     etree.SubElement(copy, tag)
         return root, copy
 
@@ -558,7 +553,6 @@ class _FileCheck:
             if text.startswith("#"):
                 self.refs.append((text[1:], node.sourceline, _short(node.tag)))
         return rings
-
 
     def _check_dimension(self, node: etree._Element, count: int, any_declared: bool) -> bool:
         """True when the position element holds 3D positions; reports it otherwise.
@@ -747,10 +741,10 @@ class _TexCoordPairs:
 
     def __init__(self, fc: _FileCheck, tcl: etree._Element):
         self.fc, self.line, self.tex_id = fc, tcl.sourceline, _owner_id(tcl)
-        self.pairs = array("q")  # (s t) pairs per coordinate list, -1 when the count of values is odd
+        self.pairs = array("q")  # (s t) pairs per coordinate list; minus the number of values when it is odd
         self.lines = array("q")
         self.faults: dict[int, list[str]] = {}  # coordinate list -> its non-finite values (first three)
-        self.rings = 0
+        self.n_rings = 0
 
     def add(self, node: etree._Element) -> None:
         if node.tag == _A["textureCoordinates"]:
@@ -761,9 +755,9 @@ class _TexCoordPairs:
             self.pairs.append(-len(tokens) if len(tokens) % 2 else len(tokens) // 2)
             self.lines.append(node.sourceline or 0)
         elif node.tag == _A["ring"]:
-            self.rings += 1
-            if self.rings <= len(self.pairs):
-                self._pair(self.rings - 1, (node.text or "").strip().lstrip("#"))
+            self.n_rings += 1
+            if self.n_rings <= len(self.pairs):
+                self._pair(self.n_rings - 1, (node.text or "").strip().lstrip("#"))
 
     def _pair(self, k: int, ring_id: str) -> None:
         fc, pairs, line = self.fc, self.pairs[k], self.lines[k] or None
@@ -775,12 +769,12 @@ class _TexCoordPairs:
             fc.add("texture-coordinates", line, self.tex_id, f"Texture coordinates for ring #{ring_id} have an odd "
                    f"number of values ({-pairs}); they are (s t) pairs.")
         else:
-            fc.rings.append((ring_id, pairs, line, self.tex_id))
+            fc.tex_rings.append((ring_id, pairs, line, self.tex_id))
 
     def close(self) -> None:
-        if len(self.pairs) != self.rings:
+        if len(self.pairs) != self.n_rings:
             self.fc.add("texture-coordinates", self.line, self.tex_id, f"TexCoordList has {len(self.pairs)} "
-                        f"textureCoordinates but {self.rings} ring references; they must pair up in order.")
+                        f"textureCoordinates but {self.n_rings} ring references; they must pair up in order.")
 
 
 class _Where(NamedTuple):
