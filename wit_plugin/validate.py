@@ -83,20 +83,25 @@ PREFIXES = {  # conventional prefixes, for messages that read like the XML
     "http://www.w3.org/2001/XMLSchema": "xs"}
 
 _PARSE = dict(resolve_entities=False, no_network=True, load_dtd=False, remove_comments=True, remove_pis=True)
-def _having(attribute: str):
-    """Elements of a subtree (itself included) carrying ``attribute``.
+def _attributed(tree: etree._Element) -> tuple[list[etree._Element], list[etree._Element], bool]:
+    """Elements of a subtree (itself included) with a gml:id, those with an xlink:href, and whether
+    any declares srsDimension: one pass, as it is the validator's most frequent walk.
 
     Plain iteration, not XPath: libxml2's XPath fails ("Error in xpath expression") once a node
     set grows past its limit, which a multi-GB model's appearance member reaches.
     """
-    def find(tree: etree._Element) -> list[etree._Element]:
-        return [node for node in tree.iter(etree.Element) if attribute in node.attrib]
-    return find
+    with_id, with_href, dims = [], [], False
+    for node in tree.iter(etree.Element):
+        names = node.keys()
+        if names:
+            if GML_ID in names:
+                with_id.append(node)
+            if HREF in names:
+                with_href.append(node)
+            dims = dims or "srsDimension" in names
+    return with_id, with_href, dims
 
 
-_WITH_ID = _having(f"{{{GML}}}id")
-_WITH_HREF = _having(f"{{{XLINK}}}href")
-_WITH_DIM = _having("srsDimension")
 _QNAME_IN_MSG = re.compile(r"\{([^}]*)\}([\w.\-]+)")
 _ELEMENT_IN_MSG = re.compile(r"^Element '([^']+)'")
 _NCNAME = re.compile(r"^[^\W\d][\w.\-]*$")
@@ -194,7 +199,7 @@ class _IdStore:
 
     def __init__(self) -> None:
         self._runs: list[tuple[np.ndarray, np.ndarray]] = []  # (sorted uint64 hashes, uint32 points)
-        self._new: list[tuple[bytes, str, int | None, int]] = []  # digest, id, line, points
+        self._new: list[tuple[str, int | None, int]] = []  # id, line, points
 
     def __len__(self) -> int:
         return sum(len(keys) for keys, _ in self._runs) + len(self._new)
@@ -204,7 +209,7 @@ class _IdStore:
         return len(self._new)
 
     def add(self, gid: str, line: int | None, points: int) -> None:
-        self._new.append((_digest(gid), gid, line, points))
+        self._new.append((gid, line, points))
 
     def merge(self) -> list[tuple[str, int | None]]:
         """Move the buffered ids into the hash runs; return the duplicates (id, line), in file order.
@@ -214,13 +219,13 @@ class _IdStore:
         if not self._new:
             return []
         new, self._new = self._new, []
-        keys = _keys([d for d, _, _, _ in new])
+        keys = _hashes([gid for gid, _, _ in new])
         order = np.argsort(keys, kind="stable")  # equal hashes stay in file order
         keys = keys[order]
         dup = np.r_[False, keys[1:] == keys[:-1]] | self.find_keys(keys)[0]
-        duplicates = [new[i][1:3] for i in np.sort(order[dup]).tolist()]
+        duplicates = [new[i][:2] for i in np.sort(order[dup]).tolist()]
         if not dup.all():
-            points = np.array([p for _, _, _, p in new], dtype=np.uint32)[order]
+            points = np.array([p for _, _, p in new], dtype=np.uint32)[order]
             self._runs.append((keys[~dup], points[~dup]))
         while len(self._runs) > 1 and len(self._runs[-2][0]) <= 2 * len(self._runs[-1][0]):
             (k1, p1), (k2, p2) = self._runs.pop(), self._runs.pop()
@@ -231,7 +236,7 @@ class _IdStore:
 
     def find(self, gids: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
         """(found, points) for each id, among the merged ids (call ``merge`` first)."""
-        return self.find_keys(_keys([_digest(g) for g in gids]))
+        return self.find_keys(_hashes(gids))
 
     def find_keys(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         found = np.zeros(len(keys), dtype=bool)
@@ -244,12 +249,10 @@ class _IdStore:
         return found, points
 
 
-def _digest(gid: str) -> bytes:
-    return hashlib.blake2b(gid.encode(), digest_size=8).digest()
-
-
-def _keys(digests: list[bytes]) -> np.ndarray:
-    return np.frombuffer(b"".join(digests), dtype="<u8")
+def _hashes(gids: Sequence[str]) -> np.ndarray:
+    """64-bit BLAKE2b hashes of ``gids`` (uint64)."""
+    blake2b = hashlib.blake2b
+    return np.frombuffer(b"".join([blake2b(g.encode(), digest_size=8).digest() for g in gids]), dtype="<u8")
 
 
 @dataclass(eq=False)
@@ -396,9 +399,10 @@ class _FileCheck:
     def _check_unit(self, el: etree._Element) -> None:
         """Check a member, the root or one streamed child where it stands (its hidden stand-ins are done)."""
         rings = self._scan(el)
-        self._check_triangles(el, rings)
-        self._check_solids(el, rings)
-        self._check_textures(el)
+        if len(el):  # a leaf (e.g. one texture coordinate list) holds no triangle, solid nor texture
+            self._check_triangles(el, rings)
+            self._check_solids(el, rings)
+            self._check_textures(el)
         if max(self.ids.waiting, len(self.refs), len(self.tex_rings)) >= self.id_buffer:
             self._resolve()
 
@@ -520,10 +524,10 @@ class _FileCheck:
                          "expanded (security), so its content is missing. Write the text directly.")
                 _remove_keep_tail(ent)
         rings: dict = {}
-        dims = _WITH_DIM(el)
+        with_id, with_href, dims = _attributed(el)
         for node in el.iter(_G["posList"], _G["pos"], _G["lowerCorner"], _G["upperCorner"]):
             tokens = (node.text or "").split()
-            ok = self._check_dimension(node, len(tokens), bool(dims))
+            ok = self._check_dimension(node, len(tokens), dims)
             parent = node.getparent()
             if parent.tag == _G["LinearRing"]:
                 try:
@@ -537,14 +541,14 @@ class _FileCheck:
                         rings[parent] = None
                 else:
                     rings[parent] = values
-        for node in _WITH_ID(el):
+        for node in with_id:
             gid = node.get(GML_ID)
             if not _NCNAME.match(gid):
                 self.add("xsd", node.sourceline, gid, f"gml:id '{gid}' is not a valid XML name (it must start with a "
                          "letter or '_' and contain no spaces or ':').")
             values = rings.get(node)
             self.ids.add(gid, node.sourceline, len(values) // 3 if values else 0)
-        for node in _WITH_HREF(el):
+        for node in with_href:
             href = node.get(HREF)
             if href.startswith("#"):
                 self.refs.append((href[1:], node.sourceline, f"xlink:href of {_short(node.tag)}"))
@@ -1059,7 +1063,7 @@ def _neutral_ids(tree: etree._Element) -> dict[str, str]:
     and syntax of the real ids are checked in ``_scan`` instead.
     """
     aliases = {}
-    for n, node in enumerate(_WITH_ID(tree)):
+    for n, node in enumerate(_attributed(tree)[0]):
         alias = f"i{n}"
         aliases[alias] = node.get(GML_ID)
         node.set(GML_ID, alias)
