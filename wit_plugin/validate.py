@@ -8,9 +8,9 @@ checks run in one streaming pass (``lxml.etree.iterparse``) so that a 1 GB file 
 * every top-level member of the city model is checked and XSD-validated on its own, then dropped;
 * inside a member, the children of a container that grows past one batch (the triangles of a
   TIN's ``gml:patches``, the texture associations of an ``app:ParameterizedTexture``, the
-  entries of an ``app:TexCoordList``) are checked one by one and XSD-validated in batches of
-  ``BATCH_ELEMENTS`` / ``BATCH_BYTES`` inside a small copy of their ancestors, then dropped
-  (see ``_FileCheck._stream_child``);
+  entries of an ``app:TexCoordList``) are checked and XSD-validated a batch at a time
+  (``BATCH_ELEMENTS`` / ``BATCH_BYTES``), the XSD inside a small copy of their ancestors, then
+  dropped (see ``_FileCheck._batch``);
 * gml:ids are kept as 64-bit hashes with the point count of each ring (``_IdStore``, ~12 bytes
   per id); references and texture rings are resolved against it in batches of ``ID_BUFFER``.
 
@@ -28,6 +28,7 @@ from array import array
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from difflib import get_close_matches
+from functools import lru_cache
 from itertools import count, islice, pairwise
 from pathlib import Path
 from typing import NamedTuple, Sequence
@@ -91,7 +92,7 @@ def _attributed(tree: etree._Element) -> tuple[list[etree._Element], list[etree.
     set grows past its limit, which a multi-GB model's appearance member reaches.
     """
     with_id, with_href, dims = [], [], False
-    for node in tree.iter(etree.Element):
+    for node in tree.iter(etree.Element) if len(tree) else (tree,):
         names = node.keys()
         if names:
             if GML_ID in names:
@@ -255,17 +256,17 @@ class _IdStore:
         return found, points
 
 
-def _merge_runs(small: tuple[np.ndarray, np.ndarray], big: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """One sorted run from two (of distinct keys), in linear time and with no temporary copy of the big one."""
-    at = np.searchsorted(big[0], small[0])
-    at += np.arange(len(at))  # where the small run's keys land in the merged run
-    from_small = np.zeros(len(big[0]) + len(at), dtype=bool)
-    from_small[at] = True
+def _merge_runs(new: tuple[np.ndarray, np.ndarray], old: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """One sorted run (hashes, points) from two whose hashes differ: linear, and no temporary copy of either."""
+    at = np.searchsorted(old[0], new[0])
+    at += np.arange(len(at))  # where the new run's hashes land in the merged run
+    from_new = np.zeros(len(old[0]) + len(at), dtype=bool)
+    from_new[at] = True
     merged = []
-    for s, b in zip(small, big):
-        out = np.empty(len(from_small), dtype=b.dtype)
-        out[at] = s
-        out[~from_small] = b
+    for n, o in zip(new, old):
+        out = np.empty(len(from_new), dtype=o.dtype)
+        out[at] = n
+        out[~from_new] = o
         merged.append(out)
     return merged[0], merged[1]
 
@@ -278,15 +279,11 @@ def _hashes(gids: Sequence[str]) -> np.ndarray:
 
 @dataclass(eq=False)
 class _Stream:
-    """A container's children of the streamed kinds: counted while they fit one batch, then streamed."""
-    start: int  # file position at the first child
+    """A container's children of the streamed kinds still in place, counted until they fill a batch."""
+    start: int  # file position at the first of them
     count: int = 0
-    streaming: bool = False
+    streaming: bool = False  # a batch was taken out: the rest goes out at the container's end too
     pairs: _TexCoordPairs | None = None  # a streamed TexCoordList's coordinates waiting for their rings
-    root: etree._Element | None = None  # copy of the ancestors holding the current batch ...
-    batch: etree._Element | None = None  # ... whose copy of the container receives the batch
-    batched: int = 0
-    batch_start: int = 0
 
 
 class _FileCheck:
@@ -315,10 +312,9 @@ class _FileCheck:
         self.pending: etree._Element | None = None  # checked member waiting to be validated and dropped
         self.triangles: list[tuple[str | None, int | None, list[float]]] = []
         self.streams: dict[etree._Element, _Stream] = {}  # open containers of streamed children
-        self.late: list[tuple[etree._Element, _Stream]] = []  # streamed children to detach at the next event
         self.stand_ins: dict[int, etree._Element] = {}  # hidden first child of a run, by its marker's number
         self._markers = count()
-        self.pos = 0  # file position of the parser
+        self.pos = 0  # file position of the parser at the last streamed child
 
     # -- reporting -------------------------------------------------------------------------------
     def add(self, check: str, line: int | None, gml_id: str | None, message: str, severity: str = "error") -> None:
@@ -336,16 +332,14 @@ class _FileCheck:
                 for n, (_, el) in enumerate(events):
                     if n == 0:
                         self._start_document(el)
-                    self.pos = stream.tell()
-                    if self.late:
-                        self._detach_late()
                     parent = el.getparent()
                     if parent is not None and STREAMED.get(el.tag) == parent.tag:
+                        self.pos = stream.tell()
                         self._stream_child(el, parent)
                     else:
                         state = self.streams.pop(el, None)
                         if state is not None:
-                            self._end_container(state)
+                            self._end_container(el, state)
                         if parent is None:
                             self._release()
                             self._check_unit(el)
@@ -363,9 +357,6 @@ class _FileCheck:
             last = exc.error_log.last_error if exc.error_log else None
             self.add("xml", (last.line if last else exc.lineno) or None, None, f"Not well-formed XML: "
                      f"{(last.message if last else exc.msg).strip()}. Nothing after this point was checked.")
-        self._detach_late()
-        for state in self.streams.values():
-            self._flush_batch(state)
         self._release()
         self._flush_triangles()
         self._flush_solids()
@@ -446,62 +437,77 @@ class _FileCheck:
         self._validate(mini)
 
     def _stream_child(self, el: etree._Element, container: etree._Element) -> None:
-        """Leave a container's children in place while they fit one batch; past that, stream them.
+        """Leave a container's children in place until they fill a batch, then process them together.
 
-        A streamed child is checked and taken out of the parsed tree one event late (see
-        ``_release``), so the container never holds more than a batch, whatever its size.
+        ``el`` itself stays until the next batch: libxml2 may still be appending its tail text (see
+        ``_release``). So a container never holds more than a batch, whatever its size.
         """
         state = self.streams.get(container)
         if state is None:
             state = self.streams[container] = _Stream(self.pos)
         state.count += 1
+        if state.count > self.batch_elements or self.pos - state.start > self.batch_bytes:
+            earlier = [s for s in el.itersiblings(preceding=True) if STREAMED.get(s.tag) == container.tag]
+            self._batch(container, state, earlier[::-1])
+            state.count, state.start = 1, self.pos
+
+    def _end_container(self, container: etree._Element, state: _Stream) -> None:
+        """A streamed container's last children form the last batch; a small one is left to its member."""
+        if state.streaming:
+            self._batch(container, state, [c for c in container if STREAMED.get(c.tag) == container.tag])
+            if state.pairs is not None:
+                state.pairs.close()
+
+    def _batch(self, container: etree._Element, state: _Stream, children: list[etree._Element]) -> None:
+        """Check a container's children together, then take them out of the parsed tree.
+
+        They are checked in a neutral holder put in their place, so the checks see their real
+        ancestors (owner ids, inherited srsName) at the cost of one walk per batch. The first child
+        of each run of one kind then stays as the container's stand-in, hidden behind a marker
+        comment (invisible to the checks; the parse drops the file's own comments) until the
+        enclosing member is validated: the schema then sees the container as in the file
+        (minOccurs, order) and reports the stand-in's errors on its real line. The others are
+        XSD-validated together in a copy of their context (``_context``), then dropped.
+        """
+        if not children:
+            return  # a single child past BATCH_BYTES: it goes with the next batch
         if not state.streaming:
-            if state.count <= self.batch_elements and self.pos - state.start <= self.batch_bytes:
-                return
             state.streaming = True
             if container.tag == _A["TexCoordList"]:
                 state.pairs = _TexCoordPairs(self, container)
-            for earlier in reversed([s for s in el.itersiblings(preceding=True) if STREAMED.get(s.tag) == container.tag]):
-                self._detach(earlier, state)
-        self.late.append((el, state))
-
-    def _detach_late(self) -> None:
-        late, self.late = self.late, []
-        for el, state in late:
-            self._detach(el, state)
-
-    def _detach(self, el: etree._Element, state: _Stream) -> None:
-        """Check one streamed child, then take it out of the parsed tree.
-
-        The first child of each run of one kind stays as the container's stand-in, hidden behind a
-        marker comment (invisible to the checks; the parse drops the file's own comments) until the
-        enclosing member is validated: the schema then sees the container as in the file
-        (minOccurs, order) and reports the stand-in's own errors on its real line. The others join
-        the batch.
-        """
-        self._check_unit(el)
+        holder = etree.Element("batch")
+        children[0].addprevious(holder)
+        root, copy = self._context(holder)
+        holder.extend(children)  # within the parsed document: cheap
+        self._check_unit(holder)
         if state.pairs is not None:
-            state.pairs.add(el)
-        run = self._stand_in(el.getprevious())
-        if run is None or run.tag != el.tag:
-            key = next(self._markers)
-            self.stand_ins[key] = el
-            el.getparent().replace(el, etree.Comment(str(key)))
-            return
-        if state.batch is None:
-            state.root, state.batch = self._context(el)
-            state.batch_start = self.pos
-        _move_into(el, state.batch)
-        state.batched += 1
-        if state.batched >= self.batch_elements or self.pos - state.batch_start >= self.batch_bytes:
-            self._flush_batch(state)
+            for child in holder:
+                state.pairs.add(child)
+        before = holder.getprevious()
+        run = self._stand_in(before) if before is not None and before.tag is etree.Comment else before
+        run_tag = run.tag if run is not None else None
+        batch = []
+        for child in list(holder):
+            if child.tag != run_tag:
+                key = next(self._markers)
+                self.stand_ins[key] = child
+                holder.addprevious(etree.Comment(str(key)))
+                holder.remove(child)
+            else:
+                batch.append(child)
+            run_tag = child.tag
+        for child in batch:
+            _move_into(child, copy)
+        container.remove(holder)  # empty now: removing it with its children would re-link them all
+        if batch:
+            self._validate(root)
 
-    def _stand_in(self, node: etree._Element | None) -> etree._Element | None:
-        """The hidden child that ``node`` marks, if it is a marker."""
-        return self.stand_ins[int(node.text)] if node is not None and node.tag is etree.Comment else None
+    def _stand_in(self, node: etree._Element) -> etree._Element:
+        """The hidden child that the marker ``node`` stands for."""
+        return self.stand_ins[int(node.text)]
 
     def _context(self, first: etree._Element) -> tuple[etree._Element, etree._Element]:
-        """A copy of ``first``'s ancestors in which a batch of its siblings is validated as in the file.
+        """A copy of ``first``'s ancestors in which siblings of ``first`` are validated as in the file.
 
         Each copy holds one empty element per sibling before the path: a content model looks only
         at the names of the earlier siblings, so this is enough for the schema to check the batch
@@ -514,22 +520,10 @@ class _FileCheck:
             if depth:
                 copy = etree.SubElement(copy, node.tag, node.attrib)
             for sibling in reversed(list(child.itersiblings(preceding=True))):
-                stand_in = self._stand_in(sibling)
-                tag = sibling.tag if stand_in is None else stand_in.tag
+                tag = self._stand_in(sibling).tag if sibling.tag is etree.Comment else sibling.tag
                 if isinstance(tag, str):  # not an entity reference (reported by _scan)
                     etree.SubElement(copy, tag)
         return root, copy
-
-    def _flush_batch(self, state: _Stream) -> None:
-        if state.root is not None:
-            self._validate(state.root)
-        state.root = state.batch = None
-        state.batched = 0
-
-    def _end_container(self, state: _Stream) -> None:
-        self._flush_batch(state)
-        if state.pairs is not None:
-            state.pairs.close()
 
     def _restore(self, tree: etree._Element) -> None:
         """Put the hidden stand-ins back in place of their markers (they are validated with ``tree``)."""
@@ -573,11 +567,11 @@ class _FileCheck:
         for node in with_href:
             href = node.get(HREF)
             if href.startswith("#"):
-                self.refs.append((href[1:], node.sourceline, f"xlink:href of {_short(node.tag)}"))
+                self.refs.append((href[1:], node.sourceline, f"xlink:href of {_qname(node.tag)}"))
         for node in _within(el, _REFERENCE_TEXTS):
             text = (node.text or "").strip()
             if text.startswith("#"):
-                self.refs.append((text[1:], node.sourceline, _short(node.tag)))
+                self.refs.append((text[1:], node.sourceline, _qname(node.tag)))
         return rings
 
     def _check_dimension(self, node: etree._Element, count: int, any_declared: bool) -> bool:
@@ -588,11 +582,11 @@ class _FileCheck:
         """
         dim = _srs_dimension(node, any_declared)
         if dim is not None and dim != 3:
-            problem = f"{_short(node.tag)} has srsDimension=\"{dim}\": coordinates must be 3D (x y z)."
+            problem = f"{_qname(node.tag)} has srsDimension=\"{dim}\": coordinates must be 3D (x y z)."
         elif node.tag == _G["posList"] and count % 3:
             problem = f"gml:posList has {count} numbers, not a multiple of 3: every position must be 3D (x y z)."
         elif node.tag != _G["posList"] and count != 3:
-            problem = f"{_short(node.tag)} has {count} numbers: a position must be 3D (x y z)."
+            problem = f"{_qname(node.tag)} has {count} numbers: a position must be 3D (x y z)."
         else:
             return True
         own_crs = _inherited(node, "srsName")
@@ -662,7 +656,7 @@ class _FileCheck:
         """Queue every triangle of ``el``; they are checked in batches (numpy pays off on thousands)."""
         for tri in el.iter(_G["Triangle"]):
             gid = tri.get(GML_ID) or next((r.get(GML_ID) for r in tri.iter(_G["LinearRing"]) if r.get(GML_ID)), None)
-            exterior = tri.find(_G["exterior"] + "/" + _G["LinearRing"])
+            exterior = next((r for e in tri.iterchildren(_G["exterior"]) for r in e.iterchildren(_G["LinearRing"])), None)
             values = rings.get(exterior) if exterior is not None else None
             if values is not None:
                 self.triangles.append((gid, tri.sourceline, values))
@@ -775,7 +769,7 @@ class _TexCoordPairs:
     def add(self, node: etree._Element) -> None:
         if node.tag == _A["textureCoordinates"]:
             tokens = (node.text or "").split()
-            bad = [t for t in tokens if not _finite(t)]
+            bad = _non_finite(tokens)
             if bad:
                 self.faults[len(self.pairs)] = bad[:3]
             self.pairs.append(-len(tokens) if len(tokens) % 2 else len(tokens) // 2)
@@ -1056,6 +1050,22 @@ def _label(node: etree._Element) -> str:
 
 def _xyz(p: np.ndarray) -> str:
     return "(" + " ".join(f"{c:.3f}" for c in p) + ")"
+
+
+@lru_cache(maxsize=None)
+def _qname(tag: str) -> str:
+    """``prefix:name`` of an element tag (few distinct ones, so cached)."""
+    return _short(tag)
+
+
+def _non_finite(tokens: list[str]) -> list[str]:
+    """The tokens that are not finite numbers (one float() per token; most lists have none)."""
+    try:
+        if all(map(math.isfinite, map(float, tokens))):
+            return []
+    except ValueError:
+        pass
+    return [t for t in tokens if not _finite(t)]
 
 
 def _finite(token: str) -> bool:
