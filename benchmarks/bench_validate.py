@@ -165,7 +165,7 @@ def run_modes(path: Path, modes: list[str], row: dict) -> list[dict]:
         res = json.loads(run.stdout.strip().splitlines()[-1])
         rows.append({**row, "mode": mode, "file_mb": round(mb, 1), "seconds": round(res["seconds"], 2),
                      "mb_per_s": round(mb / res["seconds"], 1), "peak_rss_mb": round(res["peak_rss_mb"], 1),
-                     "valid": res["valid"], "errors": res["errors"]})
+                     "valid": res["valid"], "errors": res["errors"], "load_average": os.getloadavg()})
         print(f"{path.name:>24} {mode:<8} {mb:8.1f} MB {res['seconds']:8.2f} s {mb / res['seconds']:7.1f} MB/s "
               f"{res['peak_rss_mb']:8.1f} MB RSS  valid={res['valid']}", flush=True)
     return rows
