@@ -28,7 +28,7 @@ from array import array
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from difflib import get_close_matches
-from functools import lru_cache
+from functools import cache
 from itertools import count, islice, pairwise
 from pathlib import Path
 from typing import NamedTuple, Sequence
@@ -92,7 +92,7 @@ def _attributed(tree: etree._Element) -> tuple[list[etree._Element], list[etree.
     set grows past its limit, which a multi-GB model's appearance member reaches.
     """
     with_id, with_href, dims = [], [], False
-    for node in tree.iter(etree.Element) if len(tree) else (tree,):
+    for node in tree.iter(etree.Element):
         names = node.keys()
         if names:
             if GML_ID in names:
@@ -101,13 +101,6 @@ def _attributed(tree: etree._Element) -> tuple[list[etree._Element], list[etree.
                 with_href.append(node)
             dims = dims or "srsDimension" in names
     return with_id, with_href, dims
-
-
-def _within(el: etree._Element, tags: tuple[str, ...]):
-    """``el.iter(*tags)``, without lxml building its tag matcher for a leaf (most streamed children are)."""
-    if len(el):
-        return el.iter(*tags)
-    return (el,) if el.tag in tags else ()
 
 
 _POSITIONS = (_G["posList"], _G["pos"], _G["lowerCorner"], _G["upperCorner"])
@@ -410,12 +403,12 @@ class _FileCheck:
 
     # -- members and streamed children -------------------------------------------------------------
     def _check_unit(self, el: etree._Element) -> None:
-        """Check a member, the root or one streamed child where it stands (its hidden stand-ins are done)."""
+        """Check a member, the root or a batch of streamed children where it stands (not the hidden stand-ins:
+        they were checked with their batch)."""
         rings = self._scan(el)
-        if len(el):  # a leaf (e.g. one texture coordinate list) holds no triangle, solid nor texture
-            self._check_triangles(el, rings)
-            self._check_solids(el, rings)
-            self._check_textures(el)
+        self._check_triangles(el, rings)
+        self._check_solids(el, rings)
+        self._check_textures(el)
         if max(self.ids.waiting, len(self.refs), len(self.tex_rings)) >= self.id_buffer:
             self._resolve()
 
@@ -541,7 +534,7 @@ class _FileCheck:
                 _remove_keep_tail(ent)
         rings: dict = {}
         with_id, with_href, dims = _attributed(el)
-        for node in _within(el, _POSITIONS):
+        for node in el.iter(*_POSITIONS):
             tokens = (node.text or "").split()
             ok = self._check_dimension(node, len(tokens), dims)
             parent = node.getparent()
@@ -568,7 +561,7 @@ class _FileCheck:
             href = node.get(HREF)
             if href.startswith("#"):
                 self.refs.append((href[1:], node.sourceline, f"xlink:href of {_qname(node.tag)}"))
-        for node in _within(el, _REFERENCE_TEXTS):
+        for node in el.iter(*_REFERENCE_TEXTS):
             text = (node.text or "").strip()
             if text.startswith("#"):
                 self.refs.append((text[1:], node.sourceline, _qname(node.tag)))
@@ -1052,7 +1045,7 @@ def _xyz(p: np.ndarray) -> str:
     return "(" + " ".join(f"{c:.3f}" for c in p) + ")"
 
 
-@lru_cache(maxsize=None)
+@cache
 def _qname(tag: str) -> str:
     """``prefix:name`` of an element tag (few distinct ones, so cached)."""
     return _short(tag)
