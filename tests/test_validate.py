@@ -504,3 +504,18 @@ def test_id_store_keeps_hashes_and_reports_later_duplicates():
     found, points = store.find(["id6", "id500", "new", "missing"])
     assert found.tolist() == [True, True, True, False]
     assert points.tolist()[:3] == [6, 500 % 7, 3]
+
+
+@pytest.mark.parametrize("batch", [1, 2, 10000])
+def test_order_error_between_streamed_runs_is_on_its_line(batch, schema_dir, tmp_path, monkeypatch):
+    """Coordinates after a ring in a streamed TexCoordList: the run's stand-in shows it to the schema."""
+    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+    path = _with_texture(schema_dir / "examples" / "handmade_LOD1_textured_building_TIN_group.gml", tmp_path)
+    coords = "<app:textureCoordinates>0.0 0.0 1.0 1.0 0.0 1.0 0.0 0.0</app:textureCoordinates>"
+    ring = "<app:ring>#tin_1_t0</app:ring>"
+    text = path.read_text(encoding="utf-8")
+    path.write_text(text.replace(f"{coords}\n                  {ring}", f"{ring}\n                  {coords}"),
+                    encoding="utf-8")
+    [issue] = _one(path, schema_dir).issues  # xmllint says the same (line 180)
+    assert (issue.check, issue.line) == ("xsd", 180)
+    assert issue.message == "Element 'app:textureCoordinates': This element is not expected. Expected is ( app:ring )."
