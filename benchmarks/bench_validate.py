@@ -2,14 +2,18 @@
 
 Files hold N LoD1 box buildings (closed, outward solids, gml:ids on every polygon and ring) plus
 one TIN relief of about N triangles in a single feature, so both the per-member and the
-per-triangle streaming paths are exercised. Each measurement runs in a fresh process; its peak
-RSS comes from ``resource.getrusage(RUSAGE_CHILDREN)`` of an intermediate process that runs it.
+streamed-children paths are exercised; ``--textured`` adds one appearance member with a roof
+texture association per building and one TIN association listing every triangle (the huge
+appearance member of a real model). ``--file`` measures given files instead. Each measurement
+runs in a fresh process; its peak RSS comes from ``resource.getrusage(RUSAGE_CHILDREN)`` of an
+intermediate process that runs it.
 
 Modes: ``full`` = ``validate_files`` (all checks, streaming); ``xsd-dom`` = ``etree.parse`` then
 ``XMLSchema.validate`` (the textbook way; memory grows with the file); ``xsd-sax`` =
 ``iterparse(schema=...)`` with clearing (bounded, but libxml2 reports line 0 for every error).
 
-    python benchmarks/bench_validate.py [--sizes 10000 100000] [--out out/bench/validate.json]
+    python benchmarks/bench_validate.py [--sizes 10000 100000] [--textured] [--out out/bench/validate.json]
+    python benchmarks/bench_validate.py --file model.gml other.gml [--modes full]   # -> out/bench/validate_files.json
 """
 from __future__ import annotations
 
@@ -29,6 +33,7 @@ HEAD = """<?xml version="1.0" encoding="UTF-8"?>
 <core:CityModel gml:id="cm" xmlns:core="http://www.opengis.net/citygml/3.0"
  xmlns:bldg="http://www.opengis.net/citygml/building/3.0" xmlns:con="http://www.opengis.net/citygml/construction/3.0"
  xmlns:dem="http://www.opengis.net/citygml/relief/3.0" xmlns:gen="http://www.opengis.net/citygml/generics/3.0"
+ xmlns:app="http://www.opengis.net/citygml/appearance/3.0"
  xmlns:gml="http://www.opengis.net/gml/3.2" xmlns:xlink="http://www.w3.org/1999/xlink">
  <gml:boundedBy><gml:Envelope srsName="EPSG:5186" srsDimension="3"><gml:lowerCorner>{x0} {y0} 0</gml:lowerCorner>
  <gml:upperCorner>{x1} {y1} 100</gml:upperCorner></gml:Envelope></gml:boundedBy>
@@ -58,8 +63,11 @@ def _building(i: int, x: float, y: float, w: float = 12.0, d: float = 9.0, z: fl
             f'<bldg:storeysAboveGround>3</bldg:storeysAboveGround></bldg:Building></core:cityObjectMember>\n')
 
 
-def generate(path: Path, n: int) -> None:
-    """Write a valid file with ``n`` buildings on a grid and a TIN of ~``n`` triangles, streaming."""
+def generate(path: Path, n: int, textured: bool = False) -> None:
+    """Write a valid file with ``n`` buildings on a grid and a TIN of ~``n`` triangles, streaming.
+
+    ``textured``: plus one appearance member texturing every roof and every triangle from one image.
+    """
     side = int(n ** 0.5) + 1
     x0, y0 = 200000.0, 500000.0
     with open(path, "w", encoding="utf-8") as out:
@@ -82,7 +90,32 @@ def generate(path: Path, n: int) -> None:
                     out.write(f'<gml:Triangle><gml:exterior><gml:LinearRing gml:id="t{r}_{c}_{k}"><gml:posList>{pos}'
                               '</gml:posList></gml:LinearRing></gml:exterior></gml:Triangle>\n')
         out.write("</gml:patches></gml:TriangulatedSurface></dem:tin></dem:TINRelief></dem:reliefComponent>"
-                  "</dem:ReliefFeature></core:cityObjectMember>\n</core:CityModel>\n")
+                  "</dem:ReliefFeature></core:cityObjectMember>\n")
+        if textured:
+            _appearance(out, path, n, cells)
+        out.write("</core:CityModel>\n")
+
+
+def _appearance(out, path: Path, n: int, cells: int) -> None:
+    """One ParameterizedTexture: an association per roof, then one for the TIN listing every triangle."""
+    image = path.with_suffix(".jpg")
+    image.write_bytes(b"\xff\xd8\xff\xd9")
+    out.write('<core:appearanceMember><app:Appearance gml:id="app"><app:theme>ortho</app:theme><app:surfaceData>'
+              f'<app:ParameterizedTexture gml:id="tex"><app:imageURI>{image.name}</app:imageURI>'
+              '<app:mimeType>image/jpeg</app:mimeType>\n')
+    for i in range(n):
+        out.write(f'<app:textureParameterization><app:TextureAssociation><app:target>#b{i}_t</app:target>'
+                  '<app:textureParameterization><app:TexCoordList><app:textureCoordinates>0.1 0.1 0.1 0.9 0.9 0.9 '
+                  f'0.9 0.1 0.1 0.1</app:textureCoordinates><app:ring>#b{i}_t_r</app:ring></app:TexCoordList>'
+                  '</app:textureParameterization></app:TextureAssociation></app:textureParameterization>\n')
+    triangles = [f"t{r}_{c}_{k}" for r in range(cells) for c in range(cells) for k in (0, 1)]
+    out.write('<app:textureParameterization><app:TextureAssociation><app:target>#tin_s</app:target>'
+              '<app:textureParameterization><app:TexCoordList>\n')
+    out.writelines("<app:textureCoordinates>0 0 1 0 1 1 0 0</app:textureCoordinates>\n" for _ in triangles)
+    out.writelines(f"<app:ring>#{t}</app:ring>\n" for t in triangles)
+    out.write("</app:TexCoordList></app:textureParameterization></app:TextureAssociation>"
+              "</app:textureParameterization></app:ParameterizedTexture></app:surfaceData></app:Appearance>"
+              "</core:appearanceMember>\n")
 
 
 def worker(mode: str, path: str) -> None:
@@ -122,12 +155,30 @@ def measure(mode: str, path: str) -> None:
     print(json.dumps(result))
 
 
+def run_modes(path: Path, modes: list[str], row: dict) -> list[dict]:
+    """Measure every mode on one file, each in its own child; one result row per mode (``row`` + figures)."""
+    rows = []
+    mb = path.stat().st_size / 1e6
+    for mode in modes:
+        run = subprocess.run([sys.executable, __file__, "--measure", mode, str(path)], capture_output=True,
+                             text=True, check=True)
+        res = json.loads(run.stdout.strip().splitlines()[-1])
+        rows.append({**row, "mode": mode, "file_mb": round(mb, 1), "seconds": round(res["seconds"], 2),
+                     "mb_per_s": round(mb / res["seconds"], 1), "peak_rss_mb": round(res["peak_rss_mb"], 1),
+                     "valid": res["valid"], "errors": res["errors"], "load_average": os.getloadavg()})
+        print(f"{path.name:>24} {mode:<8} {mb:8.1f} MB {res['seconds']:8.2f} s {mb / res['seconds']:7.1f} MB/s "
+              f"{res['peak_rss_mb']:8.1f} MB RSS  valid={res['valid']}", flush=True)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000])
+    ap.add_argument("--textured", action="store_true", help="generated files also carry roof and TIN textures")
+    ap.add_argument("--file", nargs="+", type=Path, metavar="PATH", help="measure these files instead of generated ones")
     ap.add_argument("--modes", nargs="+", default=["full", "xsd-dom", "xsd-sax"])
     ap.add_argument("--tmp", default="/tmp")
-    ap.add_argument("--out", default=str(ROOT / "out" / "bench" / "validate.json"))
+    ap.add_argument("--out", help="JSON results (default out/bench/validate.json, with --file validate_files.json)")
     ap.add_argument("--worker", nargs=2, help=argparse.SUPPRESS)
     ap.add_argument("--measure", nargs=2, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -136,25 +187,21 @@ def main() -> None:
     if args.measure:
         return measure(*args.measure)
     rows = []
-    for n in args.sizes:
-        path = Path(args.tmp) / f"wit_bench_{n}.gml"
+    if args.file:
+        for path in args.file:
+            rows += run_modes(path, args.modes, {"file": str(path)})
+    for n in [] if args.file else args.sizes:
+        path = Path(args.tmp) / f"wit_bench_{n}{'_textured' if args.textured else ''}.gml"
         start = time.perf_counter()
-        generate(path, n)
+        generate(path, n, args.textured)
         gen_s = time.perf_counter() - start
-        mb = path.stat().st_size / 1e6
-        for mode in args.modes:
-            run = subprocess.run([sys.executable, __file__, "--measure", mode, str(path)], capture_output=True,
-                                 text=True, check=True)
-            res = json.loads(run.stdout.strip().splitlines()[-1])
-            rows.append({"buildings": n, "mode": mode, "file_mb": round(mb, 1), "generate_s": round(gen_s, 1),
-                         "seconds": round(res["seconds"], 2), "mb_per_s": round(mb / res["seconds"], 1),
-                         "peak_rss_mb": round(res["peak_rss_mb"], 1), "valid": res["valid"], "errors": res["errors"]})
-            print(f"{n:>8} {mode:<8} {mb:8.1f} MB {res['seconds']:8.2f} s {mb / res['seconds']:7.1f} MB/s "
-                  f"{res['peak_rss_mb']:8.1f} MB RSS  valid={res['valid']}", flush=True)
+        rows += run_modes(path, args.modes, {"buildings": n, "textured": args.textured, "generate_s": round(gen_s, 1)})
         os.unlink(path)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(rows, indent=2), encoding="utf-8")
-    print(f"wrote {args.out}")
+        path.with_suffix(".jpg").unlink(missing_ok=True)
+    out = Path(args.out or ROOT / "out" / "bench" / ("validate_files.json" if args.file else "validate.json"))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(rows, indent=2), encoding="utf-8")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ import subprocess
 import threading
 import time
 import xml.etree.ElementTree as ET
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -61,8 +62,10 @@ def test_only_warning_on_valid_examples_is_2d_address_point(schema_dir, tmp_path
 
 
 @pytest.mark.skipif(shutil.which("xmllint") is None, reason="xmllint not installed")
+@pytest.mark.parametrize("batch", [validate.BATCH_ELEMENTS, 1])  # 1: every container of 2+ children is streamed
 @pytest.mark.parametrize("name", VALID_EXAMPLES + ["INVALID_handmade_LOD1_4_errors.gml"])
-def test_xsd_verdict_agrees_with_xmllint(name, schema_dir, tmp_path):
+def test_xsd_verdict_agrees_with_xmllint(name, batch, schema_dir, tmp_path, monkeypatch):
+    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
     path = schema_dir / "examples" / name
     run = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"), str(path)],
                          capture_output=True, text=True, timeout=60)
@@ -330,3 +333,189 @@ def test_big_member_move_keeps_content_and_lines():
     validate._move_into(member, mini)
     assert etree.tostring(mini[0]) == before and len(mini) == 1 and len(root) == 0
     assert [n.sourceline for n in mini[0].iter()] == lines and max(lines) > 65_535
+
+
+# -- streaming: long runs of triangles and texture entries, ids as hashes -------------------------
+_NS = ('xmlns:core="http://www.opengis.net/citygml/3.0" xmlns:gml="http://www.opengis.net/gml/3.2" '
+       'xmlns:dem="http://www.opengis.net/citygml/relief/3.0" xmlns:app="http://www.opengis.net/citygml/appearance/3.0" '
+       'xmlns:grp="http://www.opengis.net/citygml/cityobjectgroup/3.0" xmlns:xlink="http://www.w3.org/1999/xlink"')
+_FOO = ' foo="1"'  # an attribute no schema allows
+_UV = "0 0 1 0 0 1 0 0"  # 4 pairs: one per point of a triangle's ring (closing point included)
+
+
+def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None, str]]:
+    """Write a model whose TIN has ``n`` triangles, its texture ``n`` associations plus one TIN association
+    with ``n`` entries, one element per line, ``pad`` empty lines before the appearance (so its lines pass
+    65,535); faults sit on the first, middle and last element of each run.
+
+    Returns the expected issues as (check, line, gml_id, words of the message).
+    """
+    text: list[str] = []
+    expected: list[tuple[str, int, str | None, str]] = []
+    lines = [0]  # lines written so far
+
+    def put(line: str) -> int:
+        """Write ``line`` (it may hold line breaks); return the number of the line where it starts."""
+        text.append(line)
+        lines[0] += line.count("\n") + 1
+        return lines[0] - line.count("\n")
+
+    faulty = {0, n // 2, n - 1}
+    put('<?xml version="1.0" encoding="UTF-8"?>')
+    put(f'<core:CityModel {_NS}>')
+    put('<core:cityObjectMember><grp:CityObjectGroup gml:id="grp">')
+    put('<grp:groupMember><grp:Role><grp:role>member</grp:role><grp:groupMember xlink:href="#relief"/></grp:Role>'
+        '</grp:groupMember>')  # refers forward: resolved at the end
+    line = put('<grp:groupMember><grp:Role><grp:role>member</grp:role><grp:groupMember xlink:href="#ghost"/>'
+               '</grp:Role></grp:groupMember>')
+    expected.append(("reference", line, None, "xlink:href of grp:groupMember '#ghost' points to no gml:id"))
+    put('</grp:CityObjectGroup></core:cityObjectMember>')
+    put('<core:cityObjectMember><dem:ReliefFeature gml:id="relief"><dem:lod>1</dem:lod><dem:reliefComponent>'
+        '<dem:TINRelief gml:id="tin"><dem:lod>1</dem:lod><dem:tin><gml:TriangulatedSurface gml:id="tin_s"><gml:patches>')
+    for k in range(n):
+        third = f"{k + 2} 0 10" if k in faulty else f"{k} 1 10"  # faulty: collinear corners
+        line = put(f'<gml:Triangle{_FOO if k in faulty else ""}><gml:exterior><gml:LinearRing gml:id="t{k}_r">'
+                   f'<gml:posList srsDimension="3">{k} 0 10 {k + 1} 0 10 {third} {k} 0 10</gml:posList></gml:LinearRing>'
+                   '</gml:exterior></gml:Triangle>')
+        if k in faulty:
+            expected += [("xsd", line, "tin_s", "gml:Triangle', attribute 'foo': The attribute 'foo' is not allowed"),
+                         ("degenerate-triangle", line, f"t{k}_r", "Triangle is degenerate (area 0 m²")]
+    put('</gml:patches></gml:TriangulatedSurface></dem:tin></dem:TINRelief></dem:reliefComponent></dem:ReliefFeature>'
+        '</core:cityObjectMember>' + "\n" * pad)
+    put('<core:appearanceMember><app:Appearance gml:id="app"><app:theme>rgb</app:theme><app:surfaceData>'
+        '<app:ParameterizedTexture gml:id="tex"><app:imageURI>textures/tile_1.jpg</app:imageURI>'
+        '<app:mimeType>image/jpeg</app:mimeType>')
+    duplicates = {n // 2 + 1: "ta1", n - 2: "t0_r"}  # the same id earlier in the same run / in another member
+    for k in range(n):
+        aid = duplicates.get(k, f"ta{k}")
+        line = put(f'<app:textureParameterization><app:TextureAssociation gml:id="{aid}"'
+                   f'{_FOO if k in faulty else ""}><app:target>#{f"nowhere{k}" if k in faulty else "tin_s"}</app:target>')
+        put('<app:textureParameterization><app:TexCoordList>'
+            f'<app:textureCoordinates>{"0 0 1 0 0 1" if k in faulty else _UV}</app:textureCoordinates>')
+        put(f'<app:ring>#t{k}_r</app:ring></app:TexCoordList></app:textureParameterization></app:TextureAssociation>'
+            '</app:textureParameterization>')
+        if k in faulty:
+            expected += [("xsd", line, aid, "app:TextureAssociation', attribute 'foo': The attribute 'foo' is not allowed"),
+                         ("reference", line, None, f"app:target '#nowhere{k}' points to no gml:id"),
+                         ("texture-coordinates", line + 1, aid, f"3 texture coordinate pairs for ring #t{k}_r, "
+                          "which has 4 points")]
+        if k in duplicates:
+            expected.append(("duplicate-id", line, aid, f"gml:id '{aid}' is used more than once"))
+    put('<app:textureParameterization><app:TextureAssociation gml:id="ta_tin"><app:target>#tin_s</app:target>')
+    for k in range(n + 1):  # one more than rings
+        # the list starts on the line of its first entry: past line 65,535 libxml2 2.9 keeps no line for an
+        # element, and lxml takes the line of its first text (a line break would give the next line)
+        line = put(('<app:textureParameterization><app:TexCoordList>' if k == 0 else '')
+                   + f'<app:textureCoordinates>{"0 0 1 0 NaN 1 0 0" if k in faulty else _UV}</app:textureCoordinates>')
+        if k == 0:
+            expected.append(("texture-coordinates", line, "ta_tin", f"TexCoordList has {n + 1} textureCoordinates "
+                             f"but {n} ring references"))
+        if k in faulty:
+            expected.append(("texture-coordinates", line, "ta_tin", f"Texture coordinates for ring #t{k}_r contain 'NaN'"))
+    for k in range(n):
+        line = put(f'<app:ring{_FOO if k in faulty else ""}>#t{k}_r</app:ring>')
+        if k in faulty:
+            expected.append(("xsd", line, "ta_tin", "app:ring', attribute 'foo': The attribute 'foo' is not allowed"))
+    put('</app:TexCoordList></app:textureParameterization></app:TextureAssociation></app:textureParameterization>')
+    put('</app:ParameterizedTexture></app:surfaceData></app:Appearance></core:appearanceMember>')
+    put('</core:CityModel>')
+    path.write_text("\n".join(text) + "\n", encoding="utf-8")
+    (path.parent / "textures").mkdir(exist_ok=True)
+    (path.parent / "textures" / "tile_1.jpg").write_bytes(b"\xff\xd8\xff\xd9")
+    return expected
+
+
+@pytest.mark.parametrize("buffer", [1, 8, 65536])
+@pytest.mark.parametrize("batch", [1, 3, 10000])
+def test_faults_in_long_runs_are_found_on_their_lines(batch, buffer, schema_dir, tmp_path, monkeypatch):
+    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+    monkeypatch.setattr(validate, "ID_BUFFER", buffer)
+    expected = _long_runs(tmp_path / "runs.gml", 40, pad=70_000)
+    report = _one(tmp_path / "runs.gml", schema_dir)
+    assert sorted((i.check, i.line) for i in report.issues) == sorted((check, line) for check, line, _, _ in expected)
+    assert max(line for _, line, _, _ in expected) > 70_000
+    for check, line, gml_id, words in expected:
+        assert [i for i in report.issues if (i.check, i.line, i.gml_id) == (check, line, gml_id) and words in i.message]
+    assert all(i.severity == "error" for i in report.issues) and report.status == "Fail"
+
+
+class _CountingSchema:
+    """The compiled schema, recording how many real (parsed, not copied) streamed children each call gets."""
+
+    def __init__(self, schema):
+        self.schema, self.calls = schema, []
+
+    @property
+    def error_log(self):
+        return self.schema.error_log
+
+    def validate(self, tree) -> bool:
+        self.calls.append(Counter(node.tag for node in tree.iter(*validate.STREAMED)
+                                  if node.sourceline and validate.STREAMED[node.tag] == node.getparent().tag))
+        return self.schema.validate(tree)
+
+
+@pytest.mark.parametrize("batch", [1, 3, 7])
+def test_each_xsd_call_holds_at_most_one_batch_and_every_element_once(batch, schema_dir, tmp_path, monkeypatch):
+    counting = _CountingSchema(schemas.load_schema(schema_dir))
+    monkeypatch.setattr(validate, "load_schema", lambda _: counting)
+    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+    n = 40
+    _long_runs(tmp_path / "runs.gml", n, pad=0)
+    _one(tmp_path / "runs.gml", schema_dir)
+    g, a = "{http://www.opengis.net/gml/3.2}", "{http://www.opengis.net/citygml/appearance/3.0}"
+    total = sum(counting.calls, Counter())
+    assert total == {g + "Triangle": n, a + "textureParameterization": n + 1, a + "textureCoordinates": 2 * n + 1,
+                     a + "ring": 2 * n}
+    assert max(max(call.values(), default=0) for call in counting.calls) == batch
+    triangle_calls = [call[g + "Triangle"] for call in counting.calls if call[g + "Triangle"]]
+    runs = [min(batch, n - k) for k in range(0, n, batch)]  # the triangles are taken out a batch at a time ...
+    runs[0] -= 1  # ... but the first stays in the TIN as its stand-in, validated with its member
+    assert sorted(triangle_calls) == sorted([r for r in runs if r] + [1])
+
+
+def test_streamed_xsd_lines_agree_with_xmllint(schema_dir, tmp_path, monkeypatch):
+    if shutil.which("xmllint") is None:
+        pytest.skip("xmllint not installed")
+    monkeypatch.setattr(validate, "BATCH_ELEMENTS", 3)
+    expected = _long_runs(tmp_path / "runs.gml", 40, pad=0)
+    run = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"),
+                          str(tmp_path / "runs.gml")], capture_output=True, text=True, timeout=60)
+    xmllint_lines = {int(line.split(":")[1]) for line in run.stderr.splitlines() if "Schemas validity error" in line}
+    schema_checks = {"xsd", "duplicate-id"}  # xmllint reports a duplicate gml:id as an xs:ID error
+    ours = {i.line for i in _one(tmp_path / "runs.gml", schema_dir).issues if i.check in schema_checks}
+    assert ours == xmllint_lines == {line for check, line, _, _ in expected if check in schema_checks}
+    assert len(ours) == 11
+
+
+def test_id_store_keeps_hashes_and_reports_later_duplicates():
+    store = validate._IdStore()
+    for k in range(1000):
+        store.add(f"id{k}", k + 1, k % 7)
+        if k % 8 == 7:
+            assert store.merge() == []
+    store.add("id500", 2001, 0)
+    store.add("new", 2002, 3)
+    store.add("new", 2003, 0)
+    assert store.merge() == [("id500", 2001), ("new", 2003)]
+    assert len(store) == 1001
+    assert len(store._runs) <= 10  # merged like a log-structured merge: O(log n) runs
+    assert sum(keys.nbytes + points.nbytes for keys, points in store._runs) == 12 * 1001
+    found, points = store.find(["id6", "id500", "new", "missing"])
+    assert found.tolist() == [True, True, True, False]
+    assert points.tolist()[:3] == [6, 500 % 7, 3]
+
+
+@pytest.mark.parametrize("batch", [1, 2, 10000])
+def test_order_error_between_streamed_runs_is_on_its_line(batch, schema_dir, tmp_path, monkeypatch):
+    """Coordinates after a ring in a streamed TexCoordList: the run's stand-in shows it to the schema."""
+    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+    path = _with_texture(schema_dir / "examples" / "handmade_LOD1_textured_building_TIN_group.gml", tmp_path)
+    coords = "<app:textureCoordinates>0.0 0.0 1.0 1.0 0.0 1.0 0.0 0.0</app:textureCoordinates>"
+    ring = "<app:ring>#tin_1_t0</app:ring>"
+    text = path.read_text(encoding="utf-8")
+    path.write_text(text.replace(f"{coords}\n                  {ring}", f"{ring}\n                  {coords}"),
+                    encoding="utf-8")
+    [issue] = _one(path, schema_dir).issues  # xmllint says the same (line 180)
+    assert (issue.check, issue.line) == ("xsd", 180)
+    assert issue.message == "Element 'app:textureCoordinates': This element is not expected. Expected is ( app:ring )."

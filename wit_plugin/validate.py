@@ -2,24 +2,34 @@
 
 Why a custom validator: XSD validation says nothing about geometry (closed, outward-oriented,
 planar, simple solids; degenerate TIN triangles), about ``#id`` references or texture files. All
-checks run in one streaming pass (``lxml.etree.iterparse``): every top-level member of the city
-model is checked and XSD-validated on its own, then dropped, and TIN triangles are checked one by
-one, so memory stays bounded by the largest single feature, not by the file. ids and references
-are kept as strings (O(number of ids)) and resolved at the end of each file.
+checks run in one streaming pass (``lxml.etree.iterparse``) so that a 1 GB file does not need
+1 GB of memory:
+
+* every top-level member of the city model is checked and XSD-validated on its own, then dropped;
+* inside a member, the children of a container that grows past one batch (the triangles of a
+  TIN's ``gml:patches``, the texture associations of an ``app:ParameterizedTexture``, the
+  entries of an ``app:TexCoordList``) are checked and XSD-validated a batch at a time
+  (``BATCH_ELEMENTS`` / ``BATCH_BYTES``), the XSD inside a small copy of their ancestors, then
+  dropped (see ``_FileCheck._batch``);
+* gml:ids are kept as 64-bit hashes with the point count of each ring (``_IdStore``, ~12 bytes
+  per id); references and texture rings are resolved against it in batches of ``ID_BUFFER``.
 
 Parsing never expands entities, loads DTDs or touches the network (XXE-safe).
 """
 from __future__ import annotations
 
 import csv
+import hashlib
 import html
 import math
 import re
 import time
+from array import array
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from difflib import get_close_matches
-from itertools import islice
+from functools import cache
+from itertools import count, islice, pairwise
 from pathlib import Path
 from typing import NamedTuple, Sequence
 
@@ -32,6 +42,13 @@ from .feedback import SILENT, Feedback
 from .fileio import atomic_file
 from .schemas import content_model, load_schema, schema_namespaces
 
+BATCH_ELEMENTS = 2048
+"""A container with more children than this is streamed, and its children XSD-validated this many per call."""
+BATCH_BYTES = 8 << 20
+"""... or fewer, when they take more than this many bytes of the file (a container past it is streamed too)."""
+ID_BUFFER = 65536
+"""New ids, references or texture rings held as strings before they are resolved against the id hashes."""
+
 GML = "http://www.opengis.net/gml/3.2"
 XLINK = "http://www.w3.org/1999/xlink"
 CORE = "http://www.opengis.net/citygml/3.0"
@@ -43,10 +60,17 @@ _G = {name: f"{{{GML}}}{name}" for name in (
     "pos", "lowerCorner", "upperCorner", "Triangle", "CompositeSurface", "OrientableSurface", "baseSurface",
     "Surface", "patches", "MultiSurface", "boundedBy", "Envelope")}
 _A = {name: f"{{{APP}}}{name}" for name in (
-    "imageURI", "TexCoordList", "textureCoordinates", "ring", "target")}
+    "imageURI", "TexCoordList", "textureCoordinates", "ring", "target", "ParameterizedTexture",
+    "textureParameterization")}
 MEMBER_TAGS = frozenset(f"{{{CORE}}}{n}" for n in (
     "cityObjectMember", "appearanceMember", "featureMember", "versionMember", "versionTransitionMember")) | {
     f"{{{GML}}}featureMember"}
+STREAMED = {  # child -> the container whose children of that kind are streamed once there are many
+    _G["Triangle"]: _G["patches"],
+    _A["textureParameterization"]: _A["ParameterizedTexture"],
+    _A["textureCoordinates"]: _A["TexCoordList"],
+    _A["ring"]: _A["TexCoordList"],
+}
 PREFIXES = {  # conventional prefixes, for messages that read like the XML
     CORE: "core", GML: "gml", XLINK: "xlink", APP: "app",
     "http://www.opengis.net/citygml/building/3.0": "bldg", "http://www.opengis.net/citygml/construction/3.0": "con",
@@ -60,20 +84,27 @@ PREFIXES = {  # conventional prefixes, for messages that read like the XML
     "http://www.w3.org/2001/XMLSchema": "xs"}
 
 _PARSE = dict(resolve_entities=False, no_network=True, load_dtd=False, remove_comments=True, remove_pis=True)
-def _having(attribute: str):
-    """Elements of a subtree (itself included) carrying ``attribute``.
+def _attributed(tree: etree._Element) -> tuple[list[etree._Element], list[etree._Element], bool]:
+    """Elements of a subtree (itself included) with a gml:id, those with an xlink:href, and whether
+    any declares srsDimension: one pass, as it is the validator's most frequent walk.
 
     Plain iteration, not XPath: libxml2's XPath fails ("Error in xpath expression") once a node
     set grows past its limit, which a multi-GB model's appearance member reaches.
     """
-    def find(tree: etree._Element) -> list[etree._Element]:
-        return [node for node in tree.iter(etree.Element) if attribute in node.attrib]
-    return find
+    with_id, with_href, dims = [], [], False
+    for node in tree.iter(etree.Element):
+        names = node.keys()
+        if names:
+            if GML_ID in names:
+                with_id.append(node)
+            if HREF in names:
+                with_href.append(node)
+            dims = dims or "srsDimension" in names
+    return with_id, with_href, dims
 
 
-_WITH_ID = _having(f"{{{GML}}}id")
-_WITH_HREF = _having(f"{{{XLINK}}}href")
-_WITH_DIM = _having("srsDimension")
+_POSITIONS = (_G["posList"], _G["pos"], _G["lowerCorner"], _G["upperCorner"])
+_REFERENCE_TEXTS = (_A["target"], _A["ring"])  # elements whose text is a #id reference
 _QNAME_IN_MSG = re.compile(r"\{([^}]*)\}([\w.\-]+)")
 _ELEMENT_IN_MSG = re.compile(r"^Element '([^']+)'")
 _NCNAME = re.compile(r"^[^\W\d][\w.\-]*$")
@@ -154,6 +185,100 @@ def validate_files(paths: Sequence[str], schema_dir: Path, feedback: Feedback = 
     return reports
 
 
+class _IdStore:
+    """The gml:ids of one file as 64-bit hashes, each with its point count when it names a LinearRing.
+
+    Why: a 1.6 GB model has tens of millions of ids; as Python strings in a dict they took ~100+
+    bytes each (3.7 GB peak). Here an id costs 12 bytes (uint64 hash + uint32 points) in sorted
+    runs; new ids wait as strings in a buffer of ``ID_BUFFER`` entries (their line kept to report a
+    duplicate) and are merged in one vectorised step. Runs of similar size are merged into one
+    (as a log-structured merge), so n ids cost O(n log n) and a lookup searches O(log n) runs.
+
+    Hashes are BLAKE2b digests truncated to 64 bits: deterministic across runs, and two distinct
+    ids share one with probability about n²/2⁶⁵ for n ids, i.e. 1 in 2 million for 4 million ids
+    (1 in 41,000 for 30 million). A collision would show as a false duplicate id, or hide a
+    reference to a missing id that happens to hash like an existing one.
+    """
+
+    def __init__(self) -> None:
+        self._runs: list[tuple[np.ndarray, np.ndarray]] = []  # (sorted uint64 hashes, uint32 points)
+        self._new: list[tuple[str, int | None, int]] = []  # id, line, points
+
+    def __len__(self) -> int:
+        return sum(len(keys) for keys, _ in self._runs) + len(self._new)
+
+    @property
+    def waiting(self) -> int:
+        return len(self._new)
+
+    def add(self, gid: str, line: int | None, points: int) -> None:
+        self._new.append((gid, line, points))
+
+    def merge(self) -> list[tuple[str, int | None]]:
+        """Move the buffered ids into the hash runs; return the duplicates (id, line), in file order.
+
+        A duplicate is every occurrence after the first, so its line is the one to fix.
+        """
+        if not self._new:
+            return []
+        new, self._new = self._new, []
+        keys = _hashes([gid for gid, _, _ in new])
+        order = np.argsort(keys, kind="stable")  # equal hashes stay in file order
+        keys = keys[order]
+        dup = np.r_[False, keys[1:] == keys[:-1]] | self.find_keys(keys)[0]
+        duplicates = [new[i][:2] for i in np.sort(order[dup]).tolist()]
+        if not dup.all():
+            points = np.array([p for _, _, p in new], dtype=np.uint32)[order]
+            self._runs.append((keys[~dup], points[~dup]))
+        while len(self._runs) > 1 and len(self._runs[-2][0]) <= 2 * len(self._runs[-1][0]):
+            self._runs.append(_merge_runs(self._runs.pop(), self._runs.pop()))
+        return duplicates
+
+    def find(self, gids: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """(found, points) for each id, among the merged ids (call ``merge`` first)."""
+        return self.find_keys(_hashes(gids))
+
+    def find_keys(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        found = np.zeros(len(keys), dtype=bool)
+        points = np.zeros(len(keys), dtype=np.uint32)
+        for run_keys, run_points in self._runs:
+            at = np.minimum(np.searchsorted(run_keys, keys), len(run_keys) - 1)
+            hit = run_keys[at] == keys
+            found |= hit
+            points[hit] = run_points[at[hit]]
+        return found, points
+
+
+def _merge_runs(new: tuple[np.ndarray, np.ndarray], old: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """One sorted run (hashes, points) from two whose hashes differ: linear, and no temporary copy of either."""
+    at = np.searchsorted(old[0], new[0])
+    at += np.arange(len(at))  # where the new run's hashes land in the merged run
+    from_new = np.zeros(len(old[0]) + len(at), dtype=bool)
+    from_new[at] = True
+    merged = []
+    for n, o in zip(new, old):
+        out = np.empty(len(from_new), dtype=o.dtype)
+        out[at] = n
+        out[~from_new] = o
+        merged.append(out)
+    return merged[0], merged[1]
+
+
+def _hashes(gids: Sequence[str]) -> np.ndarray:
+    """64-bit BLAKE2b hashes of ``gids`` (uint64)."""
+    blake2b = hashlib.blake2b
+    return np.frombuffer(b"".join([blake2b(g.encode(), digest_size=8).digest() for g in gids]), dtype="<u8")
+
+
+@dataclass(eq=False)
+class _Stream:
+    """A container's children of the streamed kinds still in place, counted until they fill a batch."""
+    start: int  # file position at the first of them
+    count: int = 0
+    streaming: bool = False  # a batch was taken out: the rest goes out at the container's end too
+    pairs: _TexCoordPairs | None = None  # a streamed TexCoordList's coordinates waiting for their rings
+
+
 class _FileCheck:
     """All checks of one file in one streaming pass."""
 
@@ -164,12 +289,14 @@ class _FileCheck:
         self.known_ns = known_ns
         self.planarity_tol, self.vertex_tol, self.min_area = planarity_tol, vertex_tol, min_triangle_area
         self.max_issues, self.feedback, self.on_progress = max_issues, feedback, on_progress
+        self.batch_elements, self.batch_bytes, self.id_buffer = BATCH_ELEMENTS, BATCH_BYTES, ID_BUFFER
         self.issues: list[Issue] = []
-        self._seen: set[tuple] = set()
         self._per_check: Counter = Counter()
-        self.ids: dict[str, int] = {}  # gml:id -> number of points when it is a LinearRing, else 0
-        self.pending_refs: dict[str, tuple[int | None, str]] = {}  # id -> (line, how it is referenced)
-        self.pending_tex: list[tuple[str, int, int | None, str | None]] = []  # ring id, pairs, line, texture
+        self.ids = _IdStore()
+        self.refs: list[tuple[str, int | None, str]] = []  # referenced id, line, how it is referenced
+        self.tex_rings: list[tuple[str, int, int | None, str | None]] = []  # ring id, texture pairs, line, texture
+        self.forward_refs: dict[str, tuple[int | None, str]] = {}  # to ids not seen yet: resolved at the end
+        self.forward_tex_rings: list[tuple[str, int, int | None, str | None]] = []
         self.images: set[str] = set()
         self.ade_reported: set[str] = set()
         self.entities_possible = False
@@ -177,13 +304,13 @@ class _FileCheck:
         self.solids: list[tuple[_Where, list]] = []
         self.pending: etree._Element | None = None  # checked member waiting to be validated and dropped
         self.triangles: list[tuple[str | None, int | None, list[float]]] = []
+        self.streams: dict[etree._Element, _Stream] = {}  # open containers of streamed children
+        self.stand_ins: dict[int, etree._Element] = {}  # hidden first child of a run, by its marker's number
+        self._markers = count()
+        self.pos = 0  # file position of the parser at the last streamed child
 
     # -- reporting -------------------------------------------------------------------------------
     def add(self, check: str, line: int | None, gml_id: str | None, message: str, severity: str = "error") -> None:
-        key = (check, line, message)  # a kept triangle is seen twice, once without its ids
-        if key in self._seen:
-            return
-        self._seen.add(key)
         self._per_check[check, severity] += 1
         if self._per_check[check, severity] <= self.max_issues:
             self.issues.append(Issue(self.name, check, severity, line, gml_id, message))
@@ -193,23 +320,27 @@ class _FileCheck:
         try:
             root_tag = next(etree.iterparse(str(self.path), events=("start",), **_PARSE))[1].tag
             with open(self.path, "rb") as stream:
-                events = etree.iterparse(stream, events=("end",), tag={_G["Triangle"], root_tag, *MEMBER_TAGS},
-                                         **_PARSE)
+                events = etree.iterparse(stream, events=("end",), tag={root_tag, *MEMBER_TAGS, *STREAMED,
+                                                                       *STREAMED.values()}, **_PARSE)
                 for n, (_, el) in enumerate(events):
                     if n == 0:
                         self._start_document(el)
-                    if el.tag == _G["Triangle"]:
-                        self._triangle(el)
-                        continue
                     parent = el.getparent()
-                    if parent is None:
-                        self._release()
-                        self._feature(el)
-                        self._validate(el)
-                    elif parent.getparent() is None and el.tag in MEMBER_TAGS:
-                        self._release()
-                        self._feature(el)
-                        self.pending = el
+                    if parent is not None and STREAMED.get(el.tag) == parent.tag:
+                        self.pos = stream.tell()
+                        self._stream_child(el, parent)
+                    else:
+                        state = self.streams.pop(el, None)
+                        if state is not None:
+                            self._end_container(el, state)
+                        if parent is None:
+                            self._release()
+                            self._check_unit(el)
+                            self._validate(el)
+                        elif parent.getparent() is None and el.tag in MEMBER_TAGS:
+                            self._release()
+                            self._check_unit(el)
+                            self.pending = el
                     if n % 256 == 0:
                         self.feedback.check_canceled()
                         self.on_progress(stream.tell())
@@ -222,11 +353,11 @@ class _FileCheck:
         self._release()
         self._flush_triangles()
         self._flush_solids()
-        self._finish()
-        for (check, severity), count in self._per_check.items():
-            if count > self.max_issues:
+        self._resolve(final=True)
+        for (check, severity), number in self._per_check.items():
+            if number > self.max_issues:
                 self.issues.append(Issue(self.name, check, severity, None, None,
-                                         f"... and {count - self.max_issues} more {check} {severity}s not listed."))
+                                         f"... and {number - self.max_issues} more {check} {severity}s not listed."))
         return self.issues
 
     def _start_document(self, el: etree._Element) -> None:
@@ -238,20 +369,48 @@ class _FileCheck:
             self.add("xml", 1, None, "The file has a DOCTYPE. CityGML needs none; its entity declarations are "
                      "ignored (never expanded or fetched, for security).", "warning")
 
-    def _finish(self) -> None:
-        for ref, (line, how) in self.pending_refs.items():
-            if ref not in self.ids:
-                self.add("reference", line, None, f"{how} '#{ref}' points to no gml:id in this file.")
-        for ring_id, pairs, line, tex_id in self.pending_tex:
-            if self.ids.get(ring_id):
-                self._compare_tex(ring_id, pairs, line, tex_id)
+    # -- ids and references ----------------------------------------------------------------------
+    def _resolve(self, final: bool = False) -> None:
+        """Merge the buffered ids (reporting duplicates), then resolve the buffered references and rings.
 
-    # -- per feature -----------------------------------------------------------------------------
-    def _feature(self, el: etree._Element) -> None:
-        """Check one top-level member (or the whole root) where it stands in the tree."""
+        References to ids not seen yet wait as strings until the end of the file (``final``).
+        """
+        for gid, line in self.ids.merge():
+            self.add("duplicate-id", line, gid, f"gml:id '{gid}' is used more than once; every gml:id in a file "
+                     "must be unique.")
+        refs, self.refs = self.refs, []
+        for (ref, line, how), found in zip(refs, self.ids.find([r for r, _, _ in refs])[0]):
+            if not found:
+                self.forward_refs.setdefault(ref, (line, how))
+        tex_rings, self.tex_rings = self.tex_rings, []
+        self._compare_tex(tex_rings, self.forward_tex_rings)
+        if final:
+            forward = self.forward_refs
+            for (ref, (line, how)), found in zip(forward.items(), self.ids.find(list(forward))[0]):
+                if not found:
+                    self.add("reference", line, None, f"{how} '#{ref}' points to no gml:id in this file.")
+            self._compare_tex(self.forward_tex_rings, [])
+
+    def _compare_tex(self, tex_rings: list[tuple[str, int, int | None, str | None]], unknown: list) -> None:
+        """Compare texture pairs with the points of the rings already seen; put the others in ``unknown``."""
+        found, points = self.ids.find([r[0] for r in tex_rings])
+        for (ring_id, pairs, line, tex_id), ok, n in zip(tex_rings, found.tolist(), points.tolist()):
+            if not ok:
+                unknown.append((ring_id, pairs, line, tex_id))
+            elif n and pairs != n:
+                self.add("texture-coordinates", line, tex_id, f"{pairs} texture coordinate pairs for ring #{ring_id}, "
+                         f"which has {n} points; there must be one pair per point (closing point included).")
+
+    # -- members and streamed children -------------------------------------------------------------
+    def _check_unit(self, el: etree._Element) -> None:
+        """Check a member, the root or a batch of streamed children where it stands (not the hidden stand-ins:
+        they were checked with their batch)."""
         rings = self._scan(el)
+        self._check_triangles(el, rings)
         self._check_solids(el, rings)
         self._check_textures(el)
+        if max(self.ids.waiting, len(self.refs), len(self.tex_rings)) >= self.id_buffer:
+            self._resolve()
 
     def _release(self) -> None:
         """XSD-validate the previous member on its own, then drop it from the parsed tree.
@@ -268,7 +427,103 @@ class _FileCheck:
             el.addprevious(etree.Element(el.tag))  # an empty member keeps the root's structure valid
         mini = etree.Element(root.tag, nsmap=root.nsmap)
         _move_into(el, mini)  # moves the member out of the parsed tree: this is what frees its memory
-        self._validate(mini, _neutral_ids(mini))
+        self._validate(mini)
+
+    def _stream_child(self, el: etree._Element, container: etree._Element) -> None:
+        """Leave a container's children in place until they fill a batch, then process them together.
+
+        ``el`` itself stays until the next batch: libxml2 may still be appending its tail text (see
+        ``_release``). So a container never holds more than a batch, whatever its size.
+        """
+        state = self.streams.get(container)
+        if state is None:
+            state = self.streams[container] = _Stream(self.pos)
+        state.count += 1
+        if state.count > self.batch_elements or self.pos - state.start > self.batch_bytes:
+            earlier = [s for s in el.itersiblings(preceding=True) if STREAMED.get(s.tag) == container.tag]
+            self._batch(container, state, earlier[::-1])
+            state.count, state.start = 1, self.pos
+
+    def _end_container(self, container: etree._Element, state: _Stream) -> None:
+        """A streamed container's last children form the last batch; a small one is left to its member."""
+        if state.streaming:
+            self._batch(container, state, [c for c in container if STREAMED.get(c.tag) == container.tag])
+            if state.pairs is not None:
+                state.pairs.close()
+
+    def _batch(self, container: etree._Element, state: _Stream, children: list[etree._Element]) -> None:
+        """Check a container's children together, then take them out of the parsed tree.
+
+        They are checked in a neutral holder put in their place, so the checks see their real
+        ancestors (owner ids, inherited srsName) at the cost of one walk per batch. The first child
+        of each run of one kind then stays as the container's stand-in, hidden behind a marker
+        comment (invisible to the checks; the parse drops the file's own comments) until the
+        enclosing member is validated: the schema then sees the container as in the file
+        (minOccurs, order) and reports the stand-in's errors on its real line. The others are
+        XSD-validated together in a copy of their context (``_context``), then dropped.
+        """
+        if not children:
+            return  # a single child past BATCH_BYTES: it goes with the next batch
+        if not state.streaming:
+            state.streaming = True
+            if container.tag == _A["TexCoordList"]:
+                state.pairs = _TexCoordPairs(self, container)
+        holder = etree.Element("batch")
+        children[0].addprevious(holder)
+        root, copy = self._context(holder)
+        holder.extend(children)  # within the parsed document: cheap
+        self._check_unit(holder)
+        if state.pairs is not None:
+            for child in holder:
+                state.pairs.add(child)
+        before = holder.getprevious()
+        run = self._stand_in(before) if before is not None and before.tag is etree.Comment else before
+        run_tag = run.tag if run is not None else None
+        batch = []
+        for child in list(holder):
+            if child.tag != run_tag:
+                key = next(self._markers)
+                self.stand_ins[key] = child
+                holder.addprevious(etree.Comment(str(key)))
+                holder.remove(child)
+            else:
+                batch.append(child)
+            run_tag = child.tag
+        for child in batch:
+            _move_into(child, copy)
+        container.remove(holder)  # empty now: removing it with its children would re-link them all
+        if batch:
+            self._validate(root)
+
+    def _stand_in(self, node: etree._Element) -> etree._Element:
+        """The hidden child that the marker ``node`` stands for."""
+        return self.stand_ins[int(node.text)]
+
+    def _context(self, first: etree._Element) -> tuple[etree._Element, etree._Element]:
+        """A copy of ``first``'s ancestors in which siblings of ``first`` are validated as in the file.
+
+        Each copy holds one empty element per sibling before the path: a content model looks only
+        at the names of the earlier siblings, so this is enough for the schema to check the batch
+        in place, and the copy stays a few dozen elements. The copies have no source line: their own
+        errors (empty content) are dropped by ``_validate``.
+        """
+        path = [first, *first.iterancestors()][::-1]
+        root = copy = etree.Element(path[0].tag, nsmap=first.nsmap)
+        for depth, (node, child) in enumerate(pairwise(path)):
+            if depth:
+                copy = etree.SubElement(copy, node.tag, node.attrib)
+            for sibling in reversed(list(child.itersiblings(preceding=True))):
+                tag = self._stand_in(sibling).tag if sibling.tag is etree.Comment else sibling.tag
+                if isinstance(tag, str):  # not an entity reference (reported by _scan)
+                    etree.SubElement(copy, tag)
+        return root, copy
+
+    def _restore(self, tree: etree._Element) -> None:
+        """Put the hidden stand-ins back in place of their markers (they are validated with ``tree``)."""
+        for marker in list(tree.iter(etree.Comment)):
+            stand_in = self.stand_ins.pop(int(marker.text))
+            self._restore(stand_in)
+            marker.getparent().replace(marker, stand_in)
 
     def _scan(self, el: etree._Element) -> dict:
         """ids, references and coordinate dimensions; returns the parsed coordinates of every ring."""
@@ -277,30 +532,11 @@ class _FileCheck:
                 self.add("xml", ent.getparent().sourceline, None, f"Uses the XML entity {ent.text}: entities are not "
                          "expanded (security), so its content is missing. Write the text directly.")
                 _remove_keep_tail(ent)
-        new_refs: list[tuple[str, int | None, str]] = []
-        for node in _WITH_ID(el):
-            gid = node.get(GML_ID)
-            if not _NCNAME.match(gid):
-                self.add("xsd", node.sourceline, gid, f"gml:id '{gid}' is not a valid XML name (it must start with a "
-                         "letter or '_' and contain no spaces or ':').")
-            if gid in self.ids:
-                self.add("duplicate-id", node.sourceline, gid, f"gml:id '{gid}' is used more than once; every "
-                         "gml:id in a file must be unique.")
-            else:
-                self.ids[gid] = 0
-        for node in _WITH_HREF(el):
-            href = node.get(HREF)
-            if href.startswith("#"):
-                new_refs.append((href[1:], node.sourceline, f"xlink:href of {_short(node.tag)}"))
-        for node in el.iter(_A["target"], _A["ring"]):
-            text = (node.text or "").strip()
-            if text.startswith("#"):
-                new_refs.append((text[1:], node.sourceline, _short(node.tag)))
         rings: dict = {}
-        dims = _WITH_DIM(el)
-        for node in el.iter(_G["posList"], _G["pos"], _G["lowerCorner"], _G["upperCorner"]):
+        with_id, with_href, dims = _attributed(el)
+        for node in el.iter(*_POSITIONS):
             tokens = (node.text or "").split()
-            ok = self._check_dimension(node, len(tokens), bool(dims))
+            ok = self._check_dimension(node, len(tokens), dims)
             parent = node.getparent()
             if parent.tag == _G["LinearRing"]:
                 try:
@@ -314,13 +550,21 @@ class _FileCheck:
                         rings[parent] = None
                 else:
                     rings[parent] = values
-        for ring, values in rings.items():
-            gid = ring.get(GML_ID)
-            if gid is not None and values is not None:
-                self.ids[gid] = len(values) // 3
-        for ref, line, how in new_refs:
-            if ref not in self.ids and ref not in self.pending_refs:
-                self.pending_refs[ref] = (line, how)
+        for node in with_id:
+            gid = node.get(GML_ID)
+            if not _NCNAME.match(gid):
+                self.add("xsd", node.sourceline, gid, f"gml:id '{gid}' is not a valid XML name (it must start with a "
+                         "letter or '_' and contain no spaces or ':').")
+            values = rings.get(node)
+            self.ids.add(gid, node.sourceline, len(values) // 3 if values else 0)
+        for node in with_href:
+            href = node.get(HREF)
+            if href.startswith("#"):
+                self.refs.append((href[1:], node.sourceline, f"xlink:href of {_qname(node.tag)}"))
+        for node in el.iter(*_REFERENCE_TEXTS):
+            text = (node.text or "").strip()
+            if text.startswith("#"):
+                self.refs.append((text[1:], node.sourceline, _qname(node.tag)))
         return rings
 
     def _check_dimension(self, node: etree._Element, count: int, any_declared: bool) -> bool:
@@ -331,11 +575,11 @@ class _FileCheck:
         """
         dim = _srs_dimension(node, any_declared)
         if dim is not None and dim != 3:
-            problem = f"{_short(node.tag)} has srsDimension=\"{dim}\": coordinates must be 3D (x y z)."
+            problem = f"{_qname(node.tag)} has srsDimension=\"{dim}\": coordinates must be 3D (x y z)."
         elif node.tag == _G["posList"] and count % 3:
             problem = f"gml:posList has {count} numbers, not a multiple of 3: every position must be 3D (x y z)."
         elif node.tag != _G["posList"] and count != 3:
-            problem = f"{_short(node.tag)} has {count} numbers: a position must be 3D (x y z)."
+            problem = f"{_qname(node.tag)} has {count} numbers: a position must be 3D (x y z)."
         else:
             return True
         own_crs = _inherited(node, "srsName")
@@ -346,20 +590,26 @@ class _FileCheck:
             self.add("dimension", node.sourceline, _owner_id(node), problem)
         return False
 
-    def _validate(self, node: etree._Element, aliases: dict[str, str] | None = None) -> None:
-        """XSD-validate ``node``; ``aliases`` maps neutral gml:id values back to the file's ones."""
+    def _validate(self, tree: etree._Element) -> None:
+        """XSD-validate ``tree`` with its stand-ins put back and its gml:ids neutral (see ``_neutral_ids``).
+
+        Errors without a source line are on our copies or empty placeholders: dropped, since what
+        they stand for is validated where it really is.
+        """
+        self._restore(tree)
+        aliases = _neutral_ids(tree)
         try:
-            if self.schema.validate(node):
+            if self.schema.validate(tree):
                 return
         except etree.XMLSchemaValidateError as exc:
-            self.add("xsd", node.sourceline, None, f"XSD validation could not run on this part: {exc}")
+            self.add("xsd", tree.sourceline, None, f"XSD validation could not run on this part: {exc}")
             return
         error_lines: set[int] = set()
         for err in self.schema.error_log:
-            if "list type" in err.message and err.line in error_lines:
+            if not err.line or ("list type" in err.message and err.line in error_lines):
                 continue  # libxml2 repeats a bad list item as a bad list: report it once
             error_lines.add(err.line)
-            self._xsd_issue(err.line, err.message, node, aliases or {})
+            self._xsd_issue(err.line, err.message, tree, aliases)
 
     def _xsd_issue(self, line: int, message: str, validated: etree._Element, aliases: dict[str, str]) -> None:
         match = _ELEMENT_IN_MSG.match(message)
@@ -395,22 +645,16 @@ class _FileCheck:
         self.add("xsd", line, gml_id, text)
 
     # -- TIN triangles ---------------------------------------------------------------------------
-    def _triangle(self, el: etree._Element) -> None:
-        """Check, validate and drop one triangle, keeping the first of its patch list for the XSD."""
-        rings = self._scan(el)
-        gid = el.get(GML_ID) or next((r.get(GML_ID) for r in rings if r.get(GML_ID)), None)
-        exterior = el.find(_G["exterior"] + "/" + _G["LinearRing"])
-        values = rings.get(exterior) if exterior is not None else None
-        if values is not None:
-            self.triangles.append((gid, el.sourceline, values))
-            if len(self.triangles) >= 4096:
-                self._flush_triangles()
-        for node in el.iter():
-            node.attrib.pop(GML_ID, None)  # recorded already; see _neutral_ids for why they must not reach the XSD
-        self._validate(el)
-        prev = el.getprevious()
-        if prev is not None and prev.tag == el.tag and prev.getprevious() is not None:
-            el.getparent().remove(prev)
+    def _check_triangles(self, el: etree._Element, rings: dict) -> None:
+        """Queue every triangle of ``el``; they are checked in batches (numpy pays off on thousands)."""
+        for tri in el.iter(_G["Triangle"]):
+            gid = tri.get(GML_ID) or next((r.get(GML_ID) for r in tri.iter(_G["LinearRing"]) if r.get(GML_ID)), None)
+            exterior = next((r for e in tri.iterchildren(_G["exterior"]) for r in e.iterchildren(_G["LinearRing"])), None)
+            values = rings.get(exterior) if exterior is not None else None
+            if values is not None:
+                self.triangles.append((gid, tri.sourceline, values))
+        if len(self.triangles) >= 4096:
+            self._flush_triangles()
 
     def _flush_triangles(self) -> None:
         for gid, line, values in self.triangles:
@@ -441,33 +685,12 @@ class _FileCheck:
                 self.add("texture-image", node.sourceline, _owner_id(node), f"Texture image '{uri}' does not exist "
                          f"(looked for {self.path.parent / uri}).")
         for tcl in el.iter(_A["TexCoordList"]):
-            coords = [c for c in tcl if c.tag == _A["textureCoordinates"]]
-            targets = [c for c in tcl if c.tag == _A["ring"]]
-            tex_id = _owner_id(tcl)
-            if len(coords) != len(targets):
-                self.add("texture-coordinates", tcl.sourceline, tex_id, f"TexCoordList has {len(coords)} "
-                         f"textureCoordinates but {len(targets)} ring references; they must pair up in order.")
-            for coord, ring in zip(coords, targets):
-                tokens = (coord.text or "").split()
-                bad = [t for t in tokens if not _finite(t)]
-                ring_id = (ring.text or "").strip().lstrip("#")
-                if bad:
-                    self.add("texture-coordinates", coord.sourceline, tex_id, f"Texture coordinates for ring "
-                             f"#{ring_id} contain {', '.join(repr(b) for b in bad[:3])}: each must be a finite number.")
-                if len(tokens) % 2:
-                    self.add("texture-coordinates", coord.sourceline, tex_id, f"Texture coordinates for ring "
-                             f"#{ring_id} have an odd number of values ({len(tokens)}); they are (s t) pairs.")
-                    continue
-                if self.ids.get(ring_id):
-                    self._compare_tex(ring_id, len(tokens) // 2, coord.sourceline, tex_id)
-                else:
-                    self.pending_tex.append((ring_id, len(tokens) // 2, coord.sourceline, tex_id))
-
-    def _compare_tex(self, ring_id: str, pairs: int, line: int | None, tex_id: str | None) -> None:
-        points = self.ids[ring_id]
-        if pairs != points:
-            self.add("texture-coordinates", line, tex_id, f"{pairs} texture coordinate pairs for ring #{ring_id}, "
-                     f"which has {points} points; there must be one pair per point (closing point included).")
+            if any(child.tag is etree.Comment for child in tcl):
+                continue  # streamed: its entries were paired as they came
+            pairs = _TexCoordPairs(self, tcl)
+            for child in tcl:
+                pairs.add(child)
+            pairs.close()
 
     # -- solids ----------------------------------------------------------------------------------
     def _check_solids(self, feature: etree._Element, rings: dict) -> None:
@@ -520,6 +743,51 @@ class _FileCheck:
                     self._collect_faces(surface, reverse ^ (surface.get("orientation") == "-"), feature, rings, out)
                 elif surface.tag in (_G["CompositeSurface"], _G["Surface"], _G["MultiSurface"], _G["Shell"]):
                     self._collect_faces(surface, reverse, feature, rings, out)
+
+
+class _TexCoordPairs:
+    """Pairs the textureCoordinates of a TexCoordList with its rings, in order, as they come.
+
+    All coordinates come before the rings, so a streamed list keeps only the number of pairs and
+    the line of each coordinate list (16 bytes) until its ring arrives, not the elements.
+    """
+
+    def __init__(self, fc: _FileCheck, tcl: etree._Element):
+        self.fc, self.line, self.tex_id = fc, tcl.sourceline, _owner_id(tcl)
+        self.pairs = array("q")  # (s t) pairs per coordinate list; minus the number of values when it is odd
+        self.lines = array("q")
+        self.faults: dict[int, list[str]] = {}  # coordinate list -> its non-finite values (first three)
+        self.n_rings = 0
+
+    def add(self, node: etree._Element) -> None:
+        if node.tag == _A["textureCoordinates"]:
+            tokens = (node.text or "").split()
+            bad = _non_finite(tokens)
+            if bad:
+                self.faults[len(self.pairs)] = bad[:3]
+            self.pairs.append(-len(tokens) if len(tokens) % 2 else len(tokens) // 2)
+            self.lines.append(node.sourceline or 0)
+        elif node.tag == _A["ring"]:
+            self.n_rings += 1
+            if self.n_rings <= len(self.pairs):
+                self._pair(self.n_rings - 1, (node.text or "").strip().lstrip("#"))
+
+    def _pair(self, k: int, ring_id: str) -> None:
+        fc, pairs, line = self.fc, self.pairs[k], self.lines[k] or None
+        bad = self.faults.pop(k, None)
+        if bad:
+            fc.add("texture-coordinates", line, self.tex_id, f"Texture coordinates for ring #{ring_id} contain "
+                   f"{', '.join(repr(b) for b in bad)}: each must be a finite number.")
+        if pairs < 0:
+            fc.add("texture-coordinates", line, self.tex_id, f"Texture coordinates for ring #{ring_id} have an odd "
+                   f"number of values ({-pairs}); they are (s t) pairs.")
+        else:
+            fc.tex_rings.append((ring_id, pairs, line, self.tex_id))
+
+    def close(self) -> None:
+        if len(self.pairs) != self.n_rings:
+            self.fc.add("texture-coordinates", self.line, self.tex_id, f"TexCoordList has {len(self.pairs)} "
+                        f"textureCoordinates but {self.n_rings} ring references; they must pair up in order.")
 
 
 class _Where(NamedTuple):
@@ -777,6 +1045,22 @@ def _xyz(p: np.ndarray) -> str:
     return "(" + " ".join(f"{c:.3f}" for c in p) + ")"
 
 
+@cache
+def _qname(tag: str) -> str:
+    """``prefix:name`` of an element tag (few distinct ones, so cached)."""
+    return _short(tag)
+
+
+def _non_finite(tokens: list[str]) -> list[str]:
+    """The tokens that are not finite numbers (one float() per token; most lists have none)."""
+    try:
+        if all(map(math.isfinite, map(float, tokens))):
+            return []
+    except ValueError:
+        pass
+    return [t for t in tokens if not _finite(t)]
+
+
 def _finite(token: str) -> bool:
     try:
         return math.isfinite(float(token))
@@ -804,7 +1088,7 @@ def _neutral_ids(tree: etree._Element) -> dict[str, str]:
     and syntax of the real ids are checked in ``_scan`` instead.
     """
     aliases = {}
-    for n, node in enumerate(_WITH_ID(tree)):
+    for n, node in enumerate(_attributed(tree)[0]):
         alias = f"i{n}"
         aliases[alias] = node.get(GML_ID)
         node.set(GML_ID, alias)
