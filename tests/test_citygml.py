@@ -345,3 +345,30 @@ def test_cancel_leaves_no_output(written, tmp_path, monkeypatch):
 def test_srs_uri():
     assert citygml.srs_uri_of("epsg:5186") == "http://www.opengis.net/def/crs/EPSG/0/5186"
     assert citygml.srs_uri_of("urn:ogc:def:crs:EPSG::5186") == "urn:ogc:def:crs:EPSG::5186"
+
+
+def test_raw_polygon_markup_is_what_lxml_would_write():
+    """The ready-made markup for the repeated geometry (``_Writer.raw``) equals lxml's element."""
+    geometry = ogr.CreateGeometryFromWkt("POLYGON Z ((0 0 1, 10 0 1, 10 10 2.5, 0 0 1), "
+                                         "(2 1 1, 8 1 1, 8 7 1.25, 2 1 1))")
+    gml = "{%s}" % citygml.NS["gml"]
+    expected = etree.Element(gml + "Polygon", {gml + "id": "BLD_1_f3"}, nsmap={"gml": citygml.NS["gml"]})
+    for i, side in enumerate(("exterior", "interior")):
+        ring = etree.SubElement(etree.SubElement(expected, gml + side), gml + "LinearRing",
+                                {gml + "id": f"BLD_1_f3_r{i or ''}"})
+        pos = etree.SubElement(ring, gml + "posList", {"srsDimension": "3"})
+        pos.text = " ".join(f"{c:.3f}" for p in geometry.GetGeometryRef(i).GetPoints() for c in p)
+    got = etree.fromstring(f'<r xmlns:gml="{citygml.NS["gml"]}">{citygml._polygon("BLD_1_f3", geometry)}</r>')[0]
+    assert etree.tostring(got, method="c14n") == etree.tostring(expected, method="c14n")
+
+
+def test_a_tin_triangle_id_must_be_an_integer():
+    ds = ogr.GetDriverByName("Memory").CreateDataSource("m")  # kept: the layer dies with it
+    layer = ds.CreateLayer("t")
+    layer.CreateField(ogr.FieldDefn("tri_id", ogr.OFTString))
+    feature = ogr.Feature(layer.GetLayerDefn())
+    feature.SetField(0, "12")
+    assert citygml._tri_id(feature, 0) == "tri_12"
+    feature.SetField(0, '1"><x')
+    with pytest.raises(InputError, match="not an integer"):
+        citygml._tri_id(feature, 0)

@@ -35,9 +35,10 @@ import shutil
 import sqlite3
 import tempfile
 from dataclasses import dataclass
-from itertools import chain, groupby
+from itertools import chain, groupby, islice
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
+from xml.sax.saxutils import escape
 
 import numpy as np
 import shapely
@@ -303,6 +304,30 @@ def _poslist(points: list[tuple[float, ...]]) -> str:
     return " ".join(f"{x:.3f} {y:.3f} {z:.3f}" for x, y, z in points)
 
 
+def _polygon(gml_id: str, geometry: ogr.Geometry) -> str:
+    """A ``gml:Polygon`` with rings as stored; ring ids ``<id>_r`` (exterior), ``<id>_r<i>``."""
+    rings = []
+    for i in range(geometry.GetGeometryCount()):
+        side = "interior" if i else "exterior"
+        rings.append(f'<gml:{side}><gml:LinearRing gml:id="{gml_id}_r{i or ""}"><gml:posList srsDimension="3">'
+                     f"{_poslist(geometry.GetGeometryRef(i).GetPoints())}</gml:posList></gml:LinearRing></gml:{side}>")
+    return f'<gml:Polygon gml:id="{gml_id}">{"".join(rings)}</gml:Polygon>'
+
+
+def _tri_id(feature: ogr.Feature, column: int) -> str:
+    """``tri_<n>`` from the TIN's integer ``tri_id``."""
+    value = feature.GetFieldAsString(column)
+    if not value.lstrip("-").isdigit():
+        raise InputError(f"TIN triangle id {value!r} is not an integer: re-run wit:triangulateterrain.")
+    return f"tri_{value}"
+
+
+def _batches(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
+    iterator = iter(items)
+    while batch := list(islice(iterator, size)):
+        yield batch
+
+
 def _uv(text: str | None, what: str, pairs: Callable[[int], bool]) -> str:
     """Validated texture coordinates, normalised to 7 significant digits."""
     try:
@@ -319,9 +344,9 @@ class _Progress:
     def __init__(self, feedback: Feedback, total: int):
         self.feedback, self.total, self.done = feedback, total, 0
 
-    def tick(self) -> None:
-        self.done += 1
-        if self.done % _BATCH == 0:
+    def tick(self, count: int = 1) -> None:
+        self.done += count
+        if self.done % _BATCH < count:  # passed a multiple of _BATCH
             self.feedback.check_canceled()
             self.feedback.progress(min(99.0, 100.0 * self.done / self.total))
 
@@ -394,10 +419,22 @@ _GEN_TYPES = {ogr.OFTInteger: "IntAttribute", ogr.OFTInteger64: "IntAttribute",
 
 
 class _Writer:
-    """Writes the document through ``lxml.etree.xmlfile``, one element at a time."""
+    """Writes the document through ``lxml.etree.xmlfile``, one element at a time, except the
+    geometry that repeats hundreds of thousands of times (TIN and road triangles, faces, texture
+    coordinates of the TIN), which goes out as ready-made markup (``raw``): one Python call per
+    triangle instead of about ten. That markup holds only numbers and ids checked to be NCNames.
+    """
 
-    def __init__(self, xf: Any, report: WriteReport, progress: _Progress):
-        self.xf, self.report, self.progress = xf, report, progress
+    #: triangles (or texture entries) per ``raw`` write
+    RAW_BATCH = 1024
+
+    def __init__(self, xf: Any, fh: Any, report: WriteReport, progress: _Progress):
+        self.xf, self.fh, self.report, self.progress = xf, fh, report, progress
+
+    def raw(self, markup: str) -> None:
+        """Append markup as it is: lxml's pending output first, so the order is kept."""
+        self.xf.flush()
+        self.fh.write(markup.encode("utf-8"))
 
     @classmethod
     @contextlib.contextmanager
@@ -409,7 +446,7 @@ class _Writer:
         with etree.xmlfile(fh, encoding="utf-8") as xf:
             xf.write_declaration()
             with xf.element(CORE + "CityModel", {XSI + "schemaLocation": locations}, nsmap=NS):
-                writer = cls(xf, report, progress)
+                writer = cls(xf, fh, report, progress)
                 with writer.el(GML + "boundedBy"), \
                         writer.el(GML + "Envelope", {"srsName": srs_uri, "srsDimension": "3"}):
                     writer.leaf(GML + "lowerCorner", _poslist([env[:3]]))
@@ -455,12 +492,7 @@ class _Writer:
                 self.leaf(GEN + "value", value)
 
     def polygon(self, gml_id: str, geometry: ogr.Geometry) -> None:
-        """A ``gml:Polygon`` with rings as stored; ring ids ``<id>_r`` (exterior), ``<id>_r<i>``."""
-        with self.el(GML + "Polygon", {GML_ID: gml_id}):
-            for i in range(geometry.GetGeometryCount()):
-                with self.el(GML + ("interior" if i else "exterior")), \
-                        self.el(GML + "LinearRing", {GML_ID: f"{gml_id}_r{i or ''}"}):
-                    self.leaf(GML + "posList", _poslist(geometry.GetGeometryRef(i).GetPoints()), {"srsDimension": "3"})
+        self.raw(_polygon(gml_id, geometry))
 
     # content ------------------------------------------------------------------------------------
     def buildings(self, lod1: _Layer, members: _Membership | None) -> None:
@@ -542,12 +574,12 @@ class _Writer:
                 with self.el(TRAN + "trafficSpace"), self.el(TRAN + "TrafficSpace", {GML_ID: f"{wit_id}_space"}):
                     with self.el(CORE + "boundary"), self.el(TRAN + "TrafficArea", {GML_ID: f"{wit_id}_area"}), \
                             self.el(CORE + ROAD_LOD_PROPERTY), self.el(GML + "MultiSurface"):
-                        for triangle in triangles:
-                            self.xf.write("\n")
-                            with self.el(GML + "surfaceMember"):
-                                self.polygon(f"tri_{triangle.GetFieldAsString(tri_col)}", _triangle(triangle))
-                            self.report.triangles += 1
-                            self.progress.tick()
+                        for batch in _batches(triangles, self.RAW_BATCH):
+                            self.raw("".join(
+                                f"\n<gml:surfaceMember>{_polygon(_tri_id(t, tri_col), _triangle(t))}</gml:surfaceMember>"
+                                for t in batch))
+                            self.report.triangles += len(batch)
+                            self.progress.tick(len(batch))
                     self.leaf(TRAN + "granularity", "way")
         self.report.roads += 1
 
@@ -563,14 +595,13 @@ class _Writer:
                 with self.el(DEM + "tin"), self.el(GML + "TriangulatedSurface", {GML_ID: TIN_SURFACE_ID}), \
                         self.el(GML + "patches"), tin.select(where, (model.TIN_TRIANGLE_ID,)) as result:
                     tri_col = _columns(result)[model.TIN_TRIANGLE_ID]
-                    for triangle in result:
-                        self.xf.write("\n")
-                        with self.el(GML + "Triangle"), self.el(GML + "exterior"), \
-                                self.el(GML + "LinearRing", {GML_ID: f"tri_{triangle.GetFieldAsString(tri_col)}_r"}):
-                            self.leaf(GML + "posList", _poslist(_triangle(triangle).GetGeometryRef(0).GetPoints()),
-                                      {"srsDimension": "3"})
-                        self.report.triangles += 1
-                        self.progress.tick()
+                    for batch in _batches(result, self.RAW_BATCH):
+                        self.raw("".join(
+                            f'\n<gml:Triangle><gml:exterior><gml:LinearRing gml:id="{_tri_id(t, tri_col)}_r">'
+                            f'<gml:posList srsDimension="3">{_poslist(_triangle(t).GetGeometryRef(0).GetPoints())}'
+                            "</gml:posList></gml:LinearRing></gml:exterior></gml:Triangle>" for t in batch))
+                        self.report.triangles += len(batch)
+                        self.progress.tick(len(batch))
 
     def groups(self, members: _Membership) -> None:
         for wit_id, district, buildings in members.groups():
@@ -618,15 +649,18 @@ class _Writer:
         if target == "tin":
             refs: list[str] = []
             with self.association(f"#{TIN_SURFACE_ID}"):
-                for row in rows:
-                    feature = row.GetFieldAsString(feature_col)
-                    self.leaf(APP + "textureCoordinates", _uv(row.GetFieldAsString(uv_col),
-                                                              f"TIN triangle {feature} in {path}", lambda n: n == 4))
-                    refs.append(f"#tri_{feature}_r")
-                    self.report.textured_surfaces += 1
-                    self.progress.tick()
-                for ref in refs:
-                    self.leaf(APP + "ring", ref)
+                for batch in _batches(rows, self.RAW_BATCH):
+                    coords = []
+                    for row in batch:
+                        feature = row.GetFieldAsString(feature_col)
+                        uv = _uv(row.GetFieldAsString(uv_col), f"TIN triangle {feature} in {path}", lambda n: n == 4)
+                        coords.append(f"<app:textureCoordinates>{uv}</app:textureCoordinates>")
+                        refs.append(f"<app:ring>#tri_{escape(feature)}_r</app:ring>")
+                    self.raw("".join(coords))
+                    self.report.textured_surfaces += len(batch)
+                    self.progress.tick(len(batch))
+                for start in range(0, len(refs), self.RAW_BATCH):
+                    self.raw("".join(refs[start:start + self.RAW_BATCH]))
             return
         if target not in ("roof", "road"):
             raise InputError(f"Texture table {path} has the unknown target {target!r}: use roof, road or tin.")
