@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import sqlite3
 from pathlib import Path
 
 import numpy as np
@@ -118,6 +119,10 @@ def read_rows(output: Path) -> list[dict]:
         rows.append({"target": f.GetField(model.TEX_TARGET), "feature": f.GetField(model.TEX_FEATURE),
                      "face": f.GetField(model.TEX_FACE), "image": f.GetField(model.TEX_IMAGE),
                      "uv": np.array(f.GetField(model.TEX_COORDS).split(), dtype=float).reshape(-1, 2)})
+    ds = None
+    with sqlite3.connect(output / texture.TEXCOORDS_FILE) as db:  # the count GDAL keeps matches the rows
+        assert db.execute("SELECT feature_count FROM gpkg_ogr_contents WHERE table_name = ?",
+                          (model.TEXCOORD_TABLE,)).fetchone() == (len(rows),)
     return rows
 
 
