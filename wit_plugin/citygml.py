@@ -575,9 +575,8 @@ class _Writer:
                     with self.el(CORE + "boundary"), self.el(TRAN + "TrafficArea", {GML_ID: f"{wit_id}_area"}), \
                             self.el(CORE + ROAD_LOD_PROPERTY), self.el(GML + "MultiSurface"):
                         for batch in _batches(triangles, self.RAW_BATCH):
-                            self.raw("".join(
-                                f"\n<gml:surfaceMember>{_polygon(_tri_id(t, tri_col), _triangle(t))}</gml:surfaceMember>"
-                                for t in batch))
+                            self.raw("".join(f"\n<gml:surfaceMember>{_polygon(_tri_id(t, tri_col), _triangle(t))}"
+                                             "</gml:surfaceMember>" for t in batch))
                             self.report.triangles += len(batch)
                             self.progress.tick(len(batch))
                     self.leaf(TRAN + "granularity", "way")

@@ -151,10 +151,10 @@ class Dem:
         ua, ub = (np.asarray(xmin, float) - x0) / dx - 0.5, (np.asarray(xmax, float) - x0) / dx - 0.5
         va, vb = (np.asarray(ymin, float) - y0) / dy - 0.5, (np.asarray(ymax, float) - y0) / dy - 0.5
         if covering:
-            j_lo, j_hi = (np.clip(f(g(ua, ub)), 0, cols - 1).astype(np.int64)
-                          for f, g in ((np.floor, np.minimum), (np.ceil, np.maximum)))
-            i_lo, i_hi = (np.clip(f(g(va, vb)), 0, rows - 1).astype(np.int64)
-                          for f, g in ((np.floor, np.minimum), (np.ceil, np.maximum)))
+            j_lo = np.clip(np.floor(np.minimum(ua, ub)), 0, cols - 1).astype(np.int64)
+            j_hi = np.clip(np.ceil(np.maximum(ua, ub)), 0, cols - 1).astype(np.int64)
+            i_lo = np.clip(np.floor(np.minimum(va, vb)), 0, rows - 1).astype(np.int64)
+            i_hi = np.clip(np.ceil(np.maximum(va, vb)), 0, rows - 1).astype(np.int64)
         else:
             j_lo = np.maximum(np.ceil(np.minimum(ua, ub)), 0).astype(np.int64)
             j_hi = np.minimum(np.floor(np.maximum(ua, ub)), cols - 1).astype(np.int64)
@@ -179,7 +179,6 @@ class Dem:
         triangles so that the per-node arrays stay small.
         """
         bound = np.empty(len(a))
-        rows, cols = self.values.shape
         for lo in range(0, len(a), chunk):
             pa, pb, pc = a[lo:lo + chunk], b[lo:lo + chunk], c[lo:lo + chunk]
             lower = np.minimum(np.minimum(pa, pb), pc)
@@ -189,17 +188,13 @@ class Dem:
             with np.errstate(divide="ignore", invalid="ignore"):  # plane z = za + gx·(x − xa) + gy·(y − ya)
                 gx = (e1[:, 2] * e2[:, 1] - e2[:, 2] * e1[:, 1]) / det
                 gy = (e2[:, 2] * e1[:, 0] - e1[:, 2] * e2[:, 0]) / det
-            part = self._window_deviation(pa, gx, gy, lower, upper)
-            u_lo, v_lo = self._indices(lower[:, 0], lower[:, 1])
-            u_hi, v_hi = self._indices(upper[:, 0], upper[:, 1])
-            part[(np.minimum(u_lo, u_hi) < 0) | (np.maximum(u_lo, u_hi) > cols - 1)
-                 | (np.minimum(v_lo, v_hi) < 0) | (np.maximum(v_lo, v_hi) > rows - 1)] = np.inf
-            bound[lo:lo + chunk] = part
+            bound[lo:lo + chunk] = self._window_deviation(pa, gx, gy, lower, upper)
         return bound
 
     def _window_deviation(self, a: np.ndarray, gx: np.ndarray, gy: np.ndarray, lower: np.ndarray,
                           upper: np.ndarray) -> np.ndarray:
-        """Max |height − plane| over the cell centres covering each box (``plane_deviation_bound``).
+        """Max |height − plane| over the cell centres covering each box (``plane_deviation_bound``);
+        infinity for boxes reaching beyond the outermost centres and for degenerate planes.
 
         Boxes spanning at most 3 × 3 centres (triangles no bigger than the cells, the usual case)
         take nine whole-array passes; the others go through ``nodes_in_boxes``.
@@ -222,7 +217,7 @@ class Dem:
                     j = np.minimum(j_lo + dj, j_hi)
                     x = x0 + (j + 0.5) * dx - a[:, 0]
                     out = np.fmax(out, np.abs(flat[i * cols + j] - a[:, 2] - gx * x - gy * y))
-            out[np.isnan(gx) | np.isnan(gy) | np.isinf(gx) | np.isinf(gy)] = np.inf
+            out[~np.isfinite(gx) | ~np.isfinite(gy)] = np.inf
             big = np.flatnonzero((j_hi - j_lo > 2) | (i_hi - i_lo > 2))
             if len(big):
                 owner, x, y, z = self.nodes_in_boxes(lower[big, 0], lower[big, 1], upper[big, 0], upper[big, 1],
@@ -231,6 +226,8 @@ class Dem:
                 dev = np.abs(z - a[k, 2] - gx[k] * (x - a[k, 0]) - gy[k] * (y - a[k, 1]))
                 dev[np.isnan(dev)] = np.inf
                 out[big] = np.maximum.reduceat(dev, np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]]))
+        beyond = (u.min(axis=0) < 0) | (u.max(axis=0) > cols - 1) | (v.min(axis=0) < 0) | (v.max(axis=0) > rows - 1)
+        out[beyond] = np.inf  # past the outermost centres the surface is held flat: not bilinear
         return out
 
     def deviation_range(self, x0: np.ndarray, y0: np.ndarray, z0: np.ndarray, x1: np.ndarray, y1: np.ndarray,

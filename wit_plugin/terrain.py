@@ -366,6 +366,11 @@ def _edge_keys(edges: np.ndarray) -> np.ndarray:
     return (edges[..., 0] << 31) | edges[..., 1]
 
 
+def _edge_pairs(keys: np.ndarray) -> np.ndarray:
+    """The (k, 2) vertex pairs back from ``_edge_keys``."""
+    return np.column_stack([keys >> 31, keys & ((1 << 31) - 1)])
+
+
 def _triangle_edge_keys(tris: np.ndarray) -> np.ndarray:
     """(m, 3) edge keys of each triangle."""
     return _edge_keys(np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1))
@@ -400,8 +405,7 @@ def _refine_patch(triangle, xy: np.ndarray, tris: np.ndarray, attributes: np.nda
     used, local = np.unique(tris, return_inverse=True)
     keys, count = np.unique(_triangle_edge_keys(tris), return_counts=True)
     outline_or_constrained = keys[(count == 1) | np.isin(keys, constrained)]
-    segments = np.searchsorted(used, np.column_stack([outline_or_constrained >> 31,
-                                                      outline_or_constrained & ((1 << 31) - 1)]))
+    segments = np.searchsorted(used, _edge_pairs(outline_or_constrained))
     out = triangle.triangulate({"vertices": xy[used], "segments": segments, "triangles": local.reshape(-1, 3),
                                 "triangle_attributes": attributes, "triangle_max_area": limits},
                                f"prq{MIN_ANGLE}aYY")
@@ -462,13 +466,11 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
     """
     if not len(tris):
         return np.zeros(0)
-    n = len(xyz)
-    edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
-    unique, inverse = np.unique(edges[:, 0].astype(np.int64) * n + edges[:, 1], return_inverse=True)
-    i, j = unique // n, unique % n
+    unique, inverse = np.unique(_triangle_edge_keys(tris), return_inverse=True)
+    i, j = _edge_pairs(unique).T
     lo, hi = dem.deviation_range(xyz[i, 0], xyz[i, 1], xyz[i, 2], xyz[j, 0], xyz[j, 1], xyz[j, 2],
                                  ends_on_surface=True)
-    error = np.maximum(-lo, hi)[inverse.ravel()].reshape(3, -1).max(axis=0)
+    error = np.maximum(-lo, hi)[inverse.ravel()].reshape(-1, 3).max(axis=1)
 
     a, b, c = xyz[tris[:, 0]], xyz[tris[:, 1]], xyz[tris[:, 2]]
     corners = np.stack([a, b, c])
@@ -552,7 +554,7 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
         if too_far.any():
             # new vertices must go where the surface bends, wherever that leads: refine everything,
             # splitting constraint pieces too (they carry the segment marker in the output)
-            pieces = np.column_stack([constrained >> 31, constrained & ((1 << 31) - 1)])
+            pieces = _edge_pairs(constrained)
             mesh = triangle.triangulate({"vertices": xy, "segments": pieces, "triangles": tris,
                                          "segment_markers": np.ones(len(pieces), dtype=np.int32),
                                          "triangle_attributes": attributes, "triangle_max_area": limits},

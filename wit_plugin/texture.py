@@ -58,7 +58,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import math
-import sqlite3
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
@@ -71,6 +70,8 @@ from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_files
 from .gdal_env import capped_block_cache
+from .gpkg_bulk import BulkTable
+from .vector_io import FieldDef
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
 TEXCOORDS_FILE = model.TEXCOORD_FILE
@@ -483,24 +484,15 @@ class _Output:
     writing took most of this step's time.
     """
 
-    _COLUMNS = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
+    _FIELDS = [FieldDef(model.TEX_TARGET, ogr.OFTString), FieldDef(model.TEX_FEATURE, ogr.OFTString),
+               FieldDef(model.TEX_FACE, ogr.OFTInteger), FieldDef(model.TEX_IMAGE, ogr.OFTString),
+               FieldDef(model.TEX_COORDS, ogr.OFTString)]
 
     def __init__(self, folder: Path, ext: str, config: TextureConfig, report: TextureReport):
         self.folder, self.ext, self.config, self.report = folder, ext, config, report
         self._driver = gdal.GetDriverByName("JPEG" if ext == "jpg" else "PNG")
         self._options = [f"QUALITY={config.jpeg_quality}"] if ext == "jpg" else ["ZLEVEL=6"]
-        path = folder / TEXCOORDS_FILE
-        ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
-        layer = ds.CreateLayer(model.TEXCOORD_TABLE, geom_type=ogr.wkbNone)
-        for name in self._COLUMNS:
-            layer.CreateField(ogr.FieldDefn(name, ogr.OFTInteger if name == model.TEX_FACE else ogr.OFTString))
-        layer = ds = None
-        self._db = sqlite3.connect(path)
-        self._db.execute("PRAGMA journal_mode = OFF")  # a staging file, moved into place only when complete
-        self._db.execute("PRAGMA synchronous = OFF")
-        names = ", ".join(f'"{c}"' for c in self._COLUMNS)
-        self._insert = f'INSERT INTO "{model.TEXCOORD_TABLE}" ({names}) VALUES ({", ".join("?" * len(self._COLUMNS))})'
-        self._rows = 0
+        self._table = BulkTable(folder / TEXCOORDS_FILE, model.TEXCOORD_TABLE, self._FIELDS)
 
     def write(self, stem: str, pixels: np.ndarray, items: list[tuple[_Surface, _Placement]]) -> None:
         """Write one image and the rows of the surfaces placed in it."""
@@ -519,9 +511,7 @@ class _Output:
         rows = [(surface.target, surface.feature, surface.face, name,
                  _uv_format(2 * n) % tuple(uv[2 * start:2 * (start + n)]))
                 for (surface, _), n, start in zip(items, counts, starts.tolist())]
-        self._db.executemany(self._insert, rows)
-        self._db.commit()
-        self._rows += len(rows)
+        self._table.insert(rows)
         for surface, _ in items:
             self.report.surfaces[surface.target] += 1
 
@@ -535,14 +525,10 @@ class _Output:
     def finish(self) -> None:
         """Index the table in the order the CityGML writer reads it (image, target, feature, face)."""
         columns = ", ".join(f'"{c}"' for c in (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE))
-        self._db.execute(f'CREATE INDEX "{model.TEXCOORD_TABLE}_order" ON "{model.TEXCOORD_TABLE}" ({columns})')
-        # GDAL keeps a feature count; rows added behind its back must be counted in
-        self._db.execute("UPDATE gpkg_ogr_contents SET feature_count = ? WHERE table_name = ?",
-                         (self._rows, model.TEXCOORD_TABLE))
-        self._db.commit()
+        self._table.db.execute(f'CREATE INDEX "{model.TEXCOORD_TABLE}_order" ON "{model.TEXCOORD_TABLE}" ({columns})')
 
     def close(self) -> None:
-        self._db.close()
+        self._table.close()
 
 
 # --- roofs: islands in atlases ------------------------------------------------------------------
