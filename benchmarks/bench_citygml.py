@@ -97,7 +97,7 @@ def make_inputs(folder: Path, n: int) -> tuple[str, str]:
 def child(lod1: str, districts: str, output: str) -> None:
     """Run in the measured process: print seconds and RSS before/after as JSON."""
     sys.path.insert(0, str(ROOT))
-    from wit_plugin import citygml
+    from wit_plugin.citygml import writer as citygml
 
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     start = time.perf_counter()

@@ -47,7 +47,8 @@ def peak_rss_mb() -> float:
 def prepare_data(data: Path, radius: float) -> dict:
     """Run the chain once; later runs reuse every file that exists. Returns the paths and step times."""
     _setup()
-    from wit_plugin import citygml, extrude, georef
+    from wit_plugin import extrude, georef
+    from wit_plugin.citygml import writer as citygml
     from wit_plugin.mosaic import merge_tiles
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.texture import TextureConfig, texture_model

@@ -123,7 +123,7 @@ def worker(mode: str, path: str) -> None:
     sys.path.insert(0, str(ROOT))
     from lxml import etree
 
-    from wit_plugin import schemas, validate
+    from wit_plugin.citygml import schemas, validate
     schema = schemas.load_schema(SCHEMAS)
     start = time.perf_counter()
     if mode == "full":

@@ -184,7 +184,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         info = {"images": len(report.images), "atlases": report.atlases, "ground_images": report.ground_images,
                 "surfaces": report.surfaces, "mb_written": round(report.bytes_written / 1e6, 1)}
     elif step == "citygml":
-        from wit_plugin import citygml
+        from wit_plugin.citygml import writer as citygml
 
         start = time.perf_counter()
         report = citygml.write_citygml(citygml.CityGMLInputs(
@@ -195,7 +195,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
                 "triangles": report.triangles, "textures": report.textures, "groups": report.groups,
                 "gml_mb": round(Path(p["gml"]).stat().st_size / 1e6, 1)}
     elif step == "validate":
-        from wit_plugin.validate import validate_files
+        from wit_plugin.citygml.validate import validate_files
 
         start = time.perf_counter()
         report = validate_files([p["gml"]], SCHEMAS)[0]

@@ -38,9 +38,9 @@ class ValidateCityGML(WitAlgorithm):
         "solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, "
         "TIN triangles non-degenerate, all positions 3D, texture images present and texture "
         "coordinates matching their rings. Large files are streamed. External entities and network "
-        "access are disabled while parsing. Schemas: the SCHEMA_DIR folder, else the folder set in "
-        "the plugin settings, else the plugin's cache, else a one-time download from "
-        "schemas.opengis.net; the log says which was used. Results: VALID, ERROR_COUNT and a "
+        "access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an "
+        "ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin "
+        "ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a "
         "per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports."
     )
     requirements = ("lxml", "shapely")
@@ -73,8 +73,8 @@ class ValidateCityGML(WitAlgorithm):
         self.addOutput(QgsProcessingOutputString("SCHEMA_SOURCE", self.tr("Schemas used")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.schemas import find_schema_dir
-        from ..wit_plugin.validate import validate_files, write_report_csv, write_report_html
+        from ..wit_plugin.citygml.schemas import find_schema_dir
+        from ..wit_plugin.citygml.validate import validate_files, write_report_csv, write_report_html
 
         configured = (self.parameterAsFile(parameters, self.SCHEMA_DIR, context)
                       or QgsSettings().value(SCHEMA_SETTING, "", type=str))

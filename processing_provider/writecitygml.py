@@ -66,7 +66,7 @@ class WriteCityGML(WitAlgorithm):
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.citygml import CityGMLInputs, write_citygml
+        from ..wit_plugin.citygml.writer import CityGMLInputs, write_citygml
 
         lod1 = self.parameterAsVectorLayer(parameters, self.LOD1, context)
         inputs = CityGMLInputs(

@@ -16,7 +16,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = Path(os.environ.get("WIT_DEMO_OUT", ROOT / "out" / "demo"))
-SHARED_SCHEMAS = ROOT.parent / "shared" / "schemas"
 QGIS_PROCESS = str(ROOT / "scripts" / "qgis-process")
 WIT_DEMO_MAX_EDGE = float(os.environ.get("WIT_DEMO_MAX_EDGE", "15"))
 
@@ -56,8 +55,6 @@ def main() -> int:
              # the demo to about a minute
              "MAX_EDGE": WIT_DEMO_MAX_EDGE,
              "OUTPUT": OUT / "model"}
-    if (SHARED_SCHEMAS / "citygml3-all.xsd").exists():  # else: the plugin's cache or a one-time download
-        chain["SCHEMA_DIR"] = SHARED_SCHEMAS
     model = step("the whole chain: NGII sheets → CityGML 3.0", "wit:citymodel", **chain)
     work = OUT / "model" / "work"
     print("== preview picture", flush=True)

@@ -10,7 +10,8 @@ import pytest
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import citygml, model
+from wit_plugin import model
+from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.texture import TEXCOORDS_FILE

@@ -10,7 +10,8 @@ import pytest
 import shapely
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import citygml, extrude, georef, metrics, model
+from wit_plugin import extrude, georef, metrics, model
+from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import InputError
 from wit_plugin.mosaic import merge_tiles
 from wit_plugin.sample import SampleConfig, generate_sample

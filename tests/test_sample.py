@@ -148,9 +148,9 @@ def test_counts_codes_and_numbers_are_plausible(small):
 
 def test_default_area_has_gangnam_density():
     config = sample.SampleConfig(with_ortho=False, with_dem=False)
-    from wit_plugin.sample_layout import CityLayout
-    from wit_plugin.sample_rasters import Terrain
-    from wit_plugin.sample_vectors import select
+    from wit_plugin.sample.layout import CityLayout
+    from wit_plugin.sample.rasters import Terrain
+    from wit_plugin.sample.vectors import select
     layout = CityLayout(tuple(np.array(SUSEO_5179)), config.seed, Terrain(config.seed))
     data = select(layout, config.radius_m, None, 1e-3)
     centres = np.array([b.rings[0][:-1].mean(axis=0) for b in data.buildings])
@@ -264,7 +264,7 @@ def test_dem_has_undeclared_minus_9999_holes_and_real_relief(small):
 
 
 def test_default_dem_has_the_hills_south_west_of_suseo():
-    from wit_plugin.sample_rasters import Terrain
+    from wit_plugin.sample.rasters import Terrain
     terrain = Terrain(42)
     x0, y0 = Transformer.from_crs("EPSG:4737", "EPSG:5186", always_xy=True).transform(127.1020, 37.4876)
     daemosan = terrain(np.array([x0 - 1794.0]), np.array([y0 - 1378.0]))[0]

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from wit_plugin import schemas, validate
+from wit_plugin.citygml import schemas, validate
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
@@ -248,11 +248,37 @@ def test_find_schema_dir_order(schema_dir, tmp_path):
     assert schemas.find_schema_dir(str(schema_dir), str(tmp_path), False) == (schema_dir, "configured folder")
     with pytest.raises(InputError, match="does not contain citygml3-all.xsd"):
         schemas.find_schema_dir(str(tmp_path), str(tmp_path), True)
+    assert schemas.find_schema_dir(None, str(tmp_path), True) == (schemas.EMBEDDED_DIR, "embedded")
+    # an install whose embedded copy was removed: cache, else a download
     with pytest.raises(InputError, match="No CityGML 3.0 schemas available: set SCHEMA_DIR"):
-        schemas.find_schema_dir(None, str(tmp_path), False)
+        schemas.find_schema_dir(None, str(tmp_path), False, embedded=tmp_path / "gone")
     cached = tmp_path / schemas.CACHE_SUBDIR
     shutil.copytree(schema_dir, cached)
-    assert schemas.find_schema_dir(None, str(tmp_path), False) == (cached, "cache")
+    assert schemas.find_schema_dir(None, str(tmp_path), False, embedded=None) == (cached, "cache")
+
+
+def test_embedded_schemas_are_the_offline_set(schema_dir):
+    """The plugin ships every schema file of the offline set, byte for byte, and their notices."""
+    def files(root: Path, top: str) -> dict[str, bytes]:
+        return {p.relative_to(root).as_posix(): p.read_bytes() for p in (root / top).rglob("*") if p.is_file()}
+    for top in ("opengis", "w3"):
+        assert files(schemas.EMBEDDED_DIR, top) == files(schema_dir, top)
+    assert (schemas.EMBEDDED_DIR / "citygml3-all.xsd").read_bytes() == (schema_dir / "citygml3-all.xsd").read_bytes()
+    notice = (schemas.EMBEDDED_DIR / "NOTICE.md").read_text(encoding="utf-8")
+    assert "OASIS_COPYRIGHT_NOTICE.txt" in notice and "w3.org/copyright" in notice
+
+
+def test_embedded_schemas_validate_without_network(schema_dir, tmp_path, monkeypatch):
+    """No folder configured, no network: the shipped copy gives the same verdicts as the offline set."""
+    def no_network(*args, **kwargs):
+        raise AssertionError("the network was used")
+    monkeypatch.setattr(schemas.urllib.request, "urlopen", no_network)
+    folder, source = schemas.find_schema_dir(None, str(tmp_path / "cache"), True)
+    assert source == "embedded" and not (tmp_path / "cache").exists()
+    reports = validate.validate_files([str(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml"),
+                                       str(schema_dir / "examples" / "Building_LOD2-EPSG25832.gml")], folder)
+    assert sorted(i.line for i in reports[0].issues if i.check == "xsd") == [63, 117, 126, 175]
+    assert reports[1].valid
 
 
 def _public_mirror(schema_dir: Path, root: Path) -> None:
@@ -290,7 +316,7 @@ def mirror_server(schema_dir, tmp_path):
 def test_download_once_into_cache_then_validate_offline(mirror_server, schema_dir, tmp_path):
     base_url, www = mirror_server
     cache = tmp_path / "cache"
-    folder, source = schemas.find_schema_dir(None, str(cache), True, base_url=base_url)
+    folder, source = schemas.find_schema_dir(None, str(cache), True, base_url=base_url, embedded=None)
     assert (folder, source) == (cache / schemas.CACHE_SUBDIR, "downloaded")
     assert (folder / "opengis/citygml/3.0/building.xsd").is_file() and (folder / "w3/1999/xlink.xsd").is_file()
     assert (folder / "opengis/iso/19139/20070417/gmd/gmd.xsd").is_file()
@@ -298,7 +324,7 @@ def test_download_once_into_cache_then_validate_offline(mirror_server, schema_di
                       (e.get("schemaLocation") for e in ET.parse(f).getroot().iter() if e.get("schemaLocation"))]
     assert every_location and not [loc for loc in every_location if "://" in loc]  # no network at validation time
     shutil.rmtree(www)  # the server is gone: the second call must use the cache
-    assert schemas.find_schema_dir(None, str(cache), True, base_url=base_url) == (folder, "cache")
+    assert schemas.find_schema_dir(None, str(cache), True, base_url=base_url, embedded=None) == (folder, "cache")
     reports = validate.validate_files([str(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml"),
                                        str(schema_dir / "examples" / "Building_LOD2-EPSG25832.gml")], folder)
     assert sorted(i.line for i in reports[0].issues if i.check == "xsd") == [63, 117, 126, 175]
@@ -307,7 +333,8 @@ def test_download_once_into_cache_then_validate_offline(mirror_server, schema_di
 
 def test_failed_download_leaves_no_cache(tmp_path):
     with pytest.raises(InputError, match="Could not download the CityGML schema"):
-        schemas.find_schema_dir(None, str(tmp_path), True, base_url=(tmp_path / "empty").as_uri() + "/")
+        schemas.find_schema_dir(None, str(tmp_path), True, base_url=(tmp_path / "empty").as_uri() + "/",
+                                embedded=None)
     assert not (tmp_path / schemas.CACHE_SUBDIR).exists() and not list(tmp_path.glob(".wit-schemas-*"))
 
 

@@ -45,12 +45,12 @@ import shapely
 from lxml import etree
 from osgeo import ogr
 
-from . import model
-from .errors import InputError
-from .feedback import SILENT, Feedback
-from .fileio import atomic_file
+from .. import model
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..fileio import atomic_file
 from .schemas import CITYGML_MODULES
-from .vector_io import open_step_layer
+from ..vector_io import open_step_layer
 
 APPEARANCE_THEME = "rgbTexture"
 DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-address data

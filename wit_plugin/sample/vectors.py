@@ -16,8 +16,8 @@ import numpy as np
 import shapely
 from osgeo import osr
 
-from .errors import InputError
-from .sample_layout import DONGS, PITCHED_ROOFS, Building, CityLayout, Superblock, footprints
+from ..errors import InputError
+from .layout import DONGS, PITCHED_ROOFS, Building, CityLayout, Superblock, footprints
 from .shapefile_writer import SHP_POLYGON, SHP_POLYLINE, Field, write_shapefile
 
 SIG_CD = "11680"  # Gangnam-gu

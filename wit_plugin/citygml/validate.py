@@ -37,9 +37,9 @@ import numpy as np
 import shapely
 from lxml import etree
 
-from .errors import InputError
-from .feedback import SILENT, Feedback
-from .fileio import atomic_file
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..fileio import atomic_file
 from .schemas import content_model, load_schema, schema_namespaces
 
 BATCH_ELEMENTS = 2048

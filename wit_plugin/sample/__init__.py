@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 from pyproj import Transformer
 
-from . import mapsheet
-from .errors import InputError
-from .feedback import SILENT, Feedback
-from .fileio import atomic_files
-from .sample_layout import CityLayout
-from .sample_rasters import Rasteriser, Terrain, build_scene, noise_tables, render_tile, write_dem
-from .sample_vectors import add_defects, build_roads, building_columns, select, write_layers
+from .. import mapsheet
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..fileio import atomic_files
+from .layout import CityLayout
+from .rasters import Rasteriser, Terrain, build_scene, noise_tables, render_tile, write_dem
+from .vectors import add_defects, build_roads, building_columns, select, write_layers
 
 ORTHO_MARGIN = 50.0  # NGII tiles cover the sheet envelope plus 50 m on every side
 DEM_MARGIN = 250.0

@@ -1,7 +1,8 @@
-"""Find, download once and compile the CityGML 3.0 XML Schemas, so validation never needs the network.
+"""Find and compile the CityGML 3.0 XML Schemas, so validation never needs the network.
 
-Schemas come from a configured folder, else the plugin's cache, else a one-time download from
-schemas.opengis.net / www.w3.org into the cache. The download mirrors the layout of the shared
+Schemas come from a configured folder (an override, e.g. for an ADE), else the copy the plugin
+ships in ``xsd/`` (see its NOTICE.md), else — only when that copy was removed from an install —
+the plugin's cache, filled once by a download from schemas.opengis.net / www.w3.org. The download mirrors the layout of the shared
 offline copy (``opengis/...``, ``w3/...``) and rewrites every import to a relative path, so the
 cached copy validates offline exactly like the shared one (libxml2 never sees an absolute URL).
 """
@@ -19,10 +20,11 @@ from pathlib import Path
 
 from lxml import etree
 
-from .errors import InputError
-from .feedback import SILENT, Feedback
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
 
 ENTRY_POINT = "citygml3-all.xsd"
+EMBEDDED_DIR = Path(__file__).resolve().parent / "xsd"
 CACHE_SUBDIR = "citygml3-schemas"
 DEFAULT_BASE_URL = "https://"
 """Prefix put before ``host/path`` of each public schema URL (a mirror or test server can replace it)."""
@@ -60,11 +62,12 @@ _KNOWN_IMPORTS: dict[str, str] = {
 
 
 def find_schema_dir(configured: str | None, cache_dir: str, allow_download: bool,
-                    base_url: str = DEFAULT_BASE_URL, feedback: Feedback = SILENT) -> tuple[Path, str]:
+                    base_url: str = DEFAULT_BASE_URL, feedback: Feedback = SILENT,
+                    embedded: Path | None = EMBEDDED_DIR) -> tuple[Path, str]:
     """Return the folder holding ``citygml3-all.xsd`` and which source it came from.
 
-    The source ("configured folder", "cache", "downloaded") is returned so that the user is told
-    which schemas a validation result rests on.
+    The source ("configured folder", "embedded", "cache", "downloaded") is returned so that the
+    user is told which schemas a validation result rests on.
     """
     if configured:
         folder = Path(configured)
@@ -72,6 +75,8 @@ def find_schema_dir(configured: str | None, cache_dir: str, allow_download: bool
             raise InputError(f"The schema folder {folder} does not contain {ENTRY_POINT}. Point SCHEMA_DIR at a "
                              f"copy of the CityGML 3.0 schemas (e.g. shared/schemas) or leave it empty.")
         return folder, "configured folder"
+    if embedded is not None and (embedded / ENTRY_POINT).is_file():
+        return embedded, "embedded"
     cached = Path(cache_dir) / CACHE_SUBDIR
     if (cached / ENTRY_POINT).is_file():
         return cached, "cache"

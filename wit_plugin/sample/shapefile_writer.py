@@ -16,7 +16,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 SHP_POLYLINE = 3
 SHP_POLYGON = 5

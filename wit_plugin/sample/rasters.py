@@ -20,8 +20,8 @@ import shapely
 from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
-from .feedback import Feedback, SILENT
-from .sample_layout import (GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS,
+from ..feedback import Feedback, SILENT
+from .layout import (GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS,
                             CityLayout, footprints)
 
 
