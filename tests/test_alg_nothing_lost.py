@@ -1,0 +1,218 @@
+"""Nothing lost (issue 13): no algorithm writes over one of its inputs, and bad inputs are refused
+up front with one message that names the problem; every input file stays byte-identical and no
+output (nor a partial one) is left behind."""
+from __future__ import annotations
+
+import hashlib
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from osgeo import gdal, ogr, osr
+from qgis.core import QgsProcessingException
+
+ORIGIN = (209000.0, 543000.0)
+SQUARE = "POLYGON((209002 543002,209010 543002,209010 543010,209002 543010,209002 543002))"
+
+
+def _srs(epsg: int = 5186) -> osr.SpatialReference:
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(epsg)
+    return srs
+
+
+def raster(path: Path, bands: int = 1, epsg: int | None = 5186, size: int = 40) -> str:
+    ds = gdal.GetDriverByName("GTiff").Create(str(path), size, size, bands, gdal.GDT_Byte)
+    ds.SetGeoTransform((ORIGIN[0] - 10, 1.0, 0, ORIGIN[1] + size - 10, 0, -1.0))
+    if epsg:
+        ds.SetProjection(_srs(epsg).ExportToWkt())
+    for band in range(bands):
+        ds.GetRasterBand(band + 1).WriteArray(np.full((size, size), 50 * (band + 1), np.uint8))
+    ds = None
+    return str(path)
+
+
+def vector(path: Path, name: str, wkts: list[str], geometry=ogr.wkbPolygon, fields: dict | None = None,
+           driver: str = "GPKG", rows: list[dict] | None = None) -> str:
+    """A layer (appended to ``path`` when it exists, GeoPackage) with one feature per WKT."""
+    drv = ogr.GetDriverByName(driver)
+    ds = drv.Open(str(path), 1) if path.exists() and driver == "GPKG" else drv.CreateDataSource(str(path))
+    layer = ds.CreateLayer(name, _srs(), geometry)
+    for field, kind in (fields or {}).items():
+        layer.CreateField(ogr.FieldDefn(field, kind))
+    for k, wkt in enumerate(wkts):
+        feature = ogr.Feature(layer.GetLayerDefn())
+        for field, value in ((rows or [{}] * len(wkts))[k]).items():
+            feature.SetField(field, value)
+        feature.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
+        layer.CreateFeature(feature)
+    del layer, ds
+    return str(path) if driver != "GPKG" else f"{path}|layername={name}"
+
+
+@pytest.fixture
+def data(tmp_path):
+    """One input of every kind the algorithms read, in its own folder."""
+    folder = tmp_path / "inputs"
+    (folder / "ortho").mkdir(parents=True)
+    (folder / "textures").mkdir()
+    (folder / "textures" / "roof.jpg").write_bytes(b"\xff\xd8 not really a jpeg")
+    gpkg = folder / "model.gpkg"
+    lines = "LINESTRING(209000 543005,209030 543005)"
+    return {
+        "folder": folder,
+        "rgb": raster(folder / "rgb.tif", 3),
+        "dem": raster(folder / "dem.tif", 1),
+        "sheet": raster(folder / "ortho" / "37709005.tif", 3),
+        "buildings_shp": vector(folder / "buildings.shp", "buildings", [SQUARE], driver="ESRI Shapefile",
+                                fields={"BD_MGT_SN": ogr.OFTString}, rows=[{"BD_MGT_SN": "1"}]),
+        "roads_shp": vector(folder / "roads.shp", "roads", [lines], ogr.wkbLineString, driver="ESRI Shapefile"),
+        "buildings": vector(gpkg, "buildings", [SQUARE], fields={"wit_id": ogr.OFTString}),
+        "area": vector(gpkg, "study_area", ["POLYGON((209000 543000,209030 543000,209030 543030,"
+                                            "209000 543030,209000 543000))"]),
+        "lod1": vector(gpkg, "lod1_faces", [SQUARE], ogr.wkbPolygon25D, fields={"wit_id": ogr.OFTString}),
+        "tin": vector(gpkg, "tin", [SQUARE], ogr.wkbPolygon25D),
+        "points": vector(folder / "points.gpkg", "points", ["POINT(209005 543005)"], ogr.wkbPoint),
+        "gml": str(_write(folder / "model.gml", b"<CityModel/>")),
+        "store": str(_write(folder / "store.gpkg", Path(gpkg.parent / "model.gpkg").read_bytes())),
+        "textures": str(folder / "textures"),
+    }
+
+
+def _write(path: Path, content: bytes) -> Path:
+    path.write_bytes(content)
+    return path
+
+
+#: per algorithm: parameters with every input given (outputs are added by the tests)
+INPUTS = {
+    "wit:georeferencemapsheets": lambda d: {"INPUT": [str(Path(d["sheet"]).parent)]},
+    "wit:mergetiles": lambda d: {"INPUT": [d["rgb"], d["sheet"]]},
+    "wit:preparevectors": lambda d: {"BUILDINGS": d["buildings_shp"], "ROADS": d["roads_shp"],
+                                     "DISTRICTS": d["area"], "AREA_LAYER": d["area"]},
+    "wit:triangulateterrain": lambda d: {"DEM": d["dem"], "AREA": d["area"], "BUILDINGS": d["buildings"]},
+    "wit:extrudebuildings": lambda d: {"BUILDINGS": d["buildings"], "DEM": d["dem"]},
+    "wit:wittexture": lambda d: {"ORTHO": d["rgb"], "LOD1": d["lod1"], "TIN": d["tin"]},
+    "wit:writecitygml": lambda d: {"LOD1": d["lod1"], "TIN": d["tin"], "TEXTURES": d["textures"]},
+    "wit:validatecitygml": lambda d: {"INPUT": [d["gml"]]},
+    "wit:buildcolorstore": lambda d: {"INPUT": d["rgb"]},
+    "wit:querycolorstore": lambda d: {"STORE": d["store"], "POINTS": d["points"], "EXTENT": "209000,209010,543000,543010 [EPSG:5186]"},
+    "wit:qualitymetrics": lambda d: {"MODEL": d["gml"], "SOURCE_BUILDINGS": d["buildings"], "ORTHO": d["rgb"]},
+    "wit:citymodel": lambda d: {"ORTHO_INPUT": [d["sheet"]], "DEM": d["dem"], "BUILDINGS": d["buildings_shp"],
+                                "ROADS": d["roads_shp"]},
+}
+
+#: per algorithm: its destination parameters (name → "file" or "folder")
+DESTINATIONS = {
+    "wit:georeferencemapsheets": {"OUTPUT": "folder", "OUTPUT_INDEX": "file"},
+    "wit:mergetiles": {"OUTPUT": "file"},
+    "wit:preparevectors": {"OUTPUT": "file"},
+    "wit:triangulateterrain": {"OUTPUT": "file"},
+    "wit:extrudebuildings": {"OUTPUT": "file"},
+    "wit:wittexture": {"OUTPUT": "folder"},
+    "wit:writecitygml": {"OUTPUT": "file"},
+    "wit:validatecitygml": {"OUTPUT": "file", "OUTPUT_CSV": "file", "OUTPUT_TABLE": "file"},
+    "wit:buildcolorstore": {"OUTPUT": "file"},
+    "wit:querycolorstore": {"OUTPUT": "file", "OUTPUT_PATCH": "file"},
+    "wit:qualitymetrics": {"OUTPUT": "file", "OUTPUT_HTML": "file"},
+    "wit:citymodel": {"OUTPUT": "folder"},
+}
+
+
+def _input_files(parameters: dict) -> list[str]:
+    values = []
+    for value in parameters.values():
+        values += value if isinstance(value, list) else [value]
+    files = []
+    for value in values:
+        path = Path(str(value).split("|")[0])
+        if path.is_file():
+            files.append(str(path))
+        elif path.is_dir():
+            files += [str(p) for p in sorted(path.iterdir()) if p.is_file()]
+    return sorted(set(files))
+
+
+def snapshot(folder: Path) -> dict[str, str]:
+    """Every file under ``folder`` with the hash of its bytes."""
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_the_tables_cover_every_algorithm_and_destination(wit_provider):
+    writers = {f"wit:{a.name()}": a for a in wit_provider.algorithms() if a.destinationParameterDefinitions()}
+    assert set(DESTINATIONS) == set(INPUTS) == set(writers) - {"wit:generatesample", "wit:citymodelmodel"}
+    for key, algorithm in writers.items():
+        if key in DESTINATIONS:
+            assert {d.name() for d in algorithm.destinationParameterDefinitions()} == set(DESTINATIONS[key]), key
+
+
+@pytest.mark.parametrize("algorithm,destination", [(a, d) for a, ds in DESTINATIONS.items() for d in ds])
+def test_an_output_pointed_at_any_input_is_refused(algorithm, destination, data, tmp_path, run_algorithm):
+    """Each destination pointed at each input file (a folder destination at the input's folder)."""
+    files = _input_files(INPUTS[algorithm](data))
+    assert files
+    before = snapshot(data["folder"])
+    for k, target in enumerate(map(Path, files)):
+        parameters = INPUTS[algorithm](data)
+        out = tmp_path / f"out{k}"
+        out.mkdir()
+        for name, kind in DESTINATIONS[algorithm].items():
+            parameters[name] = str(out / name) if kind == "folder" else str(out / f"{name}.dat")
+        parameters[destination] = str(target.parent if DESTINATIONS[algorithm][destination] == "folder" else target)
+        with pytest.raises(QgsProcessingException, match="would overwrite the input") as error:
+            run_algorithm(algorithm, parameters)
+        assert "Traceback" not in str(error.value)
+        assert snapshot(data["folder"]) == before, target
+        assert [p for p in out.rglob("*") if p.is_file()] == []
+
+
+@pytest.mark.parametrize("sidecar", [".dbf", ".shx", ".prj"])
+def test_an_output_over_a_shapefile_sidecar_is_refused(sidecar, data, tmp_path, run_algorithm):
+    """A GeoPackage named like the input's .dbf would replace the shapefile's attributes."""
+    before = snapshot(data["folder"])
+    output = str(Path(data["buildings_shp"]).with_suffix(sidecar))
+    with pytest.raises(QgsProcessingException, match=r"would overwrite the input .*buildings\.shp"):
+        run_algorithm("wit:preparevectors", {"BUILDINGS": data["buildings_shp"], "OUTPUT": output})
+    assert snapshot(data["folder"]) == before
+
+
+def test_links_to_an_input_are_refused(data, tmp_path, run_algorithm):
+    """A symbolic link and a hard link to the input GeoPackage are the input."""
+    gpkg = Path(data["buildings"].split("|")[0])
+    (tmp_path / "link.gpkg").symlink_to(gpkg)
+    (tmp_path / "hard").mkdir()
+    (tmp_path / "hard" / "copy.gpkg").hardlink_to(gpkg)
+    before = snapshot(data["folder"])
+    for output in (tmp_path / "link.gpkg", tmp_path / "hard" / "copy.gpkg"):
+        with pytest.raises(QgsProcessingException, match="would overwrite the input"):
+            run_algorithm("wit:extrudebuildings", {"BUILDINGS": data["buildings"], "DEM": data["dem"],
+                                                   "OUTPUT": str(output)})
+    assert snapshot(data["folder"]) == before
+
+
+def test_atomic_writes_refuse_to_replace_a_protected_input(tmp_path):
+    """The core-level guard: whoever calls, a write inside ``protect`` never replaces an input."""
+    from wit_plugin.errors import InputError
+    from wit_plugin.fileio import atomic_file, atomic_files, protect, refuse_overlap
+
+    source = tmp_path / "a.shp"
+    source.write_bytes(b"shape")
+    (tmp_path / "a.dbf").write_bytes(b"table")
+    with protect([f"{source}|layername=a"]):
+        for target in (source, tmp_path / "a.dbf", tmp_path / "a.shx"):
+            with pytest.raises(InputError, match="would overwrite the input"):
+                with atomic_file(target) as tmp:
+                    tmp.write_bytes(b"new")
+        with pytest.raises(InputError, match="would overwrite the input"):
+            with atomic_files([tmp_path / "a.dbf"]) as tmp:
+                (tmp / "a.dbf").write_bytes(b"new")
+        with atomic_file(tmp_path / "b.gpkg") as tmp:  # another name is fine
+            tmp.write_bytes(b"new")
+    with atomic_file(tmp_path / "a.dbf") as tmp:  # outside the run, the file is no input any more
+        tmp.write_bytes(b"new")
+    assert source.read_bytes() == b"shape"
+    with pytest.raises(InputError, match="would overwrite the input"):
+        refuse_overlap([(tmp_path, True)], [str(source)])
+    refuse_overlap([(tmp_path / "sub", True)], [str(source)])
