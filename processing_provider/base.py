@@ -120,18 +120,11 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         return text
 
     def checkParameterValues(self, parameters, context):  # noqa: N802
-        """A vector file's real problem before QGIS's generic "Incorrect parameter value", then QGIS's
-        checks, then the geometry types."""
+        """A vector file's real problem before QGIS's generic "Incorrect parameter value"."""
         from . import safeguards
 
         problem = safeguards.file_problem(self, parameters, context)
-        if problem:
-            return False, problem
-        ok, message = super().checkParameterValues(parameters, context)
-        if not ok:
-            return ok, message
-        problem = safeguards.geometry_problem(self, parameters, context)
-        return (False, problem) if problem else (True, "")
+        return (False, problem) if problem else super().checkParameterValues(parameters, context)
 
     def extra_outputs(self, parameters, context) -> list:
         """Files or folders written beside the destination parameters' (``safeguards.Endpoint``s)."""

@@ -1,11 +1,6 @@
 """wit:extrudebuildings — closed LoD1 solids from footprints, floors and the DEM."""
 from qgis.core import (
-    QgsExpression,
-    QgsExpressionContext,
-    QgsExpressionContextScope,
-    QgsFeature,
     QgsProcessing,
-    QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
@@ -18,6 +13,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .expressions import checked_expression
 
 BASES = ("min", "median")
 
@@ -78,40 +74,18 @@ class ExtrudeBuildings(WitAlgorithm):
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         fields = self.parameterAsFields(parameters, self.HEIGHT_FIELD, context)
+        expression = checked_expression(self, parameters, self.HEIGHT_EXPRESSION, buildings, context)
         rule = HeightRule(
             storey_height=self.parameterAsDouble(parameters, self.STOREY_HEIGHT, context),
             height_field=fields[0] if fields else None,
-            expression=self._expression(self.parameterAsExpression(parameters, self.HEIGHT_EXPRESSION, context),
-                                        buildings, context),
+            expression=expression,
             default_height=self.parameterAsDouble(parameters, self.DEFAULT_HEIGHT, context),
         )
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
                     rule, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
                     self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
+        if expression is not None and expression.failure_warning():
+            feedback.warning(expression.failure_warning())
         return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,
                 "DEFAULT_HEIGHTS": stats.height_sources.get("default", 0)}
-
-    def _expression(self, text: str, layer, context):
-        """The QGIS expression as the callable the core takes (attributes dict → value)."""
-        if not text:
-            return None
-        expression = QgsExpression(text)
-        if expression.hasParserError():
-            raise QgsProcessingException(self.tr("Invalid height expression: {error}").format(
-                error=expression.parserErrorString()))
-        expression_context = QgsExpressionContext()
-        expression_context.appendScopes(context.expressionContext().scopes())
-        expression_context.appendScope(QgsExpressionContextScope())
-        fields = layer.fields()
-        expression.prepare(expression_context)
-
-        def evaluate(attributes: dict):
-            feature = QgsFeature(fields)
-            for name, value in attributes.items():
-                if fields.indexOf(name) >= 0:
-                    feature[name] = value
-            expression_context.setFeature(feature)
-            return expression.evaluate(expression_context)
-
-        return evaluate

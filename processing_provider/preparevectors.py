@@ -54,11 +54,11 @@ class PrepareVectors(WitAlgorithm):
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        for name, label in ((self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD)")),
-                            (self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)")),
-                            (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"))):
-            self.addParameter(QgsProcessingParameterVectorLayer(
-                name, label, [QgsProcessing.TypeVectorAnyGeometry], optional=True))
+        for name, label, kind in ((self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD)"), QgsProcessing.TypeVectorPolygon),
+                                  (self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), QgsProcessing.TypeVectorLine),
+                                  (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"),
+                                   QgsProcessing.TypeVectorPolygon)):
+            self.addParameter(QgsProcessingParameterVectorLayer(name, label, [kind], optional=True))
         # Optional with defaults: QGIS 3.22 does not fill missing mandatory points/CRSs with defaults.
         self.addParameter(QgsProcessingParameterPoint(
             self.CENTER, self.tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]",

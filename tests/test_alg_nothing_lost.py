@@ -216,3 +216,101 @@ def test_atomic_writes_refuse_to_replace_a_protected_input(tmp_path):
     with pytest.raises(InputError, match="would overwrite the input"):
         refuse_overlap([(tmp_path, True)], [str(source)])
     refuse_overlap([(tmp_path / "sub", True)], [str(source)])
+
+
+# -- bad inputs refused up front -----------------------------------------------------------------
+
+def _refused(run_algorithm, algorithm: str, parameters: dict, message: str, data: dict, out: Path) -> str:
+    """Run, expect one message matching ``message``; inputs untouched and nothing in ``out``."""
+    before = snapshot(data["folder"])
+    out.mkdir(exist_ok=True)
+    with pytest.raises(QgsProcessingException, match=message) as error:
+        run_algorithm(algorithm, parameters)
+    assert "Traceback" not in str(error.value)
+    assert snapshot(data["folder"]) == before
+    assert [p for p in out.rglob("*") if p.is_file()] == []
+    return str(error.value)
+
+
+@pytest.mark.parametrize("algorithm,parameter", [
+    ("wit:preparevectors", "BUILDINGS"), ("wit:preparevectors", "ROADS"), ("wit:extrudebuildings", "BUILDINGS"),
+    ("wit:triangulateterrain", "AREA"), ("wit:writecitygml", "LOD1"), ("wit:qualitymetrics", "SOURCE_BUILDINGS"),
+    ("wit:citymodel", "BUILDINGS")])
+def test_a_layer_of_the_wrong_geometry_type_is_refused(algorithm, parameter, data, tmp_path, run_algorithm):
+    """Points given as buildings (or polygons as road centre lines): one message, naming both types."""
+    parameters = INPUTS[algorithm](data)
+    wrong = data["buildings"] if parameter == "ROADS" else data["points"]
+    parameters[parameter] = wrong
+    for name, kind in DESTINATIONS[algorithm].items():
+        parameters[name] = str(tmp_path / "out" / (name if kind == "folder" else f"{name}.dat"))
+    message = _refused(run_algorithm, algorithm, parameters, "expected", data, tmp_path / "out")
+    found, expected = ("polygons", "lines") if parameter == "ROADS" else ("points", "polygons")
+    assert f"has {found}" in message and f"expected {expected}" in message, message
+    assert Path(wrong.split("|")[0]).name in message
+
+
+@pytest.fixture
+def floors(data):
+    """Buildings with floor counts, as wit:preparevectors writes them."""
+    return vector(data["folder"] / "floors.gpkg", "buildings", [SQUARE, "POLYGON((209015 543015,209025 543015,209025 543025,209015 543025,209015 543015))"],
+                  fields={"wit_id": ogr.OFTString, "GRO_FLO_CO": ogr.OFTInteger},
+                  rows=[{"wit_id": "BLD_1", "GRO_FLO_CO": 0}, {"wit_id": "BLD_2", "GRO_FLO_CO": 0}])
+
+
+@pytest.mark.parametrize("expression,message", [
+    ('"GRO_FLO_CO" *', "has a syntax error"),
+    ('"HEIGHT_M" * 2', r"uses the field\(s\) HEIGHT_M, which the layer"),
+    ('"wit_id" + 1', "fails on the first feature"),
+])
+def test_a_bad_height_expression_is_refused(expression, message, data, floors, tmp_path, run_algorithm):
+    """Not silently the default height for every building."""
+    text = _refused(run_algorithm, "wit:extrudebuildings", {
+        "BUILDINGS": floors, "DEM": data["dem"], "HEIGHT_EXPRESSION": expression,
+        "OUTPUT": str(tmp_path / "out" / "lod1.gpkg")}, message, data, tmp_path / "out")
+    assert expression in text and "Height expression" in text
+
+
+def test_a_good_height_expression_is_used(data, floors, tmp_path, run_algorithm):
+    result = run_algorithm("wit:extrudebuildings", {
+        "BUILDINGS": floors, "DEM": data["dem"], "HEIGHT_EXPRESSION": "length(\"wit_id\") * 2",
+        "OUTPUT": str(tmp_path / "lod1.gpkg")})
+    ds = ogr.Open(result["OUTPUT"])
+    heights = {f["wit_id"]: (f["height"], f["height_src"]) for f in ds.GetLayer("lod1_faces")}
+    assert heights == {"BLD_1": (10.0, "expression"), "BLD_2": (10.0, "expression")}
+
+
+def _shapefile(folder: Path) -> Path:
+    """A copy of the buildings shapefile (all its files) in ``folder``."""
+    folder.mkdir()
+    for part in Path(folder.parent / "inputs").glob("buildings.*"):
+        shutil.copy(part, folder / part.name)
+    return folder / "buildings.shp"
+
+
+@pytest.mark.parametrize("damage,message", [
+    ("no_shx", r"buildings\.shp has no \.shx beside it"),
+    ("no_dbf", r"buildings\.shp has no \.dbf beside it"),
+    ("empty_shp", r"buildings\.shp is empty \(0 bytes\)"),
+    ("empty_dbf", r"buildings\.dbf beside buildings\.shp is empty"),
+    ("missing", r"buildings\.shp does not exist"),
+    ("not_gpkg", r"not a GeoPackage \(no SQLite header\)"),
+])
+def test_a_damaged_vector_file_is_named_with_its_problem(damage, message, data, tmp_path, run_algorithm):
+    """Not QGIS's generic "Incorrect parameter value for BUILDINGS"."""
+    shp = _shapefile(tmp_path / "damaged")
+    source = str(shp)
+    if damage == "no_shx":
+        shp.with_suffix(".shx").unlink()
+    elif damage == "no_dbf":
+        shp.with_suffix(".dbf").unlink()
+    elif damage == "empty_shp":
+        shp.write_bytes(b"")
+    elif damage == "empty_dbf":
+        shp.with_suffix(".dbf").write_bytes(b"")
+    elif damage == "missing":
+        source = str(tmp_path / "elsewhere" / "buildings.shp")
+    else:
+        source = str(_write(tmp_path / "damaged" / "buildings.gpkg", b"<html>not found</html>"))
+    text = _refused(run_algorithm, "wit:preparevectors", {
+        "BUILDINGS": source, "OUTPUT": str(tmp_path / "out" / "prepared.gpkg")}, message, data, tmp_path / "out")
+    assert "Incorrect parameter value" not in text
