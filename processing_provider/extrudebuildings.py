@@ -1,6 +1,9 @@
 """wit:extrudebuildings — closed LoD1 solids from footprints, floors and the DEM."""
+from pathlib import Path
+
 from qgis.core import (
     QgsProcessing,
+    QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
@@ -12,7 +15,7 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import WitAlgorithm
+from .base import WitAlgorithm, crs_string
 from .expressions import checked_expression
 
 BASES = ("min", "median")
@@ -70,6 +73,7 @@ class ExtrudeBuildings(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
+        from ..wit_plugin.dem import check_crs as check_dem_crs
         from ..wit_plugin.extrude import HeightRule, run
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
@@ -82,9 +86,16 @@ class ExtrudeBuildings(WitAlgorithm):
             default_height=self.parameterAsDouble(parameters, self.DEFAULT_HEIGHT, context),
         )
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
+        dem = self.parameterAsRasterLayer(parameters, self.DEM, context).source()
+        check_dem_crs(dem, crs_string(buildings.crs()), feedback)
+        stats = run(buildings.source(), dem, output,
                     rule, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
                     self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
+        if stats.solids == 0:  # the core wrote an empty layer: a run that made nothing fails and leaves nothing
+            Path(output).unlink(missing_ok=True)
+            raise QgsProcessingException(self.tr(
+                "No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. "
+                "Nothing was written.").format(count=stats.buildings, layer=buildings.source()))
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,

@@ -314,3 +314,196 @@ def test_a_damaged_vector_file_is_named_with_its_problem(damage, message, data, 
     text = _refused(run_algorithm, "wit:preparevectors", {
         "BUILDINGS": source, "OUTPUT": str(tmp_path / "out" / "prepared.gpkg")}, message, data, tmp_path / "out")
     assert "Incorrect parameter value" not in text
+
+
+def run_logged(algorithm: str, parameters: dict) -> tuple[dict, list[str]]:
+    """Run through Processing; return the results and the warnings pushed to the feedback."""
+    import processing
+    from qgis.core import QgsProcessingFeedback
+
+    class Warnings(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.warnings = []
+
+        def pushWarning(self, warning):  # noqa: N802
+            self.warnings.append(warning)
+            super().pushWarning(warning)
+
+    feedback = Warnings()
+    return processing.run(algorithm, parameters, feedback=feedback), feedback.warnings
+
+
+def _table(gpkg: str, name: str) -> list[dict]:
+    ds = ogr.Open(gpkg)
+    return [f.items() for f in ds.GetLayer(name)]
+
+
+SQUARE_B = "POLYGON((209020 543002,209028 543002,209028 543010,209020 543010,209020 543002))"
+SQUARE_C = "POLYGON((209040 543002,209048 543002,209048 543010,209040 543010,209040 543002))"
+CENTRE = "209020,543010 [EPSG:5186]"
+
+
+def test_exact_duplicate_buildings_are_dropped_and_counted(data, tmp_path, wit_provider):
+    """Three stacked copies of building 1 (one starting its ring elsewhere) become one; building 2
+    drawn twice with different footprints stays two buildings with unique ids."""
+    shifted = "POLYGON((209010 543002,209010 543010,209002 543010,209002 543002,209010 543002))"
+    buildings = vector(data["folder"] / "stacked.gpkg", "stacked", [SQUARE, SQUARE, shifted, SQUARE_B, SQUARE_C],
+                       fields={"BD_MGT_SN": ogr.OFTString},
+                       rows=[{"BD_MGT_SN": i} for i in ("1", "1", "1", "2", "2")])
+    result, warnings = run_logged("wit:preparevectors", {"BUILDINGS": buildings, "CENTER": CENTRE, "RADIUS": 200,
+                                                         "OUTPUT": str(tmp_path / "prepared.gpkg")})
+    ids = sorted(row["wit_id"] for row in _table(result["OUTPUT"], "buildings"))
+    assert ids == ["BLD_1", "BLD_2", "BLD_2_2"]
+    stats = {row["layer"]: row for row in _table(result["OUTPUT"], "stats")}["buildings"]
+    assert (stats["features_in"], stats["features_out"], stats["dropped_duplicate"]) == (5, 3, 2)
+    dropped = _table(result["OUTPUT"], "dropped")
+    assert sorted((row["source_fid"], row["wit_id"], row["reason"]) for row in dropped) == [
+        (2, "BLD_1", "duplicate"), (3, "BLD_1", "duplicate")]
+    assert any("dropped 2 feature(s): 2 duplicate" in w for w in warnings), warnings
+    assert any("1 feature(s) share their source id" in w for w in warnings), warnings
+
+
+INF, NAN = float("inf"), float("nan")
+
+
+def _ring_layer(path: Path, rings: list[list[tuple[float, float]]]) -> str:
+    """Polygons from coordinate lists (WKT cannot carry inf or NaN)."""
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    layer = ds.CreateLayer("buildings", _srs(), ogr.wkbPolygon)
+    layer.CreateField(ogr.FieldDefn("BD_MGT_SN", ogr.OFTString))
+    for k, coords in enumerate(rings):
+        ring = ogr.Geometry(ogr.wkbLinearRing)
+        for x, y in coords:
+            ring.AddPoint_2D(x, y)
+        polygon = ogr.Geometry(ogr.wkbPolygon)
+        polygon.AddGeometry(ring)
+        feature = ogr.Feature(layer.GetLayerDefn())
+        feature.SetField(0, str(k + 1))
+        feature.SetGeometry(polygon)
+        layer.CreateFeature(feature)
+    gdal.PushErrorHandler("CPLQuietErrorHandler")  # GeoPackage cannot store an infinite extent
+    del layer, ds
+    gdal.PopErrorHandler()
+    return f"{path}|layername=buildings"
+
+
+def _broken(x0: float, bad: float) -> list[tuple[float, float]]:
+    return [(x0, 543002), (bad, 543002), (x0 + 8, 543010), (x0, 543010), (x0, 543002)]
+
+
+def test_features_with_non_finite_coordinates_are_dropped_and_counted(data, tmp_path, wit_provider):
+    good = [(209002, 543002), (209010, 543002), (209010, 543010), (209002, 543010), (209002, 543002)]
+    buildings = _ring_layer(data["folder"] / "inf.gpkg",
+                            [good, _broken(209020, INF), _broken(209040, -INF), _broken(209060, NAN)])
+    result, warnings = run_logged("wit:preparevectors", {"BUILDINGS": buildings, "CENTER": CENTRE, "RADIUS": 200,
+                                                         "OUTPUT": str(tmp_path / "prepared.gpkg")})
+    assert [row["wit_id"] for row in _table(result["OUTPUT"], "buildings")] == ["BLD_1"]
+    stats = {row["layer"]: row for row in _table(result["OUTPUT"], "stats")}["buildings"]
+    assert (stats["features_in"], stats["features_out"], stats["dropped_non_finite"]) == (4, 1, 3)
+    assert sorted(row["wit_id"] for row in _table(result["OUTPUT"], "dropped")) == ["BLD_2", "BLD_3", "BLD_4"]
+    assert any("dropped 3 feature(s): 3 non_finite" in w for w in warnings), warnings
+
+
+def test_a_run_that_keeps_no_feature_fails_with_the_reasons(data, tmp_path, run_algorithm):
+    buildings = _ring_layer(data["folder"] / "allbad.gpkg", [_broken(209020, INF), _broken(209040, NAN)])
+    message = _refused(run_algorithm, "wit:preparevectors", {
+        "BUILDINGS": buildings, "CENTER": CENTRE, "RADIUS": 200, "OUTPUT": str(tmp_path / "out" / "p.gpkg")},
+        "No feature could be kept", data, tmp_path / "out")
+    assert "buildings: 2 read, 0 outside the study area, dropped 2 feature(s): 2 non_finite" in message
+
+
+def test_extrude_that_makes_no_solid_fails(data, tmp_path, run_algorithm):
+    flat = vector(data["folder"] / "flat.gpkg", "buildings",
+                  ["POLYGON((209002 543002,209010 543002,209006 543002,209002 543002))"],
+                  fields={"wit_id": ogr.OFTString}, rows=[{"wit_id": "BLD_1"}])
+    _refused(run_algorithm, "wit:extrudebuildings", {"BUILDINGS": flat, "DEM": data["dem"],
+                                                    "OUTPUT": str(tmp_path / "out" / "lod1.gpkg")},
+             r"No LoD1 solid could be made: the 1 footprint\(s\) of .*flat\.gpkg", data, tmp_path / "out")
+
+
+def test_writecitygml_with_no_building_fails(data, tmp_path, run_algorithm):
+    empty = vector(data["folder"] / "empty.gpkg", "lod1_faces", [], ogr.wkbPolygon25D,
+                   fields={"wit_id": ogr.OFTString, "face_no": ogr.OFTInteger, "face": ogr.OFTString})
+    _refused(run_algorithm, "wit:writecitygml", {"LOD1": empty, "OUTPUT": str(tmp_path / "out" / "model.gml")},
+             "has no building faces", data, tmp_path / "out")
+
+
+def test_qualitymetrics_with_nothing_matched_fails(data, floors, tmp_path, run_algorithm):
+    lod1 = run_algorithm("wit:extrudebuildings", {"BUILDINGS": floors, "DEM": data["dem"],
+                                                  "OUTPUT": str(data["folder"] / "lod1.gpkg")})["LOD1"]
+    others = vector(data["folder"] / "others.gpkg", "buildings", [SQUARE], fields={"wit_id": ogr.OFTString},
+                    rows=[{"wit_id": "BLD_9"}])
+    _refused(run_algorithm, "wit:qualitymetrics", {"MODEL": lod1.split("|")[0], "SOURCE_BUILDINGS": others,
+                                                   "OUTPUT": str(tmp_path / "out" / "m.csv")},
+             r"Nothing could be measured: no building of the model \(2\) matches one of the 1 source", data,
+             tmp_path / "out")
+
+
+def _dem(path: Path, epsg: int | None) -> str:
+    if epsg != 4326:
+        return raster(path, 1, epsg)
+    ds = gdal.GetDriverByName("GTiff").Create(str(path), 10, 10, 1, gdal.GDT_Float32)
+    ds.SetGeoTransform((127.0, 0.01, 0, 37.6, 0, -0.01))
+    ds.SetProjection(_srs(4326).ExportToWkt())
+    ds = None
+    return str(path)
+
+
+@pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])
+def test_a_dem_in_another_crs_is_named_as_a_crs_mismatch(algorithm, data, tmp_path, run_algorithm):
+    dem = _dem(data["folder"] / "dem4326.tif", 4326)
+    parameters = {"BUILDINGS": data["buildings"], "DEM": dem, "OUTPUT": str(tmp_path / "out" / "o.gpkg")}
+    if algorithm == "wit:triangulateterrain":
+        parameters["AREA"] = data["area"]
+    message = _refused(run_algorithm, algorithm, parameters, "a CRS mismatch", data, tmp_path / "out")
+    assert "dem4326.tif is in WGS 84 (EPSG:4326) but the layers are in" in message and "EPSG:5186" in message
+    assert "does not cover" not in message
+
+
+@pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])
+def test_a_dem_without_crs_is_assumed_in_the_layers_crs_with_a_warning(algorithm, data, tmp_path, wit_provider):
+    dem = _dem(data["folder"] / "nocrs.tif", None)
+    parameters = {"BUILDINGS": data["buildings"], "DEM": dem, "OUTPUT": str(tmp_path / "o.gpkg")}
+    if algorithm == "wit:triangulateterrain":
+        parameters["AREA"] = data["area"]
+    result, warnings = run_logged(algorithm, parameters)
+    assert Path(result["OUTPUT"]).is_file()
+    assert any("nocrs.tif has no coordinate reference system: it is assumed to be in the layers' CRS, "
+               "Korea 2000 / Central Belt 2010 (EPSG:5186)" in w for w in warnings), warnings
+
+
+@pytest.mark.parametrize("declaration", ["ldid", "cpg"])
+def test_cp949_text_under_a_wrong_code_page_is_read_as_cp949(declaration, shared_dir, data, tmp_path, wit_provider):
+    """The real Gangnam legal dongs, their .dbf declaring ISO-8859-1 (LDID 0x57) or with a .cpg saying so."""
+    folder = tmp_path / "emd"
+    folder.mkdir()
+    for part in (shared_dir / "data" / "juso_gangnam_11680_2019").glob("TL_SCCO_EMD.*"):
+        shutil.copyfile(part, folder / part.name)
+    dbf = folder / "TL_SCCO_EMD.dbf"
+    if declaration == "ldid":
+        content = bytearray(dbf.read_bytes())
+        content[29] = 0x57
+        dbf.write_bytes(bytes(content))
+    else:
+        (folder / "TL_SCCO_EMD.cpg").write_text("ISO-8859-1")
+    before = snapshot(folder)
+    result, warnings = run_logged("wit:preparevectors", {
+        "DISTRICTS": str(folder / "TL_SCCO_EMD.shp"), "DISTRICT_CODE": "11680101",
+        "OUTPUT": str(tmp_path / "prepared.gpkg")})
+    names = [row["EMD_KOR_NM"] for row in _table(result["OUTPUT"], "districts")]
+    assert "역삼동" in names, names
+    assert any("but its text is Korean (CP949): read as CP949" in w for w in warnings), warnings
+    assert snapshot(folder) == before
+    forced = run_algorithm_encoding(folder, tmp_path)
+    assert "역삼동" not in forced and any("»" in n or "¿" in n for n in forced), forced
+
+
+def run_algorithm_encoding(folder: Path, tmp_path: Path) -> list[str]:
+    """The ENCODING parameter still wins: ISO-8859-1 as asked gives the mojibake."""
+    import processing
+
+    result = processing.run("wit:preparevectors", {
+        "DISTRICTS": str(folder / "TL_SCCO_EMD.shp"), "DISTRICT_CODE": "11680101", "ENCODING": "ISO-8859-1",
+        "OUTPUT": str(tmp_path / "forced.gpkg")})
+    return [row["EMD_KOR_NM"] for row in _table(result["OUTPUT"], "districts")]

@@ -31,6 +31,7 @@ from osgeo import ogr
 from shapely.geometry.base import BaseGeometry
 
 from .dem import Dem, ragged_indices
+from .dem import check_crs as check_dem_crs
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
@@ -665,6 +666,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
         crs = next(iter(layers.values())).crs if layers else None
     if crs is None:
         raise InputError("Give the study area as a layer (or a constraint layer) so the TIN's CRS is known.")
+    check_dem_crs(dem_path, crs, feedback)
     dem = Dem.open(dem_path, area.bounds, feedback=feedback)
     tin, stats = triangulate(area, features(layers["buildings"]) if "buildings" in layers else [],
                              features(layers["roads"]) if "roads" in layers else [], dem, max_edge, tolerance,

@@ -134,29 +134,68 @@ def _decodes(sample: bytes, codec: str) -> bool:
         return False
 
 
+def _sidecar(path: Path, suffix: str) -> Path | None:
+    """The file beside ``path`` with ``suffix`` (either case), if there is one."""
+    return next((p for p in (path.with_suffix(suffix), path.with_suffix(suffix.upper())) if p.exists()), None)
+
+
+#: DBF language-driver ids (LDID, header byte 29) → codec, as GDAL reads the common ones
+LDID_CODECS = {0x01: "cp437", 0x02: "cp850", 0x03: "cp1252", 0x57: "latin-1", 0x64: "cp852", 0x78: "cp950",
+               0x79: "cp949", 0x7A: "gbk", 0x7B: "cp932", 0xC8: "cp1250", 0xC9: "cp1251"}
+KOREAN_CODECS = ("cp949", "euc_kr", "johab", "utf-8")
+
+
+def _looks_korean(sample: bytes) -> bool:
+    """CP949 decodes the text into Hangul (at least half of the non-ASCII characters), nearly all of
+    it in the EUC-KR range: Latin-1 text such as "été" also decodes as CP949, but not as that."""
+    try:
+        text = sample.decode("cp949")
+    except UnicodeDecodeError:
+        return False
+    wide = [c for c in text if ord(c) > 127]
+    hangul = sum("\uac00" <= c <= "\ud7a3" or "\u3131" <= c <= "\u318e" for c in wide)
+    unmapped = sample.decode("euc_kr", errors="replace").count("\ufffd")
+    return bool(wide) and hangul >= len(wide) / 2 and unmapped <= len(wide) / 10
+
+
 def shapefile_encoding(path: str | os.PathLike, feedback: Feedback = SILENT) -> str | None:
     """The encoding to force when opening a shapefile, or None to let GDAL use what the file declares.
 
     A declaration (``.cpg``, or a non-zero DBF language-driver byte) is trusted when its codec
-    decodes the text. Otherwise the text is sniffed: pure ASCII needs nothing, valid UTF-8 is UTF-8,
-    valid CP949 is CP949 (the Korean national data), else GDAL's default (ISO-8859-1) with a warning.
+    decodes the text and, for a non-Korean codec, the text is not Korean CP949: some tools write
+    CP949 text under an ISO-8859-1 or Windows-1252 declaration, which decodes into mojibake without
+    an error; that is read as CP949 with a warning. Otherwise the text is sniffed: pure ASCII needs
+    nothing, valid UTF-8 is UTF-8, valid CP949 is CP949 (the Korean national data), else GDAL's
+    default (ISO-8859-1) with a warning.
     """
     shp = Path(path)
-    dbf = next((p for p in (shp.with_suffix(".dbf"), shp.with_suffix(".DBF")) if p.exists()), None)
+    dbf = _sidecar(shp, ".dbf")
     if dbf is None:
         return None
     ldid, sample = _dbf_text_sample(dbf)
     if sample.isascii():
         return None
-    cpg = next((p for p in (shp.with_suffix(".cpg"), shp.with_suffix(".CPG")) if p.exists()), None)
+    cpg = _sidecar(shp, ".cpg")
+    declared, origin = None, ""
     if cpg is not None:
-        declared = _codec(cpg.read_text("ascii", errors="replace"))
-        if declared and _decodes(sample, declared):
-            return None
+        text = cpg.read_text("ascii", errors="replace").strip()
+        declared, origin = _codec(text), f"its .cpg file says {text}"
     elif ldid != 0:
-        return None  # GDAL maps the language driver; trusted
+        declared, origin = _codec(LDID_CODECS.get(ldid, "")), f"its .dbf language driver (LDID 0x{ldid:02X}) says"
+        if declared is None:
+            return None  # a code page we do not know: GDAL maps it
+        origin = f"{origin} {declared}"
+    if declared and _decodes(sample, declared):
+        if declared in KOREAN_CODECS or not _looks_korean(sample):
+            return None
+        feedback.warning(f"{shp.name}: {origin}, but its text is Korean (CP949): read as CP949. "
+                         "Set the encoding parameter to choose another.")
+        return "CP949"
     for candidate in ("UTF-8", "CP949"):
         if _decodes(sample, candidate):
+            if origin:
+                feedback.warning(f"{shp.name}: {origin}, which does not decode its text; read as {candidate}. "
+                                 "Set the encoding parameter to choose another.")
             return candidate
     feedback.warning(f"{shp.name}: text is neither UTF-8 nor CP949 and no encoding is declared; "
                      "set the encoding parameter if names look garbled.")
@@ -180,10 +219,6 @@ def _crs_of(lyr: ogr.Layer, path: str, crs: str | None) -> pyproj.CRS:
         return pyproj.CRS.from_user_input(crs)
     except pyproj.exceptions.CRSError as exc:
         raise InputError(f"Unknown source CRS {crs!r}: {exc}") from exc
-
-
-def _sidecar(path: Path, suffix: str) -> Path | None:
-    return next((p for p in (path.with_suffix(suffix), path.with_suffix(suffix.upper())) if p.exists()), None)
 
 
 def vector_file_problem(source: str | os.PathLike) -> str | None:
