@@ -208,6 +208,22 @@
       <translation>Give points to colour, a patch extent, or both.</translation>
     </message>
     <message>
+      <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
+      <translation>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} has a syntax error: {error}</source>
+      <translation>{label}: the expression {expression} has a syntax error: {error}</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} uses the field(s) {unknown}, which the layer '{layer}' does not have; its fields are: {fields}.</source>
+      <translation>{label}: the expression {expression} uses the field(s) {unknown}, which the layer '{layer}' does not have; its fields are: {fields}.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} fails on the first feature of '{layer}': {error}</source>
+      <translation>{label}: the expression {expression} fails on the first feature of '{layer}': {error}</translation>
+    </message>
+    <message>
       <source>Extrude LoD1 buildings</source>
       <translation>Extrude LoD1 buildings</translation>
     </message>
@@ -268,8 +284,8 @@
       <translation>Median on the footprint</translation>
     </message>
     <message>
-      <source>Invalid height expression: {error}</source>
-      <translation>Invalid height expression: {error}</translation>
+      <source>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</source>
+      <translation>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</translation>
     </message>
     <message>
       <source>Generate sample data</source>
@@ -560,6 +576,42 @@
       <translation>Seam step across tile borders</translation>
     </message>
     <message>
+      <source>points</source>
+      <translation>points</translation>
+    </message>
+    <message>
+      <source>lines</source>
+      <translation>lines</translation>
+    </message>
+    <message>
+      <source>polygons</source>
+      <translation>polygons</translation>
+    </message>
+    <message>
+      <source>no geometry</source>
+      <translation>no geometry</translation>
+    </message>
+    <message>
+      <source>{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.</source>
+      <translation>{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.</translation>
+    </message>
+    <message>
+      <source>The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path}){via}: choose another output name or folder. Nothing was written.</source>
+      <translation>The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path}){via}: choose another output name or folder. Nothing was written.</translation>
+    </message>
+    <message>
+      <source> (through {file})</source>
+      <translation> (through {file})</translation>
+    </message>
+    <message>
+      <source>unknown geometries</source>
+      <translation>unknown geometries</translation>
+    </message>
+    <message>
+      <source> or </source>
+      <translation> or </translation>
+    </message>
+    <message>
       <source>Triangulate terrain (constrained Delaunay)</source>
       <translation>Triangulate terrain (constrained Delaunay)</translation>
     </message>
@@ -730,6 +782,10 @@
     <message>
       <source>District groups</source>
       <translation>District groups</translation>
+    </message>
+    <message>
+      <source>Texture images beside the CityGML file</source>
+      <translation>Texture images beside the CityGML file</translation>
     </message>
   </context>
 </TS>

@@ -208,6 +208,22 @@
       <translation>점, 패치 범위, 또는 둘 다를 지정하십시오.</translation>
     </message>
     <message>
+      <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
+      <translation>식 {expression}이(가) 피처 {count}개에서 실패했습니다(예: {error}). 해당 피처에는 다음 규칙을 적용했습니다.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} has a syntax error: {error}</source>
+      <translation>{label}: 식 {expression}에 구문 오류가 있습니다: {error}</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} uses the field(s) {unknown}, which the layer '{layer}' does not have; its fields are: {fields}.</source>
+      <translation>{label}: 식 {expression}이(가) 레이어 '{layer}'에 없는 필드 {unknown}을(를) 사용합니다. 이 레이어의 필드: {fields}.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} fails on the first feature of '{layer}': {error}</source>
+      <translation>{label}: 식 {expression}이(가) '{layer}'의 첫 번째 피처에서 실패했습니다: {error}</translation>
+    </message>
+    <message>
       <source>Extrude LoD1 buildings</source>
       <translation>LoD1 건물 돌출</translation>
     </message>
@@ -268,8 +284,8 @@
       <translation>외곽선 위 중앙값</translation>
     </message>
     <message>
-      <source>Invalid height expression: {error}</source>
-      <translation>잘못된 높이 표현식: {error}</translation>
+      <source>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</source>
+      <translation>LoD1 솔리드를 하나도 만들 수 없습니다: {layer}의 외곽선 {count}개가 모두 비어 있거나 퇴화되었습니다. 아무것도 쓰지 않았습니다.</translation>
     </message>
     <message>
       <source>Generate sample data</source>
@@ -560,6 +576,42 @@
       <translation>타일 경계 단차</translation>
     </message>
     <message>
+      <source>points</source>
+      <translation>점</translation>
+    </message>
+    <message>
+      <source>lines</source>
+      <translation>선</translation>
+    </message>
+    <message>
+      <source>polygons</source>
+      <translation>폴리곤</translation>
+    </message>
+    <message>
+      <source>no geometry</source>
+      <translation>도형 없음</translation>
+    </message>
+    <message>
+      <source>{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.</source>
+      <translation>{label}: 레이어 '{layer}'({source})의 도형은 {found}({wkb})입니다. 필요한 도형: {wanted}.</translation>
+    </message>
+    <message>
+      <source>The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path}){via}: choose another output name or folder. Nothing was written.</source>
+      <translation>출력 '{output}'({output_path})이(가) 입력 '{input}'({input_path})을(를) 덮어쓰게 됩니다{via}. 다른 출력 이름이나 폴더를 고르십시오. 아무것도 쓰지 않았습니다.</translation>
+    </message>
+    <message>
+      <source> (through {file})</source>
+      <translation> ({file}을(를) 통해)</translation>
+    </message>
+    <message>
+      <source>unknown geometries</source>
+      <translation>알 수 없는 도형</translation>
+    </message>
+    <message>
+      <source> or </source>
+      <translation> 또는 </translation>
+    </message>
+    <message>
       <source>Triangulate terrain (constrained Delaunay)</source>
       <translation>지형 삼각분할 (제약 들로네)</translation>
     </message>
@@ -730,6 +782,10 @@
     <message>
       <source>District groups</source>
       <translation>법정동 그룹 수</translation>
+    </message>
+    <message>
+      <source>Texture images beside the CityGML file</source>
+      <translation>CityGML 파일 옆의 텍스처 이미지</translation>
     </message>
   </context>
 </TS>

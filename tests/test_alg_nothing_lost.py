@@ -507,3 +507,14 @@ def run_algorithm_encoding(folder: Path, tmp_path: Path) -> list[str]:
         "DISTRICTS": str(folder / "TL_SCCO_EMD.shp"), "DISTRICT_CODE": "11680101", "ENCODING": "ISO-8859-1",
         "OUTPUT": str(tmp_path / "forced.gpkg")})
     return [row["EMD_KOR_NM"] for row in _table(result["OUTPUT"], "districts")]
+
+
+def test_writecitygml_refuses_to_copy_textures_onto_their_source(data, tmp_path, run_algorithm):
+    """The images go to <name>_textures beside the .gml: that folder must not be the texture input."""
+    textures = data["folder"] / "city_textures"
+    shutil.copytree(data["textures"], textures)
+    _refused(run_algorithm, "wit:writecitygml", {"LOD1": data["lod1"], "TEXTURES": str(textures),
+                                                 "OUTPUT": str(data["folder"] / "city.gml")},
+             r"Texture images beside the CityGML file.*would overwrite the input 'Texture folder", data,
+             tmp_path / "out")
+    assert not (data["folder"] / "city.gml").exists()
