@@ -69,8 +69,8 @@ def data(tmp_path):
                                 fields={"BD_MGT_SN": ogr.OFTString}, rows=[{"BD_MGT_SN": "1"}]),
         "roads_shp": vector(folder / "roads.shp", "roads", [lines], ogr.wkbLineString, driver="ESRI Shapefile"),
         "buildings": vector(gpkg, "buildings", [SQUARE], fields={"wit_id": ogr.OFTString}),
-        "area": vector(gpkg, "study_area", ["POLYGON((209000 543000,209030 543000,209030 543030,"
-                                            "209000 543030,209000 543000))"]),
+        "area": vector(gpkg, "study_area", [("POLYGON((209000 543000,209030 543000,209030 543030,"
+                                             "209000 543030,209000 543000))")]),
         "lod1": vector(gpkg, "lod1_faces", [SQUARE], ogr.wkbPolygon25D, fields={"wit_id": ogr.OFTString}),
         "tin": vector(gpkg, "tin", [SQUARE], ogr.wkbPolygon25D),
         "points": vector(folder / "points.gpkg", "points", ["POINT(209005 543005)"], ogr.wkbPoint),
@@ -202,12 +202,10 @@ def test_atomic_writes_refuse_to_replace_a_protected_input(tmp_path):
     (tmp_path / "a.dbf").write_bytes(b"table")
     with protect([f"{source}|layername=a"]):
         for target in (source, tmp_path / "a.dbf", tmp_path / "a.shx"):
-            with pytest.raises(InputError, match="would overwrite the input"):
-                with atomic_file(target) as tmp:
-                    tmp.write_bytes(b"new")
-        with pytest.raises(InputError, match="would overwrite the input"):
-            with atomic_files([tmp_path / "a.dbf"]) as tmp:
-                (tmp / "a.dbf").write_bytes(b"new")
+            with pytest.raises(InputError, match="would overwrite the input"), atomic_file(target) as tmp:
+                tmp.write_bytes(b"new")
+        with pytest.raises(InputError, match="would overwrite the input"), atomic_files([tmp_path / "a.dbf"]) as tmp:
+            (tmp / "a.dbf").write_bytes(b"new")
         with atomic_file(tmp_path / "b.gpkg") as tmp:  # another name is fine
             tmp.write_bytes(b"new")
     with atomic_file(tmp_path / "a.dbf") as tmp:  # outside the run, the file is no input any more
@@ -326,7 +324,7 @@ def run_logged(algorithm: str, parameters: dict) -> tuple[dict, list[str]]:
             super().__init__()
             self.warnings = []
 
-        def pushWarning(self, warning):  # noqa: N802
+        def pushWarning(self, warning):
             self.warnings.append(warning)
             super().pushWarning(warning)
 
