@@ -24,7 +24,6 @@ from qgis.core import (
 )
 
 from ..wit_plugin import fileio
-from ..wit_plugin.vector_io import vector_file_problem
 from .base import tr, translatable
 
 VECTOR_TYPES = ("vector", "source")
@@ -135,7 +134,7 @@ def file_problem(algorithm, parameters: dict, context) -> str | None:
     for definition in algorithm.parameterDefinitions():
         value = parameters.get(definition.name())
         if definition.type() in VECTOR_TYPES and isinstance(value, str) and value:
-            problem = vector_file_problem(value)
+            problem = fileio.vector_file_problem(value)
             if problem:
                 return f"{definition.description()}: {problem}"
     return None

@@ -295,10 +295,23 @@ def check_crs(path: str | Path, crs: str | pyproj.CRS | None, feedback: Feedback
                          "(Raster ▸ Projections ▸ Assign Projection).")
         return
     dem_crs = pyproj.CRS.from_wkt(wkt)
-    if not dem_crs.equals(layers_crs, ignore_axis_order=True):
+    if not _same_place(dem_crs, layers_crs, ds):
         raise InputError(f"The DEM {name} is in {_crs_name(dem_crs)} but the layers are in {_crs_name(layers_crs)}: "
                          f"a CRS mismatch. Reproject the DEM to {_crs_name(layers_crs)} first (Raster ▸ Projections "
                          "▸ Warp (Reproject), bilinear resampling).")
+
+
+def _same_place(dem_crs: pyproj.CRS, layers_crs: pyproj.CRS, ds: gdal.Dataset) -> bool:
+    """Whether the DEM's corner coordinates name the same places in both CRSs (within 0.5 m): real DEMs
+    describe EPSG:5186 as a custom "Transverse Mercator" on a "GRS80 ELLIPSOID" datum, which is no mismatch."""
+    if dem_crs.equals(layers_crs, ignore_axis_order=True):
+        return True
+    x0, y0, x1, y1 = raster_extent(ds.GetGeoTransform(), ds.RasterXSize, ds.RasterYSize)
+    xs, ys = np.array([x0, x1, x0, x1]), np.array([y0, y0, y1, y1])
+    with np.errstate(invalid="ignore"):
+        tx, ty = pyproj.Transformer.from_crs(dem_crs, layers_crs, always_xy=True).transform(xs, ys)
+    shift = np.hypot(np.asarray(tx) - xs, np.asarray(ty) - ys)
+    return bool(np.all(np.isfinite(shift)) and shift.max() < 0.5)
 
 
 def _crs_name(crs: pyproj.CRS) -> str:

@@ -49,6 +49,46 @@ def file_family(path: str | os.PathLike) -> list[Path]:
     return family
 
 
+def sidecar(path: str | os.PathLike, suffix: str) -> Path | None:
+    """The file beside ``path`` with ``suffix`` (either case), if there is one."""
+    path = Path(path)
+    return next((p for p in (path.with_suffix(suffix), path.with_suffix(suffix.upper())) if p.exists()), None)
+
+
+def vector_file_problem(source: str | os.PathLike) -> str | None:
+    """What is wrong with a vector source file that GDAL would only call unreadable; None if nothing is seen.
+
+    ``source`` may be ``file|layername=x``; sources that are not files (databases, memory) pass.
+    """
+    text = str(source)
+    path = Path(text.split("|")[0])
+    if not path.suffix or "://" in text or text.startswith(("memory", "dbname=", "PG:")):
+        return None
+    if not path.exists():
+        return f"{path} does not exist."
+    if path.is_dir():
+        return None
+    if path.stat().st_size == 0:
+        return f"{path} is empty (0 bytes)."
+    suffix = path.suffix.lower()
+    if suffix == ".shp":
+        if path.stat().st_size < 100:
+            return f"{path} is truncated: a shapefile's header alone has 100 bytes."
+        parts = {ext: sidecar(path, ext) for ext in (".shx", ".dbf")}
+        missing = [ext for ext, found in parts.items() if found is None]
+        if missing:
+            return (f"{path.name} has no {' and no '.join(missing)} beside it in {path.parent}: a shapefile needs "
+                    "its .shp, .shx and .dbf files together (copy all the files of the layer).")
+        empty = [found.name for found in parts.values() if found.stat().st_size == 0]
+        if empty:
+            return f"{', '.join(empty)} beside {path.name} is empty (0 bytes): copy the layer's files again."
+    elif suffix in (".gpkg", ".sqlite"):
+        with open(path, "rb") as fh:
+            if fh.read(16) != b"SQLite format 3\x00":
+                return f"{path} is not a GeoPackage (no SQLite header): the file is damaged or misnamed."
+    return None
+
+
 def _real(path: Path) -> str:
     return os.path.normcase(os.path.realpath(path))
 

@@ -35,6 +35,7 @@ from .dem import check_crs as check_dem_crs
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
+from .fileio import refuse_overlap
 from .gpkg_bulk import write_layer
 from .model import (
     PREPARED_BUILDINGS,
@@ -506,8 +507,8 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
         raise InputError(f"A max edge length of {max_edge} m would make about {estimate:,.0f} triangles over this "
                          "area; use a longer max edge or split the area into tiles.")
     if cons.dropped:
-        feedback.info(f"{cons.dropped} building/road polygon(s) dropped: empty, outside the area or slivers "
-                      f"narrower than {MIN_WIDTH * 100:.0f} cm.")
+        feedback.warning(f"{cons.dropped} building/road polygon(s) dropped: empty, outside the area or slivers "
+                         f"narrower than {MIN_WIDTH * 100:.0f} cm.")
     feedback.check_canceled()
     feedback.progress(10)
 
@@ -653,6 +654,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
     GeoPackage itself); ``area`` is a polygon, or a vector source whose polygons together form it.
     """
+    refuse_overlap([(output, False)], [dem_path, buildings, roads, None if isinstance(area, BaseGeometry) else area])
     layers = {kind: read_prepared(source, name) for kind, source, name in
               (("buildings", buildings, PREPARED_BUILDINGS), ("roads", roads, PREPARED_ROADS)) if source}
     if not isinstance(area, BaseGeometry):

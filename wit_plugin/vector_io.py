@@ -23,6 +23,7 @@ from osgeo import gdal, ogr, osr
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
+from .fileio import sidecar, vector_file_problem
 
 DBF_SAMPLE_BYTES = 4 << 20  # sniff the encoding from the first 4 MiB of records
 
@@ -134,11 +135,6 @@ def _decodes(sample: bytes, codec: str) -> bool:
         return False
 
 
-def _sidecar(path: Path, suffix: str) -> Path | None:
-    """The file beside ``path`` with ``suffix`` (either case), if there is one."""
-    return next((p for p in (path.with_suffix(suffix), path.with_suffix(suffix.upper())) if p.exists()), None)
-
-
 #: DBF language-driver ids (LDID, header byte 29) → codec, as GDAL reads the common ones
 LDID_CODECS = {0x01: "cp437", 0x02: "cp850", 0x03: "cp1252", 0x57: "latin-1", 0x64: "cp852", 0x78: "cp950",
                0x79: "cp949", 0x7A: "gbk", 0x7B: "cp932", 0xC8: "cp1250", 0xC9: "cp1251"}
@@ -169,13 +165,13 @@ def shapefile_encoding(path: str | os.PathLike, feedback: Feedback = SILENT) -> 
     default (ISO-8859-1) with a warning.
     """
     shp = Path(path)
-    dbf = _sidecar(shp, ".dbf")
+    dbf = sidecar(shp, ".dbf")
     if dbf is None:
         return None
     ldid, sample = _dbf_text_sample(dbf)
     if sample.isascii():
         return None
-    cpg = _sidecar(shp, ".cpg")
+    cpg = sidecar(shp, ".cpg")
     declared, origin = None, ""
     if cpg is not None:
         text = cpg.read_text("ascii", errors="replace").strip()
@@ -221,40 +217,6 @@ def _crs_of(lyr: ogr.Layer, path: str, crs: str | None) -> pyproj.CRS:
         raise InputError(f"Unknown source CRS {crs!r}: {exc}") from exc
 
 
-def vector_file_problem(source: str | os.PathLike) -> str | None:
-    """What is wrong with a vector source file that GDAL would only call unreadable; None if nothing is seen.
-
-    ``source`` may be ``file|layername=x``; sources that are not files (databases, memory) pass.
-    """
-    text = str(source)
-    path = Path(text.split("|")[0])
-    if not path.suffix or "://" in text or text.startswith(("memory", "dbname=", "PG:")):
-        return None
-    if not path.exists():
-        return f"{path} does not exist."
-    if path.is_dir():
-        return None
-    if path.stat().st_size == 0:
-        return f"{path} is empty (0 bytes)."
-    suffix = path.suffix.lower()
-    if suffix == ".shp":
-        if path.stat().st_size < 100:
-            return f"{path} is truncated: a shapefile's header alone has 100 bytes."
-        parts = {ext: _sidecar(path, ext) for ext in (".shx", ".dbf")}
-        missing = [ext for ext, found in parts.items() if found is None]
-        if missing:
-            return (f"{path.name} has no {' and no '.join(missing)} beside it in {path.parent}: a shapefile needs "
-                    "its .shp, .shx and .dbf files together (copy all the files of the layer).")
-        empty = [found.name for found in parts.values() if found.stat().st_size == 0]
-        if empty:
-            return f"{', '.join(empty)} beside {path.name} is empty (0 bytes): copy the layer's files again."
-    elif suffix in (".gpkg", ".sqlite"):
-        with open(path, "rb") as fh:
-            if fh.read(16) != b"SQLite format 3\x00":
-                return f"{path} is not a GeoPackage (no SQLite header): the file is damaged or misnamed."
-    return None
-
-
 def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
                feedback: Feedback = SILENT) -> tuple[gdal.Dataset, ogr.Layer, str | None]:
     """Open a vector source with the right text encoding; return the dataset (keep it alive), layer, encoding.
@@ -268,6 +230,9 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
             layer = value
     if not Path(path).exists():
         raise InputError(f"Input file {path} does not exist.")
+    problem = vector_file_problem(path)
+    if problem:
+        raise InputError(problem)
     if encoding and _codec(encoding) is None:
         raise InputError(f"Unknown text encoding {encoding!r}; use a name such as CP949, EUC-KR or UTF-8.")
     is_shp = Path(path).suffix.lower() in (".shp", ".dbf")

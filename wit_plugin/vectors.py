@@ -57,7 +57,7 @@ from osgeo import ogr
 from . import model
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file
+from .fileio import atomic_file, refuse_overlap
 from .vector_io import (BUILDING_FIELDS, DISTRICT_FIELDS, ROAD_FIELDS, FieldDef, OutputLayer, VectorLayer,
                         read_layer, write_gpkg)
 
@@ -290,7 +290,7 @@ def non_finite(geoms: np.ndarray) -> np.ndarray:
 
 def exact_duplicates(geoms: np.ndarray, ids: Sequence[str]) -> np.ndarray:
     """Per feature: an earlier feature has the same id and the same geometry (ring start and order aside)."""
-    present = ~shapely.is_missing(geoms)
+    present = ~shapely.is_missing(geoms) & ~non_finite(geoms)  # those are dropped for their coordinates
     keys = np.full(len(geoms), None, dtype=object)
     keys[present] = shapely.to_wkb(shapely.normalize(geoms[present]))
     seen: set[tuple[str, bytes]] = set()
@@ -854,6 +854,9 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     target = _check_config(config)
     if not (buildings or roads or districts):
         raise InputError("Give at least one input layer (buildings, roads or districts).")
+    output_gpkg = Path(output_gpkg)
+    csv_path = Path(config.stats_csv) if config.stats_csv else output_gpkg.with_name(f"{output_gpkg.stem}_stats.csv")
+    refuse_overlap([(output_gpkg, False), (csv_path, False)], [buildings, roads, districts, area.path])
     if area.kind == "district" and not districts:
         raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
     feedback.progress(0)
@@ -898,8 +901,6 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     for s in stats:
         if s.features_out == 0:
             feedback.warning(f"{s.layer}: no feature lies in the study area.")
-    output_gpkg = Path(output_gpkg)
-    csv_path = Path(config.stats_csv) if config.stats_csv else output_gpkg.with_name(f"{output_gpkg.stem}_stats.csv")
     rows = [s.row() for s in stats]
     stat_fields = [FieldDef(c, ogr.OFTString if c == "layer" else ogr.OFTInteger64) for c in rows[0]]
     drop_fields = [FieldDef("layer", ogr.OFTString), FieldDef("source_fid", ogr.OFTInteger64),
