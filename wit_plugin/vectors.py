@@ -620,10 +620,6 @@ def unique_ids(ids: Sequence[str], skip: np.ndarray | None = None) -> list[str]:
     return out
 
 
-def stable_ids(layer: VectorLayer, prefix: str, keys: Sequence[Sequence[str]]) -> list[str]:
-    """Unique ids by the model's rules: ``unique_ids(source_ids(…))``."""
-    return unique_ids(source_ids(layer, prefix, keys))
-
 
 # -- roads --------------------------------------------------------------------------------------
 
@@ -778,7 +774,7 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
                 dropped: list[DroppedFeature], feedback: Feedback) -> tuple[_Prepared, LayerStats]:
     """Centre lines → simplified → buffered by width/2 → clipped → junction overlaps removed."""
     name = model.PREPARED_ROADS
-    ids = stable_ids(layer, "RD", [("SIG_CD", "RDS_MAN_NO")])
+    ids = source_ids(layer, "RD", [("SIG_CD", "RDS_MAN_NO")])  # sections of one road share it: merged below
     stats = LayerStats(name, len(layer), 0, 0, vertices_in=vertex_count(layer.geoms))
     g = layer.geoms
     reasons = np.full(len(g), None, dtype=object)
