@@ -600,6 +600,10 @@
       <translation>The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path}){via}: choose another output name or folder. Nothing was written.</translation>
     </message>
     <message>
+      <source>The output folder '{output}' ({output_path}) holds the input '{input}' ({input_path}): choose an output folder that holds none of the inputs. Nothing was written.</source>
+      <translation>The output folder '{output}' ({output_path}) holds the input '{input}' ({input_path}): choose an output folder that holds none of the inputs. Nothing was written.</translation>
+    </message>
+    <message>
       <source> (through {file})</source>
       <translation> (through {file})</translation>
     </message>

@@ -600,6 +600,10 @@
       <translation>출력 '{output}'({output_path})이(가) 입력 '{input}'({input_path})을(를) 덮어쓰게 됩니다{via}. 다른 출력 이름이나 폴더를 고르십시오. 아무것도 쓰지 않았습니다.</translation>
     </message>
     <message>
+      <source>The output folder '{output}' ({output_path}) holds the input '{input}' ({input_path}): choose an output folder that holds none of the inputs. Nothing was written.</source>
+      <translation>출력 폴더 '{output}'({output_path}) 안에 입력 '{input}'({input_path})이(가) 있습니다. 입력이 하나도 들어 있지 않은 출력 폴더를 고르십시오. 아무것도 쓰지 않았습니다.</translation>
+    </message>
+    <message>
       <source> (through {file})</source>
       <translation> ({file}을(를) 통해)</translation>
     </message>

@@ -122,6 +122,10 @@ def overlap_problem(algorithm, parameters: dict, context) -> str | None:
             clash = fileio.overlap(output.path, source.path, output.folder)
             if clash is None:
                 continue
+            if output.folder:
+                return tr("The output folder '{output}' ({output_path}) holds the input '{input}' ({input_path}): "
+                          "choose an output folder that holds none of the inputs. Nothing was written.").format(
+                    output=output.label, output_path=output.path, input=source.label, input_path=source.path)
             via = "" if fileio.same_file(clash, source.path) else tr(" (through {file})").format(file=clash)
             return tr("The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path})"
                       "{via}: choose another output name or folder. Nothing was written.").format(

@@ -135,11 +135,14 @@ def refuse_overlap(outputs: Iterable[tuple[str | os.PathLike, bool]], inputs: It
         for source in inputs:
             clash = overlap(output, source, folder)
             if clash is not None:
-                raise InputError(overlap_message(str(output), str(source_file(source)), str(clash)))
+                raise InputError(overlap_message(str(output), str(source_file(source)), str(clash), folder))
 
 
-def overlap_message(output: str, source: str, clash: str) -> str:
-    """The one message for an output that would destroy an input."""
+def overlap_message(output: str, source: str, clash: str, folder: bool = False) -> str:
+    """The one message for an output that would destroy an input (or a folder output that holds one)."""
+    if folder:
+        return (f"The output folder {output} holds the input {source}: choose an output folder that holds "
+                "none of the inputs. Nothing was written.")
     via = "" if same_file(clash, source) else f" (through {clash})"
     return (f"The output {output} would overwrite the input {source}{via}; choose another output "
             "name or folder. Nothing was written.")
