@@ -518,3 +518,13 @@ def test_writecitygml_refuses_to_copy_textures_onto_their_source(data, tmp_path,
              r"Texture images beside the CityGML file.*holds the input 'Texture folder", data,
              tmp_path / "out")
     assert not (data["folder"] / "city.gml").exists()
+
+
+def test_terrain_leaves_out_non_finite_constraints_with_a_warning(data, tmp_path, wit_provider):
+    good = [(209002, 543002), (209010, 543002), (209010, 543010), (209002, 543010), (209002, 543002)]
+    buildings = _ring_layer(data["folder"] / "inf.gpkg", [good, _broken(209012, INF), _broken(209020, NAN)])
+    result, warnings = run_logged("wit:triangulateterrain", {"DEM": data["dem"], "AREA": data["area"],
+                                                             "BUILDINGS": buildings, "OUTPUT": str(tmp_path / "t.gpkg")})
+    assert result["TRIANGLES"] > 0
+    assert any("buildings: 2 feature(s) with infinite or NaN coordinates left out" in w for w in warnings), warnings
+    assert any(w.startswith("2 building/road polygon(s) dropped") for w in warnings), warnings

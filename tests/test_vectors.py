@@ -488,3 +488,22 @@ def test_latin1_text_under_its_declaration_stays_latin1(tmp_path: Path):
     rec = Recorder()
     layer = vector_io.read_layer(path, feedback=rec)
     assert layer.columns["NOM"] == ["Été à Paris", "Bâtiment élevé"] and rec.warnings == []
+
+
+def test_non_finite_coordinates_in_a_shapefile_are_read_dropped_and_counted(tmp_path: Path):
+    """A shapefile whose polygons carry inf or NaN: the bounding-box filter used to drop the inf one
+    unread (it vanished uncounted); both are now read, dropped as non_finite and listed."""
+    polys = ["POLYGON ((209002 543002, 209010 543002, 209010 543010, 209002 543010, 209002 543002))",
+             "POLYGON ((209022 543002, 123456 543002, 209030 543010, 209022 543010, 209022 543002))",
+             "POLYGON ((209042 543002, 654321 543002, 209050 543010, 209042 543010, 209042 543002))"]
+    path = write_shapefile(tmp_path / "TL_SPBD_BULD.shp", polys, [{"BD_MGT_SN": str(i)} for i in (1, 2, 3)])
+    content = path.read_bytes()  # OGR refuses to write non-finite coordinates: patch them in
+    content = content.replace(struct.pack("<d", 123456.0), struct.pack("<d", np.inf))
+    path.write_bytes(content.replace(struct.pack("<d", 654321.0), struct.pack("<d", np.nan)))
+    rec = Recorder()
+    report = prepare_vectors(path, None, None, StudyArea.circle(209030, 543005, 200, "EPSG:5186"),
+                             tmp_path / "out.gpkg", PrepareConfig(), rec)
+    stats = report.stats[0]
+    assert (stats.features_in, stats.features_out, stats.dropped) == (3, 1, {"non_finite": 2})
+    assert sorted((d.wit_id, d.reason) for d in report.dropped) == [("BLD_2", "non_finite"), ("BLD_3", "non_finite")]
+    assert any("dropped 2 feature(s): 2 non_finite" in w for w in rec.warnings), rec.warnings

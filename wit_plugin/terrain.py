@@ -655,7 +655,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     GeoPackage itself); ``area`` is a polygon, or a vector source whose polygons together form it.
     """
     refuse_overlap([(output, False)], [dem_path, buildings, roads, None if isinstance(area, BaseGeometry) else area])
-    layers = {kind: read_prepared(source, name) for kind, source, name in
+    layers = {kind: read_prepared(source, name, feedback) for kind, source, name in
               (("buildings", buildings, PREPARED_BUILDINGS), ("roads", roads, PREPARED_ROADS)) if source}
     if not isinstance(area, BaseGeometry):
         area_layer = read_layer(area)

@@ -288,10 +288,20 @@ def open_step_layer(path: str, name: str, role: str, fields: Sequence[str] = ()
     return ds, layer, present
 
 
-def read_prepared(source: str | os.PathLike, default_layer: str, **options) -> VectorLayer:
-    """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name."""
+def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedback = SILENT,
+                  **options) -> VectorLayer:
+    """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name.
+
+    Geometries with an infinite or NaN coordinate (never in a layer wit:preparevectors wrote) become
+    None with a warning, so the step counts them as skipped instead of meshing or extruding them.
+    """
     explicit = "layername=" in str(source).partition("|")[2]
-    return read_layer(source, None if explicit else default_layer, **options)
+    layer = read_layer(source, None if explicit else default_layer, feedback=feedback, **options)
+    bad = non_finite(layer.geoms)
+    if bad.any():
+        layer.geoms[bad] = None
+        feedback.warning(f"{layer.name}: {int(bad.sum())} feature(s) with infinite or NaN coordinates left out.")
+    return layer
 
 
 def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
@@ -300,7 +310,8 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     """Read features, optionally only those whose envelope meets ``bbox`` (given in ``bbox_crs``).
 
     The bounding-box filter lets GDAL skip everything far from the study area (its spatial index
-    when the format has one), so a small area in a national file reads quickly. Unclosed rings
+    when the format has one), so a small area in a national file reads quickly; features with an
+    infinite or NaN coordinate, which no filter can place, are read too (``non_finite``). Unclosed rings
     (OGR passes them through, e.g. from a hand-written shapefile) are closed here and counted per
     feature in ``unclosed_rings``; geometries nothing can read become None. ``crs`` is the source
     CRS for a layer that declares none (no .prj).
@@ -317,6 +328,11 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
         lyr.SetSpatialFilterRect(*bbox)
     with gdal_quiet():
         columns, wkbs, fids = _read_rows(lyr, fields, feedback)
+        if bbox is not None:  # the filter drops them unread: they would vanish uncounted
+            read = set(fids)
+            for fid in _non_finite_fids(lyr, fields):
+                if fid not in read:
+                    _append_feature(lyr.GetFeature(fid), fields, columns, wkbs, fids)
     name = lyr.GetName()
     del lyr, ds
     geoms = shapely.from_wkb(np.array(wkbs, dtype=object), on_invalid="ignore")
@@ -358,12 +374,49 @@ def _read_rows(lyr: ogr.Layer, fields: list[FieldDef],
         if i % 5000 == 0:
             feedback.check_canceled()
             feedback.progress(100.0 * i / total)
-        for j, f in enumerate(fields):
-            columns[f.name].append(feat.GetField(j))
-        geom = feat.GetGeometryRef()
-        wkbs.append(bytes(geom.ExportToIsoWkb()) if geom is not None and not geom.IsEmpty() else None)
-        fids.append(feat.GetFID())
+        _append_feature(feat, fields, columns, wkbs, fids)
     return columns, wkbs, fids
+
+
+def _append_feature(feat: ogr.Feature, fields: list[FieldDef], columns: dict[str, list], wkbs: list[bytes | None],
+                    fids: list[int]) -> None:
+    for j, f in enumerate(fields):
+        columns[f.name].append(feat.GetField(j))
+    geom = feat.GetGeometryRef()
+    wkbs.append(bytes(geom.ExportToIsoWkb()) if geom is not None and not geom.IsEmpty() else None)
+    fids.append(feat.GetFID())
+
+
+def non_finite(geoms: np.ndarray) -> np.ndarray:
+    """Per feature: has a coordinate that is ±inf or NaN (shapely would silently drop or keep it)."""
+    out = np.zeros(len(geoms), dtype=bool)
+    coords, index = shapely.get_coordinates(geoms, return_index=True)
+    out[index[~np.isfinite(coords).all(axis=1)]] = True
+    return out
+
+
+def _non_finite_fids(lyr: ogr.Layer, fields: list[FieldDef]) -> list[int]:
+    """FIDs of the layer's features with an infinite or NaN coordinate, from one geometry-only pass
+    without the spatial filter (the Arrow reader when GDAL has it)."""
+    lyr.SetSpatialFilter(None)
+    lyr.SetIgnoredFields([f.name for f in fields])
+    try:
+        arrow = getattr(lyr, "GetArrowStreamAsNumPy", None)
+        stream = arrow(options=["USE_MASKED_ARRAYS=YES"]) if arrow else None
+        if stream is None:
+            batches = [(feat.GetFID(), feat.GetGeometryRef()) for feat in lyr]
+            fids = np.array([fid for fid, _ in batches], dtype=np.int64)
+            wkbs = [bytes(g.ExportToIsoWkb()) if g is not None else None for _, g in batches]
+            return fids[non_finite(shapely.from_wkb(np.array(wkbs, dtype=object), on_invalid="ignore"))].tolist()
+        fid_name, geom_name = lyr.GetFIDColumn() or "OGC_FID", lyr.GetGeometryColumn() or "wkb_geometry"
+        found = []
+        for batch in stream:
+            wkbs = np.array([bytes(w) if w is not None else None for w in batch[geom_name]], dtype=object)
+            bad = non_finite(shapely.from_wkb(wkbs, on_invalid="ignore"))
+            found += np.asarray(batch[fid_name])[bad].tolist()
+        return found
+    finally:
+        lyr.SetIgnoredFields([])
 
 
 def _python_values(column: np.ndarray) -> list:

@@ -59,7 +59,7 @@ from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, refuse_overlap
 from .vector_io import (BUILDING_FIELDS, DISTRICT_FIELDS, ROAD_FIELDS, FieldDef, OutputLayer, VectorLayer,
-                        read_layer, write_gpkg)
+                        non_finite, read_layer, write_gpkg)
 
 REPAIR_KINDS = ("unclosed_ring", "orientation", "repeated_vertex", "invalid", "multipart", "sliver_part")
 DROP_REASONS = ("no_geometry", "non_finite", "wrong_type", "collapsed", "too_small", "thin", "covered", "duplicate")
@@ -278,14 +278,6 @@ def orient(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rings[turn] = shapely.reverse(rings[turn])
     changed = np.bincount(part_of[ring_of[turn]], minlength=len(geoms)) > 0
     return _single_or_multi(shapely.polygons(rings, indices=ring_of), part_of, len(geoms)), changed
-
-
-def non_finite(geoms: np.ndarray) -> np.ndarray:
-    """Per feature: has a coordinate that is ±inf or NaN (shapely would silently drop or keep it)."""
-    out = np.zeros(len(geoms), dtype=bool)
-    coords, index = shapely.get_coordinates(geoms, return_index=True)
-    out[index[~np.isfinite(coords).all(axis=1)]] = True
-    return out
 
 
 def exact_duplicates(geoms: np.ndarray, ids: Sequence[str]) -> np.ndarray:
