@@ -294,6 +294,7 @@ def _shapefile(folder: Path) -> Path:
     ("empty_dbf", r"buildings\.dbf beside buildings\.shp is empty"),
     ("missing", r"buildings\.shp does not exist"),
     ("not_gpkg", r"not a GeoPackage \(no SQLite header\)"),
+    ("no_layer", r"model\.gpkg has no layer 'houses'; it has: buildings, lod1_faces, study_area, tin\."),
 ])
 def test_a_damaged_vector_file_is_named_with_its_problem(damage, message, data, tmp_path, run_algorithm):
     """Not QGIS's generic "Incorrect parameter value for BUILDINGS"."""
@@ -309,6 +310,8 @@ def test_a_damaged_vector_file_is_named_with_its_problem(damage, message, data, 
         shp.with_suffix(".dbf").write_bytes(b"")
     elif damage == "missing":
         source = str(tmp_path / "elsewhere" / "buildings.shp")
+    elif damage == "no_layer":
+        source = data["buildings"].replace("layername=buildings", "layername=houses")
     else:
         source = str(_write(tmp_path / "damaged" / "buildings.gpkg", b"<html>not found</html>"))
     text = _refused(run_algorithm, "wit:preparevectors", {

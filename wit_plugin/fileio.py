@@ -13,6 +13,7 @@ import contextlib
 import contextvars
 import os
 import shutil
+import sqlite3
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -86,7 +87,20 @@ def vector_file_problem(source: str | os.PathLike) -> str | None:
         with open(path, "rb") as fh:
             if fh.read(16) != b"SQLite format 3\x00":
                 return f"{path} is not a GeoPackage (no SQLite header): the file is damaged or misnamed."
+        layer = next((o[len("layername="):] for o in text.split("|")[1:] if o.startswith("layername=")), None)
+        names = _gpkg_layers(path) if layer and suffix == ".gpkg" else None
+        if names is not None and layer not in names:
+            return f"{path} has no layer '{layer}'; it has: {', '.join(names) or 'none'}."
     return None
+
+
+def _gpkg_layers(path: Path) -> list[str] | None:
+    """The layer (table) names a GeoPackage lists, read without writing anything beside it; None if unreadable."""
+    try:
+        with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?immutable=1", uri=True)) as db:
+            return [row[0] for row in db.execute("SELECT table_name FROM gpkg_contents ORDER BY table_name")]
+    except sqlite3.Error:
+        return None
 
 
 def _real(path: Path) -> str:
