@@ -39,14 +39,14 @@ class Recorder(Feedback):
 
 
 def write_shapefile(path: Path, polygons: list[str], rows: list[dict], epsg: int | None = 5186,
-                    encoding: str = "CP949") -> Path:
-    """A polygon shapefile like the national data: DBF in ``encoding``, no .cpg."""
+                    encoding: str = "CP949", geometry: int = ogr.wkbPolygon) -> Path:
+    """A polygon (or ``geometry``) shapefile like the national data: DBF in ``encoding``, no .cpg."""
     ds = ogr.GetDriverByName("ESRI Shapefile").CreateDataSource(str(path))
     srs = None
     if epsg:
         srs = osr.SpatialReference()
         srs.ImportFromEPSG(epsg)
-    lyr = ds.CreateLayer(path.stem, srs, ogr.wkbPolygon, options=[f"ENCODING={encoding}"])
+    lyr = ds.CreateLayer(path.stem, srs, geometry, options=[f"ENCODING={encoding}"])
     for name, value in rows[0].items():
         lyr.CreateField(ogr.FieldDefn(name, ogr.OFTInteger if isinstance(value, int) else ogr.OFTString))
     for wkt, row in zip(polygons, rows):
@@ -418,29 +418,13 @@ def test_feature_loop_reader_matches_the_arrow_reader(juso: Path, monkeypatch: p
     assert shapely.equals_exact(slow.geoms, fast.geoms, 0.0).all()
 
 
-def _lines_shapefile(path: Path, lines: list[str], rows: list[dict]) -> Path:
-    srs = osr.SpatialReference()
-    srs.ImportFromEPSG(5186)
-    ds = ogr.GetDriverByName("ESRI Shapefile").CreateDataSource(str(path))
-    lyr = ds.CreateLayer(path.stem, srs, ogr.wkbLineString)
-    for name in rows[0]:
-        lyr.CreateField(ogr.FieldDefn(name, ogr.OFTString))
-    for wkt, row in zip(lines, rows):
-        feat = ogr.Feature(lyr.GetLayerDefn())
-        for name, value in row.items():
-            feat.SetField(name, value)
-        feat.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
-        lyr.CreateFeature(feat)
-    ds = None
-    return path
-
-
 def test_sections_of_one_road_are_merged_into_one_polygon(tmp_path: Path):
     """Two sections with the same road id (SIG_CD, RDS_MAN_NO) are one road, not RD_x and RD_x_2."""
-    path = _lines_shapefile(tmp_path / "TL_SPRD_MANAGE.shp",
-                            ["LINESTRING (209000 543000, 209050 543000)", "LINESTRING (209050 543000, 209100 543000)",
-                             "LINESTRING (209000 543050, 209100 543050)"],
-                            [{"SIG_CD": "11680", "RDS_MAN_NO": "7"}] * 2 + [{"SIG_CD": "11680", "RDS_MAN_NO": "8"}])
+    path = write_shapefile(tmp_path / "TL_SPRD_MANAGE.shp",
+                           ["LINESTRING (209000 543000, 209050 543000)", "LINESTRING (209050 543000, 209100 543000)",
+                            "LINESTRING (209000 543050, 209100 543050)"],
+                           [{"SIG_CD": "11680", "RDS_MAN_NO": "7"}] * 2 + [{"SIG_CD": "11680", "RDS_MAN_NO": "8"}],
+                           geometry=ogr.wkbLineString)
     report = prepare_vectors(None, path, None, StudyArea.circle(209050, 543025, 500, "EPSG:5186"),
                              tmp_path / "out.gpkg", PrepareConfig(default_road_width=6.0))
     ds = ogr.Open(str(tmp_path / "out.gpkg"))
