@@ -208,6 +208,22 @@
       <translation>Give points to colour, a patch extent, or both.</translation>
     </message>
     <message>
+      <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
+      <translation>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} has a syntax error: {error}</source>
+      <translation>{label}: the expression {expression} has a syntax error: {error}</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} uses the field(s) {unknown}, which the layer '{layer}' does not have; its fields are: {fields}.</source>
+      <translation>{label}: the expression {expression} uses the field(s) {unknown}, which the layer '{layer}' does not have; its fields are: {fields}.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} fails on the first feature of '{layer}': {error}</source>
+      <translation>{label}: the expression {expression} fails on the first feature of '{layer}': {error}</translation>
+    </message>
+    <message>
       <source>Extrude LoD1 buildings</source>
       <translation>Extrude LoD1 buildings</translation>
     </message>
@@ -268,8 +284,8 @@
       <translation>Median on the footprint</translation>
     </message>
     <message>
-      <source>Invalid height expression: {error}</source>
-      <translation>Invalid height expression: {error}</translation>
+      <source>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</source>
+      <translation>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</translation>
     </message>
     <message>
       <source>Generate sample data</source>
@@ -412,8 +428,8 @@
       <translation>Prepare vector layers</translation>
     </message>
     <message>
-      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
-      <translation>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</translation>
+      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
+      <translation>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</translation>
     </message>
     <message>
       <source>Douglas–Peucker tolerance, buildings (m)</source>
@@ -558,6 +574,46 @@
     <message>
       <source>Seam step across tile borders</source>
       <translation>Seam step across tile borders</translation>
+    </message>
+    <message>
+      <source>points</source>
+      <translation>points</translation>
+    </message>
+    <message>
+      <source>lines</source>
+      <translation>lines</translation>
+    </message>
+    <message>
+      <source>polygons</source>
+      <translation>polygons</translation>
+    </message>
+    <message>
+      <source>no geometry</source>
+      <translation>no geometry</translation>
+    </message>
+    <message>
+      <source>{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.</source>
+      <translation>{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.</translation>
+    </message>
+    <message>
+      <source>The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path}){via}: choose another output name or folder. Nothing was written.</source>
+      <translation>The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path}){via}: choose another output name or folder. Nothing was written.</translation>
+    </message>
+    <message>
+      <source>The output folder '{output}' ({output_path}) holds the input '{input}' ({input_path}): choose an output folder that holds none of the inputs. Nothing was written.</source>
+      <translation>The output folder '{output}' ({output_path}) holds the input '{input}' ({input_path}): choose an output folder that holds none of the inputs. Nothing was written.</translation>
+    </message>
+    <message>
+      <source> (through {file})</source>
+      <translation> (through {file})</translation>
+    </message>
+    <message>
+      <source>unknown geometries</source>
+      <translation>unknown geometries</translation>
+    </message>
+    <message>
+      <source> or </source>
+      <translation> or </translation>
     </message>
     <message>
       <source>Triangulate terrain (constrained Delaunay)</source>
@@ -730,6 +786,10 @@
     <message>
       <source>District groups</source>
       <translation>District groups</translation>
+    </message>
+    <message>
+      <source>Texture images beside the CityGML file</source>
+      <translation>Texture images beside the CityGML file</translation>
     </message>
   </context>
 </TS>

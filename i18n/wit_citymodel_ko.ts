@@ -208,6 +208,22 @@
       <translation>점, 패치 범위, 또는 둘 다를 지정하십시오.</translation>
     </message>
     <message>
+      <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
+      <translation>식 {expression}이(가) 피처 {count}개에서 실패했습니다(예: {error}). 해당 피처에는 다음 규칙을 적용했습니다.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} has a syntax error: {error}</source>
+      <translation>{label}: 식 {expression}에 구문 오류가 있습니다: {error}</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} uses the field(s) {unknown}, which the layer '{layer}' does not have; its fields are: {fields}.</source>
+      <translation>{label}: 식 {expression}이(가) 레이어 '{layer}'에 없는 필드 {unknown}을(를) 사용합니다. 이 레이어의 필드: {fields}.</translation>
+    </message>
+    <message>
+      <source>{label}: the expression {expression} fails on the first feature of '{layer}': {error}</source>
+      <translation>{label}: 식 {expression}이(가) '{layer}'의 첫 번째 피처에서 실패했습니다: {error}</translation>
+    </message>
+    <message>
       <source>Extrude LoD1 buildings</source>
       <translation>LoD1 건물 돌출</translation>
     </message>
@@ -268,8 +284,8 @@
       <translation>외곽선 위 중앙값</translation>
     </message>
     <message>
-      <source>Invalid height expression: {error}</source>
-      <translation>잘못된 높이 표현식: {error}</translation>
+      <source>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</source>
+      <translation>LoD1 솔리드를 하나도 만들 수 없습니다: {layer}의 외곽선 {count}개가 모두 비어 있거나 퇴화되었습니다. 아무것도 쓰지 않았습니다.</translation>
     </message>
     <message>
       <source>Generate sample data</source>
@@ -412,8 +428,8 @@
       <translation>벡터 레이어 준비</translation>
     </message>
     <message>
-      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
-      <translation>건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD) 레이어를 읽습니다(.cpg 없는 셰이프파일은 내용이 CP949이면 CP949로 읽음). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거, 가는 조각은 이유와 함께 제외). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로는 ROAD_BT / 2 만큼 버퍼한 폴리곤이 됩니다(없으면 도로 등급별 기본 폭). 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
+      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
+      <translation>건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD) 레이어를 읽습니다(.cpg가 없거나 다른 코드 페이지를 선언한 셰이프파일도 내용이 CP949이면 CP949로 읽음). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거. 가는 조각, 무한대나 NaN 좌표가 있는 피처, 완전히 같은 중복 피처(같은 ID와 외곽선)는 이유와 개수를 남기고 제외하며, ID가 같지만 외곽선이 다른 피처는 wit_id에 _2, _3…을 붙여 모두 남김). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로는 ROAD_BT / 2 만큼 버퍼한 폴리곤이 됩니다(없으면 도로 등급별 기본 폭). 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
     </message>
     <message>
       <source>Douglas–Peucker tolerance, buildings (m)</source>
@@ -558,6 +574,46 @@
     <message>
       <source>Seam step across tile borders</source>
       <translation>타일 경계 단차</translation>
+    </message>
+    <message>
+      <source>points</source>
+      <translation>점</translation>
+    </message>
+    <message>
+      <source>lines</source>
+      <translation>선</translation>
+    </message>
+    <message>
+      <source>polygons</source>
+      <translation>폴리곤</translation>
+    </message>
+    <message>
+      <source>no geometry</source>
+      <translation>도형 없음</translation>
+    </message>
+    <message>
+      <source>{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.</source>
+      <translation>{label}: 레이어 '{layer}'({source})의 도형은 {found}({wkb})입니다. 필요한 도형: {wanted}.</translation>
+    </message>
+    <message>
+      <source>The output '{output}' ({output_path}) would overwrite the input '{input}' ({input_path}){via}: choose another output name or folder. Nothing was written.</source>
+      <translation>출력 '{output}'({output_path})이(가) 입력 '{input}'({input_path})을(를) 덮어쓰게 됩니다{via}. 다른 출력 이름이나 폴더를 고르십시오. 아무것도 쓰지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>The output folder '{output}' ({output_path}) holds the input '{input}' ({input_path}): choose an output folder that holds none of the inputs. Nothing was written.</source>
+      <translation>출력 폴더 '{output}'({output_path}) 안에 입력 '{input}'({input_path})이(가) 있습니다. 입력이 하나도 들어 있지 않은 출력 폴더를 고르십시오. 아무것도 쓰지 않았습니다.</translation>
+    </message>
+    <message>
+      <source> (through {file})</source>
+      <translation> ({file}을(를) 통해)</translation>
+    </message>
+    <message>
+      <source>unknown geometries</source>
+      <translation>알 수 없는 도형</translation>
+    </message>
+    <message>
+      <source> or </source>
+      <translation> 또는 </translation>
     </message>
     <message>
       <source>Triangulate terrain (constrained Delaunay)</source>
@@ -730,6 +786,10 @@
     <message>
       <source>District groups</source>
       <translation>법정동 그룹 수</translation>
+    </message>
+    <message>
+      <source>Texture images beside the CityGML file</source>
+      <translation>CityGML 파일 옆의 텍스처 이미지</translation>
     </message>
   </context>
 </TS>

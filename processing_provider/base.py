@@ -2,6 +2,9 @@
 
 Subclasses declare parameters and implement ``execute`` (``run`` is QGIS API); ``processAlgorithm``
 turns core exceptions into ``QgsProcessingException`` so the user sees a message, never a traceback.
+Before ``execute``, every algorithm checks its inputs and outputs (``safeguards``): vector files
+named with their real problem, geometry types as the parameters ask, and no output that would
+replace or share a file with an input; while it runs, atomic writes refuse to replace an input.
 """
 from __future__ import annotations
 
@@ -19,7 +22,7 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
-from ..wit_plugin import deps
+from ..wit_plugin import deps, fileio
 from ..wit_plugin.errors import CanceledError, WitError
 from ..wit_plugin.feedback import Feedback
 
@@ -82,6 +85,8 @@ class WitAlgorithm(QgsProcessingAlgorithm):
     help_text = ""
     #: import names of the optional packages the core step needs (see wit_plugin.deps)
     requirements: tuple[str, ...] = ()
+    #: string parameters that name an input file (checked against the outputs like layer inputs)
+    path_parameters: tuple[str, ...] = ()
 
     def tr(self, text: str) -> str:
         return tr(text)
@@ -114,11 +119,31 @@ class WitAlgorithm(QgsProcessingAlgorithm):
             text = deps.install_hint(absent).replace("\n", "<br>") + "<br><br>" + text
         return text
 
+    def checkParameterValues(self, parameters, context):  # noqa: N802
+        """A vector file's real problem before QGIS's generic "Incorrect parameter value"."""
+        from . import safeguards
+
+        problem = safeguards.file_problem(self, parameters, context)
+        return (False, problem) if problem else super().checkParameterValues(parameters, context)
+
+    def extra_outputs(self, parameters, context) -> list:
+        """Files or folders written beside the destination parameters' (``safeguards.Endpoint``s)."""
+        return []
+
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
+        from . import safeguards
+
         try:
             deps.require(self.requirements)
             self._check_geos()
-            return self.execute(parameters, context, QgisFeedback(feedback))
+            problem = (safeguards.file_problem(self, parameters, context)
+                       or safeguards.geometry_problem(self, parameters, context)
+                       or safeguards.overlap_problem(self, parameters, context))
+            if problem:
+                raise QgsProcessingException(problem)
+            read = [source.path for source in safeguards.inputs(self, parameters, context)]
+            with fileio.protect(read):
+                return self.execute(parameters, context, QgisFeedback(feedback))
         except CanceledError as exc:
             raise QgsProcessingException(self.tr("Cancelled: no output was written.")) from exc
         except WitError as exc:

@@ -84,6 +84,7 @@ class QueryColorStore(WitAlgorithm):
         "requested resolution, written as an RGB GeoTIFF. " + STORE_HELP
     )
     requirements = ("shapely",)
+    path_parameters = ("STORE",)
 
     STORE = "STORE"
     TABLE = "TABLE"

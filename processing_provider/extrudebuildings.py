@@ -1,9 +1,7 @@
 """wit:extrudebuildings — closed LoD1 solids from footprints, floors and the DEM."""
+from pathlib import Path
+
 from qgis.core import (
-    QgsExpression,
-    QgsExpressionContext,
-    QgsExpressionContextScope,
-    QgsFeature,
     QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputNumber,
@@ -17,7 +15,8 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import WitAlgorithm
+from .base import WitAlgorithm, crs_string
+from .expressions import checked_expression
 
 BASES = ("min", "median")
 
@@ -74,44 +73,30 @@ class ExtrudeBuildings(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
+        from ..wit_plugin.dem import check_crs as check_dem_crs
         from ..wit_plugin.extrude import HeightRule, run
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         fields = self.parameterAsFields(parameters, self.HEIGHT_FIELD, context)
+        expression = checked_expression(self, parameters, self.HEIGHT_EXPRESSION, buildings, context)
         rule = HeightRule(
             storey_height=self.parameterAsDouble(parameters, self.STOREY_HEIGHT, context),
             height_field=fields[0] if fields else None,
-            expression=self._expression(self.parameterAsExpression(parameters, self.HEIGHT_EXPRESSION, context),
-                                        buildings, context),
+            expression=expression,
             default_height=self.parameterAsDouble(parameters, self.DEFAULT_HEIGHT, context),
         )
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
+        dem = self.parameterAsRasterLayer(parameters, self.DEM, context).source()
+        check_dem_crs(dem, crs_string(buildings.crs()), feedback)
+        stats = run(buildings.source(), dem, output,
                     rule, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
                     self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
+        if stats.solids == 0:  # the core wrote an empty layer: a run that made nothing fails and leaves nothing
+            Path(output).unlink(missing_ok=True)
+            raise QgsProcessingException(self.tr(
+                "No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. "
+                "Nothing was written.").format(count=stats.buildings, layer=buildings.source()))
+        if expression is not None and expression.failure_warning():
+            feedback.warning(expression.failure_warning())
         return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,
                 "DEFAULT_HEIGHTS": stats.height_sources.get("default", 0)}
-
-    def _expression(self, text: str, layer, context):
-        """The QGIS expression as the callable the core takes (attributes dict → value)."""
-        if not text:
-            return None
-        expression = QgsExpression(text)
-        if expression.hasParserError():
-            raise QgsProcessingException(self.tr("Invalid height expression: {error}").format(
-                error=expression.parserErrorString()))
-        expression_context = QgsExpressionContext()
-        expression_context.appendScopes(context.expressionContext().scopes())
-        expression_context.appendScope(QgsExpressionContextScope())
-        fields = layer.fields()
-        expression.prepare(expression_context)
-
-        def evaluate(attributes: dict):
-            feature = QgsFeature(fields)
-            for name, value in attributes.items():
-                if fields.indexOf(name) >= 0:
-                    feature[name] = value
-            expression_context.setFeature(feature)
-            return expression.evaluate(expression_context)
-
-        return evaluate

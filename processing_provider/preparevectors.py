@@ -25,9 +25,12 @@ class PrepareVectors(WitAlgorithm):
     group_name = "Geometry"
     help_text = (
         "Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) "
-        "layers — shapefiles without .cpg are read as CP949 when their text says so — reprojects them "
+        "layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text "
+        "says so — reprojects them "
         "(EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and "
-        "holes clockwise, makes them valid, removes duplicate vertices, drops slivers with the reason), "
+        "holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite "
+        "or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same "
+        "id on different footprints gets _2, _3… on its wit_id), "
         "clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads "
         "and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still "
         "share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class "
@@ -54,11 +57,11 @@ class PrepareVectors(WitAlgorithm):
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        for name, label in ((self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD)")),
-                            (self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)")),
-                            (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"))):
-            self.addParameter(QgsProcessingParameterVectorLayer(
-                name, label, [QgsProcessing.TypeVectorAnyGeometry], optional=True))
+        for name, label, kind in ((self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD)"), QgsProcessing.TypeVectorPolygon),
+                                  (self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), QgsProcessing.TypeVectorLine),
+                                  (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"),
+                                   QgsProcessing.TypeVectorPolygon)):
+            self.addParameter(QgsProcessingParameterVectorLayer(name, label, [kind], optional=True))
         # Optional with defaults: QGIS 3.22 does not fill missing mandatory points/CRSs with defaults.
         self.addParameter(QgsProcessingParameterPoint(
             self.CENTER, self.tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]",

@@ -1,4 +1,6 @@
 """wit:writecitygml — stream the model's layers into one CityGML 3.0 file."""
+from pathlib import Path
+
 from qgis.core import (
     QgsProcessing,
     QgsProcessingAlgorithm,
@@ -64,6 +66,16 @@ class WriteCityGML(WitAlgorithm):
                             ("TRIANGLES", self.tr("Terrain triangles written")),
                             ("TEXTURED_SURFACES", self.tr("Textured surfaces")), ("GROUPS", self.tr("District groups"))):
             self.addOutput(QgsProcessingOutputNumber(name, label))
+
+    def extra_outputs(self, parameters, context) -> list:
+        """The texture images are copied into ``<name>_textures`` beside the .gml."""
+        from .safeguards import Endpoint
+
+        output = Path(self.parameterAsFileOutput(parameters, self.OUTPUT, context))
+        if not self.parameterAsBool(parameters, self.COPY_TEXTURES, context):
+            return []
+        return [Endpoint(self.tr("Texture images beside the CityGML file"),
+                         str(output.parent / f"{output.stem}_textures"), folder=True)]
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.citygml.writer import CityGMLInputs, write_citygml

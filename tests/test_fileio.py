@@ -48,3 +48,23 @@ def test_unwritable_output_folder_is_a_clear_error(tmp_path):
     blocker.write_text("x")
     with pytest.raises(InputError, match="not writable"):
         ensure_writable_dir(blocker / "sub")
+
+
+def test_core_steps_refuse_an_output_over_their_input(tmp_path):
+    """Scripts that call the core directly get the same refusal, before anything is read or written."""
+    from wit_plugin.terrain import run as triangulate
+    from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+
+    source = tmp_path / "buildings.shp"
+    source.write_bytes(b"not read")
+    (tmp_path / "buildings.dbf").write_bytes(b"not read either")
+    with pytest.raises(InputError, match=r"would overwrite the input .*buildings\.shp \(through .*buildings\.dbf\)"):
+        prepare_vectors(str(source), None, None, StudyArea.circle(127.1, 37.5, 100), tmp_path / "buildings.dbf",
+                        PrepareConfig())
+    with pytest.raises(InputError, match=r"output .*buildings\.shp would overwrite the input"):
+        prepare_vectors(str(source), None, None, StudyArea.circle(127.1, 37.5, 100), tmp_path / "p.gpkg",
+                        PrepareConfig(stats_csv=str(source)))
+    with pytest.raises(InputError, match=r"would overwrite the input .*dem\.tif"):
+        triangulate(str(tmp_path / "dem.tif"), None, None, tmp_path / "dem.tif", str(source))
+    assert source.read_bytes() == b"not read" and sorted(p.name for p in tmp_path.iterdir()) == [
+        "buildings.dbf", "buildings.shp"]

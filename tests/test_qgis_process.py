@@ -6,7 +6,7 @@ import os
 import subprocess
 
 import pytest
-from osgeo import gdal, ogr
+from osgeo import gdal, ogr, osr
 
 from conftest import ROOT
 
@@ -69,3 +69,24 @@ def test_bad_input_fails_with_a_message_and_exit_code(tmp_path, profile):
     assert result.returncode != 0
     assert "outside Korea" in result.stdout + result.stderr
     assert "Traceback" not in result.stdout + result.stderr
+
+
+def test_an_output_over_its_input_fails_headless_and_leaves_the_input_intact(tmp_path, profile):
+    """Nothing lost, end to end: exit code non-zero, the message printed, the shapefile untouched."""
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(5186)
+    ds = ogr.GetDriverByName("ESRI Shapefile").CreateDataSource(str(tmp_path / "buildings.shp"))
+    layer = ds.CreateLayer("buildings", srs, ogr.wkbPolygon)
+    feature = ogr.Feature(layer.GetLayerDefn())
+    feature.SetGeometry(ogr.CreateGeometryFromWkt("POLYGON((0 0,10 0,10 10,0 10,0 0))"))
+    layer.CreateFeature(feature)
+    del layer, ds
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    env = dict(os.environ, WIT_QGIS_PROFILE=str(profile))
+    result = subprocess.run([str(ROOT / "scripts" / "qgis-process"), "run", "wit:preparevectors",
+                             f"--BUILDINGS={tmp_path / 'buildings.shp'}", f"--OUTPUT={tmp_path / 'buildings.dbf'}"],
+                            capture_output=True, text=True, env=env, timeout=600)
+    assert result.returncode != 0
+    assert f"would overwrite the input 'Buildings (TL_SPBD_BULD)' ({tmp_path / 'buildings.shp'})" in (
+        result.stdout + result.stderr)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

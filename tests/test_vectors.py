@@ -39,14 +39,14 @@ class Recorder(Feedback):
 
 
 def write_shapefile(path: Path, polygons: list[str], rows: list[dict], epsg: int | None = 5186,
-                    encoding: str = "CP949") -> Path:
-    """A polygon shapefile like the national data: DBF in ``encoding``, no .cpg."""
+                    encoding: str = "CP949", geometry: int = ogr.wkbPolygon) -> Path:
+    """A polygon (or ``geometry``) shapefile like the national data: DBF in ``encoding``, no .cpg."""
     ds = ogr.GetDriverByName("ESRI Shapefile").CreateDataSource(str(path))
     srs = None
     if epsg:
         srs = osr.SpatialReference()
         srs.ImportFromEPSG(epsg)
-    lyr = ds.CreateLayer(path.stem, srs, ogr.wkbPolygon, options=[f"ENCODING={encoding}"])
+    lyr = ds.CreateLayer(path.stem, srs, geometry, options=[f"ENCODING={encoding}"])
     for name, value in rows[0].items():
         lyr.CreateField(ogr.FieldDefn(name, ogr.OFTInteger if isinstance(value, int) else ogr.OFTString))
     for wkt, row in zip(polygons, rows):
@@ -416,3 +416,78 @@ def test_feature_loop_reader_matches_the_arrow_reader(juso: Path, monkeypatch: p
     assert slow.columns == fast.columns
     assert list(slow.fids) == list(fast.fids)
     assert shapely.equals_exact(slow.geoms, fast.geoms, 0.0).all()
+
+
+def test_sections_of_one_road_are_merged_into_one_polygon(tmp_path: Path):
+    """Two sections with the same road id (SIG_CD, RDS_MAN_NO) are one road, not RD_x and RD_x_2."""
+    path = write_shapefile(tmp_path / "TL_SPRD_MANAGE.shp",
+                           ["LINESTRING (209000 543000, 209050 543000)", "LINESTRING (209050 543000, 209100 543000)",
+                            "LINESTRING (209000 543050, 209100 543050)"],
+                           [{"SIG_CD": "11680", "RDS_MAN_NO": "7"}] * 2 + [{"SIG_CD": "11680", "RDS_MAN_NO": "8"}],
+                           geometry=ogr.wkbLineString)
+    report = prepare_vectors(None, path, None, StudyArea.circle(209050, 543025, 500, "EPSG:5186"),
+                             tmp_path / "out.gpkg", PrepareConfig(default_road_width=6.0))
+    ds = ogr.Open(str(tmp_path / "out.gpkg"))
+    roads = {f[model.WIT_ID]: shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb()))
+             for f in ds.GetLayerByName(model.PREPARED_ROADS)}
+    assert sorted(roads) == ["RD_11680_7", "RD_11680_8"]
+    assert roads["RD_11680_7"].bounds == pytest.approx((208997, 542997, 209103, 543003), abs=1e-3)
+    assert report.stats[0].features_in == 3 and report.stats[0].features_out == 2
+
+
+def test_duplicates_and_shared_ids_in_the_core():
+    square = shapely.box(0, 0, 8, 8)
+    turned = shapely.Polygon([(8, 0), (8, 8), (0, 8), (0, 0)])  # same footprint, other start and direction
+    geoms = np.array([square, turned, square, shapely.box(20, 0, 28, 8), None], dtype=object)
+    ids = ["BLD_1", "BLD_1", "BLD_2", "BLD_1", "BLD_3"]
+    duplicate = vectors.exact_duplicates(geoms, ids)
+    assert duplicate.tolist() == [False, True, False, False, False]
+    assert vectors.unique_ids(ids, skip=duplicate) == ["BLD_1", "BLD_1", "BLD_2", "BLD_1_2", "BLD_3"]
+    broken = shapely.Polygon([(0, 0), (np.inf, 0), (8, 8), (0, 0)])
+    assert vectors.non_finite(np.array([square, broken, None], dtype=object)).tolist() == [False, True, False]
+
+
+@pytest.mark.parametrize("declaration", ["ldid_latin1", "ldid_cp1252", "cpg_latin1", "cpg_utf8"])
+def test_cp949_text_under_a_wrong_declaration_is_read_as_cp949(declaration, juso: Path, tmp_path: Path):
+    for part in juso.glob("TL_SCCO_EMD.*"):
+        (tmp_path / part.name).write_bytes(part.read_bytes())
+    dbf = tmp_path / "TL_SCCO_EMD.dbf"
+    if declaration.startswith("ldid"):
+        content = bytearray(dbf.read_bytes())
+        content[29] = 0x57 if declaration == "ldid_latin1" else 0x03
+        dbf.write_bytes(bytes(content))
+    else:
+        (tmp_path / "TL_SCCO_EMD.cpg").write_text("ISO-8859-1" if declaration == "cpg_latin1" else "UTF-8")
+    rec = Recorder()
+    layer = vector_io.read_layer(tmp_path / "TL_SCCO_EMD.shp", feedback=rec)
+    assert layer.encoding == "CP949" and "역삼동" in layer.columns["EMD_KOR_NM"]
+    assert len(rec.warnings) == 1 and "read as CP949" in rec.warnings[0], rec.warnings
+
+
+def test_latin1_text_under_its_declaration_stays_latin1(tmp_path: Path):
+    """French names decode as CP949 too (é + a letter is a CP949 pair), but are not Korean."""
+    path = write_shapefile(tmp_path / "fr.shp", ["POLYGON ((0 0, 1 0, 1 1, 0 0))"] * 2,
+                           [{"NOM": "Été à Paris"}, {"NOM": "Bâtiment élevé"}], encoding="ISO-8859-1")
+    (tmp_path / "fr.cpg").write_text("ISO-8859-1")
+    rec = Recorder()
+    layer = vector_io.read_layer(path, feedback=rec)
+    assert layer.columns["NOM"] == ["Été à Paris", "Bâtiment élevé"] and rec.warnings == []
+
+
+def test_non_finite_coordinates_in_a_shapefile_are_read_dropped_and_counted(tmp_path: Path):
+    """A shapefile whose polygons carry inf or NaN: the bounding-box filter used to drop the inf one
+    unread (it vanished uncounted); both are now read, dropped as non_finite and listed."""
+    polys = ["POLYGON ((209002 543002, 209010 543002, 209010 543010, 209002 543010, 209002 543002))",
+             "POLYGON ((209022 543002, 123456 543002, 209030 543010, 209022 543010, 209022 543002))",
+             "POLYGON ((209042 543002, 654321 543002, 209050 543010, 209042 543010, 209042 543002))"]
+    path = write_shapefile(tmp_path / "TL_SPBD_BULD.shp", polys, [{"BD_MGT_SN": str(i)} for i in (1, 2, 3)])
+    content = path.read_bytes()  # OGR refuses to write non-finite coordinates: patch them in
+    content = content.replace(struct.pack("<d", 123456.0), struct.pack("<d", np.inf))
+    path.write_bytes(content.replace(struct.pack("<d", 654321.0), struct.pack("<d", np.nan)))
+    rec = Recorder()
+    report = prepare_vectors(path, None, None, StudyArea.circle(209030, 543005, 200, "EPSG:5186"),
+                             tmp_path / "out.gpkg", PrepareConfig(), rec)
+    stats = report.stats[0]
+    assert (stats.features_in, stats.features_out, stats.dropped) == (3, 1, {"non_finite": 2})
+    assert sorted((d.wit_id, d.reason) for d in report.dropped) == [("BLD_2", "non_finite"), ("BLD_3", "non_finite")]
+    assert any("dropped 2 feature(s): 2 non_finite" in w for w in rec.warnings), rec.warnings

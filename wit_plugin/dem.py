@@ -16,6 +16,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pyproj
 from osgeo import gdal
 
 from .errors import InputError
@@ -272,6 +273,50 @@ class Dem:
         hi = np.maximum(np.maximum(ga, gb), gv)
         starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
         return np.minimum.reduceat(lo, starts), np.maximum.reduceat(hi, starts)
+
+
+def check_crs(path: str | Path, crs: str | pyproj.CRS | None, feedback: Feedback = SILENT) -> None:
+    """Refuse a DEM in another CRS than the layers' ``crs``, named as a CRS mismatch (not as a DEM that
+    misses the area); warn when the DEM has no CRS, saying what is assumed."""
+    if not crs:
+        return  # the layers have no CRS: nothing to compare with
+    layers_crs = pyproj.CRS.from_user_input(crs)
+    try:
+        ds = gdal.Open(str(path))
+    except RuntimeError:
+        ds = None
+    if ds is None:
+        return  # Dem.open names the problem
+    wkt = ds.GetProjection()
+    name = Path(path).name
+    if not wkt:
+        feedback.warning(f"The DEM {name} has no coordinate reference system: it is assumed to be in the "
+                         f"layers' CRS, {_crs_name(layers_crs)}. If it is not, assign its CRS first "
+                         "(Raster ▸ Projections ▸ Assign Projection).")
+        return
+    dem_crs = pyproj.CRS.from_wkt(wkt)
+    if not _same_place(dem_crs, layers_crs, ds):
+        raise InputError(f"The DEM {name} is in {_crs_name(dem_crs)} but the layers are in {_crs_name(layers_crs)}: "
+                         f"a CRS mismatch. Reproject the DEM to {_crs_name(layers_crs)} first (Raster ▸ Projections "
+                         "▸ Warp (Reproject), bilinear resampling).")
+
+
+def _same_place(dem_crs: pyproj.CRS, layers_crs: pyproj.CRS, ds: gdal.Dataset) -> bool:
+    """Whether the DEM's corner coordinates name the same places in both CRSs (within 0.5 m): real DEMs
+    describe EPSG:5186 as a custom "Transverse Mercator" on a "GRS80 ELLIPSOID" datum, which is no mismatch."""
+    if dem_crs.equals(layers_crs, ignore_axis_order=True):
+        return True
+    x0, y0, x1, y1 = raster_extent(ds.GetGeoTransform(), ds.RasterXSize, ds.RasterYSize)
+    xs, ys = np.array([x0, x1, x0, x1]), np.array([y0, y0, y1, y1])
+    with np.errstate(invalid="ignore"):
+        tx, ty = pyproj.Transformer.from_crs(dem_crs, layers_crs, always_xy=True).transform(xs, ys)
+    shift = np.hypot(np.asarray(tx) - xs, np.asarray(ty) - ys)
+    return bool(np.all(np.isfinite(shift)) and shift.max() < 0.5)
+
+
+def _crs_name(crs: pyproj.CRS) -> str:
+    code = crs.to_authority(min_confidence=90)
+    return f"{crs.name} ({':'.join(code)})" if code else crs.name
 
 
 def raster_extent(gt: tuple[float, ...], cols: int, rows: int) -> Bounds:

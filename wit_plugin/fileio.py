@@ -1,17 +1,179 @@
 """Atomic output: write under a temporary name beside the target, rename when complete.
 
 A failed or cancelled run therefore never leaves a half-written file under the final name.
+
+Nothing lost: ``refuse_overlap`` tells, before anything is written, whether an output would
+replace or share a file with an input (symbolic and hard links, ``file|layername=`` sources and
+the sidecars of shapefiles, rasters and GeoPackages included). ``protect`` registers a run's
+inputs so that every atomic write of the run refuses to replace one of them, whoever the caller.
 """
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
 import shutil
+import sqlite3
 import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Iterator
 
 from .errors import InputError
+
+#: files that travel with a main file (same stem): what replacing the main file also replaces
+SIDECARS = {
+    ".shp": (".shx", ".dbf", ".prj", ".cpg", ".qix", ".sbn", ".sbx", ".shp.xml", ".qmd"),
+    ".tif": (".tif.aux.xml", ".tif.ovr", ".tif.msk", ".tfw", ".tifw", ".wld", ".aux.xml"),
+    ".gpkg": (".gpkg-wal", ".gpkg-shm", ".gpkg-journal"),
+}
+SIDECARS[".shx"] = SIDECARS[".dbf"] = SIDECARS[".prj"] = SIDECARS[".cpg"] = (".shp", *SIDECARS[".shp"])
+SIDECARS[".tiff"] = tuple(s.replace(".tif", ".tiff") for s in SIDECARS[".tif"])
+SIDECARS[".vrt"] = (".vrt.aux.xml", ".vrt.ovr")
+
+_PROTECTED: contextvars.ContextVar[tuple[Path, ...]] = contextvars.ContextVar("wit_protected_inputs", default=())
+
+
+def source_file(source: str | os.PathLike) -> Path:
+    """The file of a data source: ``file.gpkg|layername=x`` → ``file.gpkg``."""
+    return Path(str(source).split("|")[0])
+
+
+def file_family(path: str | os.PathLike) -> list[Path]:
+    """``path`` and the sidecar files that belong to it (shapefile parts, raster and SQLite sidecars)."""
+    path = source_file(path)
+    suffix = path.suffix.lower()
+    stem = path.with_suffix("")
+    family = [path]
+    for extra in SIDECARS.get(suffix, ()):
+        for spelling in (extra, extra.upper()):
+            family.append(Path(f"{stem}{spelling}"))
+    return family
+
+
+def sidecar(path: str | os.PathLike, suffix: str) -> Path | None:
+    """The file beside ``path`` with ``suffix`` (either case), if there is one."""
+    path = Path(path)
+    return next((p for p in (path.with_suffix(suffix), path.with_suffix(suffix.upper())) if p.exists()), None)
+
+
+def vector_file_problem(source: str | os.PathLike) -> str | None:
+    """What is wrong with a vector source file that GDAL would only call unreadable; None if nothing is seen.
+
+    ``source`` may be ``file|layername=x``; sources that are not files (databases, memory) pass.
+    """
+    text = str(source)
+    path = Path(text.split("|")[0])
+    if not path.suffix or "://" in text or text.startswith(("memory", "dbname=", "PG:")):
+        return None
+    if not path.exists():
+        return f"{path} does not exist."
+    if path.is_dir():
+        return None
+    if path.stat().st_size == 0:
+        return f"{path} is empty (0 bytes)."
+    suffix = path.suffix.lower()
+    if suffix == ".shp":
+        if path.stat().st_size < 100:
+            return f"{path} is truncated: a shapefile's header alone has 100 bytes."
+        parts = {ext: sidecar(path, ext) for ext in (".shx", ".dbf")}
+        missing = [ext for ext, found in parts.items() if found is None]
+        if missing:
+            return (f"{path.name} has no {' and no '.join(missing)} beside it in {path.parent}: a shapefile needs "
+                    "its .shp, .shx and .dbf files together (copy all the files of the layer).")
+        empty = [found.name for found in parts.values() if found.stat().st_size == 0]
+        if empty:
+            return f"{', '.join(empty)} beside {path.name} is empty (0 bytes): copy the layer's files again."
+    elif suffix in (".gpkg", ".sqlite"):
+        with open(path, "rb") as fh:
+            if fh.read(16) != b"SQLite format 3\x00":
+                return f"{path} is not a GeoPackage (no SQLite header): the file is damaged or misnamed."
+        layer = next((o[len("layername="):] for o in text.split("|")[1:] if o.startswith("layername=")), None)
+        names = _gpkg_layers(path) if layer and suffix == ".gpkg" else None
+        if names is not None and layer not in names:
+            return f"{path} has no layer '{layer}'; it has: {', '.join(names) or 'none'}."
+    return None
+
+
+def _gpkg_layers(path: Path) -> list[str] | None:
+    """The layer (table) names a GeoPackage lists, read without writing anything beside it; None if unreadable."""
+    try:
+        with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?immutable=1", uri=True)) as db:
+            return [row[0] for row in db.execute("SELECT table_name FROM gpkg_contents ORDER BY table_name")]
+    except sqlite3.Error:
+        return None
+
+
+def _real(path: Path) -> str:
+    return os.path.normcase(os.path.realpath(path))
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Whether two paths name the same file or folder (links resolved; hard links by inode)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return _real(Path(a)) == _real(Path(b))
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """Whether ``path`` is ``folder`` or lies (at any depth) inside it, links resolved."""
+    real, base = _real(path), _real(folder)
+    return real == base or real.startswith(base.rstrip(os.sep) + os.sep)
+
+
+def overlap(output: str | os.PathLike, source: str | os.PathLike, folder: bool = False) -> Path | None:
+    """The file through which writing ``output`` would touch the input ``source``, else None.
+
+    A file output clashes when it or one of its sidecars is the input or one of the input's
+    (e.g. ``out.dbf`` beside an input ``out.shp``), or an existing file in an input folder; a
+    folder output (written into as a whole) clashes when it is the input or holds it at any depth.
+    """
+    inputs = [p for p in file_family(source) if p == source_file(source) or p.exists()]
+    if folder:
+        return next((p for p in inputs if _inside(p, source_file(output))), None)
+    if source_file(source).is_dir():
+        return next((p for p in file_family(output) if p.exists() and _inside(p, source_file(source))), None)
+    for written in file_family(output):
+        for existing in inputs:
+            if same_file(written, existing) or _inside(existing, written):
+                return existing
+    return None
+
+
+def refuse_overlap(outputs: Iterable[tuple[str | os.PathLike, bool]], inputs: Iterable[str | os.PathLike]) -> None:
+    """Raise ``InputError`` when an output (path, is a folder) would replace or share a file with an input."""
+    inputs = [i for i in inputs if i]
+    for output, folder in outputs:
+        if not output:
+            continue
+        for source in inputs:
+            clash = overlap(output, source, folder)
+            if clash is not None:
+                raise InputError(overlap_message(str(output), str(source_file(source)), str(clash), folder))
+
+
+def overlap_message(output: str, source: str, clash: str, folder: bool = False) -> str:
+    """The one message for an output that would destroy an input (or a folder output that holds one)."""
+    if folder:
+        return (f"The output folder {output} holds the input {source}: choose an output folder that holds "
+                "none of the inputs. Nothing was written.")
+    via = "" if same_file(clash, source) else f" (through {clash})"
+    return (f"The output {output} would overwrite the input {source}{via}; choose another output "
+            "name or folder. Nothing was written.")
+
+
+@contextlib.contextmanager
+def protect(inputs: Iterable[str | os.PathLike]) -> Iterator[None]:
+    """While the block runs, atomic writes refuse to replace any of ``inputs`` (or their sidecars)."""
+    token = _PROTECTED.set(_PROTECTED.get() + tuple(source_file(i) for i in inputs if i))
+    try:
+        yield
+    finally:
+        _PROTECTED.reset(token)
+
+
+def _check_protected(target: Path, folder: bool = False) -> None:
+    refuse_overlap([(target, folder)], _PROTECTED.get())
 
 
 def ensure_writable_dir(folder: str | os.PathLike) -> Path:
@@ -34,6 +196,7 @@ def atomic_file(target: str | os.PathLike) -> Iterator[Path]:
     extension (GDAL, OGR) still pick the right one.
     """
     target = Path(target)
+    _check_protected(target)
     ensure_writable_dir(target.parent)
     fd, tmp_name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}")
     os.close(fd)
@@ -41,6 +204,7 @@ def atomic_file(target: str | os.PathLike) -> Iterator[Path]:
     tmp = Path(tmp_name)
     try:
         yield tmp
+        _check_protected(target)
         os.replace(tmp, target)
     finally:
         if tmp.exists():
@@ -55,11 +219,17 @@ def atomic_files(targets: list[str | os.PathLike]) -> Iterator[Path]:
     into the folder under the final file names; nothing appears in the destination on failure.
     A sub-folder written there replaces the destination's folder of that name as a whole.
     """
-    dest = ensure_writable_dir(Path(targets[0]).parent)
+    dest = Path(targets[0]).parent
+    for target in targets:
+        _check_protected(Path(target))
+    dest = ensure_writable_dir(dest)
     tmp_dir = Path(tempfile.mkdtemp(dir=dest, prefix=".wit-tmp-"))
     try:
         yield tmp_dir
-        for item in list(tmp_dir.iterdir()):
+        items = list(tmp_dir.iterdir())
+        for item in items:
+            _check_protected(dest / item.name, folder=item.is_dir())
+        for item in items:
             target = dest / item.name
             if item.is_dir() and target.is_dir():
                 os.replace(target, tmp_dir / f".old-{item.name}")  # removed with tmp_dir below

@@ -1121,6 +1121,11 @@ def quality_report(output_csv: str, model_source: str | None = None, source_buil
     texture = texture_metrics(textures, ortho, area, footprints_2d, next_feedback()) if textures or ortho else None
     seam = seam_metrics(mosaic, footprints, next_feedback()) if mosaic else None
     report = QualityReport(metric_rows(geometry, texture, seam), geometry, texture, seam)
+    if not any(math.isfinite(r.value) for r in report.rows if r.value is not None and r.unit != "count"):
+        reason = (f": no building of the model ({geometry.model_count}) matches one of the {geometry.source_count} "
+                  "source footprints by wit_id; give the prepared buildings the model was made from"
+                  if geometry is not None and not geometry.matched else "")
+        raise InputError(f"Nothing could be measured{reason}. Nothing was written.")
     targets = {"csv": output_csv}
     if geometry is not None:
         targets["buildings_csv"] = output_buildings_csv or str(Path(output_csv).with_name(

@@ -31,9 +31,11 @@ from osgeo import ogr
 from shapely.geometry.base import BaseGeometry
 
 from .dem import Dem, ragged_indices
+from .dem import check_crs as check_dem_crs
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
+from .fileio import refuse_overlap
 from .gpkg_bulk import write_layer
 from .model import (
     PREPARED_BUILDINGS,
@@ -505,8 +507,8 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
         raise InputError(f"A max edge length of {max_edge} m would make about {estimate:,.0f} triangles over this "
                          "area; use a longer max edge or split the area into tiles.")
     if cons.dropped:
-        feedback.info(f"{cons.dropped} building/road polygon(s) dropped: empty, outside the area or slivers "
-                      f"narrower than {MIN_WIDTH * 100:.0f} cm.")
+        feedback.warning(f"{cons.dropped} building/road polygon(s) dropped: empty, outside the area or slivers "
+                         f"narrower than {MIN_WIDTH * 100:.0f} cm.")
     feedback.check_canceled()
     feedback.progress(10)
 
@@ -652,7 +654,8 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
     GeoPackage itself); ``area`` is a polygon, or a vector source whose polygons together form it.
     """
-    layers = {kind: read_prepared(source, name) for kind, source, name in
+    refuse_overlap([(output, False)], [dem_path, buildings, roads, None if isinstance(area, BaseGeometry) else area])
+    layers = {kind: read_prepared(source, name, feedback) for kind, source, name in
               (("buildings", buildings, PREPARED_BUILDINGS), ("roads", roads, PREPARED_ROADS)) if source}
     if not isinstance(area, BaseGeometry):
         area_layer = read_layer(area)
@@ -665,6 +668,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
         crs = next(iter(layers.values())).crs if layers else None
     if crs is None:
         raise InputError("Give the study area as a layer (or a constraint layer) so the TIN's CRS is known.")
+    check_dem_crs(dem_path, crs, feedback)
     dem = Dem.open(dem_path, area.bounds, feedback=feedback)
     tin, stats = triangulate(area, features(layers["buildings"]) if "buildings" in layers else [],
                              features(layers["roads"]) if "roads" in layers else [], dem, max_edge, tolerance,

@@ -23,6 +23,7 @@ from osgeo import gdal, ogr, osr
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
+from .fileio import sidecar, vector_file_problem
 
 DBF_SAMPLE_BYTES = 4 << 20  # sniff the encoding from the first 4 MiB of records
 
@@ -134,29 +135,63 @@ def _decodes(sample: bytes, codec: str) -> bool:
         return False
 
 
+#: DBF language-driver ids (LDID, header byte 29) → codec, as GDAL reads the common ones
+LDID_CODECS = {0x01: "cp437", 0x02: "cp850", 0x03: "cp1252", 0x57: "latin-1", 0x64: "cp852", 0x78: "cp950",
+               0x79: "cp949", 0x7A: "gbk", 0x7B: "cp932", 0xC8: "cp1250", 0xC9: "cp1251"}
+KOREAN_CODECS = ("cp949", "euc_kr", "johab", "utf-8")
+
+
+def _looks_korean(sample: bytes) -> bool:
+    """CP949 decodes the text into Hangul (at least half of the non-ASCII characters), nearly all of
+    it in the EUC-KR range: Latin-1 text such as "été" also decodes as CP949, but not as that."""
+    try:
+        text = sample.decode("cp949")
+    except UnicodeDecodeError:
+        return False
+    wide = [c for c in text if ord(c) > 127]
+    hangul = sum("\uac00" <= c <= "\ud7a3" or "\u3131" <= c <= "\u318e" for c in wide)
+    unmapped = sample.decode("euc_kr", errors="replace").count("\ufffd")
+    return bool(wide) and hangul >= len(wide) / 2 and unmapped <= len(wide) / 10
+
+
 def shapefile_encoding(path: str | os.PathLike, feedback: Feedback = SILENT) -> str | None:
     """The encoding to force when opening a shapefile, or None to let GDAL use what the file declares.
 
     A declaration (``.cpg``, or a non-zero DBF language-driver byte) is trusted when its codec
-    decodes the text. Otherwise the text is sniffed: pure ASCII needs nothing, valid UTF-8 is UTF-8,
-    valid CP949 is CP949 (the Korean national data), else GDAL's default (ISO-8859-1) with a warning.
+    decodes the text and, for a non-Korean codec, the text is not Korean CP949: some tools write
+    CP949 text under an ISO-8859-1 or Windows-1252 declaration, which decodes into mojibake without
+    an error; that is read as CP949 with a warning. Otherwise the text is sniffed: pure ASCII needs
+    nothing, valid UTF-8 is UTF-8, valid CP949 is CP949 (the Korean national data), else GDAL's
+    default (ISO-8859-1) with a warning.
     """
     shp = Path(path)
-    dbf = next((p for p in (shp.with_suffix(".dbf"), shp.with_suffix(".DBF")) if p.exists()), None)
+    dbf = sidecar(shp, ".dbf")
     if dbf is None:
         return None
     ldid, sample = _dbf_text_sample(dbf)
     if sample.isascii():
         return None
-    cpg = next((p for p in (shp.with_suffix(".cpg"), shp.with_suffix(".CPG")) if p.exists()), None)
+    cpg = sidecar(shp, ".cpg")
+    declared, origin = None, ""
     if cpg is not None:
-        declared = _codec(cpg.read_text("ascii", errors="replace"))
-        if declared and _decodes(sample, declared):
-            return None
+        text = cpg.read_text("ascii", errors="replace").strip()
+        declared, origin = _codec(text), f"its .cpg file says {text}"
     elif ldid != 0:
-        return None  # GDAL maps the language driver; trusted
+        declared, origin = _codec(LDID_CODECS.get(ldid, "")), f"its .dbf language driver (LDID 0x{ldid:02X}) says"
+        if declared is None:
+            return None  # a code page we do not know: GDAL maps it
+        origin = f"{origin} {declared}"
+    if declared and _decodes(sample, declared):
+        if declared in KOREAN_CODECS or not _looks_korean(sample):
+            return None
+        feedback.warning(f"{shp.name}: {origin}, but its text is Korean (CP949): read as CP949. "
+                         "Set the encoding parameter to choose another.")
+        return "CP949"
     for candidate in ("UTF-8", "CP949"):
         if _decodes(sample, candidate):
+            if origin:
+                feedback.warning(f"{shp.name}: {origin}, which does not decode its text; read as {candidate}. "
+                                 "Set the encoding parameter to choose another.")
             return candidate
     feedback.warning(f"{shp.name}: text is neither UTF-8 nor CP949 and no encoding is declared; "
                      "set the encoding parameter if names look garbled.")
@@ -195,6 +230,9 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
             layer = value
     if not Path(path).exists():
         raise InputError(f"Input file {path} does not exist.")
+    problem = vector_file_problem(path)
+    if problem:
+        raise InputError(problem)
     if encoding and _codec(encoding) is None:
         raise InputError(f"Unknown text encoding {encoding!r}; use a name such as CP949, EUC-KR or UTF-8.")
     is_shp = Path(path).suffix.lower() in (".shp", ".dbf")
@@ -250,10 +288,20 @@ def open_step_layer(path: str, name: str, role: str, fields: Sequence[str] = ()
     return ds, layer, present
 
 
-def read_prepared(source: str | os.PathLike, default_layer: str, **options) -> VectorLayer:
-    """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name."""
+def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedback = SILENT,
+                  **options) -> VectorLayer:
+    """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name.
+
+    Geometries with an infinite or NaN coordinate (never in a layer wit:preparevectors wrote) become
+    None with a warning, so the step counts them as skipped instead of meshing or extruding them.
+    """
     explicit = "layername=" in str(source).partition("|")[2]
-    return read_layer(source, None if explicit else default_layer, **options)
+    layer = read_layer(source, None if explicit else default_layer, feedback=feedback, **options)
+    bad = non_finite(layer.geoms)
+    if bad.any():
+        layer.geoms[bad] = None
+        feedback.warning(f"{layer.name}: {int(bad.sum())} feature(s) with infinite or NaN coordinates left out.")
+    return layer
 
 
 def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
@@ -262,7 +310,8 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     """Read features, optionally only those whose envelope meets ``bbox`` (given in ``bbox_crs``).
 
     The bounding-box filter lets GDAL skip everything far from the study area (its spatial index
-    when the format has one), so a small area in a national file reads quickly. Unclosed rings
+    when the format has one), so a small area in a national file reads quickly; features with an
+    infinite or NaN coordinate, which no filter can place, are read too (``non_finite``). Unclosed rings
     (OGR passes them through, e.g. from a hand-written shapefile) are closed here and counted per
     feature in ``unclosed_rings``; geometries nothing can read become None. ``crs`` is the source
     CRS for a layer that declares none (no .prj).
@@ -279,6 +328,11 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
         lyr.SetSpatialFilterRect(*bbox)
     with gdal_quiet():
         columns, wkbs, fids = _read_rows(lyr, fields, feedback)
+        if bbox is not None:  # the filter drops them unread: they would vanish uncounted
+            read = set(fids)
+            for fid in _non_finite_fids(lyr, fields):
+                if fid not in read:
+                    _append_feature(lyr.GetFeature(fid), fields, columns, wkbs, fids)
     name = lyr.GetName()
     del lyr, ds
     geoms = shapely.from_wkb(np.array(wkbs, dtype=object), on_invalid="ignore")
@@ -320,12 +374,49 @@ def _read_rows(lyr: ogr.Layer, fields: list[FieldDef],
         if i % 5000 == 0:
             feedback.check_canceled()
             feedback.progress(100.0 * i / total)
-        for j, f in enumerate(fields):
-            columns[f.name].append(feat.GetField(j))
-        geom = feat.GetGeometryRef()
-        wkbs.append(bytes(geom.ExportToIsoWkb()) if geom is not None and not geom.IsEmpty() else None)
-        fids.append(feat.GetFID())
+        _append_feature(feat, fields, columns, wkbs, fids)
     return columns, wkbs, fids
+
+
+def _append_feature(feat: ogr.Feature, fields: list[FieldDef], columns: dict[str, list], wkbs: list[bytes | None],
+                    fids: list[int]) -> None:
+    for j, f in enumerate(fields):
+        columns[f.name].append(feat.GetField(j))
+    geom = feat.GetGeometryRef()
+    wkbs.append(bytes(geom.ExportToIsoWkb()) if geom is not None and not geom.IsEmpty() else None)
+    fids.append(feat.GetFID())
+
+
+def non_finite(geoms: np.ndarray) -> np.ndarray:
+    """Per feature: has a coordinate that is ±inf or NaN (shapely would silently drop or keep it)."""
+    out = np.zeros(len(geoms), dtype=bool)
+    coords, index = shapely.get_coordinates(geoms, return_index=True)
+    out[index[~np.isfinite(coords).all(axis=1)]] = True
+    return out
+
+
+def _non_finite_fids(lyr: ogr.Layer, fields: list[FieldDef]) -> list[int]:
+    """FIDs of the layer's features with an infinite or NaN coordinate, from one geometry-only pass
+    without the spatial filter (the Arrow reader when GDAL has it)."""
+    lyr.SetSpatialFilter(None)
+    lyr.SetIgnoredFields([f.name for f in fields])
+    try:
+        arrow = getattr(lyr, "GetArrowStreamAsNumPy", None)
+        stream = arrow(options=["USE_MASKED_ARRAYS=YES"]) if arrow else None
+        if stream is None:
+            batches = [(feat.GetFID(), feat.GetGeometryRef()) for feat in lyr]
+            fids = np.array([fid for fid, _ in batches], dtype=np.int64)
+            wkbs = [bytes(g.ExportToIsoWkb()) if g is not None else None for _, g in batches]
+            return fids[non_finite(shapely.from_wkb(np.array(wkbs, dtype=object), on_invalid="ignore"))].tolist()
+        fid_name, geom_name = lyr.GetFIDColumn() or "OGC_FID", lyr.GetGeometryColumn() or "wkb_geometry"
+        found = []
+        for batch in stream:
+            wkbs = np.array([bytes(w) if w is not None else None for w in batch[geom_name]], dtype=object)
+            bad = non_finite(shapely.from_wkb(wkbs, on_invalid="ignore"))
+            found += np.asarray(batch[fid_name])[bad].tolist()
+        return found
+    finally:
+        lyr.SetIgnoredFields([])
 
 
 def _python_values(column: np.ndarray) -> list:

@@ -26,8 +26,13 @@ Decisions (SPEC §4):
   are simplified before they are cut, so the study area's edge stays exact.
 * **Stats**: ``features_in`` counts the features read, i.e. those whose envelope meets the study
   area's bounding box (GDAL filters the rest out unread); ``outside_area`` those read but not in
-  the area; ``dropped`` the defects (reasons ``DROP_REASONS``; ``covered``: a road entirely
-  inside wider ones).
+  the area; ``dropped`` the defects (reasons ``DROP_REASONS``; ``non_finite``: a coordinate is
+  ±inf or NaN, in the file or after reprojection; ``covered``: a road entirely inside wider ones;
+  ``duplicate``: see below). Every drop is also a warning with its count.
+* **Duplicates**: a building (or district) with the same source id and the same footprint as an
+  earlier one (stacked copies) is dropped as ``duplicate``, one copy kept. The same id on
+  different footprints is two buildings: both are kept, the later ones with ``_2``, ``_3``… on
+  their ``wit_id`` (ids stay unique, as CityGML's gml:id must), and a warning counts them.
 * **Roads**: centre lines are simplified (DP keeps every section's end points, so the network
   stays connected), then buffered by width / 2 with round caps and joins (a gap-free surface at
   junctions and bends, which the TIN needs). Width = ``ROAD_BT`` when > 0, else a class default
@@ -52,12 +57,12 @@ from osgeo import ogr
 from . import model
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file
+from .fileio import atomic_file, refuse_overlap
 from .vector_io import (BUILDING_FIELDS, DISTRICT_FIELDS, ROAD_FIELDS, FieldDef, OutputLayer, VectorLayer,
-                        read_layer, write_gpkg)
+                        non_finite, read_layer, write_gpkg)
 
 REPAIR_KINDS = ("unclosed_ring", "orientation", "repeated_vertex", "invalid", "multipart", "sliver_part")
-DROP_REASONS = ("no_geometry", "wrong_type", "collapsed", "too_small", "thin", "covered")
+DROP_REASONS = ("no_geometry", "non_finite", "wrong_type", "collapsed", "too_small", "thin", "covered", "duplicate")
 REPEATED_POINT_TOLERANCE = 0.001  # m
 GRID_SIZE = 0.001  # m: coordinates are snapped to this grid where boundaries are noded
 OVERLAP_TOLERANCE = 1e-4  # m²: growth of an overlap between two polygons that simplification may cause
@@ -119,6 +124,11 @@ class StudyArea:
             src = read_layer(self.path, self.layer, crs=self.crs, feedback=feedback)
             geoms = transform(src.geoms, src.crs, target)
             polys = geoms[np.isin(shapely.get_type_id(geoms), (3, 6))]
+            bad = non_finite(polys)
+            if bad.any():
+                feedback.warning(f"The study-area layer {self.path}: {int(bad.sum())} polygon(s) with ±inf or NaN "
+                                 "coordinates left out.")
+                polys = polys[~bad]
             if len(polys) == 0:
                 raise InputError(f"The study-area layer {self.path} has no polygons.")
             area = shapely.union_all(shapely.make_valid(polys))
@@ -270,6 +280,20 @@ def orient(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _single_or_multi(shapely.polygons(rings, indices=ring_of), part_of, len(geoms)), changed
 
 
+def exact_duplicates(geoms: np.ndarray, ids: Sequence[str]) -> np.ndarray:
+    """Per feature: an earlier feature has the same id and the same geometry (ring start and order aside)."""
+    present = ~shapely.is_missing(geoms) & ~non_finite(geoms)  # those are dropped for their coordinates
+    keys = np.full(len(geoms), None, dtype=object)
+    keys[present] = shapely.to_wkb(shapely.normalize(geoms[present]))
+    seen: set[tuple[str, bytes]] = set()
+    duplicate = np.zeros(len(geoms), dtype=bool)
+    for i in np.flatnonzero(present):
+        key = (ids[i], keys[i])
+        duplicate[i] = key in seen
+        seen.add(key)
+    return duplicate
+
+
 def vertex_count(geoms: np.ndarray) -> int:
     """Total vertices (the stats table's measure of simplification)."""
     return int(shapely.get_num_coordinates(geoms[~shapely.is_missing(geoms)]).sum())
@@ -293,6 +317,7 @@ def repair_polygons(geoms: np.ndarray, unclosed: np.ndarray | None = None, min_a
     counts["unclosed_ring"] = int(np.count_nonzero(unclosed)) if unclosed is not None else 0
     g = geoms.copy()
     reasons[shapely.is_missing(g) | shapely.is_empty(g)] = "no_geometry"
+    reasons[(reasons == None) & non_finite(g)] = "non_finite"  # noqa: E711 (numpy)
     wrong = (reasons == None) & ~np.isin(shapely.get_type_id(g), (3, 6))  # noqa: E711 (numpy)
     reasons[wrong] = "wrong_type"
     g[reasons != None] = None  # noqa: E711
@@ -557,15 +582,12 @@ def _id_part(value: object) -> str | None:
     return text or None
 
 
-def stable_ids(layer: VectorLayer, prefix: str, keys: Sequence[Sequence[str]]) -> list[str]:
-    """``<prefix>_<key fields joined by _>`` from the first key whose fields are all filled (model rules).
-
-    Falls back to ``<prefix>_F<source fid>``; a repeated id gets ``_2``, ``_3``… in source order,
-    so ids stay unique and the same for the same input.
-    """
+def source_ids(layer: VectorLayer, prefix: str, keys: Sequence[Sequence[str]]) -> list[str]:
+    """``<prefix>_<key fields joined by _>`` from the first key whose fields are all filled (model rules),
+    else ``<prefix>_F<source fid>``; not yet unique (see ``unique_ids``)."""
     fmap = layer.field_map([name for key in keys for name in key])
     usable = [key for key in keys if all(name in fmap for name in key)]
-    ids, seen = [], {}
+    ids = []
     for i, fid in enumerate(layer.fids):
         wid = None
         for key in usable:
@@ -573,10 +595,22 @@ def stable_ids(layer: VectorLayer, prefix: str, keys: Sequence[Sequence[str]]) -
             if all(parts):
                 wid = f"{prefix}_{'_'.join(parts)}"
                 break
-        wid = wid or f"{prefix}_F{fid}"
-        seen[wid] = seen.get(wid, 0) + 1
-        ids.append(wid if seen[wid] == 1 else f"{wid}_{seen[wid]}")
+        ids.append(wid or f"{prefix}_F{fid}")
     return ids
+
+
+def unique_ids(ids: Sequence[str], skip: np.ndarray | None = None) -> list[str]:
+    """A repeated id gets ``_2``, ``_3``… in source order, so ids stay unique and the same for the same
+    input; features in ``skip`` (duplicates about to be dropped) keep the id they repeat."""
+    out, seen = [], {}
+    for i, wid in enumerate(ids):
+        if skip is not None and skip[i]:
+            out.append(wid)
+            continue
+        seen[wid] = seen.get(wid, 0) + 1
+        out.append(wid if seen[wid] == 1 else f"{wid}_{seen[wid]}")
+    return out
+
 
 
 # -- roads --------------------------------------------------------------------------------------
@@ -688,13 +722,21 @@ def _drop(layer: VectorLayer, ids: list[str], reasons: np.ndarray, stats: LayerS
     return np.flatnonzero(reasons == None)  # noqa: E711
 
 
-def _polygon_layer(layer: VectorLayer, name: str, ids: list[str], area: shapely.Geometry, tolerance: float,
-                   clip: bool, config: PrepareConfig, dropped: list[DroppedFeature],
-                   feedback: Feedback) -> tuple[_Prepared, LayerStats]:
-    """Repair, select (whole features by representative point, or cut), simplify."""
+def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Sequence[str]],
+                   area: shapely.Geometry, tolerance: float, clip: bool, config: PrepareConfig,
+                   dropped: list[DroppedFeature], feedback: Feedback) -> tuple[_Prepared, LayerStats]:
+    """Drop exact duplicates, repair, select (whole features by representative point, or cut), simplify."""
     stats = LayerStats(name, len(layer), 0, 0, vertices_in=vertex_count(layer.geoms))
+    raw = source_ids(layer, prefix, keys)
+    duplicate = exact_duplicates(layer.geoms, raw)
+    ids = unique_ids(raw, skip=duplicate)
+    shared = sum(1 for i, wid in enumerate(ids) if wid != raw[i])
+    if shared:
+        feedback.warning(f"{name}: {shared} feature(s) share their source id with another of a different "
+                         "shape; all are kept, with _2, _3… added to their wit_id.")
     rep = repair_polygons(layer.geoms, layer.unclosed_rings, config.min_area, config.sliver_thinness,
                           config.sliver_width)
+    rep.reasons[(rep.reasons == None) & duplicate] = "duplicate"  # noqa: E711 (numpy)
     stats.repaired = rep.counts
     keep = _drop(layer, ids, rep.reasons, stats, dropped)
     geoms = rep.geoms[keep]
@@ -724,11 +766,12 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
                 dropped: list[DroppedFeature], feedback: Feedback) -> tuple[_Prepared, LayerStats]:
     """Centre lines → simplified → buffered by width/2 → clipped → junction overlaps removed."""
     name = model.PREPARED_ROADS
-    ids = stable_ids(layer, "RD", [("SIG_CD", "RDS_MAN_NO")])
+    ids = source_ids(layer, "RD", [("SIG_CD", "RDS_MAN_NO")])  # sections of one road share it: merged below
     stats = LayerStats(name, len(layer), 0, 0, vertices_in=vertex_count(layer.geoms))
     g = layer.geoms
     reasons = np.full(len(g), None, dtype=object)
     reasons[shapely.is_missing(g) | shapely.is_empty(g)] = "no_geometry"
+    reasons[(reasons == None) & non_finite(g)] = "non_finite"  # noqa: E711
     reasons[(reasons == None) & ~np.isin(shapely.get_type_id(g), (1, 5))] = "wrong_type"  # noqa: E711
     live = reasons == None  # noqa: E711
     layer.geoms = g.copy()
@@ -762,6 +805,12 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
     return _Prepared(name, out, [ids[i] for i in ok], extra, columns), stats
 
 
+def _reasons(stats: LayerStats) -> str:
+    """``12 feature(s): 10 non_finite, 2 duplicate`` (nothing when none was dropped)."""
+    counts = ", ".join(f"{n} {reason}" for reason, n in stats.dropped.items() if n)
+    return f"{sum(stats.dropped.values())} feature(s): {counts}" if counts else "0 features"
+
+
 def _output_layer(prep: _Prepared, feedback: Feedback) -> OutputLayer:
     """Source fields (minus any that clash with ours; GeoPackage names are case-insensitive) + ours."""
     ours = [FieldDef(model.WIT_ID, ogr.OFTString)] + prep.extra_fields
@@ -793,6 +842,9 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     target = _check_config(config)
     if not (buildings or roads or districts):
         raise InputError("Give at least one input layer (buildings, roads or districts).")
+    output_gpkg = Path(output_gpkg)
+    csv_path = Path(config.stats_csv) if config.stats_csv else output_gpkg.with_name(f"{output_gpkg.stem}_stats.csv")
+    refuse_overlap([(output_gpkg, False), (csv_path, False)], [buildings, roads, districts, area.path])
     if area.kind == "district" and not districts:
         raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
     feedback.progress(0)
@@ -810,30 +862,33 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     results: list[tuple[_Prepared, LayerStats]] = []
     if buildings:
         layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config, polygon, feedback.scaled(10, 30))
-        ids = stable_ids(layer, "BLD", [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO")])
-        results.append(_polygon_layer(layer, model.PREPARED_BUILDINGS, ids, polygon, config.building_tolerance,
-                                      False, config, dropped, feedback.scaled(30, 70)))
+        results.append(_polygon_layer(layer, model.PREPARED_BUILDINGS, "BLD",
+                                      [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO")], polygon,
+                                      config.building_tolerance, False, config, dropped, feedback.scaled(30, 70)))
     if roads:
         feedback.check_canceled()
         layer = _read(str(roads), "roads", ROAD_FIELDS, target, config, polygon, feedback.scaled(70, 75))
         results.append(_road_layer(layer, polygon, config, dropped, feedback.scaled(75, 82)))
     if district_layer is not None:
         feedback.check_canceled()
-        ids = stable_ids(district_layer, "EMD", [("EMD_CD",)])
-        results.append(_polygon_layer(district_layer, model.PREPARED_DISTRICTS, ids, polygon,
+        results.append(_polygon_layer(district_layer, model.PREPARED_DISTRICTS, "EMD", [("EMD_CD",)], polygon,
                                       config.district_tolerance, True, config, dropped, feedback.scaled(82, 88)))
     stats = [s for _, s in results]
     for s in stats:
         feedback.info(f"{s.layer}: {s.features_in} in, {s.features_out} out, "
                       f"vertices {s.vertices_in} → {s.vertices_out}")
+        if s.dropped:
+            feedback.warning(f"{s.layer}: dropped {_reasons(s)} (each listed in the '{DROPPED_TABLE}' table).")
+    if not any(s.features_out for s in stats) and any(s.dropped for s in stats):
+        raise InputError("No feature could be kept: " + "; ".join(
+            f"{s.layer}: {s.features_in} read, {s.outside_area} outside the study area, dropped {_reasons(s)}"
+            for s in stats) + ". Nothing was written.")
     if not any(s.features_out for s in stats):
         raise InputError(f"The study area (bounds {tuple(round(v, 1) for v in polygon.bounds)} in "
                          f"{config.target_crs}) does not overlap any feature of the input layers.")
     for s in stats:
         if s.features_out == 0:
             feedback.warning(f"{s.layer}: no feature lies in the study area.")
-    output_gpkg = Path(output_gpkg)
-    csv_path = Path(config.stats_csv) if config.stats_csv else output_gpkg.with_name(f"{output_gpkg.stem}_stats.csv")
     rows = [s.row() for s in stats]
     stat_fields = [FieldDef(c, ogr.OFTString if c == "layer" else ogr.OFTInteger64) for c in rows[0]]
     drop_fields = [FieldDef("layer", ogr.OFTString), FieldDef("source_fid", ogr.OFTInteger64),
