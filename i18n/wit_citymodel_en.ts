@@ -232,8 +232,8 @@
       <translation>Geometry</translation>
     </message>
     <message>
-      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × storey height when the floor count is known, else the height field, else the expression, else the default height; every building records where its height came from (height_src). Output: PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base height, height, storeys and all source attributes.</source>
-      <translation>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × storey height when the floor count is known, else the height field, else the expression, else the default height; every building records where its height came from (height_src). Output: PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base height, height, storeys and all source attributes.</translation>
+      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
+      <translation>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</translation>
     </message>
     <message>
       <source>Building footprints (wit:preparevectors)</source>
@@ -282,10 +282,6 @@
     <message>
       <source>Median on the footprint</source>
       <translation>Median on the footprint</translation>
-    </message>
-    <message>
-      <source>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</source>
-      <translation>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</translation>
     </message>
     <message>
       <source>Generate sample data</source>

@@ -232,8 +232,8 @@
       <translation>기하</translation>
     </message>
     <message>
-      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × storey height when the floor count is known, else the height field, else the expression, else the default height; every building records where its height came from (height_src). Output: PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base height, height, storeys and all source attributes.</source>
-      <translation>건물마다 닫혀 있고 바깥을 향하는 LoD1 솔리드를 만듭니다: 바닥면, 지붕, 외곽선 변마다 하나의 벽(중정 포함). 밑면 높이는 건물마다 하나로, 건물이 떠 있지 않도록 외곽선 위 DEM(쌍선형)의 최솟값, 또는 중앙값입니다. 높이 = 층수를 알면 GRO_FLO_CO × 층고, 아니면 높이 필드, 아니면 표현식, 아니면 기본 높이이며, 각 건물은 높이의 출처(height_src)를 기록합니다. 출력: 건물 ID(wit_id), 면 종류(ground/roof/wall), 면 번호, 밑면 높이, 높이, 층수, 모든 원본 속성을 가진 PolygonZ 면.</translation>
+      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
+      <translation>건물마다 닫힌, 바깥을 향하는 LoD1 솔리드를 만듭니다: 바닥면, 지붕, 외곽선의 변마다 벽 하나(중정 포함). 기준 높이는 건물마다 하나입니다: 건물이 뜨지 않도록 외곽선 위 DEM(쌍선형)의 최솟값, 또는 중앙값. 높이: 도로명주소 지상층수를 알면 GRO_FLO_CO × 층고, 아니면 높이 필드, 아니면 식; 둘 다 주지 않으면 흔한 레이어의 높이·층수 필드를 이름으로 알아봅니다(국토지리정보원 수치지도 BFLR_CO; GIS건물통합정보 AL_D010 A16 높이, A26 지상층수; 오픈스트리트맵 height, building:levels; 한글 높이, 지상층수). 그래도 없으면 기본 높이를 쓰며, 그 건물 수를 경고로 알립니다. 어느 규칙을 썼는지 로그에 남기고 건물마다 기록합니다(wit_height_src, wit_height_rule). 출력: 건물 id(wit_id), 면 종류, 면 번호, 기준 높이, 높이, 층수(파생 필드는 모두 wit_… 이름)와 모든 원본 속성을 원래 이름 그대로 가진 PolygonZ 면.</translation>
     </message>
     <message>
       <source>Building footprints (wit:preparevectors)</source>
@@ -282,10 +282,6 @@
     <message>
       <source>Median on the footprint</source>
       <translation>외곽선 위 중앙값</translation>
-    </message>
-    <message>
-      <source>No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. Nothing was written.</source>
-      <translation>LoD1 솔리드를 하나도 만들 수 없습니다: {layer}의 외곽선 {count}개가 모두 비어 있거나 퇴화되었습니다. 아무것도 쓰지 않았습니다.</translation>
     </message>
     <message>
       <source>Generate sample data</source>

@@ -1,9 +1,7 @@
 """wit:extrudebuildings — closed LoD1 solids from footprints, floors and the DEM."""
-from pathlib import Path
 
 from qgis.core import (
     QgsProcessing,
-    QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
@@ -15,7 +13,7 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import WitAlgorithm, crs_string
+from .base import WitAlgorithm
 from .expressions import checked_expression
 
 BASES = ("min", "median")
@@ -28,11 +26,15 @@ class ExtrudeBuildings(WitAlgorithm):
     help_text = (
         "Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per "
         "footprint edge (courtyards included). The base is one height per building: the minimum of the "
-        "DEM (bilinear) over the footprint, so no building floats, or the median. Height = GRO_FLO_CO × "
-        "storey height when the floor count is known, else the height field, else the expression, else "
-        "the default height; every building records where its height came from (height_src). Output: "
-        "PolygonZ faces with the building id (wit_id), face type (ground/roof/wall), face number, base "
-        "height, height, storeys and all source attributes."
+        "DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × "
+        "storey height when the road-name-address floor count is known, else the height field, else the "
+        "expression; with neither given, the height and floor fields of common layers are recognised by "
+        "name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; "
+        "OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is "
+        "a warning with the count. The log says which rule was used, and every building records it "
+        "(wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face "
+        "type, face number, base height, height, storeys (all derived fields named wit_…) and every "
+        "source attribute under its own name."
     )
     requirements = ("shapely", "pyproj")
 
@@ -73,29 +75,23 @@ class ExtrudeBuildings(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
-        from ..wit_plugin.dem import check_crs as check_dem_crs
-        from ..wit_plugin.extrude import HeightRule, run
+        from ..wit_plugin.extrude import run
+        from ..wit_plugin.heights import HeightOptions
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         fields = self.parameterAsFields(parameters, self.HEIGHT_FIELD, context)
         expression = checked_expression(self, parameters, self.HEIGHT_EXPRESSION, buildings, context)
-        rule = HeightRule(
-            storey_height=self.parameterAsDouble(parameters, self.STOREY_HEIGHT, context),
+        heights = HeightOptions(
             height_field=fields[0] if fields else None,
+            expression_text=expression.text if expression else None,
             expression=expression,
+            storey_height=self.parameterAsDouble(parameters, self.STOREY_HEIGHT, context),
             default_height=self.parameterAsDouble(parameters, self.DEFAULT_HEIGHT, context),
         )
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        dem = self.parameterAsRasterLayer(parameters, self.DEM, context).source()
-        check_dem_crs(dem, crs_string(buildings.crs()), feedback)
-        stats = run(buildings.source(), dem, output,
-                    rule, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
+        stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
+                    heights, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
                     self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
-        if stats.solids == 0:  # the core wrote an empty layer: a run that made nothing fails and leaves nothing
-            Path(output).unlink(missing_ok=True)
-            raise QgsProcessingException(self.tr(
-                "No LoD1 solid could be made: the {count} footprint(s) of {layer} are all empty or degenerate. "
-                "Nothing was written.").format(count=stats.buildings, layer=buildings.source()))
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,

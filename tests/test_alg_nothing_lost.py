@@ -12,6 +12,8 @@ import pytest
 from osgeo import gdal, ogr, osr
 from qgis.core import QgsProcessingException
 
+from wit_plugin import model
+
 ORIGIN = (209000.0, 543000.0)
 SQUARE = "POLYGON((209002 543002,209010 543002,209010 543010,209002 543010,209002 543002))"
 
@@ -275,7 +277,7 @@ def test_a_good_height_expression_is_used(data, floors, tmp_path, run_algorithm)
         "BUILDINGS": floors, "DEM": data["dem"], "HEIGHT_EXPRESSION": "length(\"wit_id\") * 2",
         "OUTPUT": str(tmp_path / "lod1.gpkg")})
     ds = ogr.Open(result["OUTPUT"])
-    heights = {f["wit_id"]: (f["height"], f["height_src"]) for f in ds.GetLayer("lod1_faces")}
+    heights = {f["wit_id"]: (f[model.HEIGHT], f[model.HEIGHT_SOURCE]) for f in ds.GetLayer("lod1_faces")}
     assert heights == {"BLD_1": (10.0, "expression"), "BLD_2": (10.0, "expression")}
 
 
@@ -427,7 +429,7 @@ def test_extrude_that_makes_no_solid_fails(data, tmp_path, run_algorithm):
 
 def test_writecitygml_with_no_building_fails(data, tmp_path, run_algorithm):
     empty = vector(data["folder"] / "empty.gpkg", "lod1_faces", [], ogr.wkbPolygon25D,
-                   fields={"wit_id": ogr.OFTString, "face_no": ogr.OFTInteger, "face": ogr.OFTString})
+                   fields={"wit_id": ogr.OFTString, model.FACE_NUMBER: ogr.OFTInteger, model.FACE_TYPE: ogr.OFTString})
     _refused(run_algorithm, "wit:writecitygml", {"LOD1": empty, "OUTPUT": str(tmp_path / "out" / "model.gml")},
              "has no building faces", data, tmp_path / "out")
 

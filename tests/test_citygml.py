@@ -217,7 +217,7 @@ def test_building_content(written):
     b = _all(doc, f"//bldg:Building[@gml:id='{B['wit_id']}']")[0]
     names = _all(b, "core:genericAttribute/*/gen:name/text()")
     assert "AREA" not in names and "NOTE" not in names and "GRND_FLR" not in names  # NaN / NULL omitted
-    assert _all(b, "core:genericAttribute/*[gen:name='height_src']/gen:value/text()") == ["default"]
+    assert _all(b, f"core:genericAttribute/*[gen:name='{model.HEIGHT_SOURCE}']/gen:value/text()") == ["default"]
     assert _all(b, "con:height/con:Height/con:status/text()") == ["estimated"]
     assert not _all(b, "bldg:storeysAboveGround")
     assert _all(b, f".//gml:Polygon[@gml:id='{B['wit_id']}_f1']/gml:interior/gml:LinearRing/@gml:id") == [
@@ -317,7 +317,7 @@ def test_input_errors(written, tmp_path):
 
 @pytest.mark.parametrize("wit_id, numbers, message", [
     ("BLD 1", range(6), "cannot be a gml:id"),
-    ("BLD_1", [0, 1, 2, 2, 3, 4], "unique face_no"),
+    ("BLD_1", [0, 1, 2, 2, 3, 4], f"unique {model.FACE_NUMBER}"),
 ])
 def test_bad_building_ids(tmp_path, wit_id, numbers, message):
     ds, layer = _layer(tmp_path / "bad.gpkg", model.LOD1_LAYER, ogr.wkbPolygon25D, {

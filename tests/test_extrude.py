@@ -9,7 +9,8 @@ import pytest
 import shapely
 from osgeo import ogr
 
-from wit_plugin import extrude, model
+from wit_plugin import extrude, heights, model
+from wit_plugin.heights import HeightOptions
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
 
@@ -99,13 +100,20 @@ def test_base_is_the_exact_minimum_of_the_dem_on_the_footprint():
 
 
 def test_height_sources_and_storeys():
-    rule = extrude.HeightRule(storey_height=3.0, height_field="HEIGHT_M",
-                              expression=lambda a: a.get("EST") and float(a["EST"]) * 2, default_height=4.0)
-    assert extrude.building_height({"GRO_FLO_CO": 5}, rule) == (15.0, "floors")
-    assert extrude.building_height({"GRO_FLO_CO": "0", "HEIGHT_M": "12.5"}, rule) == (12.5, "field")
-    assert extrude.building_height({"GRO_FLO_CO": None, "HEIGHT_M": 0, "EST": "3"}, rule) == (6.0, "expression")
-    assert extrude.building_height({"GRO_FLO_CO": "", "HEIGHT_M": "n/a"}, rule) == (4.0, "default")
-    assert extrude.building_height({}, extrude.HeightRule()) == (3.0, "default")
+    rule = HeightOptions(height_field="HEIGHT_M", expression_text="EST * 2",
+                         expression=lambda a: a.get("EST") and float(a["EST"]) * 2,
+                         default_height=4.0).rule_for(["GRO_FLO_CO", "HEIGHT_M", "EST"])
+
+    def height(attributes, r=rule):
+        value, source = heights.building_height(attributes, r)
+        return value, source.kind if source else "default"
+
+    assert height({"GRO_FLO_CO": 5}) == (15.0, "floors")
+    assert height({"GRO_FLO_CO": "0", "HEIGHT_M": "12.5"}) == (12.5, "field")
+    assert height({"GRO_FLO_CO": None, "HEIGHT_M": 0, "EST": "3"}) == (6.0, "expression")
+    assert height({"GRO_FLO_CO": "", "HEIGHT_M": "n/a"}) == (4.0, "default")
+    assert height({}, HeightOptions().rule_for([])) == (3.0, "default")
+    assert rule.describe() == "GRO_FLO_CO × 3 m → HEIGHT_M (m) → expression EST * 2 → default 4 m"
 
 
 def test_extrude_records_sources_and_splits_multipart_footprints():
@@ -166,7 +174,7 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
     dem_ds = None
 
     out = tmp_path / "lod1.gpkg"
-    stats = extrude.run(gpkg, dem_path, out, extrude.HeightRule(storey_height=3.5))
+    stats = extrude.run(gpkg, dem_path, out, HeightOptions(storey_height=3.5))
     assert stats.solids == 2 and stats.nodata_filled == 4
     ds = ogr.Open(str(out))
     lyr = ds.GetLayerByName(model.LOD1_LAYER)
@@ -181,9 +189,10 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
     assert [f[model.FACE_NUMBER] for f in first] == list(range(6))
     assert first[0][model.FACE_TYPE] == "ground" and first[0][model.HEIGHT] == pytest.approx(10.5)
     assert first[0][model.HEIGHT_SOURCE] == "floors" and first[0]["BUL_MAN_NO"] == 1234567
+    assert first[0][model.HEIGHT_RULE] == "GRO_FLO_CO × 3.5 m"
     assert first[0][model.BASE_Z] == pytest.approx(25.0)
     court = [f for f in feats if f[model.WIT_ID] == "BLD_1"]
-    assert court[0][model.HEIGHT_SOURCE] == "default"
+    assert court[0][model.HEIGHT_SOURCE] == "default" and court[0][model.HEIGHT_RULE] == "default 3 m"
     roof = shapely.from_wkb(bytes(court[1].GetGeometryRef().ExportToIsoWkb()))
     assert roof.has_z and len(roof.interiors) == 1
     assert not list(tmp_path.glob(".lod1*"))  # no temporary file left behind

@@ -181,7 +181,7 @@ def test_masks_follow_wittexture_uv_convention(tmp_path):
     roof = shapely.Polygon([(X0 + 20.13, Y0 - 70.21), (X0 + 61.37, Y0 - 70.21), (X0 + 61.37, Y0 - 40.08),
                             (X0 + 40.11, Y0 - 22.42), (X0 + 20.13, Y0 - 40.08)])
     lod1 = tmp_path / "lod1.gpkg"
-    extrude.write_solids(lod1, [extrude.Solid("BLD_1", 10.0, 9.0, "default", None, None,
+    extrude.write_solids(lod1, [extrude.Solid("BLD_1", 10.0, 9.0, "default", "default 3 m", None, None,
                                               extrude.solid_faces(roof, 10.0, 9.0), {})], _pyproj_5186())
     tex = tmp_path / "tex"
     texture_model(ortho, str(lod1), None, str(tex), TextureConfig(image_format="PNG"))

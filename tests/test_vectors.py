@@ -184,6 +184,48 @@ def test_district_code_selects_suseo_dong(juso: Path, tmp_path: Path):
     assert "수서동" in kor
 
 
+@pytest.mark.parametrize("name", ["역삼동", "Yeoksam-dong", "yeoksam-dong"])
+def test_district_by_korean_or_english_name_is_the_code_area(juso: Path, tmp_path: Path, name: str):
+    by_code = prepare_vectors(None, None, juso / "TL_SCCO_EMD.shp", StudyArea.from_district_code("11680101"),
+                              tmp_path / "code.gpkg").area
+    by_name = prepare_vectors(None, None, juso / "TL_SCCO_EMD.shp", StudyArea.from_district_code(name),
+                              tmp_path / "name.gpkg").area
+    assert by_name.equals_exact(by_code, 0) and by_code.area == pytest.approx(3.47e6, rel=0.02)  # 역삼동 3.47 km²
+
+
+def test_district_layer_of_another_schema_names_its_fields(juso: Path, tmp_path: Path):
+    """A dong layer from another source (code ADM_CD, name ADM_NM) selects by the fields it names."""
+    other = vector_io.read_layer(juso / "TL_SCCO_EMD.shp", encoding="CP949")
+    rows = [{"ADM_CD": code, "ADM_NM": name} for code, name in zip(other.columns["EMD_CD"], other.columns["EMD_KOR_NM"])]
+    path = write_shapefile(tmp_path / "dongs.shp", [g.wkt for g in other.geoms], rows, epsg=5179, encoding="UTF-8")
+    area = StudyArea.from_district_code("수서동", code_field="ADM_CD", name_field="ADM_NM")
+    report = prepare_vectors(None, None, path, area, tmp_path / "o.gpkg")
+    assert report.area.contains(shapely.Point(SUSEO_5186))
+    with pytest.raises(InputError, match="has no field 'CODE'"):
+        prepare_vectors(None, None, path, StudyArea.from_district_code("수서동", code_field="CODE"), tmp_path / "p.gpkg")
+    with pytest.raises(InputError, match="none of the fields EMD_CD, EMD_KOR_NM, EMD_ENG_NM"):
+        prepare_vectors(None, None, path, StudyArea.from_district_code("수서동"), tmp_path / "q.gpkg")
+
+
+def test_ambiguous_district_name_asks_for_the_code(tmp_path: Path):
+    """신사동 exists in Gangnam-gu and in Eunpyeong-gu: a name matching two codes is refused."""
+    squares = [shapely.box(0, 0, 100, 100).wkt, shapely.box(200, 0, 300, 100).wkt]
+    path = write_shapefile(tmp_path / "emd.shp", squares, [{"EMD_CD": "11680107", "EMD_KOR_NM": "신사동"},
+                                                             {"EMD_CD": "11380109", "EMD_KOR_NM": "신사동"}],
+                           encoding="UTF-8")
+    with pytest.raises(InputError, match="ambiguous.*11680107 신사동, 11380109 신사동"):
+        prepare_vectors(None, None, path, StudyArea.from_district_code("신사동"), tmp_path / "o.gpkg",
+                        vectors.PrepareConfig(source_crs="EPSG:5186"))
+
+
+def test_study_area_from_a_polygon_wkt_in_another_crs(juso: Path, tmp_path: Path):
+    x, y = SUSEO_5179
+    area = StudyArea.polygon(shapely.box(x - 250, y - 250, x + 250, y + 250), "EPSG:5179")
+    report = prepare_vectors(None, juso / "TL_SPRD_MANAGE.shp", None, area, tmp_path / "a.gpkg")
+    assert report.area.area == pytest.approx(250000, rel=1e-3)  # a square is nearly a square in both TMs
+    assert report.area.contains(shapely.Point(SUSEO_5186))
+
+
 def test_study_area_from_a_polygon_layer(juso: Path, tmp_path: Path):
     x, y = SUSEO_5186
     square = shapely.box(x - 300, y - 300, x + 300, y + 300).wkt
@@ -197,7 +239,7 @@ def test_study_area_from_a_polygon_layer(juso: Path, tmp_path: Path):
 @pytest.mark.parametrize("kwargs, message", [
     (dict(roads="missing.shp"), "does not exist"),
     (dict(districts="EMD", area=StudyArea.from_district_code("99999999")),
-     "valid codes include 11680101 \\(역삼동\\)"),
+     "neither a code nor a name in TL_SCCO_EMD.shp; it has 11680101 역삼동"),
     (dict(roads="ROADS", area=StudyArea.circle(126.0, 35.0, 500)), "does not overlap"),
     (dict(roads="ROADS", area=StudyArea.from_district_code("11680115")), "needs the district"),
 ])

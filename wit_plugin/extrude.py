@@ -4,10 +4,12 @@ Base: the minimum of the bilinear DEM surface over the footprint (exact: vertice
 DEM cell centres inside), so no building floats above the terrain; "median" is offered for
 footprints on steep ground where the minimum buries one side deeply.
 
-Height, first that applies (SPEC §4), recorded per building in ``model.HEIGHT_SOURCE``:
-``floors`` GRO_FLO_CO × storey height when GRO_FLO_CO > 0; ``field`` a chosen numeric field > 0;
-``expression`` a callable given the attributes, returning a height > 0; ``default`` otherwise
-(one storey, 3 m, unless set).
+Height: the first source of the rule that gives a finite height > 0 (``wit_plugin.heights``:
+``GRO_FLO_CO`` × storey height, the chosen field / expression, or the height and floor fields of
+the common layers recognised by name), else the default; recorded per building as the kind
+(``model.HEIGHT_SOURCE``: floors, field, expression, default) and the exact rule
+(``model.HEIGHT_RULE``, e.g. ``GRO_FLO_CO × 3 m``). Buildings that got the default are a warning
+with their count.
 
 Each solid is a closed, outward-oriented shell of PolygonZ faces: the ground (clockwise seen from
 above, normal down), the roof (counter-clockwise, normal up) and one quad per ring edge, courtyard
@@ -20,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from itertools import pairwise
 from pathlib import Path
@@ -33,15 +35,17 @@ from osgeo import ogr
 from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
-from .dem import Dem
+from .dem import Dem, check_crs
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .gpkg_bulk import write_layer
+from .heights import DEFAULT, HeightOptions, HeightRule, building_height
 from .model import (
     BASE_Z,
     FACE_NUMBER,
     FACE_TYPE,
     HEIGHT,
+    HEIGHT_RULE,
     HEIGHT_SOURCE,
     LOD1_LAYER,
     PREPARED_BUILDINGS,
@@ -50,23 +54,11 @@ from .model import (
     WIT_ID,
 )
 from .terrain import clean_polygons
-from .vector_io import FieldDef, read_prepared
+from .vector_io import FieldDef, keep_source_fields, read_prepared
 
-FLOORS_FIELD = "GRO_FLO_CO"  # storeys above ground (road-name-address building layer)
-BASEMENT_FIELD = "UND_FLO_CO"  # storeys below ground
 BASE_MODES = ("min", "median")
 
 Ring = np.ndarray  # (n, 3) closed: first point repeated last
-
-
-@dataclass
-class HeightRule:
-    """How a building's height is chosen (see the module docstring for the order)."""
-
-    storey_height: float = 3.0
-    height_field: str | None = None
-    expression: Callable[[dict], Any] | None = None
-    default_height: float = 3.0
 
 
 @dataclass
@@ -77,6 +69,7 @@ class Solid:
     base_z: float
     height: float
     height_source: str
+    height_rule: str
     storeys_above: int | None
     storeys_below: int | None
     faces: list[tuple[str, list[Ring]]]  # (face type, [exterior ring, interior rings…])
@@ -94,31 +87,6 @@ class ExtrudeStats:
 
     def as_dict(self) -> dict:
         return asdict(self)
-
-
-def _positive(value: Any) -> float | None:
-    """``value`` as a finite number > 0, else None (empty strings, NULL, text, zero…)."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        return None
-    return number if math.isfinite(number) and number > 0 else None
-
-
-def building_height(attributes: dict, rule: HeightRule) -> tuple[float, str]:
-    """(height, source) for one building's attributes."""
-    floors = _positive(attributes.get(FLOORS_FIELD))
-    if floors is not None:
-        return floors * rule.storey_height, "floors"
-    if rule.height_field:
-        value = _positive(attributes.get(rule.height_field))
-        if value is not None:
-            return value, "field"
-    if rule.expression is not None:
-        value = _positive(rule.expression(attributes))
-        if value is not None:
-            return value, "expression"
-    return rule.default_height, "default"
 
 
 def _storeys(value: Any, minimum: int) -> int | None:
@@ -187,7 +155,7 @@ def extrude(buildings: Sequence[tuple[str | None, BaseGeometry | None, dict]], d
             rule: HeightRule | None = None, base: str = "min",
             feedback: Feedback = SILENT) -> tuple[list[Solid], ExtrudeStats]:
     """Build one closed LoD1 solid per footprint (per part of a multi-part footprint)."""
-    rule = rule or HeightRule()
+    rule = rule or HeightRule()  # the road-name-address layer's floors
     if not rule.storey_height > 0 or not rule.default_height > 0:
         raise InputError("Storey height and default height must be positive.")
     cleaned = clean_polygons([g for _, g, _ in buildings])
@@ -214,12 +182,16 @@ def extrude(buildings: Sequence[tuple[str | None, BaseGeometry | None, dict]], d
         feedback.check_canceled()
         attrs = buildings[k][2]
         height, source = building_height(attrs, rule)
-        solids.append(Solid(name, float(base_z), height, source, _storeys(attrs.get(FLOORS_FIELD), 1),
-                            _storeys(attrs.get(BASEMENT_FIELD), 0), solid_faces(poly, float(base_z), height), attrs))
+        storeys = [_storeys(attrs.get(column), least) if column else None
+                   for column, least in ((rule.floors_field, 1), (rule.basement_field, 0))]
+        solids.append(Solid(name, float(base_z), height, source.kind if source else DEFAULT, rule.label(source),
+                            *storeys, solid_faces(poly, float(base_z), height), attrs))
     sources = Counter(s.height_source for s in solids)
-    if sources.get("default"):
-        feedback.info(f"{sources['default']} building(s) had no usable height and got the default "
-                      f"{rule.default_height} m (height_src = 'default').")
+    feedback.info("Heights: " + ", ".join(f"{count} from {label}" for label, count in
+                                         Counter(s.height_rule for s in solids).most_common()))
+    if sources.get(DEFAULT):
+        feedback.warning(f"{sources[DEFAULT]} of {len(solids)} building(s) had no usable height and got the default "
+                         f"{rule.default_height:g} m ({HEIGHT_SOURCE} = 'default'). Rule tried: {rule.describe()}.")
     stats = ExtrudeStats(len(buildings), len(solids), sum(len(s.faces) for s in solids), skipped,
                          dict(sources), dem.nodata_cells)
     feedback.progress(100)
@@ -231,18 +203,19 @@ def write_solids(path: str | Path, solids: Sequence[Solid], crs: pyproj.CRS,
                  feedback: Feedback = SILENT) -> int:
     """Write the faces as PolygonZ features (layer ``model.LOD1_LAYER``) with the solid's fields.
 
-    Source fields keep their types; one whose name clashes with ours is left out.
+    Source fields keep their names and types (one that clashes with ours is kept as ``<name>_src``).
     """
     own = [FieldDef(WIT_ID, ogr.OFTString), FieldDef(FACE_TYPE, ogr.OFTString), FieldDef(FACE_NUMBER, ogr.OFTInteger),
            FieldDef(BASE_Z, ogr.OFTReal), FieldDef(HEIGHT, ogr.OFTReal), FieldDef(HEIGHT_SOURCE, ogr.OFTString),
-           FieldDef(STOREYS_ABOVE, ogr.OFTInteger), FieldDef(STOREYS_BELOW, ogr.OFTInteger)]
-    taken = {fd.name.lower() for fd in own}
-    extra = [fd for fd in source_fields if fd.name.lower() not in taken]
+           FieldDef(HEIGHT_RULE, ogr.OFTString), FieldDef(STOREYS_ABOVE, ogr.OFTInteger),
+           FieldDef(STOREYS_BELOW, ogr.OFTInteger)]
+    kept = keep_source_fields(source_fields, [fd.name for fd in own], LOD1_LAYER, feedback)
+    extra = [out for out, _ in kept]
 
     geoms, rows = [], []
     for s in solids:
-        values = [s.wit_id, s.base_z, s.height, s.height_source, s.storeys_above, s.storeys_below]
-        values += [s.attributes.get(fd.name) for fd in extra]
+        values = [s.wit_id, s.base_z, s.height, s.height_source, s.height_rule, s.storeys_above, s.storeys_below]
+        values += [s.attributes.get(source) for _, source in kept]
         for number, (kind, rings) in enumerate(s.faces):
             geoms.append(shapely.Polygon(rings[0], rings[1:]))
             rows.append((values[0], kind, number, *values[1:]))
@@ -251,21 +224,29 @@ def write_solids(path: str | Path, solids: Sequence[Solid], crs: pyproj.CRS,
                        spatial_index=spatial_index, feedback=feedback)
 
 
-def run(vectors: str | Path, dem_path: str | Path, output: str | Path, rule: HeightRule | None = None,
+def run(vectors: str | Path, dem_path: str | Path, output: str | Path, heights: HeightOptions | None = None,
         base: str = "min", spatial_index: bool = True, feedback: Feedback = SILENT) -> ExtrudeStats:
     """wit:extrudebuildings: read the prepared buildings and the DEM, write the LoD1 faces GeoPackage.
 
     ``vectors`` is the prepared buildings layer (``file.gpkg|layername=…``) or the prepared GeoPackage.
+    The height rule is resolved against its fields (``HeightOptions.rule_for``) and logged.
     """
-    layer = read_prepared(vectors, PREPARED_BUILDINGS)
+    layer = read_prepared(vectors, PREPARED_BUILDINGS, feedback)
+    rule = (heights or HeightOptions()).rule_for([f.name for f in layer.fields], str(vectors))
+    feedback.info(f"Height rule: {rule.describe()}")
     geoms = [g for g in layer.geoms if g is not None and not g.is_empty]
     if not geoms:
         raise InputError(f"{vectors} has no building footprints.")
+    check_crs(dem_path, layer.crs, feedback)
     dem = Dem.open(dem_path, tuple(shapely.total_bounds(geoms)), feedback=feedback)
     ids = layer.columns.get(WIT_ID) or [None] * len(layer)
     rows = [{name: column[k] for name, column in layer.columns.items()} for k in range(len(layer))]
     solids, stats = extrude(list(zip(ids, layer.geoms, rows)), dem, rule, base, feedback.scaled(0, 80))
-    write_solids(output, solids, layer.crs, layer.fields, spatial_index, feedback.scaled(80, 100))
+    if not solids:  # a run that made nothing fails and writes nothing
+        raise InputError(f"No LoD1 solid could be made: the {len(layer)} footprint(s) of {vectors} are all empty "
+                         "or degenerate. Nothing was written.")
+    source_fields = [f for f in layer.fields if f.name.lower() != WIT_ID]  # the id is the solid's own
+    write_solids(output, solids, layer.crs, source_fields, spatial_index, feedback.scaled(80, 100))
     feedback.info("LoD1: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))
     feedback.progress(100)
     return stats

@@ -10,6 +10,10 @@ CityGML ``gml:id`` on every run:
 * buildings: ``BLD_<BD_MGT_SN>`` (25-digit management number), else ``BLD_<SIG_CD>_<BUL_MAN_NO>``
 * roads: ``RD_<SIG_CD>_<RDS_MAN_NO>``
 * districts: ``EMD_<EMD_CD>``
+
+Every field the core derives is named ``wit_…``, so it never shadows a source attribute (an
+OpenStreetMap ``height``, a ``face`` field): source attributes pass through under their own names.
+A source field that itself starts with ``wit_`` and clashes is kept as ``<name>_src``.
 """
 
 #: field holding the stable id on every layer the core writes
@@ -20,8 +24,8 @@ PREPARED_BUILDINGS = "buildings"
 PREPARED_ROADS = "roads"  # road polygons: centre lines buffered by ROAD_BT / 2
 PREPARED_DISTRICTS = "districts"
 STUDY_AREA = "study_area"  # the study-area polygon, so later steps need not be told it again
-ROAD_WIDTH = "width_m"  # width used for the buffer
-ROAD_WIDTH_SOURCE = "width_src"  # "ROAD_BT" or "default"
+ROAD_WIDTH = "wit_width_m"  # width used for the buffer
+ROAD_WIDTH_SOURCE = "wit_width_src"  # "ROAD_BT", a class default or "default"
 
 # -- wit:triangulateterrain output (PolygonZ, one triangle per feature) -----------------------
 TIN_LAYER = "tin"
@@ -32,14 +36,15 @@ TIN_FEATURE_ID = "feature_id"  # wit_id of the road / building the triangle lies
 
 # -- wit:extrudebuildings output (PolygonZ faces of closed LoD1 solids, source attributes kept) --
 LOD1_LAYER = "lod1_faces"
-FACE_TYPE = "face"  # one of FACE_TYPES
+FACE_TYPE = "wit_face"  # one of FACE_TYPES
 FACE_TYPES = ("ground", "roof", "wall")
-FACE_NUMBER = "face_no"  # 0-based order of the face within its building's shell
-BASE_Z = "base_z"
-HEIGHT = "height"
-HEIGHT_SOURCE = "height_src"  # "floors", "field", "expression" or "default"
-STOREYS_ABOVE = "storeys_above"
-STOREYS_BELOW = "storeys_below"
+FACE_NUMBER = "wit_face_no"  # 0-based order of the face within its building's shell
+BASE_Z = "wit_base_z"
+HEIGHT = "wit_height"
+HEIGHT_SOURCE = "wit_height_src"  # "floors", "field", "expression" or "default"
+HEIGHT_RULE = "wit_height_rule"  # what exactly: e.g. "GRO_FLO_CO × 3 m", "height (m)", "default 3 m"
+STOREYS_ABOVE = "wit_storeys_above"
+STOREYS_BELOW = "wit_storeys_below"
 
 # -- wit:wittexture output: images + a texture-coordinate table --------------------------------
 # A folder of images (atlases) and a GeoPackage attribute table (no geometry) TEXCOORD_TABLE with

@@ -82,6 +82,32 @@ class VectorLayer:
         return found
 
 
+def keep_source_fields(source: Sequence[FieldDef], own: Sequence[str], layer: str,
+                       feedback: Feedback = SILENT) -> list[tuple[FieldDef, str]]:
+    """(output field, source name) for every source field: none is lost or shadows a derived one.
+
+    A source field whose name clashes with one the core derives (GeoPackage names are
+    case-insensitive) is kept as ``<name>_src`` (``_src2``… if that is taken too), with a warning.
+    """
+    taken = {name.lower() for name in own} | {f.name.lower() for f in source}
+    kept, renamed = [], []
+    for f in source:
+        name = f.name
+        if name.lower() in {o.lower() for o in own}:
+            suffix, n = "_src", 1
+            while (name + suffix).lower() in taken:
+                n += 1
+                suffix = f"_src{n}"
+            name += suffix
+            taken.add(name.lower())
+            renamed.append(f"{f.name} → {name}")
+        kept.append((FieldDef(name, f.type, f.subtype, f.width, f.precision), f.name))
+    if renamed:
+        feedback.warning(f"{layer}: source fields renamed so they do not clash with the derived ones: "
+                         f"{', '.join(renamed)}.")
+    return kept
+
+
 @contextlib.contextmanager
 def gdal_quiet() -> Iterator[None]:
     """Keep GDAL warnings (e.g. "Non closed ring detected") off stderr; we count such defects ourselves."""

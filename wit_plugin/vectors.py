@@ -59,7 +59,7 @@ from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, refuse_overlap
 from .vector_io import (BUILDING_FIELDS, DISTRICT_FIELDS, ROAD_FIELDS, FieldDef, OutputLayer, VectorLayer,
-                        non_finite, read_layer, write_gpkg)
+                        keep_source_fields, non_finite, read_layer, write_gpkg)
 
 REPAIR_KINDS = ("unclosed_ring", "orientation", "repeated_vertex", "invalid", "multipart", "sliver_part")
 DROP_REASONS = ("no_geometry", "non_finite", "wrong_type", "collapsed", "too_small", "thin", "covered", "duplicate")
@@ -79,16 +79,19 @@ DROPPED_TABLE = "dropped"
 
 @dataclass(frozen=True)
 class StudyArea:
-    """Where to build: a circle, the union of a polygon layer, or a legal dong (EMD_CD)."""
+    """Where to build: a circle, a polygon, the union of a polygon layer, or a legal dong."""
 
-    kind: str  # "circle", "layer" or "district"
+    kind: str  # "circle", "polygon", "layer" or "district"
     x: float = 0.0
     y: float = 0.0
     radius: float = 0.0
-    crs: str | None = None  # circle: CRS of x/y; layer: source CRS if the file has none
+    crs: str | None = None  # circle: CRS of x/y; polygon: CRS of the WKT; layer: source CRS if the file has none
     path: str | None = None
     layer: str | None = None
-    code: str | None = None
+    code: str | None = None  # district: its code (EMD_CD) or its name (역삼동, Yeoksam-dong)
+    wkt: str | None = None
+    code_field: str | None = None  # district layers of another schema: the code / name fields
+    name_field: str | None = None
 
     @classmethod
     def circle(cls, x: float, y: float, radius: float, crs: str = "EPSG:4326") -> "StudyArea":
@@ -98,28 +101,45 @@ class StudyArea:
         return cls("circle", x=float(x), y=float(y), radius=float(radius), crs=crs)
 
     @classmethod
+    def polygon(cls, geometry: shapely.Geometry | str, crs: str) -> "StudyArea":
+        """A polygon (or its WKT) in ``crs``: a bounding box, a map-sheet tile."""
+        wkt = geometry if isinstance(geometry, str) else shapely.to_wkt(geometry)
+        return cls("polygon", wkt=wkt, crs=crs)
+
+    @classmethod
     def from_layer(cls, path: str | os.PathLike, layer: str | None = None, crs: str | None = None) -> "StudyArea":
         """The union of a polygon layer's features."""
         return cls("layer", path=str(path), layer=layer, crs=crs)
 
     @classmethod
-    def from_district_code(cls, code: str | int) -> "StudyArea":
-        """A legal dong by its 8-digit EMD_CD, looked up in the district layer."""
-        return cls("district", code=str(code).strip())
+    def from_district_code(cls, code: str | int, code_field: str | None = None,
+                           name_field: str | None = None) -> "StudyArea":
+        """A legal dong by its code (EMD_CD, 8 digits) or its name, looked up in the district layer.
+
+        ``code_field`` / ``name_field`` name the fields of a district layer of another schema.
+        """
+        return cls("district", code=str(code).strip(), code_field=code_field or None, name_field=name_field or None)
 
     def geometry(self, target: pyproj.CRS, districts: VectorLayer | None = None,
                  feedback: Feedback = SILENT) -> shapely.Geometry:
         """The area as one polygon in ``target``; ``districts`` (already in ``target``) for a code."""
-        if self.kind == "circle":
+        if self.kind in ("circle", "polygon"):
             try:
-                centre_crs = pyproj.CRS.from_user_input(self.crs)
+                source_crs = pyproj.CRS.from_user_input(self.crs)
             except pyproj.exceptions.CRSError as exc:
-                raise InputError(f"Unknown CRS {self.crs!r} for the study-area centre: {exc}") from exc
-            x, y = pyproj.Transformer.from_crs(centre_crs, target, always_xy=True).transform(self.x, self.y)
-            if not (math.isfinite(x) and math.isfinite(y)):
-                raise InputError(f"The study-area centre ({self.x}, {self.y}) is outside the area of use "
-                                 f"of {self.crs}; check the coordinate order (x/lon first).")
-            area = shapely.Point(x, y).buffer(self.radius, quad_segs=CIRCLE_QUAD_SEGS)
+                raise InputError(f"Unknown CRS {self.crs!r} for the study area: {exc}") from exc
+            if self.kind == "polygon":
+                try:
+                    shape = shapely.from_wkt(self.wkt)
+                except shapely.errors.GEOSException as exc:
+                    raise InputError(f"The study-area polygon is not valid WKT: {exc}") from exc
+                area = transform(np.array([shape], dtype=object), source_crs, target)[0]
+            else:
+                x, y = pyproj.Transformer.from_crs(source_crs, target, always_xy=True).transform(self.x, self.y)
+                if not (math.isfinite(x) and math.isfinite(y)):
+                    raise InputError(f"The study-area centre ({self.x}, {self.y}) is outside the area of use "
+                                     f"of {self.crs}; check the coordinate order (x/lon first).")
+                area = shapely.Point(x, y).buffer(self.radius, quad_segs=CIRCLE_QUAD_SEGS)
         elif self.kind == "layer":
             src = read_layer(self.path, self.layer, crs=self.crs, feedback=feedback)
             geoms = transform(src.geoms, src.crs, target)
@@ -142,19 +162,38 @@ class StudyArea:
         return area
 
     def _district(self, districts: VectorLayer | None) -> shapely.Geometry:
+        """The dong whose code, or else whose (Korean or English) name, is ``self.code``."""
         if districts is None:
             raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
-        column = districts.field_map(["EMD_CD"]).get("EMD_CD")
-        if column is None:
-            raise InputError(f"The district layer {districts.path} has no EMD_CD field.")
-        codes = [str(c).strip() if c is not None else "" for c in districts.columns[column]]
+        layer = Path(districts.path).name
+        code_fields = [self.code_field] if self.code_field else ["EMD_CD"]
+        name_fields = [self.name_field] if self.name_field else ["EMD_KOR_NM", "EMD_ENG_NM"]
+        found = districts.field_map(code_fields + name_fields)
+        for wanted in (self.code_field, self.name_field):
+            if wanted and wanted not in found:
+                raise InputError(f"The district layer {layer} has no field {wanted!r}; its fields are "
+                                 f"{', '.join(f.name for f in districts.fields)}.")
+        if not found:
+            raise InputError(f"The district layer {layer} has none of the fields {', '.join(code_fields + name_fields)}"
+                             "; name its code and name fields (DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD).")
+
+        def values(name: str | None) -> list[str]:
+            column = districts.columns[found[name]] if name in found else [None] * len(districts)
+            return [str(v).strip() if v is not None else "" for v in column]
+
+        codes = values(code_fields[0])
+        names = [values(n) for n in name_fields]
+        wanted = self.code.casefold()
         hits = [i for i, c in enumerate(codes) if c == self.code]
         if not hits:
-            names = districts.field_map(["EMD_KOR_NM"]).get("EMD_KOR_NM")
-            examples = [f"{c} ({districts.columns[names][i]})" if names else c
-                        for i, c in enumerate(codes[:5])]
-            raise InputError(f"District code {self.code!r} is not in {Path(districts.path).name}; "
-                             f"valid codes include {', '.join(examples)}.")
+            hits = [i for i in range(len(districts)) if any(column[i].casefold() == wanted for column in names)]
+        labels = [" ".join(v for v in (codes[i], names[0][i]) if v) for i in range(len(districts))]
+        if not hits:
+            raise InputError(f"District {self.code!r} is neither a code nor a name in {layer}; it has "
+                             f"{', '.join(labels[:8])}{' …' if len(labels) > 8 else ''}.")
+        if len({codes[i] for i in hits}) > 1:
+            raise InputError(f"The name {self.code!r} is ambiguous in {layer}: give the code of one of "
+                             f"{', '.join(labels[i] for i in hits)}.")
         return shapely.union_all(districts.geoms[hits])
 
 
@@ -812,14 +851,11 @@ def _reasons(stats: LayerStats) -> str:
 
 
 def _output_layer(prep: _Prepared, feedback: Feedback) -> OutputLayer:
-    """Source fields (minus any that clash with ours; GeoPackage names are case-insensitive) + ours."""
+    """Source fields (renamed where they clash with ours, see ``keep_source_fields``) + ours."""
     ours = [FieldDef(model.WIT_ID, ogr.OFTString)] + prep.extra_fields
-    reserved = {f.name.lower() for f in ours}
-    clash = [f.name for f in prep.layer.fields if f.name.lower() in reserved]
-    if clash:
-        feedback.warning(f"{prep.name}: source fields {', '.join(clash)} are replaced by the computed ones.")
-    fields = [f for f in prep.layer.fields if f.name.lower() not in reserved] + ours
-    columns = {f.name: prep.layer.columns[f.name] for f in prep.layer.fields if f.name.lower() not in reserved}
+    kept = keep_source_fields(prep.layer.fields, [f.name for f in ours], prep.name, feedback)
+    fields = [out for out, _ in kept] + ours
+    columns = {out.name: prep.layer.columns[source] for out, source in kept}
     columns[model.WIT_ID] = prep.ids
     columns.update(prep.extra_columns)
     return OutputLayer(prep.name, fields, columns, prep.layer.geoms)
