@@ -293,3 +293,26 @@ def test_long_edges_are_fixed_by_refining_patches_only(monkeypatch):
     _, count = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1), axis=0,
                          return_counts=True)
     assert count.max() == 2  # every edge between at most two triangles: no overlap at the patch seams
+
+
+def test_terrain_covers_buildings_that_cross_the_rim(tmp_path, shared_dir):
+    """A building kept whole at the edge of a circular area lies on terrain, not over the rim."""
+    suseo = np.array([209020.9, 543132.8])
+    area = shapely.Point(*suseo).buffer(100, quad_segs=16)
+    crossing = shapely.box(suseo[0] + 80, suseo[1] - 15, suseo[0] + 130, suseo[1] + 15)  # 30 m of 50 outside
+    inside = shapely.box(*(suseo - 10), *(suseo + 10))
+    outside = shapely.box(suseo[0] + 300, suseo[1], suseo[0] + 320, suseo[1] + 20)  # not in the model
+    prepared = tmp_path / "prepared.gpkg"
+    _write_prepared(prepared, [("BLD_X", crossing), ("BLD_I", inside), ("BLD_O", outside)], [])
+    out = tmp_path / "tin.gpkg"
+    terrain.run(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, None, out, area,
+                max_edge=10.0, footprints_as_holes=False)
+    ds = ogr.Open(str(out))
+    triangles = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToIsoWkb())) for f in ds.GetLayer(model.TIN_LAYER)]
+    covered = shapely.union_all(shapely.force_2d(np.array(triangles, dtype=object)), grid_size=1e-3)
+    assert covered.buffer(1e-3).contains(crossing)  # the whole footprint, also its 30 m outside the circle
+    assert covered.area == pytest.approx(shapely.union(area, crossing).area, rel=1e-3)
+    assert not covered.intersects(outside)
+    grown = terrain.covering_area(area, [crossing, inside, outside])
+    assert grown.area == pytest.approx(shapely.union(area, crossing).area, rel=1e-6)  # on the 1 mm grid
+    assert terrain.covering_area(area, [inside, outside]) is area

@@ -646,13 +646,36 @@ def features(layer: VectorLayer) -> list[Feature]:
     return list(zip(ids, layer.geoms))
 
 
+def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
+                  feedback: Feedback = SILENT) -> BaseGeometry:
+    """The area grown to hold every footprint that reaches into it, so no building overhangs the rim.
+
+    Buildings are kept whole at the edge of a study area (their point on surface decides), so a
+    footprint can cross the rim; the terrain then follows its walls outside instead of stopping
+    under it. Footprints wholly outside the area are not added (they are not in the model).
+    """
+    geoms = np.array([g for g in clean_polygons(footprints) if g is not None], dtype=object)
+    if not len(geoms):
+        return area
+    shapely.prepare(area)
+    crossing = geoms[~shapely.covered_by(geoms, area) & shapely.intersects(area, geoms)]
+    crossing = crossing[shapely.area(shapely.intersection(crossing, area)) > 0] if len(crossing) else crossing
+    if not len(crossing):
+        return area
+    grown = _polygonal(np.array([shapely.union_all([area, *crossing], grid_size=GRID)], dtype=object))[0]
+    feedback.info(f"Terrain extended by {grown.area - area.area:,.1f} m² beyond the study area to hold the whole "
+                  f"footprints of {len(crossing)} building(s) that cross its edge.")
+    return grown
+
+
 def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
         area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
         footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT) -> TinStats:
     """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
-    GeoPackage itself); ``area`` is a polygon, or a vector source whose polygons together form it.
+    GeoPackage itself); ``area`` is a polygon, or a vector source whose polygons together form it,
+    grown to hold the footprints that cross its edge (``covering_area``).
     """
     refuse_overlap([(output, False)], [dem_path, buildings, roads, None if isinstance(area, BaseGeometry) else area])
     layers = {kind: read_prepared(source, name, feedback) for kind, source, name in
@@ -668,6 +691,8 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
         crs = next(iter(layers.values())).crs if layers else None
     if crs is None:
         raise InputError("Give the study area as a layer (or a constraint layer) so the TIN's CRS is known.")
+    if "buildings" in layers:
+        area = covering_area(area, layers["buildings"].geoms, feedback)
     check_dem_crs(dem_path, crs, feedback)
     dem = Dem.open(dem_path, area.bounds, feedback=feedback)
     tin, stats = triangulate(area, features(layers["buildings"]) if "buildings" in layers else [],
