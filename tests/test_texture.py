@@ -399,3 +399,21 @@ def test_bad_inputs(scene: dict, tmp_path: Path) -> None:
         texture_model(scene["ortho"], scene["tin"], None, str(tmp_path / "tex"))
     with pytest.raises(InputError, match="Cannot open the orthoimage"):
         texture_model(str(tmp_path / "missing.tif"), scene["lod1"], None, str(tmp_path / "tex"))
+
+
+def test_surfaces_outside_the_coverage_are_left_untextured_and_counted(tmp_path):
+    """With a coverage (the ortho's sheets), what lies beyond it is counted, not refused."""
+    import shapely
+
+    ortho = make_ortho(tmp_path / "ortho.tif", size=(200, 200))
+    inside = [centre(20, 20), centre(40, 20), centre(40, 40), centre(20, 40)]
+    beyond = [(X0 + 150, Y0 - 20), (X0 + 170, Y0 - 20), (X0 + 170, Y0 - 40), (X0 + 150, Y0 - 40)]  # east of the ortho
+    lod1 = write_lod1(tmp_path / "lod1.gpkg", {"BLD_IN": inside, "BLD_OUT": beyond})
+    with pytest.raises(InputError, match="reaches beyond the orthoimage"):
+        texture_model(ortho, lod1, None, str(tmp_path / "refused"))
+    coverage = shapely.box(X0, Y0 - 100, X0 + 100, Y0)  # the ortho: 200 px of 0.5 m
+    report = texture_model(ortho, lod1, None, str(tmp_path / "tex"), coverage=coverage)
+    assert report.surfaces[texture.ROOF_TARGET] == 1 and report.untextured[texture.OUTSIDE_ORTHO] == 1
+    rows = sqlite3.connect(tmp_path / "tex" / model.TEXCOORD_FILE).execute(
+        f"SELECT {model.TEX_FEATURE} FROM {model.TEXCOORD_TABLE}").fetchall()
+    assert rows == [("BLD_IN",)]

@@ -63,7 +63,9 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 import numpy as np
+import shapely
 from osgeo import gdal, ogr, osr
+from shapely.geometry.base import BaseGeometry
 
 from . import model
 from .errors import InputError
@@ -77,6 +79,7 @@ FORMATS = {"JPEG": "jpg", "PNG": "png"}
 TEXCOORDS_FILE = model.TEXCOORD_FILE
 TEXTURED_TIN_SURFACES = ("terrain", "road")
 ROOF_TARGET, TIN_TARGET, ROAD_TARGET = "roof", "tin", "road"  # TEX_TARGET values
+OUTSIDE_ORTHO = "outside_ortho"  # TextureReport.untextured key: surfaces beyond the ortho's coverage
 
 _BACKGROUND = 128  # grey for unused atlas space: neutral under JPEG ringing
 _TILE_FILL = 0.875  # share of the image side given to a ground tile; the rest takes triangle overhang
@@ -181,10 +184,13 @@ def texture_model(
     output_dir: str,
     config: TextureConfig = TextureConfig(),
     feedback: Feedback = SILENT,
+    coverage: BaseGeometry | None = None,
 ) -> TextureReport:
     """Cut roof, terrain and road textures from ``ortho`` into ``output_dir``; see the module docstring.
 
-    Either layer file may be None (then its surfaces are not textured), not both. Raises
+    Either layer file may be None (then its surfaces are not textured), not both. With ``coverage``
+    (where the ortho has pixels, e.g. the union of its sheets), surfaces not inside it are left
+    untextured and counted (``untextured["outside_ortho"]``) instead of refusing the layers. Raises
     ``InputError`` for unusable inputs or parameters and ``CanceledError`` on cancel; in both
     cases nothing is written to ``output_dir``.
     """
@@ -210,7 +216,8 @@ def texture_model(
             untextured["footprint"] = tin.count(("footprint",))
         layers = [layer for layer in (roofs, tin) if layer is not None]
         for layer in layers:
-            image.check_covers(layer)
+            image.check_covers(layer, extent=coverage is None)
+        inside = _Inside(coverage, untextured)
         if not any(layer.surfaces for layer in layers):
             raise InputError("Nothing to texture: the LoD1 layer has no 'roof' faces and the TIN no 'terrain' or "
                              "'road' triangles.")
@@ -225,13 +232,15 @@ def texture_model(
             out = _Output(tmp, FORMATS[config.image_format.upper()], config, report)
             try:
                 if roofs is not None:
-                    _texture_roofs(roofs, image, grid, out, config, feedback.scaled(0.0, share))
+                    _texture_roofs(roofs, image, grid, out, config, inside, feedback.scaled(0.0, share))
                 if tin is not None:
-                    _texture_ground(tin, image, grid, out, config, feedback.scaled(share, 100.0))
+                    _texture_ground(tin, image, grid, out, config, inside, feedback.scaled(share, 100.0))
                 out.finish()
             finally:
                 out.close()
             report.bytes_written = sum(p.stat().st_size for p in tmp.iterdir())
+    if untextured.get(OUTSIDE_ORTHO):
+        feedback.warning(f"{untextured[OUTSIDE_ORTHO]} surface(s) lie outside the orthoimage and are left untextured.")
     feedback.info(f"Wrote {len(report.images)} image(s) ({report.atlases} roof atlas(es), {report.ground_images} "
                   f"ground tile(s)), {report.mip_files} mip file(s), {report.bytes_written / 1e6:.1f} MB.")
     feedback.progress(100.0)
@@ -382,12 +391,14 @@ class _Ortho:
     def close(self) -> None:
         self.ds = None
 
-    def check_covers(self, layer: _Layer) -> None:
-        """Refuse a layer whose CRS differs or whose extent reaches beyond the ortho."""
+    def check_covers(self, layer: _Layer, extent: bool = True) -> None:
+        """Refuse a layer whose CRS differs or (``extent``) whose extent reaches beyond the ortho."""
         if self.srs is not None and layer.srs is not None and not self.srs.IsSame(
                 layer.srs, ["IGNORE_DATA_AXIS_TO_SRS_AXIS_MAPPING=YES"]):
             raise InputError(f"Layer {layer.name!r} ({layer.srs.GetName()}) and the orthoimage "
                              f"({self.srs.GetName()}) have different CRSs: produce both in the same CRS.")
+        if not extent:
+            return
         lx0, ly0, lx1, ly1 = layer.extent
         ox0, oy0, ox1, oy1 = self.extent
         if lx0 < ox0 or ly0 < oy0 or lx1 > ox1 or ly1 > oy1:
@@ -572,12 +583,29 @@ class _AtlasPacker:
         self._reset()
 
 
+class _Inside:
+    """Keeps the surfaces inside the ortho's coverage (all when there is none) and counts the others."""
+
+    def __init__(self, coverage: BaseGeometry | None, untextured: dict[str, int]):
+        self.coverage, self.untextured = coverage, untextured
+        if coverage is not None:
+            shapely.prepare(coverage)
+
+    def __call__(self, batch: list[_Surface]) -> list[_Surface]:
+        if self.coverage is None or not batch:
+            return batch
+        boxes = shapely.box(*np.array([s.bbox() for s in batch]).T)
+        keep = shapely.covers(self.coverage, boxes)
+        self.untextured[OUTSIDE_ORTHO] = self.untextured.get(OUTSIDE_ORTHO, 0) + int((~keep).sum())
+        return [s for s, k in zip(batch, keep) if k]
+
+
 def _pow2_ceil(n: int) -> int:
     return 1 << max(0, n - 1).bit_length()
 
 
 def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
-                   feedback: Feedback) -> None:
+                   inside: _Inside, feedback: Feedback) -> None:
     """Roof islands tile by tile (spatial order), tallest first within a tile for tighter shelves."""
     packer = _AtlasPacker(config, out)
     limit = config.atlas_size - 2 * config.gutter
@@ -589,6 +617,7 @@ def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, conf
 
     for n, (_, batch) in enumerate(layer.tiles(grid, roof)):
         feedback.check_canceled()
+        batch = inside(batch)
         patches = [ortho.patch(s.bbox(), limit) for s in batch]
         for surface, patch in sorted(zip(batch, patches), key=lambda sp: -sp[1].pixels.shape[0]):
             packer.add(surface, patch)
@@ -600,7 +629,7 @@ def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, conf
 # --- terrain and roads: one image per ground tile -----------------------------------------------
 
 def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
-                    feedback: Feedback) -> None:
+                    inside: _Inside, feedback: Feedback) -> None:
     """One image per non-empty ground tile, covering its triangles' bounding box plus the gutter."""
     keys = grid.keys(layer.extent)
 
@@ -612,6 +641,7 @@ def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, con
 
     for n, ((r, c), batch) in enumerate(layer.tiles(grid, triangle)):
         feedback.check_canceled()
+        batch = inside(batch)
         if batch:
             points = np.concatenate([s.xy for s in batch])
             bbox = (*points.min(axis=0), *points.max(axis=0))
