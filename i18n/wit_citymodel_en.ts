@@ -20,60 +20,8 @@
       <translation>Chain</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept (then it is &lt;output&gt;/work). Study area: a legal-dong code if given, else the centre point and radius.</source>
-      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept (then it is &lt;output&gt;/work). Study area: a legal-dong code if given, else the centre point and radius.</translation>
-    </message>
-    <message>
-      <source>Orthoimage TIFs or folders</source>
-      <translation>Orthoimage TIFs or folders</translation>
-    </message>
-    <message>
-      <source>DEM</source>
-      <translation>DEM</translation>
-    </message>
-    <message>
-      <source>Buildings (TL_SPBD_BULD)</source>
-      <translation>Buildings (TL_SPBD_BULD)</translation>
-    </message>
-    <message>
-      <source>Roads (TL_SPRD_MANAGE)</source>
-      <translation>Roads (TL_SPRD_MANAGE)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (TL_SCCO_EMD)</source>
-      <translation>Legal dongs (TL_SCCO_EMD)</translation>
-    </message>
-    <message>
-      <source>Centre of the study area</source>
-      <translation>Centre of the study area</translation>
-    </message>
-    <message>
-      <source>Radius of the study area (m)</source>
-      <translation>Radius of the study area (m)</translation>
-    </message>
-    <message>
-      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
-      <translation>Legal-dong code EMD_CD (instead of centre and radius)</translation>
-    </message>
-    <message>
-      <source>Target CRS</source>
-      <translation>Target CRS</translation>
-    </message>
-    <message>
-      <source>Maximum edge length (m)</source>
-      <translation>Maximum edge length (m)</translation>
-    </message>
-    <message>
-      <source>Vertical tolerance (m)</source>
-      <translation>Vertical tolerance (m)</translation>
-    </message>
-    <message>
-      <source>Texture scale S (0 &lt; S ≤ 1)</source>
-      <translation>Texture scale S (0 &lt; S ≤ 1)</translation>
-    </message>
-    <message>
-      <source>Schema folder (with citygml3-all.xsd)</source>
-      <translation>Schema folder (with citygml3-all.xsd)</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step); everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step); everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
     </message>
     <message>
       <source>Keep the intermediate files</source>
@@ -108,20 +56,68 @@
       <translation>Buildings written</translation>
     </message>
     <message>
+      <source>Buildings with the default height</source>
+      <translation>Buildings with the default height</translation>
+    </message>
+    <message>
+      <source>Surfaces left untextured outside the orthoimage</source>
+      <translation>Surfaces left untextured outside the orthoimage</translation>
+    </message>
+    <message>
       <source>Seconds per step (JSON)</source>
       <translation>Seconds per step (JSON)</translation>
     </message>
     <message>
-      <source>No orthoimage TIF has a valid map-sheet number.</source>
-      <translation>No orthoimage TIF has a valid map-sheet number.</translation>
+      <source>Orthoimage TIFs or folders</source>
+      <translation>Orthoimage TIFs or folders</translation>
     </message>
     <message>
-      <source>Seconds per step: {times}</source>
-      <translation>Seconds per step: {times}</translation>
+      <source>DEM</source>
+      <translation>DEM</translation>
     </message>
     <message>
-      <source>Step {n}/{total}: {algorithm}</source>
-      <translation>Step {n}/{total}: {algorithm}</translation>
+      <source>Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)</source>
+      <translation>Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)</translation>
+    </message>
+    <message>
+      <source>Roads (TL_SPRD_MANAGE)</source>
+      <translation>Roads (TL_SPRD_MANAGE)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (TL_SCCO_EMD)</source>
+      <translation>Legal dongs (TL_SCCO_EMD)</translation>
+    </message>
+    <message>
+      <source>Target CRS</source>
+      <translation>Target CRS</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>Maximum edge length (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>Vertical tolerance (m)</translation>
+    </message>
+    <message>
+      <source>Texture scale S (0 &lt; S ≤ 1)</source>
+      <translation>Texture scale S (0 &lt; S ≤ 1)</translation>
+    </message>
+    <message>
+      <source>Surfaces outside the orthoimage</source>
+      <translation>Surfaces outside the orthoimage</translation>
+    </message>
+    <message>
+      <source>Schema folder overriding the shipped schemas (with citygml3-all.xsd)</source>
+      <translation>Schema folder overriding the shipped schemas (with citygml3-all.xsd)</translation>
+    </message>
+    <message>
+      <source>Fail and name the missing sheets</source>
+      <translation>Fail and name the missing sheets</translation>
+    </message>
+    <message>
+      <source>Leave them untextured (warning)</source>
+      <translation>Leave them untextured (warning)</translation>
     </message>
     <message>
       <source>Build colour store</source>
@@ -240,22 +236,6 @@
       <translation>Building footprints (wit:preparevectors)</translation>
     </message>
     <message>
-      <source>Storey height (m)</source>
-      <translation>Storey height (m)</translation>
-    </message>
-    <message>
-      <source>Height field (m), when floors are unknown</source>
-      <translation>Height field (m), when floors are unknown</translation>
-    </message>
-    <message>
-      <source>Height expression (m), when floors and field are unknown</source>
-      <translation>Height expression (m), when floors and field are unknown</translation>
-    </message>
-    <message>
-      <source>Default height (m)</source>
-      <translation>Default height (m)</translation>
-    </message>
-    <message>
       <source>Base height from the DEM</source>
       <translation>Base height from the DEM</translation>
     </message>
@@ -270,10 +250,6 @@
     <message>
       <source>Solids</source>
       <translation>Solids</translation>
-    </message>
-    <message>
-      <source>Buildings with the default height</source>
-      <translation>Buildings with the default height</translation>
     </message>
     <message>
       <source>Minimum on the footprint</source>
@@ -296,6 +272,14 @@
       <translation>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).</translation>
     </message>
     <message>
+      <source>Centre of the study area</source>
+      <translation>Centre of the study area</translation>
+    </message>
+    <message>
+      <source>Radius of the study area (m)</source>
+      <translation>Radius of the study area (m)</translation>
+    </message>
+    <message>
       <source>Number of buildings (0 = from the radius)</source>
       <translation>Number of buildings (0 = from the radius)</translation>
     </message>
@@ -314,6 +298,10 @@
     <message>
       <source>Generate orthoimage tiles</source>
       <translation>Generate orthoimage tiles</translation>
+    </message>
+    <message>
+      <source>Buildings (TL_SPBD_BULD)</source>
+      <translation>Buildings (TL_SPBD_BULD)</translation>
     </message>
     <message>
       <source>Orthoimage tile folder</source>
@@ -446,10 +434,6 @@
     <message>
       <source>Road width when ROAD_BT is missing (m)</source>
       <translation>Road width when ROAD_BT is missing (m)</translation>
-    </message>
-    <message>
-      <source>Study area polygons (instead of centre and radius)</source>
-      <translation>Study area polygons (instead of centre and radius)</translation>
     </message>
     <message>
       <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
@@ -612,6 +596,38 @@
       <translation> or </translation>
     </message>
     <message>
+      <source>Study area polygons (instead of centre and radius)</source>
+      <translation>Study area polygons (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</source>
+      <translation>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Storey height (m)</source>
+      <translation>Storey height (m)</translation>
+    </message>
+    <message>
+      <source>Height field (m), when floors are unknown (empty = recognised by name)</source>
+      <translation>Height field (m), when floors are unknown (empty = recognised by name)</translation>
+    </message>
+    <message>
+      <source>Height expression (m), when floors and field are unknown</source>
+      <translation>Height expression (m), when floors and field are unknown</translation>
+    </message>
+    <message>
+      <source>Default height (m)</source>
+      <translation>Default height (m)</translation>
+    </message>
+    <message>
+      <source>Code field of the district layer (empty = EMD_CD)</source>
+      <translation>Code field of the district layer (empty = EMD_CD)</translation>
+    </message>
+    <message>
+      <source>Name field of the district layer (empty = EMD_KOR_NM, EMD_ENG_NM)</source>
+      <translation>Name field of the district layer (empty = EMD_KOR_NM, EMD_ENG_NM)</translation>
+    </message>
+    <message>
       <source>Triangulate terrain (constrained Delaunay)</source>
       <translation>Triangulate terrain (constrained Delaunay)</translation>
     </message>
@@ -674,6 +690,10 @@
     <message>
       <source>CityGML files</source>
       <translation>CityGML files</translation>
+    </message>
+    <message>
+      <source>Schema folder (with citygml3-all.xsd)</source>
+      <translation>Schema folder (with citygml3-all.xsd)</translation>
     </message>
     <message>
       <source>CSV report (one row per problem)</source>

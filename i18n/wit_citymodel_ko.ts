@@ -20,60 +20,8 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the building, road and legal-dong layers for the study area, triangulate the terrain, extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step). Intermediate files go to a work folder that is deleted at the end unless it is kept (then it is &lt;output&gt;/work). Study area: a legal-dong code if given, else the centre point and radius.</source>
-      <translation>전체 처리를 한 번에 실행합니다(하나의 진행 막대, 모든 단계에서 취소 가능): NGII 도엽 TIF에 좌표 부여, 병합(WIT 페더링 + 게인), 연구 지역의 건물·도로·법정동 레이어 준비, 지형 삼각분할, LoD1 건물 돌출, 정사영상 텍스처, CityGML 3.0 쓰기, 검증, 품질 측정. 출력 폴더에는 model.gml과 텍스처, validation.html, metrics.csv(및 metrics.html), steps.json(단계별 시간)이 생깁니다. 중간 파일은 작업 폴더에 두며, 유지를 선택하지 않으면 끝에 지웁니다(유지하면 &lt;출력&gt;/work). 연구 지역: 법정동 코드가 있으면 그것, 없으면 중심점과 반경.</translation>
-    </message>
-    <message>
-      <source>Orthoimage TIFs or folders</source>
-      <translation>정사영상 TIF 또는 폴더</translation>
-    </message>
-    <message>
-      <source>DEM</source>
-      <translation>DEM (수치표고모델)</translation>
-    </message>
-    <message>
-      <source>Buildings (TL_SPBD_BULD)</source>
-      <translation>건물 (TL_SPBD_BULD)</translation>
-    </message>
-    <message>
-      <source>Roads (TL_SPRD_MANAGE)</source>
-      <translation>도로 (TL_SPRD_MANAGE)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (TL_SCCO_EMD)</source>
-      <translation>법정동 (TL_SCCO_EMD)</translation>
-    </message>
-    <message>
-      <source>Centre of the study area</source>
-      <translation>연구 지역 중심</translation>
-    </message>
-    <message>
-      <source>Radius of the study area (m)</source>
-      <translation>연구 지역 반경 (m)</translation>
-    </message>
-    <message>
-      <source>Legal-dong code EMD_CD (instead of centre and radius)</source>
-      <translation>법정동 코드 EMD_CD (중심·반경 대신)</translation>
-    </message>
-    <message>
-      <source>Target CRS</source>
-      <translation>대상 좌표계</translation>
-    </message>
-    <message>
-      <source>Maximum edge length (m)</source>
-      <translation>최대 변 길이 (m)</translation>
-    </message>
-    <message>
-      <source>Vertical tolerance (m)</source>
-      <translation>수직 허용오차 (m)</translation>
-    </message>
-    <message>
-      <source>Texture scale S (0 &lt; S ≤ 1)</source>
-      <translation>텍스처 배율 S (0 &lt; S ≤ 1)</translation>
-    </message>
-    <message>
-      <source>Schema folder (with citygml3-all.xsd)</source>
-      <translation>스키마 폴더 (citygml3-all.xsd 포함)</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step); everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며, 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), steps.json(단계별 시간)이 생깁니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
     </message>
     <message>
       <source>Keep the intermediate files</source>
@@ -108,20 +56,68 @@
       <translation>생성된 건물 수</translation>
     </message>
     <message>
+      <source>Buildings with the default height</source>
+      <translation>기본 높이를 쓴 건물 수</translation>
+    </message>
+    <message>
+      <source>Surfaces left untextured outside the orthoimage</source>
+      <translation>정사영상 밖이라 텍스처 없이 남긴 면</translation>
+    </message>
+    <message>
       <source>Seconds per step (JSON)</source>
       <translation>단계별 시간(초, JSON)</translation>
     </message>
     <message>
-      <source>No orthoimage TIF has a valid map-sheet number.</source>
-      <translation>유효한 도엽번호를 가진 정사영상 TIF가 없습니다.</translation>
+      <source>Orthoimage TIFs or folders</source>
+      <translation>정사영상 TIF 또는 폴더</translation>
     </message>
     <message>
-      <source>Seconds per step: {times}</source>
-      <translation>단계별 시간(초): {times}</translation>
+      <source>DEM</source>
+      <translation>DEM (수치표고모델)</translation>
     </message>
     <message>
-      <source>Step {n}/{total}: {algorithm}</source>
-      <translation>단계 {n}/{total}: {algorithm}</translation>
+      <source>Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)</source>
+      <translation>건물 (TL_SPBD_BULD, 국토지리정보원, AL_D010, 오픈스트리트맵…)</translation>
+    </message>
+    <message>
+      <source>Roads (TL_SPRD_MANAGE)</source>
+      <translation>도로 (TL_SPRD_MANAGE)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (TL_SCCO_EMD)</source>
+      <translation>법정동 (TL_SCCO_EMD)</translation>
+    </message>
+    <message>
+      <source>Target CRS</source>
+      <translation>대상 좌표계</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>최대 변 길이 (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>수직 허용오차 (m)</translation>
+    </message>
+    <message>
+      <source>Texture scale S (0 &lt; S ≤ 1)</source>
+      <translation>텍스처 배율 S (0 &lt; S ≤ 1)</translation>
+    </message>
+    <message>
+      <source>Surfaces outside the orthoimage</source>
+      <translation>정사영상 밖의 면</translation>
+    </message>
+    <message>
+      <source>Schema folder overriding the shipped schemas (with citygml3-all.xsd)</source>
+      <translation>포함된 스키마 대신 쓸 스키마 폴더 (citygml3-all.xsd 포함)</translation>
+    </message>
+    <message>
+      <source>Fail and name the missing sheets</source>
+      <translation>실패하고 빠진 도엽을 알림</translation>
+    </message>
+    <message>
+      <source>Leave them untextured (warning)</source>
+      <translation>텍스처 없이 남김 (경고)</translation>
     </message>
     <message>
       <source>Build colour store</source>
@@ -240,22 +236,6 @@
       <translation>건물 외곽선 (wit:preparevectors)</translation>
     </message>
     <message>
-      <source>Storey height (m)</source>
-      <translation>층고 (m)</translation>
-    </message>
-    <message>
-      <source>Height field (m), when floors are unknown</source>
-      <translation>높이 필드 (m), 층수를 모를 때</translation>
-    </message>
-    <message>
-      <source>Height expression (m), when floors and field are unknown</source>
-      <translation>높이 표현식 (m), 층수와 필드를 모를 때</translation>
-    </message>
-    <message>
-      <source>Default height (m)</source>
-      <translation>기본 높이 (m)</translation>
-    </message>
-    <message>
       <source>Base height from the DEM</source>
       <translation>DEM에서 구한 밑면 높이</translation>
     </message>
@@ -270,10 +250,6 @@
     <message>
       <source>Solids</source>
       <translation>솔리드 수</translation>
-    </message>
-    <message>
-      <source>Buildings with the default height</source>
-      <translation>기본 높이를 쓴 건물 수</translation>
     </message>
     <message>
       <source>Minimum on the footprint</source>
@@ -296,6 +272,14 @@
       <translation>중심점 주변의 국가 공간정보 형식 샘플을 항상 같은 결과로(시드 기준) 생성합니다: 건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD)은 .cpg 없는 CP949 셰이프파일(EPSG:5179)이며 실제 데이터에 있는 몇 가지 오류를 포함합니다. DEM은 EPSG:5186 GeoTIFF로 NoData 지정 없이 -9999 셀을 가지며, 정사영상은 NGII 1:5,000 도엽번호로 이름 붙인 좌표 없는 TIF(도엽 범위 + 50 m, 타일마다 다른 밝기)입니다. 반경 또는 건물 수(0 = 반경으로 결정) 중 하나를 지정하십시오.</translation>
     </message>
     <message>
+      <source>Centre of the study area</source>
+      <translation>연구 지역 중심</translation>
+    </message>
+    <message>
+      <source>Radius of the study area (m)</source>
+      <translation>연구 지역 반경 (m)</translation>
+    </message>
+    <message>
       <source>Number of buildings (0 = from the radius)</source>
       <translation>건물 수 (0 = 반경으로 결정)</translation>
     </message>
@@ -314,6 +298,10 @@
     <message>
       <source>Generate orthoimage tiles</source>
       <translation>정사영상 타일 생성</translation>
+    </message>
+    <message>
+      <source>Buildings (TL_SPBD_BULD)</source>
+      <translation>건물 (TL_SPBD_BULD)</translation>
     </message>
     <message>
       <source>Orthoimage tile folder</source>
@@ -446,10 +434,6 @@
     <message>
       <source>Road width when ROAD_BT is missing (m)</source>
       <translation>ROAD_BT가 없을 때 도로 폭 (m)</translation>
-    </message>
-    <message>
-      <source>Study area polygons (instead of centre and radius)</source>
-      <translation>연구 지역 폴리곤 (중심·반경 대신)</translation>
     </message>
     <message>
       <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
@@ -612,6 +596,38 @@
       <translation> 또는 </translation>
     </message>
     <message>
+      <source>Study area polygons (instead of centre and radius)</source>
+      <translation>연구 지역 폴리곤 (중심·반경 대신)</translation>
+    </message>
+    <message>
+      <source>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</source>
+      <translation>법정동: 코드(EMD_CD) 또는 이름, 예: 11680101 또는 역삼동 (중심점과 반경 대신)</translation>
+    </message>
+    <message>
+      <source>Storey height (m)</source>
+      <translation>층고 (m)</translation>
+    </message>
+    <message>
+      <source>Height field (m), when floors are unknown (empty = recognised by name)</source>
+      <translation>높이 필드 (m), 층수를 모를 때 (비우면 이름으로 인식)</translation>
+    </message>
+    <message>
+      <source>Height expression (m), when floors and field are unknown</source>
+      <translation>높이 표현식 (m), 층수와 필드를 모를 때</translation>
+    </message>
+    <message>
+      <source>Default height (m)</source>
+      <translation>기본 높이 (m)</translation>
+    </message>
+    <message>
+      <source>Code field of the district layer (empty = EMD_CD)</source>
+      <translation>법정동 레이어의 코드 필드 (비우면 EMD_CD)</translation>
+    </message>
+    <message>
+      <source>Name field of the district layer (empty = EMD_KOR_NM, EMD_ENG_NM)</source>
+      <translation>법정동 레이어의 이름 필드 (비우면 EMD_KOR_NM, EMD_ENG_NM)</translation>
+    </message>
+    <message>
       <source>Triangulate terrain (constrained Delaunay)</source>
       <translation>지형 삼각분할 (제약 들로네)</translation>
     </message>
@@ -674,6 +690,10 @@
     <message>
       <source>CityGML files</source>
       <translation>CityGML 파일</translation>
+    </message>
+    <message>
+      <source>Schema folder (with citygml3-all.xsd)</source>
+      <translation>스키마 폴더 (citygml3-all.xsd 포함)</translation>
     </message>
     <message>
       <source>CSV report (one row per problem)</source>

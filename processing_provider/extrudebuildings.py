@@ -5,16 +5,13 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
-    QgsProcessingParameterExpression,
-    QgsProcessingParameterField,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterVectorLayer,
 )
 
 from .base import WitAlgorithm
-from .expressions import checked_expression
+from .shared_parameters import add_height_parameters, height_options
 
 BASES = ("min", "median")
 
@@ -40,10 +37,6 @@ class ExtrudeBuildings(WitAlgorithm):
 
     BUILDINGS = "BUILDINGS"
     DEM = "DEM"
-    STOREY_HEIGHT = "STOREY_HEIGHT"
-    HEIGHT_FIELD = "HEIGHT_FIELD"
-    HEIGHT_EXPRESSION = "HEIGHT_EXPRESSION"
-    DEFAULT_HEIGHT = "DEFAULT_HEIGHT"
     BASE = "BASE"
     OUTPUT = "OUTPUT"
 
@@ -51,18 +44,7 @@ class ExtrudeBuildings(WitAlgorithm):
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.BUILDINGS, self.tr("Building footprints (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon]))
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
-        self.addParameter(QgsProcessingParameterNumber(
-            self.STOREY_HEIGHT, self.tr("Storey height (m)"), QgsProcessingParameterNumber.Double,
-            defaultValue=3.0, minValue=0.5))
-        self.addParameter(QgsProcessingParameterField(
-            self.HEIGHT_FIELD, self.tr("Height field (m), when floors are unknown"),
-            parentLayerParameterName=self.BUILDINGS, type=QgsProcessingParameterField.Numeric, optional=True))
-        self.addParameter(QgsProcessingParameterExpression(
-            self.HEIGHT_EXPRESSION, self.tr("Height expression (m), when floors and field are unknown"),
-            parentLayerParameterName=self.BUILDINGS, optional=True))
-        self.addParameter(QgsProcessingParameterNumber(
-            self.DEFAULT_HEIGHT, self.tr("Default height (m)"), QgsProcessingParameterNumber.Double,
-            defaultValue=3.0, minValue=0.1))
+        add_height_parameters(self, self.BUILDINGS)
         self.addParameter(QgsProcessingParameterEnum(
             self.BASE, self.tr("Base height from the DEM"),
             options=[self.tr("Minimum on the footprint"), self.tr("Median on the footprint")], defaultValue=0))
@@ -76,18 +58,9 @@ class ExtrudeBuildings(WitAlgorithm):
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
         from ..wit_plugin.extrude import run
-        from ..wit_plugin.heights import HeightOptions
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
-        fields = self.parameterAsFields(parameters, self.HEIGHT_FIELD, context)
-        expression = checked_expression(self, parameters, self.HEIGHT_EXPRESSION, buildings, context)
-        heights = HeightOptions(
-            height_field=fields[0] if fields else None,
-            expression_text=expression.text if expression else None,
-            expression=expression,
-            storey_height=self.parameterAsDouble(parameters, self.STOREY_HEIGHT, context),
-            default_height=self.parameterAsDouble(parameters, self.DEFAULT_HEIGHT, context),
-        )
+        heights, expression = height_options(self, parameters, context, buildings)
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
                     heights, BASES[self.parameterAsEnum(parameters, self.BASE, context)],

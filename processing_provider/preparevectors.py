@@ -1,6 +1,5 @@
 """wit:preparevectors — reproject, repair, clip and simplify the road-name-address layers."""
 from qgis.core import (
-    QgsCoordinateReferenceSystem,
     QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputFile,
@@ -9,14 +8,12 @@ from qgis.core import (
     QgsProcessingParameterCrs,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterNumber,
-    QgsProcessingParameterPoint,
     QgsProcessingParameterString,
     QgsProcessingParameterVectorLayer,
 )
 
 from .base import WitAlgorithm, crs_string
-
-WGS84 = QgsCoordinateReferenceSystem("EPSG:4326")
+from .shared_parameters import add_area_parameters, study_area
 
 
 class PrepareVectors(WitAlgorithm):
@@ -43,10 +40,6 @@ class PrepareVectors(WitAlgorithm):
     BUILDINGS = "BUILDINGS"
     ROADS = "ROADS"
     DISTRICTS = "DISTRICTS"
-    CENTER = "CENTER"
-    RADIUS = "RADIUS"
-    AREA_LAYER = "AREA_LAYER"
-    DISTRICT_CODE = "DISTRICT_CODE"
     TARGET_CRS = "TARGET_CRS"
     BUILDING_TOLERANCE = "BUILDING_TOLERANCE"
     ROAD_TOLERANCE = "ROAD_TOLERANCE"
@@ -62,16 +55,7 @@ class PrepareVectors(WitAlgorithm):
                                   (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"),
                                    QgsProcessing.TypeVectorPolygon)):
             self.addParameter(QgsProcessingParameterVectorLayer(name, label, [kind], optional=True))
-        # Optional with defaults: QGIS 3.22 does not fill missing mandatory points/CRSs with defaults.
-        self.addParameter(QgsProcessingParameterPoint(
-            self.CENTER, self.tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]",
-            optional=True))
-        self._number(self.RADIUS, self.tr("Radius of the study area (m)"), 1000.0, 1.0)
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.AREA_LAYER, self.tr("Study area polygons (instead of centre and radius)"),
-            [QgsProcessing.TypeVectorPolygon], optional=True))
-        self.addParameter(QgsProcessingParameterString(
-            self.DISTRICT_CODE, self.tr("Legal-dong code EMD_CD (instead of centre and radius)"), optional=True))
+        add_area_parameters(self)
         self.addParameter(QgsProcessingParameterCrs(
             self.TARGET_CRS, self.tr("Target CRS"), defaultValue="EPSG:5186", optional=True))
         self._number(self.BUILDING_TOLERANCE, self.tr("Douglas–Peucker tolerance, buildings (m)"), 0.5, 0.0)
@@ -97,7 +81,7 @@ class PrepareVectors(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
-        from ..wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+        from ..wit_plugin.vectors import PrepareConfig, prepare_vectors
 
         def source(name):
             layer = self.parameterAsVectorLayer(parameters, name, context)
@@ -106,15 +90,7 @@ class PrepareVectors(WitAlgorithm):
         buildings, roads, districts = source(self.BUILDINGS), source(self.ROADS), source(self.DISTRICTS)
         if not (buildings or roads or districts):
             raise QgsProcessingException(self.tr("Give at least one of the building, road and district layers."))
-        code = self.parameterAsString(parameters, self.DISTRICT_CODE, context).strip()
-        area_layer = source(self.AREA_LAYER)
-        if code:
-            area = StudyArea.from_district_code(code)
-        elif area_layer:
-            area = StudyArea.from_layer(area_layer)
-        else:
-            point = self.parameterAsPoint(parameters, self.CENTER, context, WGS84)
-            area = StudyArea.circle(point.x(), point.y(), self.parameterAsDouble(parameters, self.RADIUS, context))
+        area = study_area(self, parameters, context)
         config = PrepareConfig(
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
             building_tolerance=self.parameterAsDouble(parameters, self.BUILDING_TOLERANCE, context),

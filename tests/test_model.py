@@ -18,7 +18,8 @@ from wit_plugin.sample import SampleConfig, generate_sample
 pytestmark = pytest.mark.slow
 
 MODEL_FILE = ROOT / "processing_provider" / "models" / "wit_citymodel.model3"
-INPUTS = ["ORTHO", "DEM", "BUILDINGS", "ROADS", "DISTRICTS", "CENTER", "RADIUS", "MAX_EDGE", "SCHEMA_DIR"]
+INPUTS = ["ORTHO", "DEM", "BUILDINGS", "ROADS", "DISTRICTS", "CENTER", "RADIUS", "STOREY_HEIGHT", "HEIGHT_FIELD",
+          "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT", "MAX_EDGE", "SCHEMA_DIR"]
 GML_OUT = "CITYGML:GML"
 REPORT_OUT = "VALIDATE:REPORT"
 CHAIN = ["GEOREFERENCE", "MERGE", "PREPARE", "TERRAIN", "EXTRUDE", "TEXTURE", "CITYGML", "VALIDATE"]
@@ -131,7 +132,7 @@ def test_model_is_valid_with_the_documented_inputs_and_outputs(qgis_processing):
     assert model.parameterDefinition("MAX_EDGE").defaultValue() == 5.0
     optional = {d.name() for d in model.parameterDefinitions()
                 if d.flags() & d.FlagOptional}
-    assert optional == {"ROADS", "DISTRICTS", "CENTER", "SCHEMA_DIR"}
+    assert optional == {"ROADS", "DISTRICTS", "CENTER", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "SCHEMA_DIR"}
     children = model.childAlgorithms()
     assert set(children) == set(CHAIN)
     # left to right in the modeler, in chain order, each with a description

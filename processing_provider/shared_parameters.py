@@ -1,0 +1,112 @@
+"""Parameters several algorithms share (study area, building heights): declared and read in one place,
+so wit:preparevectors, wit:extrudebuildings, wit:citymodel and wit:citymodeltiles take them alike."""
+from __future__ import annotations
+
+from qgis.core import (
+    QgsCoordinateReferenceSystem,
+    QgsProcessing,
+    QgsProcessingParameterDefinition,
+    QgsProcessingParameterExpression,
+    QgsProcessingParameterField,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterPoint,
+    QgsProcessingParameterString,
+    QgsProcessingParameterVectorLayer,
+)
+
+from .base import tr
+from .expressions import checked_expression
+
+WGS84 = QgsCoordinateReferenceSystem("EPSG:4326")
+
+CENTER, RADIUS, AREA_LAYER = "CENTER", "RADIUS", "AREA_LAYER"
+DISTRICT_CODE, DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD = "DISTRICT_CODE", "DISTRICT_CODE_FIELD", "DISTRICT_NAME_FIELD"
+STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
+    "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
+
+
+def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
+    parameter.setFlags(parameter.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+    return parameter
+
+
+def add_area_parameters(algorithm, radius: float = 1000.0) -> None:
+    """Centre + radius (default), or a polygon layer, or a legal dong by code or name."""
+    # Optional with a default: QGIS 3.22 does not fill a missing mandatory point with its default.
+    algorithm.addParameter(QgsProcessingParameterPoint(
+        CENTER, tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]", optional=True))
+    algorithm.addParameter(QgsProcessingParameterNumber(
+        RADIUS, tr("Radius of the study area (m)"), QgsProcessingParameterNumber.Double, defaultValue=radius,
+        minValue=1.0))
+    algorithm.addParameter(QgsProcessingParameterVectorLayer(
+        AREA_LAYER, tr("Study area polygons (instead of centre and radius)"), [QgsProcessing.TypeVectorPolygon],
+        optional=True))
+    algorithm.addParameter(QgsProcessingParameterString(
+        DISTRICT_CODE, tr("Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)"),
+        optional=True))
+    algorithm.addParameter(_advanced(QgsProcessingParameterString(
+        DISTRICT_CODE_FIELD, tr("Code field of the district layer (empty = EMD_CD)"), optional=True)))
+    algorithm.addParameter(_advanced(QgsProcessingParameterString(
+        DISTRICT_NAME_FIELD, tr("Name field of the district layer (empty = EMD_KOR_NM, EMD_ENG_NM)"), optional=True)))
+
+
+def study_area(algorithm, parameters: dict, context):
+    """The core's StudyArea: a district if one is named, else the area layer, else the circle."""
+    from ..wit_plugin.vectors import StudyArea
+
+    code = algorithm.parameterAsString(parameters, DISTRICT_CODE, context).strip()
+    if code:
+        return StudyArea.from_district_code(
+            code, algorithm.parameterAsString(parameters, DISTRICT_CODE_FIELD, context).strip() or None,
+            algorithm.parameterAsString(parameters, DISTRICT_NAME_FIELD, context).strip() or None)
+    area_layer = algorithm.parameterAsVectorLayer(parameters, AREA_LAYER, context)
+    if area_layer is not None:
+        return StudyArea.from_layer(area_layer.source())
+    point = algorithm.parameterAsPoint(parameters, CENTER, context, WGS84)
+    return StudyArea.circle(point.x(), point.y(), algorithm.parameterAsDouble(parameters, RADIUS, context))
+
+
+def add_height_parameters(algorithm, parent: str) -> None:
+    """Storey height, height field, height expression and default height (SPEC §4, wit_plugin.heights)."""
+    algorithm.addParameter(QgsProcessingParameterNumber(
+        STOREY_HEIGHT, tr("Storey height (m)"), QgsProcessingParameterNumber.Double, defaultValue=3.0, minValue=0.5))
+    algorithm.addParameter(QgsProcessingParameterField(
+        HEIGHT_FIELD, tr("Height field (m), when floors are unknown (empty = recognised by name)"),
+        parentLayerParameterName=parent, type=QgsProcessingParameterField.Any, optional=True))
+    algorithm.addParameter(QgsProcessingParameterExpression(
+        HEIGHT_EXPRESSION, tr("Height expression (m), when floors and field are unknown"),
+        parentLayerParameterName=parent, optional=True))
+    algorithm.addParameter(QgsProcessingParameterNumber(
+        DEFAULT_HEIGHT, tr("Default height (m)"), QgsProcessingParameterNumber.Double, defaultValue=3.0, minValue=0.1))
+
+
+def height_options(algorithm, parameters: dict, context, layer):
+    """The core's HeightOptions, with the expression checked against ``layer`` (see expressions.py).
+
+    Returns (options, the checked expression or None) so the caller can warn about failures after the run.
+    """
+    from ..wit_plugin.heights import HeightOptions
+
+    fields = algorithm.parameterAsFields(parameters, HEIGHT_FIELD, context)
+    expression = checked_expression(algorithm, parameters, HEIGHT_EXPRESSION, layer, context)
+    return HeightOptions(
+        height_field=fields[0] if fields else None,
+        expression_text=expression.text if expression else None,
+        expression=expression,
+        storey_height=algorithm.parameterAsDouble(parameters, STOREY_HEIGHT, context),
+        default_height=algorithm.parameterAsDouble(parameters, DEFAULT_HEIGHT, context),
+    ), expression
+
+
+SCHEMA_SETTING = "wit_citymodel/schema_dir"
+
+
+def schema_choice(algorithm, parameters: dict, name: str, context) -> tuple[str | None, str]:
+    """(the folder overriding the shipped schemas — parameter, else QGIS setting — or None, the download cache)."""
+    from pathlib import Path
+
+    from qgis.core import QgsApplication, QgsSettings
+
+    configured = (algorithm.parameterAsFile(parameters, name, context)
+                  or QgsSettings().value(SCHEMA_SETTING, "", type=str))
+    return configured or None, str(Path(QgsApplication.qgisSettingsDirPath()) / "cache" / "wit_citymodel")

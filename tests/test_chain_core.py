@@ -1,0 +1,171 @@
+"""The chain in the core (wit_plugin.chain, no QGIS): any building layer's heights, coverage checked
+before the heavy steps (naming the missing sheets), surfaces outside the ortho left untextured on
+request, and nothing left behind when a run fails."""
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from lxml import etree
+from osgeo import gdal, ogr, osr
+
+from wit_plugin import model
+from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+from wit_plugin.errors import InputError
+from wit_plugin.heights import HeightOptions
+from wit_plugin.sample import SampleConfig, generate_sample
+from wit_plugin.vector_io import read_layer
+from wit_plugin.vectors import StudyArea
+
+NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "core": "http://www.opengis.net/citygml/3.0",
+      "gen": "http://www.opengis.net/citygml/generics/3.0", "con": "http://www.opengis.net/citygml/construction/3.0",
+      "gml": "http://www.opengis.net/gml/3.2"}
+SUSEO = (127.1020, 37.4876)
+
+
+@pytest.fixture(scope="module")
+def sample(tmp_path_factory):
+    """A small sample around Suseo; its study area straddles sheets 37709004 (west) and 37709005."""
+    return generate_sample(tmp_path_factory.mktemp("sample"), SampleConfig(radius_m=300.0, seed=5,
+                                                                             ortho_pixel_size=1.0))
+
+
+def _options(**kwargs) -> ChainOptions:
+    base = dict(area=StudyArea.circle(*SUSEO, 220.0), max_edge=15.0, metrics=False)
+    base.update(kwargs)
+    return ChainOptions(**base)
+
+
+def _inputs(sample, **kwargs) -> ChainInputs:
+    base = dict(ortho=[str(sample.ortho_tiles[0].parent)], dem=str(sample.dem), buildings=str(sample.buildings),
+                roads=str(sample.roads), districts=str(sample.districts))
+    base.update(kwargs)
+    return ChainInputs(**base)
+
+
+def _osm_layer(sample, path: Path) -> tuple[Path, dict[str, tuple]]:
+    """The sample's footprints as an OpenStreetMap export: ``height`` (text with units, sometimes),
+    ``building:levels``, ``name`` — no GRO_FLO_CO. Returns the layer and osm_id → (height, levels)."""
+    src = read_layer(sample.buildings, encoding="CP949")
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    srs = osr.SpatialReference()
+    srs.ImportFromWkt(src.crs.to_wkt())
+    layer = ds.CreateLayer("buildings", srs, ogr.wkbPolygon)
+    for name, kind in (("osm_id", ogr.OFTString), ("building", ogr.OFTString), ("height", ogr.OFTString),
+                       ("building:levels", ogr.OFTString), ("name", ogr.OFTString)):
+        layer.CreateField(ogr.FieldDefn(name, kind))
+    rows = {}
+    for k, geom in enumerate(src.geoms):
+        if geom is None:
+            continue
+        osm_id = f"way/{1000 + k}"
+        height = ("", f"{10 + k % 7}.5", f"{20 + k % 5} m", "")[k % 4]
+        levels = ("4", "", "", "")[k % 4] if k % 8 else ""  # every 8th has neither: default height
+        rows[osm_id] = (height, levels)
+        feature = ogr.Feature(layer.GetLayerDefn())
+        for field, value in (("osm_id", osm_id), ("building", "yes"), ("height", height),
+                             ("building:levels", levels), ("name", f"건물 {k}")):
+            if value:
+                feature.SetField(field, value)
+        feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geom)))
+        layer.CreateFeature(feature)
+    ds = None
+    return path, rows
+
+
+def test_openstreetmap_heights_flow_into_the_citygml(sample, tmp_path):
+    osm, rows = _osm_layer(sample, tmp_path / "osm.gpkg")
+    report = run_city_model(_inputs(sample, buildings=str(osm), roads=None, districts=None), _options(),
+                            tmp_path / "city")
+    assert report.valid and report.errors == 0
+    doc = etree.parse(report.gml)
+    buildings = doc.findall(".//bldg:Building", NS)
+    assert len(buildings) == report.buildings > 20
+
+    def generic(building, name):
+        values = building.xpath(f"core:genericAttribute/*[gen:name='{name}']/gen:value/text()", namespaces=NS)
+        return values[0] if values else None
+
+    expected_default = 0
+    for building in buildings:
+        osm_id = generic(building, "osm_id")
+        height_text, levels = rows[osm_id]
+        height = float(building.find("con:height/con:Height/con:value", NS).text)
+        if height_text:
+            assert height == pytest.approx(float(height_text.split()[0]), abs=5e-4)
+            assert generic(building, model.HEIGHT_RULE) == "height (m)"
+            assert generic(building, "height") == height_text  # the source attribute, not shadowed
+            assert building.find("con:height/con:Height/con:status", NS).text == "measured"
+        elif levels:
+            assert height == pytest.approx(3.0 * int(levels)) and generic(building, model.HEIGHT_SOURCE) == "floors"
+            assert building.find("bldg:storeysAboveGround", NS).text == levels
+        else:
+            expected_default += 1
+            assert generic(building, model.HEIGHT_SOURCE) == "default" and height == 3.0
+    assert report.default_heights == expected_default > 0
+
+
+def test_an_explicit_height_field_and_expression(sample, tmp_path):
+    osm, rows = _osm_layer(sample, tmp_path / "osm.gpkg")
+    heights = HeightOptions(expression_text="(levels) * 4", expression=lambda a: float(a["building:levels"]) * 4
+                            if a.get("building:levels") else None, default_height=7.0)
+    report = run_city_model(_inputs(sample, buildings=str(osm), roads=None, districts=None),
+                            _options(heights=heights), tmp_path / "city")
+    doc = etree.parse(report.gml)
+    values = {float(v) for v in doc.xpath("//con:height/con:Height/con:value/text()", namespaces=NS)}
+    assert values == {16.0, 7.0}  # the expression replaces the recognised height field; the rest default
+
+
+def test_missing_sheet_is_named_in_seconds_and_nothing_is_written(sample, tmp_path):
+    ortho = tmp_path / "ortho"
+    ortho.mkdir()
+    for tile in sample.ortho_tiles:
+        if "37709004" not in tile.name:
+            shutil.copy(tile, ortho / tile.name)
+    out = tmp_path / "city"
+    start = time.perf_counter()
+    with pytest.raises(InputError, match=r"uncovered .*the sheets that would cover it: 37709004\. Add those TIFs"):
+        run_city_model(_inputs(sample, ortho=[str(ortho)]), _options(area=StudyArea.circle(*SUSEO, 290.0)), out)
+    assert time.perf_counter() - start < 60  # before georeferencing or meshing anything (generous bound)
+    assert list(out.iterdir()) == []
+
+
+def test_outside_the_ortho_left_untextured_on_request(sample, tmp_path):
+    ortho = tmp_path / "ortho"
+    ortho.mkdir()
+    kept = [t for t in sample.ortho_tiles if "37709004" not in t.name]
+    for tile in kept:
+        shutil.copy(tile, ortho / tile.name)
+    report = run_city_model(_inputs(sample, ortho=[str(ortho)]),
+                            _options(area=StudyArea.circle(*SUSEO, 290.0), outside_ortho="untextured"),
+                            tmp_path / "city")
+    assert report.valid and report.untextured_outside > 0
+    assert sorted(p.name for p in Path(report.output).iterdir()) == [
+        "model.gml", "model_textures", "steps.json", "validation.html"]
+
+
+def test_dem_that_stops_short_is_named(sample, tmp_path):
+    short = tmp_path / "dem_short.tif"
+    ds = gdal.Open(str(sample.dem))
+    gt = ds.GetGeoTransform()
+    gdal.Translate(str(short), ds, srcWin=[0, 0, ds.RasterXSize // 2, ds.RasterYSize])  # the western half
+    east = gt[0] + gt[1] * (ds.RasterXSize // 2)
+    with pytest.raises(InputError, match=r"does not cover the area .* stops short by [\d,.]+ m to the east"):
+        run_city_model(_inputs(sample, dem=str(short)), _options(), tmp_path / "city")
+    assert east < 209020.9 + 220  # (the cut really is inside the area)
+    assert list((tmp_path / "city").iterdir()) == []
+
+
+def test_district_by_name_and_the_whole_chain_result(sample, tmp_path):
+    districts = read_layer(sample.districts, encoding="CP949")
+    names = [n for n in districts.columns["EMD_KOR_NM"]]
+    suseo = names[int(np.argmax([g.area for g in districts.geoms]))]
+    report = run_city_model(_inputs(sample), _options(area=StudyArea.from_district_code(suseo), metrics=True),
+                            tmp_path / "city")
+    assert report.valid and report.buildings > 0 and report.metrics
+    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude",
+                                    "texture", "citygml", "validate", "metrics"]

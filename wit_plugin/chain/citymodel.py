@@ -1,0 +1,249 @@
+"""The whole chain in one call, in the core: raw national data → validated, textured CityGML 3.0.
+
+``wit:citymodel`` is a thin adapter over :func:`run_city_model`, and the tiled run
+(``wit_plugin.tiles``) calls it once per tile on Dask workers, without QGIS. Order of the steps:
+
+1. prepare the vectors (fast) — the study area, grown to hold the buildings that cross its edge,
+   is then known exactly;
+2. coverage: the DEM and the orthoimage sheets (from their sheet numbers) must cover that area —
+   checked in seconds, before anything heavy, naming what is missing;
+3. georeference (as VRTs pointing at the untouched pixels) and merge only the sheets the area needs;
+4. terrain TIN, 5. LoD1 solids, 6. textures, 7. CityGML, 8. validation, 9. quality metrics.
+
+Everything is written into a staging folder inside the output folder and moved into place at the
+end, so a failed or cancelled run leaves nothing behind (and never a half-updated output folder).
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .. import extrude, model, terrain
+from ..citygml import schemas
+from ..citygml.validate import validate_files, write_report_html
+from ..citygml.writer import CityGMLInputs, write_citygml
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..fileio import ensure_writable_dir
+from ..georef import OK, georeference_sheets, list_tifs, write_footprint_index
+from ..heights import HeightOptions
+from ..metrics import quality_report
+from ..mosaic import merge_tiles
+from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
+from ..vector_io import read_prepared
+from ..vectors import PrepareConfig, StudyArea, prepare_vectors
+from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
+
+OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
+DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
+
+#: (label, share of the progress bar) of each step, in order
+STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("terrain", 10), ("extrude", 4),
+         ("texture", 17), ("citygml", 17), ("validate", 25), ("metrics", 13))
+
+
+@dataclass
+class ChainInputs:
+    """The raw inputs: orthoimage TIFs named by sheet number (files or folders), DEM, layers."""
+
+    ortho: list[str]
+    dem: str
+    buildings: str
+    roads: str | None = None
+    districts: str | None = None
+
+
+@dataclass
+class ChainOptions:
+    """Everything else a run needs (defaults: the paper's and SPEC's)."""
+
+    area: StudyArea
+    target_crs: str = "EPSG:5186"
+    sheet_crs: str = "EPSG:4737"  # datum of the sheet numbers' degrees
+    margin: float = 50.0  # the NGII orthoimages' margin around their sheet
+    max_edge: float = 5.0
+    tolerance: float = 0.5
+    texture_scale: float = 1.0
+    heights: HeightOptions = field(default_factory=HeightOptions)
+    outside_ortho: str = "fail"  # or "untextured"
+    schema_dir: str | None = None  # override of the shipped schemas
+    schema_cache: str | None = None
+    keep_work: bool = False  # keep the intermediate files as <output>/work
+    metrics: bool = True
+    encoding: str | None = None  # of shapefile inputs, when their declaration is wrong
+
+
+@dataclass
+class ChainReport:
+    """What the run wrote and measured."""
+
+    output: str
+    gml: str
+    validation_report: str
+    metrics: str | None
+    valid: bool
+    errors: int
+    buildings: int
+    default_heights: int
+    untextured_outside: int
+    triangles: int
+    seconds: dict[str, float]
+    work: str | None = None
+
+    def as_dict(self) -> dict:
+        return {k: v for k, v in self.__dict__.items()}
+
+
+class _Clock:
+    """Runs the steps in order with their share of the progress bar, cancel checks and timing."""
+
+    def __init__(self, feedback: Feedback):
+        self.feedback, self.seconds = feedback, {}
+        total = sum(share for _, share in STEPS)
+        starts = [sum(share for _, share in STEPS[:k]) for k in range(len(STEPS))]
+        self.spans = {label: (100.0 * a / total, 100.0 * (a + share) / total)
+                      for (label, share), a in zip(STEPS, starts)}
+
+    @contextmanager
+    def step(self, label: str) -> Iterator[Feedback]:
+        self.feedback.check_canceled()
+        number = [name for name, _ in STEPS].index(label) + 1
+        self.feedback.info(f"Step {number}/{len(STEPS)}: {label}")
+        start = time.perf_counter()
+        yield self.feedback.scaled(*self.spans[label])
+        self.seconds[label] = round(time.perf_counter() - start, 3)
+
+
+def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
+                   feedback: Feedback = SILENT) -> ChainReport:
+    """Run the whole chain into ``output_dir`` (model.gml + textures, validation.html, metrics, steps.json)."""
+    if options.outside_ortho not in OUTSIDE_ORTHO_CHOICES:
+        raise InputError(f"Surfaces outside the orthoimage: choose one of {', '.join(OUTSIDE_ORTHO_CHOICES)}.")
+    output = ensure_writable_dir(output_dir)
+    clock = _Clock(feedback)
+    staging = Path(tempfile.mkdtemp(prefix=".wit-run-", dir=output))
+    try:
+        report = _run(inputs, options, output, staging, clock)
+        _publish(staging, output)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    report.seconds = dict(clock.seconds)
+    (output / "steps.json").write_text(json.dumps({"seconds": report.seconds}, indent=1), encoding="utf-8")
+    feedback.info("Seconds per step: " + ", ".join(f"{k} {v:.1f}" for k, v in report.seconds.items()))
+    feedback.progress(100.0)
+    return report
+
+
+def _publish(staging: Path, output: Path) -> None:
+    """Move every result from the staging folder into the output folder, replacing older results."""
+    for item in sorted(staging.iterdir()):
+        target = output / item.name
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        elif target.exists() or target.is_symlink():
+            target.unlink()
+        os.replace(item, target)
+
+
+def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock) -> ChainReport:
+    work = staging / "work"
+    work.mkdir()
+    feedback = clock.feedback
+    tifs = list_tifs(inputs.ortho)
+    require_sheet_names(tifs)
+
+    with clock.step("prepare") as fb:
+        prepared = str(work / "prepared.gpkg")
+        layers = set(prepare_vectors(inputs.buildings, inputs.roads, inputs.districts, options.area, prepared,
+                                     PrepareConfig(target_crs=options.target_crs, encoding=options.encoding,
+                                                   stats_csv=str(work / "prepared_stats.csv")), fb).layers)
+
+        def layer(name: str) -> str:
+            return f"{prepared}|layername={name}"
+
+        if model.PREPARED_BUILDINGS not in layers:
+            raise InputError("No building of the building layer lies in the study area.")
+        buildings = read_prepared(layer(model.PREPARED_BUILDINGS), model.PREPARED_BUILDINGS)
+        study = read_prepared(layer(model.STUDY_AREA), model.STUDY_AREA).geoms[0]
+        area = terrain.covering_area(study, buildings.geoms)  # what the terrain will cover (it logs it)
+
+    with clock.step("coverage") as fb:
+        require_dem(inputs.dem, area, options.target_crs, fb)
+        coverage = ortho_coverage(tifs, area, options.target_crs, options.sheet_crs, options.margin)
+        require_ortho(coverage, options.outside_ortho == "untextured", fb)
+
+    with clock.step("georeference") as fb:
+        sheets = georeference_sheets([s.path for s in coverage.used], work / "georeferenced", options.target_crs,
+                                     options.sheet_crs, options.margin, fmt="VRT", feedback=fb)
+        write_footprint_index(sheets, work / "sheets.gpkg", options.target_crs)
+        rasters = [r.output for r in sheets if r.status == OK]
+        if not rasters:
+            raise InputError("No orthoimage sheet could be read: " + "; ".join(
+                f"{Path(r.source).name}: {r.reason}" for r in sheets))
+
+    with clock.step("merge") as fb:
+        mosaic = str(work / "ortho.tif")
+        merge_tiles(rasters, mosaic, mode="feather", gain=True, feedback=fb)
+
+    with clock.step("terrain") as fb:
+        tin = str(work / "tin.gpkg")
+        tin_stats = terrain.run(inputs.dem, layer(model.PREPARED_BUILDINGS), _if(layers, model.PREPARED_ROADS, layer),
+                                tin, study, options.max_edge, options.tolerance,
+                                spatial_index=options.keep_work, feedback=fb)
+
+    with clock.step("extrude") as fb:
+        lod1 = str(work / "lod1.gpkg")
+        lod1_stats = extrude.run(layer(model.PREPARED_BUILDINGS), inputs.dem, lod1, options.heights,
+                                 spatial_index=options.keep_work, feedback=fb)
+
+    with clock.step("texture") as fb:
+        textures = str(work / "textures")
+        untextured = options.outside_ortho == "untextured" and coverage.uncovered is not None
+        texture_report = texture_model(mosaic, lod1, tin, textures, TextureConfig(scale=options.texture_scale), fb,
+                                       coverage=coverage.footprint if untextured else None)
+
+    with clock.step("citygml") as fb:
+        gml = staging / "model.gml"
+        written = write_citygml(CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
+                                              roads=prepared if model.PREPARED_ROADS in layers else None,
+                                              districts=prepared if model.PREPARED_DISTRICTS in layers else None),
+                                str(gml), srs_name=options.target_crs, feedback=fb)
+
+    with clock.step("validate") as fb:
+        schema_dir, source = schemas.find_schema_dir(options.schema_dir, str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
+                                                     allow_download=True, feedback=fb)
+        fb.info(f"Schemas: {source} ({schema_dir})")
+        validation = validate_files([str(gml)], schema_dir, feedback=fb)
+        for report in validation:  # name the file where it will be, not where it was validated
+            report.file = str(output / Path(report.file).name)
+        write_report_html(validation, str(staging / "validation.html"))
+
+    metrics_csv = None
+    if options.metrics:
+        with clock.step("metrics") as fb:
+            metrics_csv = staging / "metrics.csv"
+            quality_report(str(metrics_csv), model_source=lod1, source_buildings=layer(model.PREPARED_BUILDINGS),
+                           textures=textures, ortho=mosaic, mosaic=mosaic, footprints=str(work / "sheets.gpkg"),
+                           output_html=str(staging / "metrics.html"), feedback=fb)
+    if not options.keep_work:
+        shutil.rmtree(work)
+
+    errors = sum(i.severity == "error" for r in validation for i in r.issues)
+    return ChainReport(
+        output=str(output), gml=str(output / "model.gml"), validation_report=str(output / "validation.html"),
+        metrics=str(output / "metrics.csv") if metrics_csv else None, valid=all(r.valid for r in validation),
+        errors=errors, buildings=written.buildings, default_heights=lod1_stats.height_sources.get("default", 0),
+        untextured_outside=texture_report.untextured.get(OUTSIDE_ORTHO, 0), triangles=tin_stats.triangles,
+        seconds={}, work=str(output / "work") if options.keep_work else None)
+
+
+def _if(layers: set[str], name: str, source: Callable[[str], str]) -> str | None:
+    """The layer's source if prepare wrote it (a layer without features in the area is not written)."""
+    return source(name) if name in layers else None
