@@ -6,17 +6,20 @@ Two overlap modes:
   method and, for inputs on one grid, gives the same pixels as ``gdal_merge.py``.
 * ``feather`` (WIT seam interpolation): where tiles overlap, a pixel is Σ wᵢvᵢ / Σ wᵢ with wᵢ the
   distance, in output pixels from the pixel centre, to the nearest edge of tile i's rectangle;
-  a NoData pixel has weight 0. Optionally after a per-tile gain that equalises the tiles' tone.
+  a NoData pixel has weight 0. Optionally after a per-tile tone correction (``gain``, below).
 
 Guarantees:
 
 * The output grid is the one ``gdal_merge.py`` builds: union extent, first input's pixel size,
   same rounding; each input lands on the same output window as with ``gdal_merge.py``.
-* With gain off, a pixel covered by one tile only is bit-identical to that tile's pixel, in both
-  modes: blending is only evaluated where two or more tiles contribute.
-* With gain on, every pixel of tile i is multiplied by its gain (per band), single-coverage pixels
-  included: that is the point (one tone across the mosaic), so they are no longer the source
-  values. Gains are multiplicative and normalised so that their geometric mean is 1.
+* With ``gain`` off, a pixel covered by one tile only is bit-identical to that tile's pixel, in
+  both modes: blending is only evaluated where two or more tiles contribute.
+* With ``gain`` on (the historical name of the option: it now corrects more than a gain), every
+  pixel of tile i becomes gainᵢ·v + offsetᵢ (per band), single-coverage pixels included: that is
+  the point (one tone across the mosaic), so they are no longer the source values. Gains and
+  offsets are solved over all overlaps at once, robustly, anchored to the mean; heights (one band
+  of floats or signed integers) get an offset only, never a gain. See ``tone`` for the model. A
+  tile whose correction is the identity keeps its pixels bit for bit.
 * NoData (declared, an alpha band or mask, or the ``nodata`` parameter) is "not covered": it is
   never blended as a value. The output declares NoData if any input did.
 * Memory does not grow with the mosaic: the output is computed in ``block_size`` windows, each
@@ -37,19 +40,19 @@ from .errors import InputError, WitError
 from .gdal_env import capped_block_cache, open_raster
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .tone import ToneSolver, is_elevation
 
 MODES = ("feather", "overwrite")
 
 _TILE = 512  # output GeoTIFF block size; also the size below which no more overviews are built
-_GAIN_SAMPLES = 256 * 256  # pixels sampled per overlap to estimate gains
-_MIN_GAIN_SAMPLES = 64  # fewer jointly valid samples than this: the overlap says nothing
+_TONE_SAMPLES = 512 * 512  # pixels sampled per overlap to estimate the tone correction
 _PIXEL_SIZE_DRIFT = 0.01  # same pixel size if the difference drifts < 1 % of a pixel over a tile
 _BLOCKS_SHARE = 85.0  # progress share of the block loop; overviews take the rest
 
 
 @dataclass
 class MergeReport:
-    """What ``merge_tiles`` wrote: the output grid, where each input landed, the gains used."""
+    """What ``merge_tiles`` wrote: the output grid, where each input landed, the tone correction used."""
 
     output: str
     mode: str
@@ -66,7 +69,9 @@ class MergeReport:
     tile_windows: list[tuple[int, int, int, int]]
     """Each of ``inputs``' (xoff, yoff, width, height) in output pixels."""
     gains: list[list[float]]
-    """Each of ``inputs``' multiplicative gain per band (all 1.0 with gain off)."""
+    """Each of ``inputs``' multiplicative gain per band (all 1.0 with gain off, and for heights)."""
+    offsets: list[list[float]]
+    """Each of ``inputs``' offset per band, added after the gain (all 0.0 with gain off)."""
     resampled: list[str] = field(default_factory=list)
     """Inputs warped onto the output grid because their CRS or pixel size differed."""
     covered_pixels: int = 0
@@ -126,7 +131,8 @@ def merge_tiles(
 ) -> MergeReport:
     """Mosaic ``inputs`` into the GeoTIFF ``output``; see the module docstring for the rules.
 
-    ``gain`` defaults to on with ``feather`` and off with ``overwrite``. ``nodata`` overrides the
+    ``gain`` (tone correction: gain and offset) defaults to on with ``feather`` and off with
+    ``overwrite``. ``nodata`` overrides the
     inputs' declared NoData. Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel
     (no output is left behind in either case).
     """
@@ -163,19 +169,20 @@ def merge_tiles(
                       f"pixel size {gt[1]:g} × {-gt[5]:g}, mode {mode}, gain {'on' if use_gain else 'off'}.")
         index = _BlockIndex(tiles, block_size)
         if use_gain:
-            gains = _estimate_gains(index, bands, np_dtype, feedback)
-            for tile, g in zip(tiles, gains):
-                feedback.info(f"Gain {os.path.basename(tile.path)}: " + ", ".join(f"{v:.4f}" for v in g))
+            gains, offsets = _estimate_tone(index, bands, np_dtype, feedback)
+            for tile, g, o in zip(tiles, gains, offsets):
+                feedback.info(f"Tone {os.path.basename(tile.path)}: gain " + ", ".join(f"{v:.4f}" for v in g)
+                              + "; offset " + ", ".join(f"{v:+.2f}" for v in o))
         else:
-            gains = [np.ones(bands)] * len(tiles)
+            gains, offsets = np.ones((len(tiles), bands)), np.zeros((len(tiles), bands))
         report = MergeReport(
             output=str(output), mode=mode, gain=use_gain, geotransform=tuple(gt), width=width,
             height=height, bands=bands, data_type=gdal.GetDataTypeName(dtype), crs_wkt=crs,
             nodata=out_nodata, inputs=[t.path for t in tiles], tile_windows=[t.window for t in tiles],
-            gains=[[float(v) for v in g] for g in gains],
+            gains=gains.tolist(), offsets=offsets.tolist(),
             resampled=[p for p, why in zip(inputs, warp_reasons) if why])
         with atomic_file(output) as tmp:
-            _write(tmp, first, index, gains, report, dtype, feedback)
+            _write(tmp, first, index, report, dtype, feedback)
     feedback.progress(100.0)
     return report
 
@@ -355,7 +362,7 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
           step: int = 1) -> tuple[np.ndarray, np.ndarray | None]:
     """Pixels of ``tile`` over the output window ``win``, and where they are valid (None: all).
 
-    ``step`` > 1 reads a decimated sample (for gain estimation) instead of every pixel.
+    ``step`` > 1 reads a decimated sample (for tone estimation) instead of every pixel.
     """
     x, y, w, h = win
     cols = tile.cols[x - tile.x0:x - tile.x0 + w]
@@ -392,69 +399,30 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
     return data, ~invalid
 
 
-# --- gains --------------------------------------------------------------------------------------
+# --- tone ---------------------------------------------------------------------------------------
 
-def _estimate_gains(index: _BlockIndex, bands: int, np_dtype: np.dtype, feedback: Feedback) -> list[np.ndarray]:
-    """Per-tile, per-band multiplicative gains that make overlapping tiles agree.
+def _estimate_tone(index: _BlockIndex, bands: int, np_dtype: np.dtype,
+                   feedback: Feedback) -> tuple[np.ndarray, np.ndarray]:
+    """Per-tile, per-band gains and offsets that make overlapping tiles agree (see ``tone``).
 
-    For every overlapping pair, the means mᵢ, mⱼ of both tiles over their jointly valid overlap
-    pixels (a decimated sample) ask for log gᵢ − log gⱼ = log(mⱼ / mᵢ), weighted by the sample
-    count; the least-squares solution with zero mean per connected group of tiles fixes the
-    scale (geometric mean of the gains 1).
+    Every overlap is read as a decimated sample of about ``_TONE_SAMPLES`` pixels; only pixels
+    valid in both tiles count.
     """
     tiles = index.tiles
-    edges: list[list[tuple[int, int, float, float]]] = [[] for _ in range(bands)]
+    solver = ToneSolver(len(tiles), bands, offset_only=is_elevation(bands, np_dtype),
+                        ceiling=float(np.iinfo(np_dtype).max) if np_dtype.kind in "iu" else None)
     for i, j in index.overlapping_pairs():
         feedback.check_canceled()
         win = _intersect(tiles[i].window, tiles[j].window)
-        step = max(1, math.ceil(math.sqrt(win[2] * win[3] / _GAIN_SAMPLES)))
+        step = max(1, math.ceil(math.sqrt(win[2] * win[3] / _TONE_SAMPLES)))
         da, va = _read(tiles[i], win, bands, np_dtype, step)
         db, vb = _read(tiles[j], win, bands, np_dtype, step)
         joint = va if vb is None else vb if va is None else va & vb
         for band in range(bands):
-            sel = None if joint is None else joint[min(band, len(joint) - 1)]
-            sa = da[band] if sel is None else da[band][sel]
-            sb = db[band] if sel is None else db[band][sel]
-            if sa.size < _MIN_GAIN_SAMPLES:
-                continue
-            ma, mb = float(sa.mean(dtype=np.float64)), float(sb.mean(dtype=np.float64))
-            if ma > 0 and mb > 0:
-                edges[band].append((i, j, float(sa.size), math.log(mb / ma)))
-    if not any(edges):
-        feedback.warning("No overlap with enough valid pixels between the tiles: gains left at 1.")
-    return list(np.exp(np.stack([_solve_log_gains(len(tiles), e) for e in edges], axis=1)))
-
-
-def _solve_log_gains(n: int, edges: list[tuple[int, int, float, float]]) -> np.ndarray:
-    """Minimise Σ w (xᵢ − xⱼ − d)² by conjugate gradients on the tile graph's Laplacian.
-
-    Starting from 0, CG stays orthogonal to the Laplacian's null space (constants per connected
-    group), so it returns the solution with zero mean per group; it needs no dense matrix, which
-    keeps thousands of tiles cheap.
-    """
-    x = np.zeros(n)
-    if not edges:
-        return x
-    i, j = (np.array([e[k] for e in edges], dtype=np.int64) for k in (0, 1))
-    w, d = (np.array([e[k] for e in edges]) for k in (2, 3))
-
-    def laplacian(v: np.ndarray) -> np.ndarray:
-        diff = w * (v[i] - v[j])
-        return np.bincount(i, diff, n) - np.bincount(j, diff, n)
-
-    residual = np.bincount(i, w * d, n) - np.bincount(j, w * d, n)
-    direction, rs = residual.copy(), residual @ residual
-    tolerance = 1e-24 * rs
-    for _ in range(2 * n):
-        if rs <= tolerance:
-            break
-        lp = laplacian(direction)
-        alpha = rs / (direction @ lp)
-        x += alpha * direction
-        residual -= alpha * lp
-        rs, rs_old = residual @ residual, rs
-        direction = residual + (rs / rs_old) * direction
-    return x
+            solver.add(i, j, band, da[band], db[band], None if joint is None else joint[min(band, len(joint) - 1)])
+    if solver.empty:
+        feedback.warning("No overlap with enough valid pixels between the tiles: tone left unchanged.")
+    return solver.solve()
 
 
 def _to_dtype(values: np.ndarray, np_dtype: np.dtype) -> np.ndarray:
@@ -465,19 +433,19 @@ def _to_dtype(values: np.ndarray, np_dtype: np.dtype) -> np.ndarray:
     return values.astype(np_dtype)
 
 
-class _Gain:
-    """Applies one tile's gains: a lookup table for 8/16-bit unsigned data, else float maths."""
+class _Tone:
+    """Applies one tile's gains and offsets: a lookup table for 8/16-bit unsigned data, else float maths."""
 
-    def __init__(self, gains: np.ndarray, np_dtype: np.dtype):
-        self.gains, self.dtype = gains, np_dtype
+    def __init__(self, gains: np.ndarray, offsets: np.ndarray, np_dtype: np.dtype):
+        self.gains, self.offsets, self.dtype = gains, offsets, np_dtype
         self.luts = None
         if np_dtype.kind == "u" and np_dtype.itemsize <= 2:
             domain = np.arange(np.iinfo(np_dtype).max + 1, dtype=np.float64)
-            self.luts = [_to_dtype(domain * g, np_dtype) for g in gains]
+            self.luts = [_to_dtype(domain * g + o, np_dtype) for g, o in zip(gains, offsets)]
 
     def __call__(self, data: np.ndarray) -> np.ndarray:
         if self.luts is None:
-            return _to_dtype(data * self.gains[:, None, None], self.dtype)
+            return _to_dtype(data * self.gains[:, None, None] + self.offsets[:, None, None], self.dtype)
         for lut, band in zip(self.luts, data):
             np.take(lut, band, out=band)
         return data
@@ -496,8 +464,8 @@ def _creation_options(first: gdal.Dataset, bands: int, np_dtype: np.dtype) -> li
     return options
 
 
-def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, gains: list[np.ndarray],
-           report: MergeReport, dtype: int, feedback: Feedback) -> None:
+def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, report: MergeReport, dtype: int,
+           feedback: Feedback) -> None:
     np_dtype = np.dtype(gdal_array.GDALTypeCodeToNumericTypeCode(dtype))
     try:
         ds = gdal.GetDriverByName("GTiff").Create(str(path), report.width, report.height, report.bands, dtype,
@@ -512,18 +480,19 @@ def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, gains: li
         if report.nodata is not None:
             for b in range(report.bands):
                 ds.GetRasterBand(b + 1).SetNoDataValue(report.nodata)
-        _write_blocks(ds, index, gains, report, np_dtype, feedback.scaled(0, _BLOCKS_SHARE))
+        _write_blocks(ds, index, report, np_dtype, feedback.scaled(0, _BLOCKS_SHARE))
         ds.FlushCache()
         _build_overviews(ds, feedback.scaled(_BLOCKS_SHARE, 100))
     finally:
         ds = None  # closes the file before it is renamed or removed
 
 
-def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, gains: list[np.ndarray], report: MergeReport,
-                  np_dtype: np.dtype, feedback: Feedback) -> None:
+def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, report: MergeReport, np_dtype: np.dtype,
+                  feedback: Feedback) -> None:
     """Compute and write the mosaic one ``block_size`` window at a time."""
     fill = report.nodata if report.nodata is not None else 0
-    appliers = [_Gain(g, np_dtype) if report.gain else None for g in gains]
+    appliers = [_Tone(np.array(g), np.array(o), np_dtype) if any(v != 1.0 for v in g) or any(o) else None
+                for g, o in zip(report.gains, report.offsets)]
     block_size = index.block_size
     gdal_type = gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype)
     for by in range(0, report.height, block_size):
@@ -560,7 +529,7 @@ def _blend(out: np.ndarray, block: tuple[int, int, int, int], pieces: list) -> i
     """Feather the pixels of ``out`` where two or more tiles are valid; return how many.
 
     ``pieces`` hold (tile, window, pixels, valid) for each tile over its part of the block, the
-    pixels already gain-corrected.
+    pixels already tone-corrected.
     """
     region = None
     for i, (_, wa, _, _) in enumerate(pieces):
