@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from osgeo import gdal, osr
-from qgis.core import QgsProcessingException, QgsVectorLayer
+from qgis.core import QgsProcessingException, QgsProcessingFeedback, QgsVectorLayer
 
 
 def _unreferenced_tif(path, width=200, height=250, value=100):
@@ -56,3 +56,50 @@ def test_georeference_rejects_unwritable_output_with_a_message(tmp_path, run_alg
         run_algorithm("wit:georeferencemapsheets", {
             "INPUT": [str(sources)], "OUTPUT": str(blocker / "out"),
             "OUTPUT_INDEX": str(tmp_path / "index.gpkg")})
+
+
+def _tile(path, x0, y0, size=20, pixel=10.0):
+    ds = gdal.GetDriverByName("GTiff").Create(str(path), size, size, 3, gdal.GDT_Byte)
+    ds.SetGeoTransform((x0, pixel, 0, y0, 0, -pixel))
+    ds.SetProjection(_epsg5186())
+    for band in range(3):
+        ds.GetRasterBand(band + 1).WriteArray(np.full((size, size), 60 + 40 * band, np.uint8))
+    ds = None
+    return str(path)
+
+
+def _epsg5186():
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(5186)
+    return srs.ExportToWkt()
+
+
+class _Warnings(QgsProcessingFeedback):
+    def __init__(self):
+        super().__init__()
+        self.warnings = []
+
+    def pushWarning(self, warning):  # noqa: N802
+        self.warnings.append(warning)
+        super().pushWarning(warning)
+
+
+def test_sparse_mosaic_is_refused_before_writing_unless_the_limit_is_raised(tmp_path, wit_provider):
+    """Two 200 m tiles 5 km apart: a 520 × 20 px mosaic 92 % empty is refused (nothing written) under
+    the default 90 % limit; raising the advanced limit writes it, with a warning."""
+    import processing
+
+    tiles = [_tile(tmp_path / "west.tif", 200000.0, 550000.0), _tile(tmp_path / "east.tif", 205000.0, 550000.0)]
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(QgsProcessingException, match=r"520 × 20 px.*about 92% of it would be empty.*raise the "
+                                                     r"maximum empty share \(now 90%\)") as error:
+        processing.run("wit:mergetiles", {"INPUT": tiles, "OUTPUT": str(out / "m.tif")})
+    assert "Traceback" not in str(error.value)
+    assert list(out.iterdir()) == []
+    feedback = _Warnings()
+    result = processing.run("wit:mergetiles", {"INPUT": tiles, "MAX_EMPTY": 95, "OUTPUT": str(out / "m.tif")},
+                            feedback=feedback)
+    ds = gdal.Open(result["OUTPUT"])
+    assert (ds.RasterXSize, ds.RasterYSize) == (520, 20)
+    assert any("about 92% of it is empty" in w for w in feedback.warnings), feedback.warnings

@@ -48,6 +48,9 @@ _TILE = 512  # output GeoTIFF block size; also the size below which no more over
 _TONE_SAMPLES = 512 * 512  # pixels sampled per overlap to estimate the tone correction
 _PIXEL_SIZE_DRIFT = 0.01  # same pixel size if the difference drifts < 1 % of a pixel over a tile
 _BLOCKS_SHARE = 85.0  # progress share of the block loop; overviews take the rest
+DEFAULT_MAX_EMPTY = 0.9  # refuse a mosaic whose share of pixels no tile covers is larger
+_WARN_EMPTY = 0.5  # warn above this empty share
+_COVERAGE_CELLS = 1024  # the empty share is measured on a grid of at most this many cells a side
 
 
 @dataclass
@@ -128,18 +131,23 @@ def merge_tiles(
     nodata: float | None = None,
     feedback: Feedback = SILENT,
     block_size: int = 1024,
+    max_empty: float = DEFAULT_MAX_EMPTY,
 ) -> MergeReport:
     """Mosaic ``inputs`` into the GeoTIFF ``output``; see the module docstring for the rules.
 
     ``gain`` (tone correction: gain and offset) defaults to on with ``feather`` and off with
     ``overwrite``. ``nodata`` overrides the
-    inputs' declared NoData. Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel
-    (no output is left behind in either case).
+    inputs' declared NoData. A mosaic more than half empty (tiles far apart) is a warning; one whose
+    empty share exceeds ``max_empty`` (0–1; 1 never refuses) is refused before anything is read or
+    written. Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel (no output is
+    left behind in either case).
     """
     if mode not in MODES:
         raise InputError(f"Unknown overlap mode {mode!r}: use one of {', '.join(MODES)}.")
     if not inputs:
         raise InputError("No input rasters given: select at least one tile to merge.")
+    if not 0.0 <= max_empty <= 1.0:
+        raise InputError(f"Maximum empty share {max_empty:g} is out of range: use 0–1 (0–100 %).")
     if block_size < 16:
         raise InputError(f"Block size {block_size} is too small: use at least 16 pixels.")
     use_gain = (mode == "feather") if gain is None else bool(gain)
@@ -167,6 +175,7 @@ def merge_tiles(
         out_nodata = _output_nodata(sources, nodata, np_dtype)
         feedback.info(f"Output grid {width} × {height} px, {bands} band(s) {gdal.GetDataTypeName(dtype)}, "
                       f"pixel size {gt[1]:g} × {-gt[5]:g}, mode {mode}, gain {'on' if use_gain else 'off'}.")
+        _check_coverage(tiles, width, height, bands, np_dtype, max_empty, feedback)
         index = _BlockIndex(tiles, block_size)
         if use_gain:
             gains, offsets = _estimate_tone(index, bands, np_dtype, feedback)
@@ -333,6 +342,30 @@ def _warped_tile(path: str, ds: gdal.Dataset, first: gdal.Dataset, bounds: tuple
     vrt = _warp(ds, outputBounds=extent, width=x1 - x0, height=y1 - y0, **_warp_options(first, ds, nodata))
     return _Tile(path, vrt, x0, y0, x1 - x0, y1 - y0, np.arange(x1 - x0), np.arange(y1 - y0),
                  [None] * ds.RasterCount, vrt.GetRasterBand(vrt.RasterCount))
+
+
+def _check_coverage(tiles: list[_Tile], width: int, height: int, bands: int, np_dtype: np.dtype,
+                    max_empty: float, feedback: Feedback) -> None:
+    """Warn when the mosaic is mostly empty, refuse beyond ``max_empty``: tiles kilometres apart
+    would otherwise silently become a huge file of NoData.
+
+    The empty share is measured on a coarse grid where a cell touched by a tile counts as covered,
+    so it never overstates the emptiness.
+    """
+    cell = max(1, math.ceil(max(width, height) / _COVERAGE_CELLS))
+    covered = np.zeros((-(-height // cell), -(-width // cell)), bool)
+    for t in tiles:
+        covered[t.y0 // cell:-(-(t.y0 + t.h) // cell), t.x0 // cell:-(-(t.x0 + t.w) // cell)] = True
+    empty = 1.0 - covered.mean() if tiles else 1.0
+    if empty <= _WARN_EMPTY:
+        return
+    size = f"{width:,} × {height:,} px, {width * height * bands * np_dtype.itemsize / 1e9:.1f} GB uncompressed"
+    if empty > max_empty:
+        raise InputError(f"The mosaic would be {size}, and about {empty:.0%} of it would be empty (no tile "
+                         f"covers it): the {len(tiles)} tiles lie far apart. Merge the tiles of each area "
+                         f"separately, or raise the maximum empty share (now {max_empty:.0%}) to write it anyway.")
+    feedback.warning(f"The mosaic is {size}, and about {empty:.0%} of it is empty (no tile covers it): the tiles "
+                     "lie far apart.")
 
 
 def _output_nodata(sources: list[gdal.Dataset], nodata: float | None, np_dtype: np.dtype) -> float | None:
