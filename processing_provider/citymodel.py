@@ -162,8 +162,6 @@ class CityModel(WitAlgorithm):
                 "INPUT": self.parameterAsFileList(parameters, self.ORTHO_INPUT, context),
                 "TARGET_CRS": self.parameterAsCrs(parameters, self.TARGET_CRS, context),
                 "OUTPUT": str(work / "georeferenced"), "OUTPUT_INDEX": str(work / "sheets.gpkg")})
-            if not geo["OUTPUT_LAYERS"]:
-                raise QgsProcessingException(self.tr("No orthoimage TIF has a valid map-sheet number."))
             mosaic = run(1, "wit:mergetiles", {"INPUT": geo["OUTPUT_LAYERS"], "OVERLAP": 1, "GAIN": True,
                                                "OUTPUT": str(work / "ortho.tif")})
             prepared = run(2, "wit:preparevectors", {

@@ -1,5 +1,8 @@
-"""wit:georeferencemapsheets and wit:mergetiles through Processing, as a toolbox user runs them."""
+"""The raster steps through Processing, as a toolbox user runs them: georeference, merge, and that no
+raster-reading algorithm writes beside its inputs."""
 from __future__ import annotations
+
+import shutil
 
 import numpy as np
 import pytest
@@ -15,15 +18,20 @@ def _unreferenced_tif(path, width=200, height=250, value=100):
 
 
 def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
+    import processing
+
     sources = tmp_path / "ngii"
     sources.mkdir()
     _unreferenced_tif(sources / "(B060)정사영상_2022_37709005.tif", value=100)
     _unreferenced_tif(sources / "(B060)정사영상_2022_37709004.tif", value=140)
     (sources / "notes_2022.tif").write_bytes(b"no sheet number here")
-    result = run_algorithm("wit:georeferencemapsheets", {
+    (sources / "(B060)정사영상_2022_37709006.tif").write_bytes(b"")  # a failed copy: partial success
+    feedback = _Warnings()
+    result = processing.run("wit:georeferencemapsheets", {
         "INPUT": [str(sources)], "OUTPUT": str(tmp_path / "geo"),
-        "OUTPUT_INDEX": str(tmp_path / "index.gpkg")})
-    assert (result["GEOREFERENCED"], result["SKIPPED"], result["FAILED"]) == (2, 1, 0)
+        "OUTPUT_INDEX": str(tmp_path / "index.gpkg")}, feedback=feedback)
+    assert (result["GEOREFERENCED"], result["SKIPPED"], result["FAILED"]) == (2, 1, 1)
+    assert any(w.startswith("Failed ") and "37709006.tif is empty (0 bytes)" in w for w in feedback.warnings)
     ds = gdal.Open(str(tmp_path / "geo" / "37709005.tif"))
     x0, dx, _, y0, _, dy = ds.GetGeoTransform()
     # SPEC §3 worked example: x 208842.55–211056.87, y 541734.15–544511.46, plus the 50 m margin
@@ -36,6 +44,7 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
     rows = {f["sheet"] or f["source"].rsplit("/", 1)[-1]: (f["status"], f["reason"]) for f in index.getFeatures()}
     assert rows["37709005"][0] == "ok" and rows["37709004"][0] == "ok"
     assert rows["notes_2022.tif"][0] == "skipped" and "sheet number" in rows["notes_2022.tif"][1]
+    assert rows["37709006"][0] == "failed" and "is empty (0 bytes)" in rows["37709006"][1]
 
     merged = run_algorithm("wit:mergetiles", {
         "INPUT": result["OUTPUT_LAYERS"], "OVERLAP": 1, "GAIN": False,
@@ -103,3 +112,45 @@ def test_sparse_mosaic_is_refused_before_writing_unless_the_limit_is_raised(tmp_
     ds = gdal.Open(result["OUTPUT"])
     assert (ds.RasterXSize, ds.RasterYSize) == (520, 20)
     assert any("about 92% of it is empty" in w for w in feedback.warnings), feedback.warnings
+
+
+def _listing(folder):
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+READERS = {
+    "mergetiles": ("wit:mergetiles", lambda r, o: {"INPUT": [r["ortho"]], "OUTPUT": str(o / "m.tif")}),
+    "buildcolorstore": ("wit:buildcolorstore", lambda r, o: {"INPUT": r["ortho"], "OUTPUT": str(o / "c.gpkg")}),
+    "wittexture": ("wit:wittexture", lambda r, o: {"ORTHO": r["ortho"], "LOD1": r["lod1"], "OUTPUT": str(o / "tex")}),
+    "triangulateterrain": ("wit:triangulateterrain", lambda r, o: {
+        "DEM": r["dem"], "AREA": r["footprints"], "OUTPUT": str(o / "tin.gpkg")}),
+    "extrudebuildings": ("wit:extrudebuildings", lambda r, o: {
+        "BUILDINGS": r["footprints"], "DEM": r["dem"], "OUTPUT": str(o / "lod1.gpkg")}),
+    "qualitymetrics": ("wit:qualitymetrics", lambda r, o: {"ORTHO": r["ortho"], "OUTPUT": str(o / "q.csv")}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(READERS))
+def test_reading_rasters_writes_nothing_beside_them(case, real_rasters, tmp_path, run_algorithm):
+    """QGIS computes statistics when it loads a raster parameter, and GDAL saved them as .aux.xml
+    beside the inputs: every raster-reading algorithm now leaves the input folder as it was."""
+    algorithm, parameters = READERS[case]
+    folder = tmp_path / "inputs"
+    shutil.copytree(real_rasters["folder"], folder)
+    inputs = {**real_rasters, "ortho": str(folder / "ortho.tif"), "dem": str(folder / "dem.tif")}
+    before = _listing(folder)
+    assert sorted(before) == ["dem.tif", "ortho.tif"]
+    run_algorithm(algorithm, parameters(inputs, tmp_path))
+    assert _listing(folder) == before
+
+
+def test_georeferencing_writes_nothing_beside_the_sources(real_rasters, tmp_path, run_algorithm):
+    sources = tmp_path / "ngii"
+    sources.mkdir()
+    (sources / "(B060)정사영상_2022_37709005.tif").write_bytes(open(real_rasters["ortho"], "rb").read())
+    before = _listing(sources)
+    result = run_algorithm("wit:georeferencemapsheets", {"INPUT": [str(sources)], "OUTPUT": str(tmp_path / "geo")})
+    assert result["GEOREFERENCED"] == 1
+    run_algorithm("wit:mergetiles", {"INPUT": result["OUTPUT_LAYERS"], "OUTPUT": str(tmp_path / "m.tif")})
+    assert _listing(sources) == before
+    assert sorted(p.name for p in (tmp_path / "geo").iterdir()) == ["37709005.tif"]

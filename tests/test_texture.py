@@ -397,7 +397,7 @@ def test_bad_inputs(scene: dict, tmp_path: Path) -> None:
         texture_model(scene["ortho"], None, None, str(tmp_path / "tex"))
     with pytest.raises(InputError, match="has no layer 'lod1_faces'"):
         texture_model(scene["ortho"], scene["tin"], None, str(tmp_path / "tex"))
-    with pytest.raises(InputError, match="Cannot open the orthoimage"):
+    with pytest.raises(InputError, match="orthoimage .*missing.tif does not exist"):
         texture_model(str(tmp_path / "missing.tif"), scene["lod1"], None, str(tmp_path / "tex"))
 
 

@@ -37,7 +37,7 @@ import numpy as np
 from osgeo import gdal, gdal_array, osr
 
 from .errors import InputError, WitError
-from .gdal_env import capped_block_cache, open_raster
+from .gdal_env import capped_block_cache, open_raster, read_window
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
 from .tone import ToneSolver, is_elevation
@@ -199,7 +199,7 @@ def merge_tiles(
 # --- inputs -------------------------------------------------------------------------------------
 
 def _open(path: str) -> gdal.Dataset:
-    ds = open_raster(path)
+    ds = open_raster(path, "tile")
     if ds.RasterCount == 0:
         raise InputError(f"{path} has no raster bands.")
     return ds
@@ -404,11 +404,8 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
     cw, rh = int(cols[-1]) - c0 + 1, int(rows[-1]) - r0 + 1
     buf = (-(-w // step), -(-h // step)) if step > 1 else (cw, rh)
     pick = None if step > 1 or (cw == w and rh == h) else np.ix_(rows - r0, cols - c0)
-    data = tile.ds.ReadAsArray(c0, r0, cw, rh, buf_xsize=buf[0], buf_ysize=buf[1],
-                               band_list=list(range(1, bands + 1)),
-                               buf_type=gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype))
-    if data is None:
-        raise InputError(f"Cannot read {tile.path}: {gdal.GetLastErrorMsg()}")
+    data = read_window(tile.ds, c0, r0, cw, rh, f"the tile {tile.path}", buf_xsize=buf[0], buf_ysize=buf[1],
+                       band_list=list(range(1, bands + 1)), buf_type=gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype))
     data = data.reshape(bands, buf[1], buf[0])
     if pick is not None:
         data = data[(slice(None),) + pick]
@@ -424,7 +421,8 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
         if nan.any():
             invalid = nan if invalid is None else invalid | nan
     if tile.mask is not None:
-        mask = tile.mask.ReadAsArray(c0, r0, cw, rh, buf_xsize=buf[0], buf_ysize=buf[1])
+        mask = read_window(tile.mask, c0, r0, cw, rh, f"the mask of the tile {tile.path}", buf_xsize=buf[0],
+                           buf_ysize=buf[1])
         mask = (mask[pick] if pick is not None else mask)[None] == 0
         invalid = mask if invalid is None else invalid | mask
     if invalid is None or not invalid.any():
