@@ -440,3 +440,25 @@ def test_tone_correction_on_the_generated_sample_recovers_its_tile_exposures(tmp
 
     assert mean_difference(corrected=False) > 15
     assert mean_difference(corrected=True) * 5 <= mean_difference(corrected=False)
+
+
+def test_mostly_empty_mosaic_is_a_warning_then_refused_before_anything_is_written(tmp_path):
+    """Two 20 × 20 px tiles: 60 px apart the mosaic is 60 % empty (a warning); 380 px apart 90.5 %
+    (refused under the default 90 %, before the output folder is even made; written when raised)."""
+    grey = np.full((3, 20, 20), 90, np.uint8)
+    a = write_tif(tmp_path / "a.tif", grey, ORIGIN)
+    near = write_tif(tmp_path / "near.tif", grey, (ORIGIN[0] + 160.0, ORIGIN[1]))
+    far = write_tif(tmp_path / "far.tif", grey, (ORIGIN[0] + 800.0, ORIGIN[1]))
+    feedback = Recorder()
+    mosaic.merge_tiles([a, near], str(tmp_path / "near_m.tif"), feedback=feedback)
+    assert feedback.warnings == ["The mosaic is 100 × 20 px, 0.0 GB uncompressed, and about 60% of it is empty "
+                                 "(no tile covers it): the tiles lie far apart."]
+    out = tmp_path / "out"
+    with pytest.raises(InputError, match=r"^The mosaic would be 420 × 20 px, 0.0 GB uncompressed, and about 90% of it "
+                                         r"would be empty .* raise the maximum empty share \(now 90%\)"):
+        mosaic.merge_tiles([a, far], str(out / "m.tif"))
+    assert not out.exists()
+    report = mosaic.merge_tiles([a, far], str(out / "m.tif"), max_empty=0.95)
+    assert (report.width, report.height) == (420, 20)
+    with pytest.raises(InputError, match="0–1"):
+        mosaic.merge_tiles([a], str(out / "x.tif"), max_empty=1.5)

@@ -442,7 +442,8 @@ def _estimate_tone(index: _BlockIndex, bands: int, np_dtype: np.dtype,
     tiles = index.tiles
     solver = ToneSolver(len(tiles), bands, offset_only=is_elevation(bands, np_dtype),
                         ceiling=float(np.iinfo(np_dtype).max) if np_dtype.kind in "iu" else None)
-    for i, j in index.overlapping_pairs():
+    pairs = index.overlapping_pairs()
+    for i, j in pairs:
         feedback.check_canceled()
         win = _intersect(tiles[i].window, tiles[j].window)
         step = max(1, math.ceil(math.sqrt(win[2] * win[3] / _TONE_SAMPLES)))
@@ -451,7 +452,9 @@ def _estimate_tone(index: _BlockIndex, bands: int, np_dtype: np.dtype,
         joint = va if vb is None else vb if va is None else va & vb
         for band in range(bands):
             solver.add(i, j, band, da[band], db[band], None if joint is None else joint[min(band, len(joint) - 1)])
-    if solver.empty:
+    if not pairs:
+        feedback.info("No tiles overlap: tone left unchanged.")
+    elif solver.empty:
         feedback.warning("No overlap with enough valid pixels between the tiles: tone left unchanged.")
     return solver.solve()
 
