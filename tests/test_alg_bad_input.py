@@ -1,12 +1,13 @@
 """Every algorithm turns bad input into a QgsProcessingException with a message, and writes nothing."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from conftest import write_polygons
 from osgeo import gdal, osr
 from qgis.core import QgsProcessingException
-
-from conftest import write_polygons
 
 
 def _raster(path, bands, x0=209000.0, y0=543000.0, size=20, pixel=1.0):
@@ -61,12 +62,12 @@ CASES = {
         r"^Unable to execute algorithm\nRGB orthoimage: The raster .*37709005.tif is empty \(0 bytes\)"),
     "georeferencemapsheets: every tile unreadable": ("wit:georeferencemapsheets", lambda i, o: {
         "INPUT": [i["zero"], i["zero2"]], "OUTPUT": str(o / "geo")},
-        r"No orthoimage TIF could be georeferenced \(0 skipped, 2 failed\):\n  \(B060\)정사영상_2022_37709005.tif: "
-        r"failed, The orthoimage .* is empty \(0 bytes\).*\n  \(B060\)정사영상_2022_37709004.tif: failed"),
+        (r"No orthoimage TIF could be georeferenced \(0 skipped, 2 failed\):\n  \(B060\)정사영상_2022_37709005.tif: "
+         r"failed, The orthoimage .* is empty \(0 bytes\).*\n  \(B060\)정사영상_2022_37709004.tif: failed")),
     "citymodel: no sheet-named TIF": ("wit:citymodel", lambda i, o: {
         "ORTHO_INPUT": [i["rgb"]], "DEM": i["far_dem"], "BUILDINGS": i["footprints"],
-        "OUTPUT": str(o / "out")}, r"No orthoimage TIF could be georeferenced \(1 skipped, 0 failed\):\n  rgb.tif: "
-                                   "skipped, no 5–9 digit sheet number"),
+        "OUTPUT": str(o / "out")}, (r"No orthoimage TIF could be georeferenced \(1 skipped, 0 failed\):\n  rgb.tif: "
+                                    "skipped, no 5–9 digit sheet number")),
 }
 
 
@@ -86,8 +87,8 @@ def test_bad_input_is_a_message_and_no_output(case, inputs, tmp_path, run_algori
 
 def _truncated(source, target) -> str:
     """The first half of ``source``'s bytes: the header opens, the pixels of the second half are gone."""
-    data = open(source, "rb").read()
-    open(target, "wb").write(data[:len(data) // 2])
+    data = Path(source).read_bytes()
+    Path(target).write_bytes(data[:len(data) // 2])
     return str(target)
 
 
@@ -103,10 +104,10 @@ def _corrupted(source, target) -> str:
             for x in range(-(-ds.RasterXSize // bx)):
                 blocks.append(tuple(int(band.GetMetadataItem(f"BLOCK_{k}_{x}_{y}", "TIFF")) for k in ("OFFSET", "SIZE")))
     ds = None
-    data = bytearray(open(target, "rb").read())
+    data = bytearray(Path(target).read_bytes())
     for offset, size in blocks:
         data[offset + 2:offset + size] = b"\x55" * (size - 2)
-    open(target, "wb").write(data)
+    Path(target).write_bytes(data)
     return str(target)
 
 

@@ -3,6 +3,7 @@ raster-reading algorithm writes beside its inputs."""
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -147,7 +148,7 @@ def test_reading_rasters_writes_nothing_beside_them(case, real_rasters, tmp_path
 def test_georeferencing_writes_nothing_beside_the_sources(real_rasters, tmp_path, run_algorithm):
     sources = tmp_path / "ngii"
     sources.mkdir()
-    (sources / "(B060)정사영상_2022_37709005.tif").write_bytes(open(real_rasters["ortho"], "rb").read())
+    (sources / "(B060)정사영상_2022_37709005.tif").write_bytes(Path(real_rasters["ortho"]).read_bytes())
     before = _listing(sources)
     result = run_algorithm("wit:georeferencemapsheets", {"INPUT": [str(sources)], "OUTPUT": str(tmp_path / "geo")})
     assert result["GEOREFERENCED"] == 1

@@ -9,7 +9,12 @@ from osgeo import gdal
 
 from wit_plugin import mosaic
 from wit_plugin.errors import InputError
-from wit_plugin.gdal_env import no_sidecars, open_raster, raster_file_problem, read_window
+from wit_plugin.gdal_env import (
+    no_sidecars,
+    open_raster,
+    raster_file_problem,
+    read_window,
+)
 
 
 @pytest.fixture

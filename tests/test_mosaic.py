@@ -451,8 +451,8 @@ def test_mostly_empty_mosaic_is_a_warning_then_refused_before_anything_is_writte
     far = write_tif(tmp_path / "far.tif", grey, (ORIGIN[0] + 800.0, ORIGIN[1]))
     feedback = Recorder()
     mosaic.merge_tiles([a, near], str(tmp_path / "near_m.tif"), feedback=feedback)
-    assert feedback.warnings == ["The mosaic is 100 × 20 px, 0.0 GB uncompressed, and about 60% of it is empty "
-                                 "(no tile covers it): the tiles lie far apart."]
+    assert feedback.warnings == [("The mosaic is 100 × 20 px, 0.0 GB uncompressed, and about 60% of it is empty "
+                                  "(no tile covers it): the tiles lie far apart.")]
     out = tmp_path / "out"
     with pytest.raises(InputError, match=r"^The mosaic would be 420 × 20 px, 0.0 GB uncompressed, and about 90% of it "
                                          r"would be empty .* raise the maximum empty share \(now 90%\)"):
