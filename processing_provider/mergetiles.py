@@ -54,7 +54,7 @@ class MergeTiles(WitAlgorithm):
             QgsProcessingParameterNumber.Double, optional=True))
         max_empty = QgsProcessingParameterNumber(
             self.MAX_EMPTY, self.tr("Maximum empty share of the mosaic (%)"), QgsProcessingParameterNumber.Double,
-            defaultValue=100 * DEFAULT_MAX_EMPTY, minValue=0.0, maxValue=100.0)
+            defaultValue=100 * DEFAULT_MAX_EMPTY, minValue=0.0, maxValue=100.0, optional=True)  # old models stay valid
         max_empty.setFlags(max_empty.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
         self.addParameter(max_empty)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, self.tr("Mosaic")))

@@ -97,7 +97,7 @@ def test_georeference_without_the_footprint_index(tmp_path, profile):
     specified"; now the sheets are written and no index is."""
     sources = tmp_path / "ngii"
     sources.mkdir()
-    gdal.GetDriverByName("GTiff").Create(str(sources / "(B060)정사영상_2022_37709005.tif"), 40, 50, 3).Close()
+    gdal.GetDriverByName("GTiff").Create(str(sources / "(B060)정사영상_2022_37709005.tif"), 40, 50, 3).FlushCache()
     results = qgis_process("run", "wit:georeferencemapsheets", f"--INPUT={sources}", f"--OUTPUT={tmp_path / 'geo'}",
                            profile=profile)["results"]
     assert (results["GEOREFERENCED"], results["SKIPPED"], results["FAILED"]) == (1, 0, 0)
