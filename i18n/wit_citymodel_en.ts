@@ -372,8 +372,12 @@
       <translation>Merge tiles (WIT seam feathering)</translation>
     </message>
     <message>
-      <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Gain equalises the tiles' brightness from their overlaps (every pixel of a tile is scaled by its gain). NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning.</source>
-      <translation>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Gain equalises the tiles' brightness from their overlaps (every pixel of a tile is scaled by its gain). NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning.</translation>
+      <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused beyond the maximum empty share (advanced).</source>
+      <translation>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused beyond the maximum empty share (advanced).</translation>
+    </message>
+    <message>
+      <source>Maximum empty share of the mosaic (%)</source>
+      <translation>Maximum empty share of the mosaic (%)</translation>
     </message>
     <message>
       <source>Input rasters</source>
@@ -384,8 +388,8 @@
       <translation>Overlap</translation>
     </message>
     <message>
-      <source>Equalise tile brightness (gain; with feather)</source>
-      <translation>Equalise tile brightness (gain; with feather)</translation>
+      <source>Equalise tile tone (gain and offset; with feather)</source>
+      <translation>Equalise tile tone (gain and offset; with feather)</translation>
     </message>
     <message>
       <source>NoData value of the inputs (empty = as declared)</source>

@@ -2,8 +2,8 @@
 
 Subclasses declare parameters and implement ``execute`` (``run`` is QGIS API); ``processAlgorithm``
 turns core exceptions into ``QgsProcessingException`` so the user sees a message, never a traceback.
-Before ``execute``, every algorithm checks its inputs and outputs (``safeguards``): vector files
-named with their real problem, geometry types as the parameters ask, and no output that would
+Before ``execute``, every algorithm checks its inputs and outputs (``safeguards``): vector and
+raster files named with their real problem, geometry types as the parameters ask, and no output that would
 replace or share a file with an input; while it runs, atomic writes refuse to replace an input.
 """
 from __future__ import annotations
@@ -25,6 +25,7 @@ from qgis.PyQt.QtGui import QIcon
 from ..wit_plugin import deps, fileio
 from ..wit_plugin.errors import CanceledError, WitError
 from ..wit_plugin.feedback import Feedback
+from ..wit_plugin.gdal_env import no_sidecars
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1]
 HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
@@ -120,11 +121,13 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         return text
 
     def checkParameterValues(self, parameters, context):  # noqa: N802
-        """A vector file's real problem before QGIS's generic "Incorrect parameter value"."""
+        """A vector or raster file's real problem before QGIS's generic "Incorrect parameter value";
+        QGIS loads the layers here, without writing .aux.xml beside them (``no_sidecars``)."""
         from . import safeguards
 
-        problem = safeguards.file_problem(self, parameters, context)
-        return (False, problem) if problem else super().checkParameterValues(parameters, context)
+        with no_sidecars():
+            problem = safeguards.file_problem(self, parameters, context)
+            return (False, problem) if problem else super().checkParameterValues(parameters, context)
 
     def extra_outputs(self, parameters, context) -> list:
         """Files or folders written beside the destination parameters' (``safeguards.Endpoint``s)."""
@@ -136,14 +139,15 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         try:
             deps.require(self.requirements)
             self._check_geos()
-            problem = (safeguards.file_problem(self, parameters, context)
-                       or safeguards.geometry_problem(self, parameters, context)
-                       or safeguards.overlap_problem(self, parameters, context))
-            if problem:
-                raise QgsProcessingException(problem)
-            read = [source.path for source in safeguards.inputs(self, parameters, context)]
-            with fileio.protect(read):
-                return self.execute(parameters, context, QgisFeedback(feedback))
+            with no_sidecars():  # layers QGIS loads for the parameters write no .aux.xml beside the inputs
+                problem = (safeguards.file_problem(self, parameters, context)
+                           or safeguards.geometry_problem(self, parameters, context)
+                           or safeguards.overlap_problem(self, parameters, context))
+                if problem:
+                    raise QgsProcessingException(problem)
+                read = [source.path for source in safeguards.inputs(self, parameters, context)]
+                with fileio.protect(read):
+                    return self.execute(parameters, context, QgisFeedback(feedback))
         except CanceledError as exc:
             raise QgsProcessingException(self.tr("Cancelled: no output was written.")) from exc
         except WitError as exc:

@@ -62,8 +62,10 @@ class GeoreferenceMapSheets(WitAlgorithm):
             self.FORMAT, self.tr("Output format"), options=[self.tr("GeoTIFF"), self.tr("VRT")],
             defaultValue=0))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
+        # Optional (qgis_process needs no value), created by default in the dialog.
         self.addParameter(QgsProcessingParameterFeatureSink(
-            self.OUTPUT_INDEX, self.tr("Footprint index"), QgsProcessing.TypeVectorPolygon))
+            self.OUTPUT_INDEX, self.tr("Footprint index"), QgsProcessing.TypeVectorPolygon, optional=True,
+            createByDefault=True))
         self.addOutput(QgsProcessingOutputMultipleLayers("OUTPUT_LAYERS", self.tr("Georeferenced rasters")))
         self.addOutput(QgsProcessingOutputNumber("GEOREFERENCED", self.tr("Sheets georeferenced")))
         self.addOutput(QgsProcessingOutputNumber("SKIPPED", self.tr("Files skipped")))
@@ -85,15 +87,16 @@ class GeoreferenceMapSheets(WitAlgorithm):
         fields = index_fields()
         sink, index_id = self.parameterAsSink(parameters, self.OUTPUT_INDEX, context, fields,
                                               QgsWkbTypes.Polygon, target_crs)
-        for result in results:
+        for result in results if sink is not None else ():
             feature = QgsFeature(fields)
             feature.setAttributes([getattr(result, name) for name in fields.names()])
             if result.bounds:
                 feature.setGeometry(QgsGeometry.fromRect(QgsRectangle(*result.bounds)))
             sink.addFeature(feature, QgsFeatureSink.FastInsert)
+        outputs = {self.OUTPUT_INDEX: index_id} if sink is not None else {}
         return {
+            **outputs,
             self.OUTPUT: self.parameterAsString(parameters, self.OUTPUT, context),
-            self.OUTPUT_INDEX: index_id,
             "OUTPUT_LAYERS": [r.output for r in results if r.status == OK],
             "GEOREFERENCED": sum(r.status == OK for r in results),
             "SKIPPED": sum(r.status == SKIPPED for r in results),

@@ -3,12 +3,14 @@ from qgis.core import (
     QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
+    QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterNumber,
     QgsProcessingParameterRasterDestination,
 )
 
+from ..wit_plugin.mosaic import DEFAULT_MAX_EMPTY
 from .base import WitAlgorithm
 
 MODES = ("overwrite", "feather")
@@ -24,15 +26,19 @@ class MergeTiles(WitAlgorithm):
         "gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets "
         "later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each "
         "overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. "
-        "Gain equalises the tiles' brightness from their overlaps (every pixel of a tile is "
-        "scaled by its gain). NoData pixels are never blended. Inputs with another CRS or pixel "
-        "size are resampled onto the first input's grid, with a warning."
+        "Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile "
+        "becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band "
+        "of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are "
+        "never blended. Inputs with another CRS or pixel size are resampled onto the first input's "
+        "grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused "
+        "beyond the maximum empty share (advanced)."
     )
 
     INPUT = "INPUT"
     OVERLAP = "OVERLAP"
     GAIN = "GAIN"
     NODATA = "NODATA"
+    MAX_EMPTY = "MAX_EMPTY"
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
@@ -42,10 +48,15 @@ class MergeTiles(WitAlgorithm):
             self.OVERLAP, self.tr("Overlap"),
             options=[self.tr("Overwrite (paper)"), self.tr("Feather (WIT)")], defaultValue=1))
         self.addParameter(QgsProcessingParameterBoolean(
-            self.GAIN, self.tr("Equalise tile brightness (gain; with feather)"), defaultValue=True))
+            self.GAIN, self.tr("Equalise tile tone (gain and offset; with feather)"), defaultValue=True))
         self.addParameter(QgsProcessingParameterNumber(
             self.NODATA, self.tr("NoData value of the inputs (empty = as declared)"),
             QgsProcessingParameterNumber.Double, optional=True))
+        max_empty = QgsProcessingParameterNumber(
+            self.MAX_EMPTY, self.tr("Maximum empty share of the mosaic (%)"), QgsProcessingParameterNumber.Double,
+            defaultValue=100 * DEFAULT_MAX_EMPTY, minValue=0.0, maxValue=100.0, optional=True)  # old models stay valid
+        max_empty.setFlags(max_empty.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        self.addParameter(max_empty)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, self.tr("Mosaic")))
         self.addOutput(QgsProcessingOutputNumber("BLENDED_PIXELS", self.tr("Blended pixels")))
 
@@ -63,5 +74,6 @@ class MergeTiles(WitAlgorithm):
             gain=mode == "feather" and self.parameterAsBool(parameters, self.GAIN, context),
             nodata=None if nodata in (None, "") else self.parameterAsDouble(parameters, self.NODATA, context),
             feedback=feedback,
+            max_empty=self.parameterAsDouble(parameters, self.MAX_EMPTY, context) / 100.0,
         )
         return {self.OUTPUT: output, "BLENDED_PIXELS": report.blended_pixels}

@@ -3,8 +3,8 @@
 Generic over the parameter definitions, so every algorithm (the chain and future ones too) gets
 them without code of its own:
 
-* a vector input file that cannot work (missing, empty, a shapefile without its .shx or .dbf…)
-  is named with its real problem, not QGIS's "Incorrect parameter value";
+* a vector or raster input file that cannot work (missing, empty, a shapefile without its .shx or
+  .dbf, a truncated GeoTIFF…) is named with its real problem, not QGIS's "Incorrect parameter value";
 * a vector layer of the wrong geometry type (points given as buildings) is refused up front:
   ``QgsProcessingParameterVectorLayer`` type filters are not enforced for file paths;
 * an output that would replace or share a file with an input (links, ``|layername=`` sources and
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 from qgis.core import (
     QgsProcessing,
@@ -24,6 +25,7 @@ from qgis.core import (
 )
 
 from ..wit_plugin import fileio
+from ..wit_plugin.gdal_env import raster_file_problem
 from .base import tr, translatable
 
 VECTOR_TYPES = ("vector", "source")
@@ -133,14 +135,27 @@ def overlap_problem(algorithm, parameters: dict, context) -> str | None:
     return None
 
 
+def _raster_files(definition: QgsProcessingParameterDefinition, value) -> list[str]:
+    """The file names given to a raster parameter (layer ids, names and URIs are left to QGIS)."""
+    is_raster = definition.type() == "raster" or (
+        definition.type() == "multilayer" and definition.layerType() == QgsProcessing.TypeRaster)
+    values = value if isinstance(value, (list, tuple)) else [value]
+    paths = [v.split("|")[0] for v in values if is_raster and isinstance(v, str)]
+    return [p for p in paths if Path(p).suffix and "://" not in p and not p.startswith("/vsi")]
+
+
 def file_problem(algorithm, parameters: dict, context) -> str | None:
-    """What is wrong with a vector input file, before QGIS tries (and fails) to load it."""
+    """What is wrong with a vector or raster input file (missing, empty, truncated, damaged…), before
+    QGIS tries (and fails) to load it."""
     for definition in algorithm.parameterDefinitions():
         value = parameters.get(definition.name())
+        problem = None
         if definition.type() in VECTOR_TYPES and isinstance(value, str) and value:
             problem = fileio.vector_file_problem(value)
-            if problem:
-                return f"{definition.description()}: {problem}"
+        for path in _raster_files(definition, value):
+            problem = problem or raster_file_problem(path)
+        if problem:
+            return f"{definition.description()}: {problem}"
     return None
 
 

@@ -84,3 +84,56 @@ def cancel_after_checks():
             return self.checks < 0
 
     return CancelAfter
+
+
+@pytest.fixture(params=[False, True], ids=["gdal-exceptions-off", "gdal-exceptions-on"])
+def gdal_exceptions(request):
+    """Run with GDAL exceptions off (QGIS's default) and on (as some plugins and scripts set them)."""
+    from osgeo import gdal
+
+    before = gdal.GetUseExceptions()
+    gdal.UseExceptions() if request.param else gdal.DontUseExceptions()
+    yield request.param
+    gdal.UseExceptions() if before else gdal.DontUseExceptions()
+
+
+FOOTPRINT_WKT = "POLYGON((209002 543002,209010 543002,209010 543010,209002 543010,209002 543002))"
+
+
+def write_polygons(path, name, fields=(), wkt=FOOTPRINT_WKT) -> str:
+    """A one-polygon GeoPackage layer in EPSG:5186 (the test footprint by default); its layer source."""
+    from osgeo import ogr, osr
+
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(5186)
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    layer = ds.CreateLayer(name, srs, ogr.wkbPolygon)
+    for field in fields:
+        layer.CreateField(ogr.FieldDefn(field, ogr.OFTString))
+    feature = ogr.Feature(layer.GetLayerDefn())
+    feature.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
+    layer.CreateFeature(feature)
+    del layer, ds
+    return f"{path}|layername={name}"
+
+
+@pytest.fixture(scope="module")
+def real_rasters(tmp_path_factory, shared_dir, qgis_processing) -> dict:
+    """Writable real rasters in one folder around the test footprint (209002–209010, 543002–543010):
+    the USGS 15 cm orthophoto placed there in EPSG:5186 (383 × 232 px, stripped; the footprint lies
+    in rows 99–152) and the Seoul 90 m DEM; beside them (other folder) the footprint and its LoD1."""
+    import processing
+    from osgeo import gdal
+
+    ensure_wit_provider()
+    rasters = tmp_path_factory.mktemp("rasters")
+    ortho = str(rasters / "ortho.tif")
+    gdal.Translate(ortho, str(shared_dir / "data" / "ortho_usgs_hro_15cm" / "201404_13SED190110_201404_0x1500m_CL_1.tif"),
+                   outputSRS="EPSG:5186", outputBounds=[208990.0, 542990.0 + 232 * 0.15, 208990.0 + 383 * 0.15, 542990.0])
+    dem = rasters / "dem.tif"
+    dem.write_bytes((shared_dir / "data" / "dem_seoul_90m_5186" / "seoul_dem.tif").read_bytes())
+    vectors = tmp_path_factory.mktemp("vectors")
+    footprints = write_polygons(vectors / "plain.gpkg", "buildings", ("wit_id",))
+    lod1 = processing.run("wit:extrudebuildings", {"BUILDINGS": footprints, "DEM": str(dem),
+                                                   "OUTPUT": str(vectors / "lod1.gpkg")})["OUTPUT"]
+    return {"folder": rasters, "ortho": ortho, "dem": str(dem), "footprints": footprints, "lod1": lod1}

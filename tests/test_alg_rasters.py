@@ -1,10 +1,14 @@
-"""wit:georeferencemapsheets and wit:mergetiles through Processing, as a toolbox user runs them."""
+"""The raster steps through Processing, as a toolbox user runs them: georeference, merge, and that no
+raster-reading algorithm writes beside its inputs."""
 from __future__ import annotations
+
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 from osgeo import gdal, osr
-from qgis.core import QgsProcessingException, QgsVectorLayer
+from qgis.core import QgsProcessingException, QgsProcessingFeedback, QgsVectorLayer
 
 
 def _unreferenced_tif(path, width=200, height=250, value=100):
@@ -15,15 +19,20 @@ def _unreferenced_tif(path, width=200, height=250, value=100):
 
 
 def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
+    import processing
+
     sources = tmp_path / "ngii"
     sources.mkdir()
     _unreferenced_tif(sources / "(B060)정사영상_2022_37709005.tif", value=100)
     _unreferenced_tif(sources / "(B060)정사영상_2022_37709004.tif", value=140)
     (sources / "notes_2022.tif").write_bytes(b"no sheet number here")
-    result = run_algorithm("wit:georeferencemapsheets", {
+    (sources / "(B060)정사영상_2022_37709006.tif").write_bytes(b"")  # a failed copy: partial success
+    feedback = _Warnings()
+    result = processing.run("wit:georeferencemapsheets", {
         "INPUT": [str(sources)], "OUTPUT": str(tmp_path / "geo"),
-        "OUTPUT_INDEX": str(tmp_path / "index.gpkg")})
-    assert (result["GEOREFERENCED"], result["SKIPPED"], result["FAILED"]) == (2, 1, 0)
+        "OUTPUT_INDEX": str(tmp_path / "index.gpkg")}, feedback=feedback)
+    assert (result["GEOREFERENCED"], result["SKIPPED"], result["FAILED"]) == (2, 1, 1)
+    assert any(w.startswith("Failed ") and "37709006.tif is empty (0 bytes)" in w for w in feedback.warnings)
     ds = gdal.Open(str(tmp_path / "geo" / "37709005.tif"))
     x0, dx, _, y0, _, dy = ds.GetGeoTransform()
     # SPEC §3 worked example: x 208842.55–211056.87, y 541734.15–544511.46, plus the 50 m margin
@@ -36,6 +45,7 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
     rows = {f["sheet"] or f["source"].rsplit("/", 1)[-1]: (f["status"], f["reason"]) for f in index.getFeatures()}
     assert rows["37709005"][0] == "ok" and rows["37709004"][0] == "ok"
     assert rows["notes_2022.tif"][0] == "skipped" and "sheet number" in rows["notes_2022.tif"][1]
+    assert rows["37709006"][0] == "failed" and "is empty (0 bytes)" in rows["37709006"][1]
 
     merged = run_algorithm("wit:mergetiles", {
         "INPUT": result["OUTPUT_LAYERS"], "OVERLAP": 1, "GAIN": False,
@@ -56,3 +66,92 @@ def test_georeference_rejects_unwritable_output_with_a_message(tmp_path, run_alg
         run_algorithm("wit:georeferencemapsheets", {
             "INPUT": [str(sources)], "OUTPUT": str(blocker / "out"),
             "OUTPUT_INDEX": str(tmp_path / "index.gpkg")})
+
+
+def _tile(path, x0, y0, size=20, pixel=10.0):
+    ds = gdal.GetDriverByName("GTiff").Create(str(path), size, size, 3, gdal.GDT_Byte)
+    ds.SetGeoTransform((x0, pixel, 0, y0, 0, -pixel))
+    ds.SetProjection(_epsg5186())
+    for band in range(3):
+        ds.GetRasterBand(band + 1).WriteArray(np.full((size, size), 60 + 40 * band, np.uint8))
+    ds = None
+    return str(path)
+
+
+def _epsg5186():
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(5186)
+    return srs.ExportToWkt()
+
+
+class _Warnings(QgsProcessingFeedback):
+    def __init__(self):
+        super().__init__()
+        self.warnings = []
+
+    def pushWarning(self, warning):  # noqa: N802
+        self.warnings.append(warning)
+        super().pushWarning(warning)
+
+
+def test_sparse_mosaic_is_refused_before_writing_unless_the_limit_is_raised(tmp_path, wit_provider):
+    """Two 200 m tiles 5 km apart: a 520 × 20 px mosaic 92 % empty is refused (nothing written) under
+    the default 90 % limit; raising the advanced limit writes it, with a warning."""
+    import processing
+
+    tiles = [_tile(tmp_path / "west.tif", 200000.0, 550000.0), _tile(tmp_path / "east.tif", 205000.0, 550000.0)]
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(QgsProcessingException, match=r"520 × 20 px.*about 92% of it would be empty.*raise the "
+                                                     r"maximum empty share \(now 90%\)") as error:
+        processing.run("wit:mergetiles", {"INPUT": tiles, "OUTPUT": str(out / "m.tif")})
+    assert "Traceback" not in str(error.value)
+    assert list(out.iterdir()) == []
+    feedback = _Warnings()
+    result = processing.run("wit:mergetiles", {"INPUT": tiles, "MAX_EMPTY": 95, "OUTPUT": str(out / "m.tif")},
+                            feedback=feedback)
+    ds = gdal.Open(result["OUTPUT"])
+    assert (ds.RasterXSize, ds.RasterYSize) == (520, 20)
+    assert any("about 92% of it is empty" in w for w in feedback.warnings), feedback.warnings
+
+
+def _listing(folder):
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+READERS = {
+    "mergetiles": ("wit:mergetiles", lambda r, o: {"INPUT": [r["ortho"]], "OUTPUT": str(o / "m.tif")}),
+    "buildcolorstore": ("wit:buildcolorstore", lambda r, o: {"INPUT": r["ortho"], "OUTPUT": str(o / "c.gpkg")}),
+    "wittexture": ("wit:wittexture", lambda r, o: {"ORTHO": r["ortho"], "LOD1": r["lod1"], "OUTPUT": str(o / "tex")}),
+    "triangulateterrain": ("wit:triangulateterrain", lambda r, o: {
+        "DEM": r["dem"], "AREA": r["footprints"], "OUTPUT": str(o / "tin.gpkg")}),
+    "extrudebuildings": ("wit:extrudebuildings", lambda r, o: {
+        "BUILDINGS": r["footprints"], "DEM": r["dem"], "OUTPUT": str(o / "lod1.gpkg")}),
+    "qualitymetrics": ("wit:qualitymetrics", lambda r, o: {"ORTHO": r["ortho"], "OUTPUT": str(o / "q.csv")}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(READERS))
+def test_reading_rasters_writes_nothing_beside_them(case, real_rasters, tmp_path, run_algorithm):
+    """QGIS computes statistics when it loads a raster parameter, and GDAL saved them as .aux.xml
+    beside the inputs: every raster-reading algorithm now leaves the input folder as it was."""
+    algorithm, parameters = READERS[case]
+    folder = tmp_path / "inputs"
+    shutil.copytree(real_rasters["folder"], folder)
+    inputs = {**real_rasters, "ortho": str(folder / "ortho.tif"), "dem": str(folder / "dem.tif")}
+    before = _listing(folder)
+    assert sorted(before) == ["dem.tif", "ortho.tif"]
+    run_algorithm(algorithm, parameters(inputs, tmp_path))
+    assert _listing(folder) == before
+
+
+def test_georeferencing_writes_nothing_beside_the_sources(real_rasters, tmp_path, run_algorithm):
+    sources = tmp_path / "ngii"
+    sources.mkdir()
+    (sources / "(B060)정사영상_2022_37709005.tif").write_bytes(Path(real_rasters["ortho"]).read_bytes())
+    before = _listing(sources)
+    result = run_algorithm("wit:georeferencemapsheets", {"INPUT": [str(sources)], "OUTPUT": str(tmp_path / "geo")})
+    assert result["GEOREFERENCED"] == 1
+    run_algorithm("wit:mergetiles", {"INPUT": result["OUTPUT_LAYERS"], "OUTPUT": str(tmp_path / "m.tif")})
+    assert _listing(sources) == before
+    assert sorted(p.name for p in (tmp_path / "geo").iterdir()) == ["37709005.tif"]

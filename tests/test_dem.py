@@ -97,7 +97,7 @@ def test_window_read_matches_full_read(tmp_path):
         window.sample(np.array([bounds[0] - 100.0]), np.array([bounds[1]]))
     with pytest.raises(InputError, match="does not cover"):
         Dem.open(tmp_path / "d.tif", (199000.0, 548900.0, 201100.0, 549600.0))
-    with pytest.raises(InputError, match="Cannot open"):
+    with pytest.raises(InputError, match="does not exist"):
         Dem.open(tmp_path / "missing.tif")
 
 

@@ -41,6 +41,11 @@ def test_atomic_files_leave_nothing_on_failure(tmp_path):
             (tmp / "a.shp").write_text("half")
             raise KeyboardInterrupt
     assert list(tmp_path.iterdir()) == []
+    with pytest.raises(RuntimeError):  # a folder made for the run goes too; the existing one stays
+        with atomic_files([tmp_path / "new" / "a.shp"]) as tmp:
+            (tmp / "a.shp").write_text("half")
+            raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_unwritable_output_folder_is_a_clear_error(tmp_path):

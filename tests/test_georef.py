@@ -104,7 +104,7 @@ def test_geotiff_mode(inputs, tmp_path):
     assert "already comes from" in dup.reason and "37612093.tif" in dup.reason
     bad = r["37709005.tif"]
     assert (bad.status, bad.sheet, bad.output) == ("failed", "37709005", None)
-    assert "GDAL cannot open it" in bad.reason and "not recognized" in bad.reason
+    assert "Cannot open the orthoimage" in bad.reason and "not recognized" in bad.reason
     assert len(messages) == 4
     assert sorted(os.listdir(out)) == ["37612093.tif", "37713074.tif"]
 
@@ -159,8 +159,9 @@ def test_bad_parameters(inputs, tmp_path):
 
 def test_source_in_output_folder_is_not_overwritten(tmp_path):
     pixels = make_tif(tmp_path / "37713074.tif")
-    (result,) = georef.georeference_sheets([str(tmp_path / "37713074.tif")], tmp_path)
-    assert result.status == "skipped" and "would replace the source" in result.reason
+    with pytest.raises(InputError, match=r"\(1 skipped, 0 failed\):\n  37713074.tif: skipped, the output .* would "
+                                         "replace the source"):
+        georef.georeference_sheets([str(tmp_path / "37713074.tif")], tmp_path)
     assert np.array_equal(read(str(tmp_path / "37713074.tif")), pixels)
 
 

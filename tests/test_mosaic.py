@@ -9,9 +9,10 @@ import pytest
 from osgeo import gdal, osr
 from osgeo_utils import gdal_merge
 
-from wit_plugin import mosaic
+from wit_plugin import georef, metrics, mosaic, tone
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
+from wit_plugin.sample import SampleConfig, generate_sample
 
 EPSG = 5186
 ORIGIN = (200000.0, 500000.0)
@@ -143,21 +144,27 @@ def test_feather_and_gain_remove_the_seam(tmp_path):
     g1, g2 = np.array(report.gains)
     np.testing.assert_allclose(g1 / g2, 1.2, rtol=0.01)  # the brighter tile is toned down relative
     np.testing.assert_allclose(g1 * g2, 1.0, rtol=1e-9)  # geometric mean 1
+    np.testing.assert_allclose(report.offsets, 0.0, atol=1.5)  # a pure gain: (almost) no offset
 
 
-def test_gains_chain_tiles_and_leave_an_isolated_tile_alone(tmp_path):
-    """Three tiles in a row, each 10 % brighter than the last, and one far away: the chain's gains
-    undo the steps with geometric mean 1; the lone tile keeps gain 1."""
-    grey = np.full((20, 30), 100.0, np.float32)
-    inputs = [write_tif(tmp_path / f"t{k}.tif", grey * 1.1 ** k, (ORIGIN[0] + k * 40.0, ORIGIN[1])) for k in range(3)]
-    inputs.append(write_tif(tmp_path / "far.tif", grey * 3, (ORIGIN[0] + 400.0, ORIGIN[1])))
+def test_heights_are_offset_along_a_chain_never_scaled_and_an_isolated_tile_is_left_alone(tmp_path):
+    """Three flat float32 DEM tiles in a row at 100, 110 and 121 m, and one far away: one least-squares
+    solve over both overlaps levels the chain at its mean (110.33 m) with gains exactly 1; the lone
+    tile keeps its heights."""
+    flat = np.ones((100, 120), np.float32)
+    inputs = [write_tif(tmp_path / f"t{k}.tif", flat * 100 * 1.1 ** k, (ORIGIN[0] + k * 120.0, ORIGIN[1]))
+              for k in range(3)]
+    inputs.append(write_tif(tmp_path / "far.tif", flat * 300, (ORIGIN[0] + 1000.0, ORIGIN[1])))
     report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"))
-    gains = np.array(report.gains)[:, 0]
-    np.testing.assert_allclose(gains[:3] * 1.1 ** np.arange(3), 1.1, rtol=1e-6)  # 1.1: their geometric mean
-    assert np.prod(gains[:3]) == pytest.approx(1.0, rel=1e-9)
-    assert gains[3] == 1.0
+    assert report.gains == [[1.0]] * 4
+    heights = np.array([100.0, 110.0, 121.0])
+    offsets = np.array(report.offsets)[:, 0]
+    np.testing.assert_allclose(heights + offsets[:3], heights.mean(), atol=1e-4)
+    assert offsets[:3].sum() == pytest.approx(0.0, abs=1e-9)
+    assert offsets[3] == 0.0
     out, _ = read(report.output)
-    np.testing.assert_allclose(out[0, :, :70], 110.0, rtol=1e-5)  # one tone along the chain (70 px)
+    np.testing.assert_allclose(out[0, :, :240], heights.mean(), atol=1e-4)  # one surface along the chain
+    np.testing.assert_array_equal(out[0, :, -120:], 300.0)
 
 
 def test_feather_without_gain_keeps_single_coverage_pixels_and_weights_by_edge_distance(tmp_path):
@@ -212,16 +219,40 @@ def test_nodata_parameter_overrides_and_rgb_holes(tmp_path):
 
 
 def test_identical_dem_overlaps_reproduce_the_dem_exactly(tmp_path):
-    """Two float32 tiles cut from one DEM: feather + gain returns the DEM bit for bit."""
+    """Two float32 tiles cut from one DEM: the overlap is measured (no warning) and the correction is
+    the identity, so feather + tone returns the DEM bit for bit."""
     rng = np.random.default_rng(3)
-    dem = (100 + rng.normal(0, 5, (50, 70)).cumsum(axis=1)).astype(np.float32)
-    inputs = [write_tif(tmp_path / "a.tif", dem[:, :45], ORIGIN),
-              write_tif(tmp_path / "b.tif", dem[:, 25:], (ORIGIN[0] + 50.0, ORIGIN[1]))]
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "dem.tif"), mode="feather", gain=True)
+    dem = (100 + rng.normal(0, 5, (120, 160)).cumsum(axis=1)).astype(np.float32)
+    inputs = [write_tif(tmp_path / "a.tif", dem[:, :100], ORIGIN),
+              write_tif(tmp_path / "b.tif", dem[:, 60:], (ORIGIN[0] + 120.0, ORIGIN[1]))]
+    feedback = Recorder()
+    report = mosaic.merge_tiles(inputs, str(tmp_path / "dem.tif"), mode="feather", gain=True, feedback=feedback)
     out, _ = read(report.output)
-    assert report.gains == [[1.0], [1.0]]
-    assert report.blended_pixels == 50 * 20
+    assert feedback.warnings == []
+    assert report.gains == [[1.0], [1.0]] and report.offsets == [[0.0], [0.0]]
+    assert report.blended_pixels == 120 * 40
     np.testing.assert_array_equal(out[0], dem)
+
+
+def test_dem_tiles_with_a_vertical_bias_get_an_offset_not_a_gain(tmp_path):
+    """The second DEM tile reads 5 m high (another survey's datum): each tile moves 2.5 m towards the
+    other, no height is scaled, and the mosaic is one surface, 2.5 m above the first tile."""
+    rng = np.random.default_rng(5)
+    dem = (300 + rng.normal(0, 4, (120, 160)).cumsum(axis=1)).astype(np.float32)
+    inputs = [write_tif(tmp_path / "a.tif", dem[:, :100], ORIGIN, nodata=-9999.0),
+              write_tif(tmp_path / "b.tif", dem[:, 60:] + 5, (ORIGIN[0] + 120.0, ORIGIN[1]), nodata=-9999.0)]
+    report = mosaic.merge_tiles(inputs, str(tmp_path / "dem.tif"))
+    assert report.gains == [[1.0], [1.0]]
+    np.testing.assert_allclose(report.offsets, [[2.5], [-2.5]], atol=1e-4)
+    out, _ = read(report.output)
+    np.testing.assert_allclose(out[0], dem + 2.5, atol=1e-3)
+
+
+@pytest.mark.parametrize("bands, dtype, heights", [
+    (1, np.float32, True), (1, np.float64, True), (1, np.int16, True), (1, np.uint8, False),
+    (1, np.uint16, False), (3, np.uint8, False), (3, np.float32, False)])
+def test_what_counts_as_heights(bands, dtype, heights):
+    assert tone.is_elevation(bands, np.dtype(dtype)) is heights
 
 
 def test_cancel_leaves_no_file(tmp_path):
@@ -263,7 +294,7 @@ def test_different_crs_is_reprojected_with_a_warning(tmp_path):
     assert any("CRS" in w for w in feedback.warnings)
     assert report.width >= 40
     np.testing.assert_array_equal(out[0, :, :20], 5.0)
-    np.testing.assert_allclose(out[0, 2:18, 22:38], 7.0 * report.gains[1][0], rtol=1e-5)
+    np.testing.assert_allclose(out[0, 2:18, 22:38], 7.0 * report.gains[1][0] + report.offsets[1][0], rtol=1e-5)
 
 
 def test_refuses_mixed_band_counts_and_missing_crs(tmp_path):
@@ -294,3 +325,140 @@ def test_landsat_tiles_overwrite_equal_gdal_merge(tmp_path, shared_dir):
     assert band.GetOverviewCount() == 1  # 791 → 396 px: under 512
     assert ds.GetMetadata("IMAGE_STRUCTURE")["COMPRESSION"] == "DEFLATE"
     assert report.covered_pixels == int((expected != 0).any(axis=0).sum())
+
+
+# --- tone correction on real imagery ---------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def landsat_scene(tmp_path_factory, shared_dir) -> str:
+    """The real Landsat scene put back together from its 2×2 tiles (NoData 0 around the footprint)."""
+    folder = shared_dir / "data" / "rgb_landsat_rasterio_cc0"
+    return run_gdal_merge([str(folder / f"rgb{i}.tif") for i in range(1, 5)],
+                          tmp_path_factory.mktemp("landsat") / "scene.tif")
+
+
+def cut_tile(scene: str, path: Path, window: tuple[int, int, int, int], tone_change=lambda v: v) -> str:
+    """A tile cut from ``scene`` (xoff, yoff, width, height) with its tone changed, clipped to 1–255
+    (NoData 0 stays 0 and is declared)."""
+    ds = gdal.Translate(str(path), scene, srcWin=list(window))
+    data = ds.ReadAsArray().astype(np.float64)
+    covered = (data != 0).any(axis=0)
+    ds.WriteArray(np.where(covered, np.clip(np.rint(tone_change(data)), 1, 255), 0).astype(np.uint8))
+    for band in range(ds.RasterCount):
+        ds.GetRasterBand(band + 1).SetNoDataValue(0)
+    ds = None
+    return str(path)
+
+
+def overlap_tone_difference(report: mosaic.MergeReport, i: int, j: int, corrected: bool = True) -> float:
+    """Mean absolute colour difference between tiles i and j over their overlap, after each tile's
+    correction (or before): pixels NoData or saturated (255) in either tile are left out, as no
+    linear correction can bring back a clipped value."""
+    wi, wj = report.tile_windows[i], report.tile_windows[j]
+    x0, y0 = max(wi[0], wj[0]), max(wi[1], wj[1])
+    x1, y1 = min(wi[0] + wi[2], wj[0] + wj[2]), min(wi[1] + wi[3], wj[1] + wj[3])
+    values = []
+    for k, w in ((i, wi), (j, wj)):
+        data = gdal.Open(report.inputs[k]).ReadAsArray(x0 - w[0], y0 - w[1], x1 - x0, y1 - y0).astype(np.float64)
+        gain, offset = (np.array(report.gains[k]), np.array(report.offsets[k])) if corrected else (1.0, 0.0)
+        values.append((data, data * np.reshape(gain, (-1, 1, 1)) + np.reshape(offset, (-1, 1, 1))))
+    (raw_i, tone_i), (raw_j, tone_j) = values
+    usable = ((raw_i > 0) & (raw_i < 255) & (raw_j > 0) & (raw_j < 255)).all(axis=0)
+    return float(np.abs(tone_i - tone_j)[:, usable].mean())
+
+
+TONE_CHANGES = {"+40": lambda v: v + 40, "x1.2": lambda v: v * 1.2, "x1.2+40": lambda v: v * 1.2 + 40}
+
+
+@pytest.mark.parametrize("change", sorted(TONE_CHANGES))
+def test_tone_correction_removes_gain_and_offset_between_real_tiles(tmp_path, landsat_scene, change):
+    """Two real tiles overlapping by 100 columns, the second with its tone changed: the tone
+    difference in the overlap drops at least 5× (measured: 40.0 → 0.0, 9.7 → 0.2, 49.4 → 0.2; a gain
+    alone left 19.7, 3.1, 18.9) and the seam across the tile border goes (excess step 12.5 → 0.5 with
+    +40); single-coverage NoData stays NoData."""
+    inputs = [cut_tile(landsat_scene, tmp_path / "left.tif", (0, 0, 450, 718)),
+              cut_tile(landsat_scene, tmp_path / "right.tif", (350, 0, 441, 718), TONE_CHANGES[change])]
+    over = mosaic.merge_tiles(inputs, str(tmp_path / "over.tif"), mode="overwrite")
+    wit = mosaic.merge_tiles(inputs, str(tmp_path / "wit.tif"), mode="feather")
+    before, after = overlap_tone_difference(over, 0, 1), overlap_tone_difference(wit, 0, 1)
+    assert before > 9
+    assert after * 5 <= before and after < 0.5
+    seam_before, seam_after = (metrics.seam_metrics(r.output, inputs).excess for r in (over, wit))
+    assert seam_before > 2.5 and abs(seam_after) * 4 <= seam_before
+    gains, offsets = np.array(wit.gains), np.array(wit.offsets)
+    expected_ratio = 1.2 if "x1.2" in change else 1.0
+    np.testing.assert_allclose(gains[0] / gains[1], expected_ratio, rtol=0.01)
+    np.testing.assert_allclose(np.log(gains).sum(axis=0), 0.0, atol=1e-9)  # anchored: geometric mean 1
+    np.testing.assert_allclose(offsets.sum(axis=0), 0.0, atol=1e-9)  # and mean offset 0
+    out, _ = read(wit.output)
+    scene, _ = read(landsat_scene)
+    np.testing.assert_array_equal(out[:, scene.any(axis=0) == 0], 0)  # NoData never corrected
+
+
+def test_tone_is_solved_over_all_overlaps_of_four_real_tiles(tmp_path, landsat_scene):
+    """2×2 real tiles overlapping each other (six overlaps, a loop) with four different tones: one
+    least-squares solve makes every overlap agree (before 10–40 grey levels, after ≤ 0.3)."""
+    changes = [lambda v: v, lambda v: v + 40, lambda v: v * 1.2, lambda v: v * 0.9 + 15]
+    windows = [(0, 0, 450, 410), (341, 0, 450, 410), (0, 308, 450, 410), (341, 308, 450, 410)]
+    inputs = [cut_tile(landsat_scene, tmp_path / f"q{k}.tif", w, c) for k, (w, c) in enumerate(zip(windows, changes))]
+    report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"))
+    for i in range(4):
+        for j in range(i + 1, 4):
+            before = overlap_tone_difference(report, i, j, corrected=False)
+            after = overlap_tone_difference(report, i, j)
+            assert before > 10 and after * 5 <= before and after < 0.5, (i, j, before, after)
+    gains = np.array(report.gains)
+    np.testing.assert_allclose(gains[0] / gains[1], 1.0, rtol=0.01)
+    np.testing.assert_allclose(gains[0] / gains[2], 1.2, rtol=0.01)
+    np.testing.assert_allclose(gains[0] / gains[3], 0.9, rtol=0.01)
+
+
+def test_tone_correction_on_the_generated_sample_recovers_its_tile_exposures(tmp_path):
+    """The sample's two NGII-named tiles carry known exposures (0.88–0.91 and 1.07–1.08 per band) and
+    their own sensor noise; after georeferencing (the second tile is resampled), the solved gains
+    match the true ratio within 2 % and the mean colour difference in the overlap drops ≥ 5×."""
+    sample = generate_sample(tmp_path / "sample", SampleConfig(radius_m=250.0, seed=11, ortho_pixel_size=2.0,
+                                                                with_dem=False))
+    results = georef.georeference_sheets([str(p) for p in sample.ortho_tiles], tmp_path / "geo")
+    tiles = [r.output for r in results]
+    report = mosaic.merge_tiles(tiles, str(tmp_path / "m.tif"))
+    exposure = [np.array(sample.tile_gains[str(Path(r.source).relative_to(sample.folder))]) for r in results]
+    true_ratio = exposure[1] / exposure[0]
+    gains = np.array(report.gains)
+    np.testing.assert_allclose(gains[0] / gains[1], true_ratio, rtol=0.02)
+
+    def mean_difference(corrected: bool) -> float:
+        wa, wb = report.tile_windows
+        x0, x1 = wb[0], wa[0] + wa[2]
+        means = []
+        for k, w in enumerate(report.tile_windows):
+            data = gdal.Open(tiles[k]).ReadAsArray(x0 - w[0], 0, x1 - x0, 1400).astype(np.float64)
+            if corrected:
+                data = data * np.reshape(report.gains[k], (-1, 1, 1)) + np.reshape(report.offsets[k], (-1, 1, 1))
+            means.append(data.mean(axis=(1, 2)))
+        return float(np.abs(means[0] - means[1]).mean())
+
+    assert mean_difference(corrected=False) > 15
+    assert mean_difference(corrected=True) * 5 <= mean_difference(corrected=False)
+
+
+def test_mostly_empty_mosaic_is_a_warning_then_refused_before_anything_is_written(tmp_path):
+    """Two 20 × 20 px tiles: 60 px apart the mosaic is 60 % empty (a warning); 380 px apart 90.5 %
+    (refused under the default 90 %, before the output folder is even made; written when raised)."""
+    grey = np.full((3, 20, 20), 90, np.uint8)
+    a = write_tif(tmp_path / "a.tif", grey, ORIGIN)
+    near = write_tif(tmp_path / "near.tif", grey, (ORIGIN[0] + 160.0, ORIGIN[1]))
+    far = write_tif(tmp_path / "far.tif", grey, (ORIGIN[0] + 800.0, ORIGIN[1]))
+    feedback = Recorder()
+    mosaic.merge_tiles([a, near], str(tmp_path / "near_m.tif"), feedback=feedback)
+    assert feedback.warnings == [("The mosaic is 100 × 20 px, 0.0 GB uncompressed, and about 60% of it is empty "
+                                  "(no tile covers it): the tiles lie far apart.")]
+    out = tmp_path / "out"
+    with pytest.raises(InputError, match=r"^The mosaic would be 420 × 20 px, 0.0 GB uncompressed, and about 90% of it "
+                                         r"would be empty .* raise the maximum empty share \(now 90%\)"):
+        mosaic.merge_tiles([a, far], str(out / "m.tif"))
+    assert not out.exists()
+    report = mosaic.merge_tiles([a, far], str(out / "m.tif"), max_empty=0.95)
+    assert (report.width, report.height) == (420, 20)
+    with pytest.raises(InputError, match="0–1"):
+        mosaic.merge_tiles([a], str(out / "x.tif"), max_empty=1.5)

@@ -90,3 +90,17 @@ def test_an_output_over_its_input_fails_headless_and_leaves_the_input_intact(tmp
     assert f"would overwrite the input 'Buildings (TL_SPBD_BULD)' ({tmp_path / 'buildings.shp'})" in (
         result.stdout + result.stderr)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_georeference_without_the_footprint_index(tmp_path, profile):
+    """OUTPUT_INDEX is optional: qgis_process 3.22 used to stop with "mandatory parameters were not
+    specified"; now the sheets are written and no index is."""
+    sources = tmp_path / "ngii"
+    sources.mkdir()
+    gdal.GetDriverByName("GTiff").Create(str(sources / "(B060)정사영상_2022_37709005.tif"), 40, 50, 3).FlushCache()
+    results = qgis_process("run", "wit:georeferencemapsheets", f"--INPUT={sources}", f"--OUTPUT={tmp_path / 'geo'}",
+                           profile=profile)["results"]
+    assert (results["GEOREFERENCED"], results["SKIPPED"], results["FAILED"]) == (1, 0, 0)
+    assert "OUTPUT_INDEX" not in results or not results["OUTPUT_INDEX"]
+    assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == [
+        "(B060)정사영상_2022_37709005.tif", "37709005.tif"]

@@ -371,7 +371,7 @@ def test_cancel_leaves_no_output(scene: dict, tmp_path: Path) -> None:
     with pytest.raises(CanceledError):
         texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(out),
                       TextureConfig(atlas_size=64), feedback=_CancelAfter(3))
-    assert list(out.iterdir()) == []
+    assert not out.exists()  # the folder made for this run is removed too
 
 
 def test_surface_outside_the_ortho_is_refused(scene: dict, tmp_path: Path) -> None:
@@ -397,7 +397,7 @@ def test_bad_inputs(scene: dict, tmp_path: Path) -> None:
         texture_model(scene["ortho"], None, None, str(tmp_path / "tex"))
     with pytest.raises(InputError, match="has no layer 'lod1_faces'"):
         texture_model(scene["ortho"], scene["tin"], None, str(tmp_path / "tex"))
-    with pytest.raises(InputError, match="Cannot open the orthoimage"):
+    with pytest.raises(InputError, match="orthoimage .*missing.tif does not exist"):
         texture_model(str(tmp_path / "missing.tif"), scene["lod1"], None, str(tmp_path / "tex"))
 
 

@@ -63,8 +63,7 @@ from osgeo import gdal, ogr, osr
 from .errors import InputError, MissingDependencyError, WitError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
-from .gdal_env import open_raster
-from .gdal_env import capped_block_cache
+from .gdal_env import capped_block_cache, open_raster, read_window
 
 DEFAULT_TABLE = "color_cells"
 DEFAULT_TOLERANCE = 12.0
@@ -200,9 +199,7 @@ def _meta_with(meta: dict[str, Any], report: BuildReport) -> dict[str, Any]:
 
 def _open_ortho(path: str | os.PathLike) -> gdal.Dataset:
     """Open the ortho and refuse what the store cannot represent, saying what to do instead."""
-    if not os.path.exists(path):
-        raise InputError(f"Orthoimage {path} does not exist.")
-    ds = open_raster(path)
+    ds = open_raster(path, "orthoimage")
     types = {gdal.GetDataTypeName(ds.GetRasterBand(b).DataType) for b in range(1, min(ds.RasterCount, 3) + 1)}
     if ds.RasterCount < 3 or types != {"Byte"}:
         raise InputError(f"{path} is not an RGB orthoimage: the colour store needs 3 bands of Byte, it has "
@@ -229,7 +226,8 @@ def _build(ds: gdal.Dataset, writer: _GpkgWriter | _PostgisWriter, report: Build
     for k, (bx, by) in enumerate(origins):
         feedback.check_canceled()
         w, h = min(size + 1, width - bx), min(size + 1, height - by)
-        block = ds.ReadAsArray(bx, by, w, h, band_list=[1, 2, 3]).astype(np.float32)
+        block = read_window(ds, bx, by, w, h, f"the orthoimage {ds.GetDescription()}",
+                            band_list=[1, 2, 3]).astype(np.float32)
         cells, errors = _quadtree(block, size, report.tolerance, report.max_depth, report.metric)
         own = errors[:, :min(size, height - by), :min(size, width - bx)]  # shared edges counted once
         report.max_error = max(report.max_error, float(own.max()))

@@ -21,6 +21,7 @@ from osgeo import gdal
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
+from .gdal_env import open_raster, read_window
 
 #: values at or below this are NoData in files that declare no NoData value (SPEC §4)
 NODATA_THRESHOLD = -1000.0
@@ -71,12 +72,7 @@ class Dem:
 
         Raises ``InputError`` if the file cannot be read or does not cover ``bounds``.
         """
-        try:
-            ds = gdal.Open(str(path))
-        except RuntimeError as exc:  # with gdal.UseExceptions()
-            raise InputError(f"Cannot open the DEM {path}: {exc}") from exc
-        if ds is None:
-            raise InputError(f"Cannot open the DEM {path}: {gdal.GetLastErrorMsg() or 'not a raster'}")
+        ds = open_raster(path, "DEM")
         band = ds.GetRasterBand(1)
         gt = ds.GetGeoTransform()
         cols, rows = ds.RasterXSize, ds.RasterYSize
@@ -93,9 +89,7 @@ class Dem:
             c1 = min(cols, math.ceil(max(us)) + margin_cells)
             r0 = max(0, math.floor(min(vs)) - margin_cells)
             r1 = min(rows, math.ceil(max(vs)) + margin_cells)
-        data = band.ReadAsArray(c0, r0, c1 - c0, r1 - r0)
-        if data is None:
-            raise InputError(f"Cannot read the DEM {path}: {gdal.GetLastErrorMsg()}")
+        data = read_window(band, c0, r0, c1 - c0, r1 - r0, f"the DEM {path}")
         window_gt = (gt[0] + c0 * gt[1], gt[1], gt[2], gt[3] + r0 * gt[5], gt[4], gt[5])
         return cls(data, window_gt, band.GetNoDataValue(),
                    open_edges=(c0 > 0, c1 < cols, r0 > 0, r1 < rows), feedback=feedback)
@@ -357,4 +351,4 @@ def _fill_from_neighbours(grid: np.ndarray, missing: np.ndarray) -> np.ndarray:
     data_band.WriteArray(np.where(missing, 0.0, grid))
     mask_band.WriteArray((~missing).astype(np.uint8))
     gdal.FillNodata(data_band, mask_band, max(rows, cols) + 1, 0)
-    return data_band.ReadAsArray().astype(np.float64)
+    return read_window(data_band, 0, 0, cols, rows, "the filled DEM (in memory)").astype(np.float64)

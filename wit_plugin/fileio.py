@@ -217,11 +217,13 @@ def atomic_files(targets: list[str | os.PathLike]) -> Iterator[Path]:
 
     For multi-file outputs (a shapefile and its sidecars, an image set): the caller writes
     into the folder under the final file names; nothing appears in the destination on failure.
-    A sub-folder written there replaces the destination's folder of that name as a whole.
+    A sub-folder written there replaces the destination's folder of that name as a whole. A
+    destination folder this call had to create is removed again on failure (when still empty).
     """
     dest = Path(targets[0]).parent
     for target in targets:
         _check_protected(Path(target))
+    created = not dest.exists()
     dest = ensure_writable_dir(dest)
     tmp_dir = Path(tempfile.mkdtemp(dir=dest, prefix=".wit-tmp-"))
     try:
@@ -234,5 +236,11 @@ def atomic_files(targets: list[str | os.PathLike]) -> Iterator[Path]:
             if item.is_dir() and target.is_dir():
                 os.replace(target, tmp_dir / f".old-{item.name}")  # removed with tmp_dir below
             os.replace(item, target)
+    except BaseException:
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+        if created:  # a folder made for this run only would be a partial output
+            with contextlib.suppress(OSError):
+                dest.rmdir()
+        raise
     finally:
         shutil.rmtree(tmp_dir, ignore_errors=True)

@@ -11,25 +11,26 @@ batch goes on.
 """
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Sequence
 
 from osgeo import gdal, ogr, osr
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, atomic_files, ensure_writable_dir
+from .gdal_env import open_raster, quiet_gdal
 from .mapsheet import find_sheet_in_name, projected_envelope
 
 OK, SKIPPED, FAILED = "ok", "skipped", "failed"
 FORMATS = {"GTiff": ".tif", "VRT": ".vrt"}
 TIF_SUFFIXES = (".tif", ".tiff")
 INDEX_LAYER = "footprints"
+_LISTED = 10  # inputs whose reasons are listed when none could be georeferenced
 #: columns of the footprint index (SheetResult attributes), shared with the Processing glue
 INDEX_FIELDS = (("sheet", str), ("scale", int), ("source", str), ("status", str), ("reason", str), ("output", str))
 
@@ -64,21 +65,10 @@ def list_tifs(folder_or_files: str | os.PathLike | Sequence[str | os.PathLike]) 
     return list(dict.fromkeys(found))
 
 
-@contextlib.contextmanager
-def _gdal_errors() -> Iterator[None]:
-    """Silence GDAL's stderr output; callers read the message (works with or without UseExceptions)."""
-    gdal.ErrorReset()
-    gdal.PushErrorHandler("CPLQuietErrorHandler")
-    try:
-        yield
-    finally:
-        gdal.PopErrorHandler()
-
-
 def _srs(crs: str) -> osr.SpatialReference:
     srs = osr.SpatialReference()
     try:
-        with _gdal_errors():
+        with quiet_gdal():
             failed = srs.SetFromUserInput(crs) != 0
     except RuntimeError:
         failed = True
@@ -89,13 +79,11 @@ def _srs(crs: str) -> osr.SpatialReference:
 
 
 def _open(path: str) -> tuple[gdal.Dataset | None, str]:
+    """The source, or None and why not (missing, empty, damaged, not a raster)."""
     try:
-        with _gdal_errors():
-            ds = gdal.OpenEx(path, gdal.OF_RASTER | gdal.OF_VERBOSE_ERROR)
-            message = gdal.GetLastErrorMsg()
-    except RuntimeError as exc:
+        return open_raster(path, "orthoimage"), ""
+    except InputError as exc:
         return None, str(exc)
-    return ds, message
 
 
 def _plan(sources: Sequence[str], out_dir: Path, suffix: str, target_crs: str, source_crs: str,
@@ -148,7 +136,7 @@ def _write_geotiff(src: gdal.Dataset, target: Path, ullr: list[float], crs: str,
     options = gdal.TranslateOptions(format="GTiff", outputSRS=crs, outputBounds=ullr,
                                     creationOptions=_creation_options(src), callback=callback)
     try:
-        with _gdal_errors():
+        with quiet_gdal():
             ds = gdal.Translate(str(target), src, options=options)
             message = gdal.GetLastErrorMsg()
     except RuntimeError as exc:
@@ -163,7 +151,7 @@ def _write_geotiff(src: gdal.Dataset, target: Path, ullr: list[float], crs: str,
 def _write_vrt(src: gdal.Dataset, source: str, target: Path, final_dir: Path, ullr: list[float], crs: str) -> str:
     """A VRT that points at the untouched source pixels, by a path relative to its final folder."""
     try:
-        with _gdal_errors():
+        with quiet_gdal():
             vrt = gdal.Translate("", src, options=gdal.TranslateOptions(format="VRT", outputSRS=crs, outputBounds=ullr))
             message = gdal.GetLastErrorMsg()
     except RuntimeError as exc:
@@ -188,8 +176,10 @@ def georeference_sheets(inputs: Sequence[str], output_dir: str | os.PathLike, ta
                         feedback: Feedback = SILENT) -> list[SheetResult]:
     """Write ``<sheet>.tif`` (or ``.vrt``) for every input whose name carries a valid sheet number.
 
-    Returns one result per input, in input order. Raises InputError for bad parameters or an
-    unwritable output folder, CanceledError if cancelled (then nothing is written).
+    Returns one result per input, in input order; some may be skipped or failed (warnings). Raises
+    InputError for bad parameters, an unwritable output folder, or when no input could be
+    georeferenced at all (the message lists why for each), CanceledError if cancelled (then nothing
+    is written).
     """
     if fmt not in FORMATS:
         raise InputError(f"Unknown output format '{fmt}'; use one of {', '.join(FORMATS)}.")
@@ -212,6 +202,11 @@ def georeference_sheets(inputs: Sequence[str], output_dir: str | os.PathLike, ta
                 step.progress(100.0)
     feedback.progress(100.0)
     counts = {s: sum(r.status == s for r in results) for s in (OK, SKIPPED, FAILED)}
+    if not counts[OK]:
+        reasons = "".join(f"\n  {Path(r.source).name}: {r.status}, {r.reason}" for r in results[:_LISTED])
+        more = f"\n  … and {len(results) - _LISTED} more" if len(results) > _LISTED else ""
+        raise InputError(f"No orthoimage TIF could be georeferenced ({counts[SKIPPED]} skipped, {counts[FAILED]} "
+                         f"failed):{reasons}{more}")
     feedback.info(f"Georeferenced {counts[OK]} sheet(s); skipped {counts[SKIPPED]}, failed {counts[FAILED]}.")
     return results
 
@@ -222,7 +217,7 @@ def _process(result: SheetResult, staging: Path, out_dir: Path, target_crs: str,
     target = staging / Path(result.output).name
     src, message = _open(result.source)
     if src is None:
-        _fail(result, f"GDAL cannot open it: {message or 'unknown error'}", feedback)
+        _fail(result, message, feedback)
         return
     xmin, ymin, xmax, ymax = result.bounds
     ullr = [xmin, ymax, xmax, ymin]
@@ -254,7 +249,7 @@ def write_footprint_index(results: Sequence[SheetResult], path: str | os.PathLik
     fields = [(name, ogr.OFTInteger if kind is int else ogr.OFTString) for name, kind in INDEX_FIELDS]
     with atomic_file(path) as tmp:
         try:
-            with _gdal_errors():
+            with quiet_gdal():
                 ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tmp))
                 layer = None if ds is None else ds.CreateLayer(INDEX_LAYER, srs, ogr.wkbPolygon)
         except RuntimeError as exc:

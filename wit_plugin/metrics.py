@@ -79,6 +79,7 @@ from . import model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .gdal_env import open_raster, read_window
 from .vector_io import FieldDef, OutputLayer, gdal_quiet, write_gpkg
 
 METRICS_TABLE = "quality_metrics"
@@ -248,22 +249,12 @@ def _open_vector(path: str | os.PathLike) -> ogr.DataSource | None:
             return None
 
 
-def _open_raster(path: str, what: str) -> gdal.Dataset:
-    with gdal_quiet():
-        try:
-            ds = gdal.Open(str(path))
-        except RuntimeError:
-            ds = None
-    if ds is None:
-        raise InputError(f"Cannot open the {what} {path}: {gdal.GetLastErrorMsg() or 'not a raster GDAL reads'}.")
-    return ds
-
-
 def _read_gray(ds: gdal.Dataset, xoff: int, yoff: int, xsize: int, ysize: int) -> tuple[np.ndarray, np.ndarray]:
     """Intensity and validity (band 1's GDAL mask: NoData, alpha) of a window."""
     bands = [ds.GetRasterBand(i + 1) for i in range(3 if ds.RasterCount >= 3 else 1)]  # RGB(A) or grey(+alpha)
-    data = np.stack([b.ReadAsArray(xoff, yoff, xsize, ysize) for b in bands])
-    valid = ds.GetRasterBand(1).GetMaskBand().ReadAsArray(xoff, yoff, xsize, ysize) > 0
+    what = f"the image {ds.GetDescription()}"
+    data = np.stack([read_window(b, xoff, yoff, xsize, ysize, what) for b in bands])
+    valid = read_window(ds.GetRasterBand(1).GetMaskBand(), xoff, yoff, xsize, ysize, f"the mask of {what[4:]}") > 0
     return grayscale(data), valid
 
 
@@ -313,7 +304,7 @@ class _Burner:
         target.SetGeoTransform(gt)
         with gdal_quiet():  # "no spatial reference on layer": both sides share one, as intended
             gdal.RasterizeLayer(target, [1], self._layer, burn_values=[1])
-        return target.ReadAsArray().astype(bool)
+        return read_window(target, 0, 0, width, height, "the rasterised polygons (in memory)").astype(bool)
 
 
 def _uv_mask(rings: list[np.ndarray], width: int, height: int) -> np.ndarray:
@@ -329,7 +320,7 @@ def _ortho_stats(ortho: str, area: tuple[float, float, float, float] | shapely.G
 
     A polygonal ``area`` also limits the pixels to those whose centres lie inside it.
     """
-    ds = _open_raster(ortho, "orthoimage")
+    ds = open_raster(ortho, "orthoimage")
     gt = ds.GetGeoTransform()
     if gt[2] or gt[4]:
         raise InputError(f"{ortho} is rotated; give a north-up orthoimage (wit:mergetiles writes one).")
@@ -389,7 +380,7 @@ def texture_metrics(images: Sequence[str] | str | None, ortho: str | None = None
     folder = Path(images) if isinstance(images, (str, os.PathLike)) and Path(images).is_dir() else None
     for k, path in enumerate(paths):
         feedback.check_canceled()
-        ds = _open_raster(str(path), "texture image")
+        ds = open_raster(str(path), "texture image")
         gray, valid = _read_gray(ds, 0, 0, ds.RasterXSize, ds.RasterYSize)
         if rings is not None:
             valid &= _uv_mask(rings.get(path.relative_to(folder).as_posix(), []), ds.RasterXSize, ds.RasterYSize)
@@ -443,7 +434,7 @@ class SeamMetrics:
 
 
 def _raster_bounds(path: str) -> tuple[tuple[float, float, float, float], osr.SpatialReference | None]:
-    ds = _open_raster(path, "tile")
+    ds = open_raster(path, "tile")
     gt = ds.GetGeoTransform()
     xs = (gt[0], gt[0] + ds.RasterXSize * gt[1])
     ys = (gt[3], gt[3] + ds.RasterYSize * gt[5])
@@ -491,7 +482,7 @@ def _covered(n: int, intervals: list[tuple[int, int]]) -> np.ndarray:
 
 def seam_metrics(mosaic: str, footprints: str | Sequence[str], feedback: Feedback = SILENT) -> SeamMetrics:
     """The colour step across every tile edge that lies inside another tile (see the module docstring)."""
-    ds = _open_raster(mosaic, "mosaic")
+    ds = open_raster(mosaic, "mosaic")
     gt = ds.GetGeoTransform()
     if gt[2] or gt[4] or gt[5] >= 0:
         raise InputError(f"{mosaic} is not a north-up raster; give the output of wit:mergetiles.")
@@ -542,8 +533,8 @@ def seam_metrics(mosaic: str, footprints: str | Sequence[str], feedback: Feedbac
                 continue
             a, b = int(index[0]), int(index[-1]) + 1
             win = (line - 2, a, 4, b - a) if vertical else (a, line - 2, b - a, 4)
-            data = np.stack([band.ReadAsArray(*win).astype(np.float64) for band in bands])
-            valid = mask_band.ReadAsArray(*win) > 0
+            data = np.stack([read_window(band, *win, f"the mosaic {mosaic}").astype(np.float64) for band in bands])
+            valid = read_window(mask_band, *win, f"the mask of the mosaic {mosaic}") > 0
             if not vertical:
                 data, valid = data.transpose(0, 2, 1), valid.T
             keep = use[a:b] & valid.all(axis=1)

@@ -6,17 +6,20 @@ Two overlap modes:
   method and, for inputs on one grid, gives the same pixels as ``gdal_merge.py``.
 * ``feather`` (WIT seam interpolation): where tiles overlap, a pixel is Σ wᵢvᵢ / Σ wᵢ with wᵢ the
   distance, in output pixels from the pixel centre, to the nearest edge of tile i's rectangle;
-  a NoData pixel has weight 0. Optionally after a per-tile gain that equalises the tiles' tone.
+  a NoData pixel has weight 0. Optionally after a per-tile tone correction (``gain``, below).
 
 Guarantees:
 
 * The output grid is the one ``gdal_merge.py`` builds: union extent, first input's pixel size,
   same rounding; each input lands on the same output window as with ``gdal_merge.py``.
-* With gain off, a pixel covered by one tile only is bit-identical to that tile's pixel, in both
-  modes: blending is only evaluated where two or more tiles contribute.
-* With gain on, every pixel of tile i is multiplied by its gain (per band), single-coverage pixels
-  included: that is the point (one tone across the mosaic), so they are no longer the source
-  values. Gains are multiplicative and normalised so that their geometric mean is 1.
+* With ``gain`` off, a pixel covered by one tile only is bit-identical to that tile's pixel, in
+  both modes: blending is only evaluated where two or more tiles contribute.
+* With ``gain`` on (the historical name of the option: it now corrects more than a gain), every
+  pixel of tile i becomes gainᵢ·v + offsetᵢ (per band), single-coverage pixels included: that is
+  the point (one tone across the mosaic), so they are no longer the source values. Gains and
+  offsets are solved over all overlaps at once, robustly, anchored to the mean; heights (one band
+  of floats or signed integers) get an offset only, never a gain. See ``tone`` for the model. A
+  tile whose correction is the identity keeps its pixels bit for bit.
 * NoData (declared, an alpha band or mask, or the ``nodata`` parameter) is "not covered": it is
   never blended as a value. The output declares NoData if any input did.
 * Memory does not grow with the mosaic: the output is computed in ``block_size`` windows, each
@@ -34,22 +37,25 @@ import numpy as np
 from osgeo import gdal, gdal_array, osr
 
 from .errors import InputError, WitError
-from .gdal_env import capped_block_cache, open_raster
+from .gdal_env import capped_block_cache, open_raster, read_window
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .tone import ToneSolver, is_elevation
 
 MODES = ("feather", "overwrite")
 
 _TILE = 512  # output GeoTIFF block size; also the size below which no more overviews are built
-_GAIN_SAMPLES = 256 * 256  # pixels sampled per overlap to estimate gains
-_MIN_GAIN_SAMPLES = 64  # fewer jointly valid samples than this: the overlap says nothing
+_TONE_SAMPLES = 512 * 512  # pixels sampled per overlap to estimate the tone correction
 _PIXEL_SIZE_DRIFT = 0.01  # same pixel size if the difference drifts < 1 % of a pixel over a tile
 _BLOCKS_SHARE = 85.0  # progress share of the block loop; overviews take the rest
+DEFAULT_MAX_EMPTY = 0.9  # refuse a mosaic whose share of pixels no tile covers is larger
+_WARN_EMPTY = 0.5  # warn above this empty share
+_COVERAGE_CELLS = 1024  # the empty share is measured on a grid of at most this many cells a side
 
 
 @dataclass
 class MergeReport:
-    """What ``merge_tiles`` wrote: the output grid, where each input landed, the gains used."""
+    """What ``merge_tiles`` wrote: the output grid, where each input landed, the tone correction used."""
 
     output: str
     mode: str
@@ -66,7 +72,9 @@ class MergeReport:
     tile_windows: list[tuple[int, int, int, int]]
     """Each of ``inputs``' (xoff, yoff, width, height) in output pixels."""
     gains: list[list[float]]
-    """Each of ``inputs``' multiplicative gain per band (all 1.0 with gain off)."""
+    """Each of ``inputs``' multiplicative gain per band (all 1.0 with gain off, and for heights)."""
+    offsets: list[list[float]]
+    """Each of ``inputs``' offset per band, added after the gain (all 0.0 with gain off)."""
     resampled: list[str] = field(default_factory=list)
     """Inputs warped onto the output grid because their CRS or pixel size differed."""
     covered_pixels: int = 0
@@ -123,17 +131,23 @@ def merge_tiles(
     nodata: float | None = None,
     feedback: Feedback = SILENT,
     block_size: int = 1024,
+    max_empty: float = DEFAULT_MAX_EMPTY,
 ) -> MergeReport:
     """Mosaic ``inputs`` into the GeoTIFF ``output``; see the module docstring for the rules.
 
-    ``gain`` defaults to on with ``feather`` and off with ``overwrite``. ``nodata`` overrides the
-    inputs' declared NoData. Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel
-    (no output is left behind in either case).
+    ``gain`` (tone correction: gain and offset) defaults to on with ``feather`` and off with
+    ``overwrite``. ``nodata`` overrides the
+    inputs' declared NoData. A mosaic more than half empty (tiles far apart) is a warning; one whose
+    empty share exceeds ``max_empty`` (0–1; 1 never refuses) is refused before anything is read or
+    written. Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel (no output is
+    left behind in either case).
     """
     if mode not in MODES:
         raise InputError(f"Unknown overlap mode {mode!r}: use one of {', '.join(MODES)}.")
     if not inputs:
         raise InputError("No input rasters given: select at least one tile to merge.")
+    if not 0.0 <= max_empty <= 1.0:
+        raise InputError(f"Maximum empty share {max_empty:g} is out of range: use 0–1 (0–100 %).")
     if block_size < 16:
         raise InputError(f"Block size {block_size} is too small: use at least 16 pixels.")
     use_gain = (mode == "feather") if gain is None else bool(gain)
@@ -161,21 +175,23 @@ def merge_tiles(
         out_nodata = _output_nodata(sources, nodata, np_dtype)
         feedback.info(f"Output grid {width} × {height} px, {bands} band(s) {gdal.GetDataTypeName(dtype)}, "
                       f"pixel size {gt[1]:g} × {-gt[5]:g}, mode {mode}, gain {'on' if use_gain else 'off'}.")
+        _check_coverage(tiles, width, height, bands, np_dtype, max_empty, feedback)
         index = _BlockIndex(tiles, block_size)
         if use_gain:
-            gains = _estimate_gains(index, bands, np_dtype, feedback)
-            for tile, g in zip(tiles, gains):
-                feedback.info(f"Gain {os.path.basename(tile.path)}: " + ", ".join(f"{v:.4f}" for v in g))
+            gains, offsets = _estimate_tone(index, bands, np_dtype, feedback)
+            for tile, g, o in zip(tiles, gains, offsets):
+                feedback.info(f"Tone {os.path.basename(tile.path)}: gain " + ", ".join(f"{v:.4f}" for v in g)
+                              + "; offset " + ", ".join(f"{v:+.2f}" for v in o))
         else:
-            gains = [np.ones(bands)] * len(tiles)
+            gains, offsets = np.ones((len(tiles), bands)), np.zeros((len(tiles), bands))
         report = MergeReport(
             output=str(output), mode=mode, gain=use_gain, geotransform=tuple(gt), width=width,
             height=height, bands=bands, data_type=gdal.GetDataTypeName(dtype), crs_wkt=crs,
             nodata=out_nodata, inputs=[t.path for t in tiles], tile_windows=[t.window for t in tiles],
-            gains=[[float(v) for v in g] for g in gains],
+            gains=gains.tolist(), offsets=offsets.tolist(),
             resampled=[p for p, why in zip(inputs, warp_reasons) if why])
         with atomic_file(output) as tmp:
-            _write(tmp, first, index, gains, report, dtype, feedback)
+            _write(tmp, first, index, report, dtype, feedback)
     feedback.progress(100.0)
     return report
 
@@ -183,7 +199,7 @@ def merge_tiles(
 # --- inputs -------------------------------------------------------------------------------------
 
 def _open(path: str) -> gdal.Dataset:
-    ds = open_raster(path)
+    ds = open_raster(path, "tile")
     if ds.RasterCount == 0:
         raise InputError(f"{path} has no raster bands.")
     return ds
@@ -328,6 +344,30 @@ def _warped_tile(path: str, ds: gdal.Dataset, first: gdal.Dataset, bounds: tuple
                  [None] * ds.RasterCount, vrt.GetRasterBand(vrt.RasterCount))
 
 
+def _check_coverage(tiles: list[_Tile], width: int, height: int, bands: int, np_dtype: np.dtype,
+                    max_empty: float, feedback: Feedback) -> None:
+    """Warn when the mosaic is mostly empty, refuse beyond ``max_empty``: tiles kilometres apart
+    would otherwise silently become a huge file of NoData.
+
+    The empty share is measured on a coarse grid where a cell touched by a tile counts as covered,
+    so it never overstates the emptiness.
+    """
+    cell = max(1, math.ceil(max(width, height) / _COVERAGE_CELLS))
+    covered = np.zeros((-(-height // cell), -(-width // cell)), bool)
+    for t in tiles:
+        covered[t.y0 // cell:-(-(t.y0 + t.h) // cell), t.x0 // cell:-(-(t.x0 + t.w) // cell)] = True
+    empty = 1.0 - covered.mean() if tiles else 1.0
+    if empty <= _WARN_EMPTY:
+        return
+    size = f"{width:,} × {height:,} px, {width * height * bands * np_dtype.itemsize / 1e9:.1f} GB uncompressed"
+    if empty > max_empty:
+        raise InputError(f"The mosaic would be {size}, and about {empty:.0%} of it would be empty (no tile "
+                         f"covers it): the {len(tiles)} tiles lie far apart. Merge the tiles of each area "
+                         f"separately, or raise the maximum empty share (now {max_empty:.0%}) to write it anyway.")
+    feedback.warning(f"The mosaic is {size}, and about {empty:.0%} of it is empty (no tile covers it): the tiles "
+                     "lie far apart.")
+
+
 def _output_nodata(sources: list[gdal.Dataset], nodata: float | None, np_dtype: np.dtype) -> float | None:
     """The parameter, else the first NoData any input declares; it must fit the output type."""
     value = nodata
@@ -355,7 +395,7 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
           step: int = 1) -> tuple[np.ndarray, np.ndarray | None]:
     """Pixels of ``tile`` over the output window ``win``, and where they are valid (None: all).
 
-    ``step`` > 1 reads a decimated sample (for gain estimation) instead of every pixel.
+    ``step`` > 1 reads a decimated sample (for tone estimation) instead of every pixel.
     """
     x, y, w, h = win
     cols = tile.cols[x - tile.x0:x - tile.x0 + w]
@@ -364,11 +404,8 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
     cw, rh = int(cols[-1]) - c0 + 1, int(rows[-1]) - r0 + 1
     buf = (-(-w // step), -(-h // step)) if step > 1 else (cw, rh)
     pick = None if step > 1 or (cw == w and rh == h) else np.ix_(rows - r0, cols - c0)
-    data = tile.ds.ReadAsArray(c0, r0, cw, rh, buf_xsize=buf[0], buf_ysize=buf[1],
-                               band_list=list(range(1, bands + 1)),
-                               buf_type=gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype))
-    if data is None:
-        raise InputError(f"Cannot read {tile.path}: {gdal.GetLastErrorMsg()}")
+    data = read_window(tile.ds, c0, r0, cw, rh, f"the tile {tile.path}", buf_xsize=buf[0], buf_ysize=buf[1],
+                       band_list=list(range(1, bands + 1)), buf_type=gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype))
     data = data.reshape(bands, buf[1], buf[0])
     if pick is not None:
         data = data[(slice(None),) + pick]
@@ -384,7 +421,8 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
         if nan.any():
             invalid = nan if invalid is None else invalid | nan
     if tile.mask is not None:
-        mask = tile.mask.ReadAsArray(c0, r0, cw, rh, buf_xsize=buf[0], buf_ysize=buf[1])
+        mask = read_window(tile.mask, c0, r0, cw, rh, f"the mask of the tile {tile.path}", buf_xsize=buf[0],
+                           buf_ysize=buf[1])
         mask = (mask[pick] if pick is not None else mask)[None] == 0
         invalid = mask if invalid is None else invalid | mask
     if invalid is None or not invalid.any():
@@ -392,69 +430,33 @@ def _read(tile: _Tile, win: tuple[int, int, int, int], bands: int, np_dtype: np.
     return data, ~invalid
 
 
-# --- gains --------------------------------------------------------------------------------------
+# --- tone ---------------------------------------------------------------------------------------
 
-def _estimate_gains(index: _BlockIndex, bands: int, np_dtype: np.dtype, feedback: Feedback) -> list[np.ndarray]:
-    """Per-tile, per-band multiplicative gains that make overlapping tiles agree.
+def _estimate_tone(index: _BlockIndex, bands: int, np_dtype: np.dtype,
+                   feedback: Feedback) -> tuple[np.ndarray, np.ndarray]:
+    """Per-tile, per-band gains and offsets that make overlapping tiles agree (see ``tone``).
 
-    For every overlapping pair, the means mᵢ, mⱼ of both tiles over their jointly valid overlap
-    pixels (a decimated sample) ask for log gᵢ − log gⱼ = log(mⱼ / mᵢ), weighted by the sample
-    count; the least-squares solution with zero mean per connected group of tiles fixes the
-    scale (geometric mean of the gains 1).
+    Every overlap is read as a decimated sample of about ``_TONE_SAMPLES`` pixels; only pixels
+    valid in both tiles count.
     """
     tiles = index.tiles
-    edges: list[list[tuple[int, int, float, float]]] = [[] for _ in range(bands)]
-    for i, j in index.overlapping_pairs():
+    solver = ToneSolver(len(tiles), bands, offset_only=is_elevation(bands, np_dtype),
+                        ceiling=float(np.iinfo(np_dtype).max) if np_dtype.kind in "iu" else None)
+    pairs = index.overlapping_pairs()
+    for i, j in pairs:
         feedback.check_canceled()
         win = _intersect(tiles[i].window, tiles[j].window)
-        step = max(1, math.ceil(math.sqrt(win[2] * win[3] / _GAIN_SAMPLES)))
+        step = max(1, math.ceil(math.sqrt(win[2] * win[3] / _TONE_SAMPLES)))
         da, va = _read(tiles[i], win, bands, np_dtype, step)
         db, vb = _read(tiles[j], win, bands, np_dtype, step)
         joint = va if vb is None else vb if va is None else va & vb
         for band in range(bands):
-            sel = None if joint is None else joint[min(band, len(joint) - 1)]
-            sa = da[band] if sel is None else da[band][sel]
-            sb = db[band] if sel is None else db[band][sel]
-            if sa.size < _MIN_GAIN_SAMPLES:
-                continue
-            ma, mb = float(sa.mean(dtype=np.float64)), float(sb.mean(dtype=np.float64))
-            if ma > 0 and mb > 0:
-                edges[band].append((i, j, float(sa.size), math.log(mb / ma)))
-    if not any(edges):
-        feedback.warning("No overlap with enough valid pixels between the tiles: gains left at 1.")
-    return list(np.exp(np.stack([_solve_log_gains(len(tiles), e) for e in edges], axis=1)))
-
-
-def _solve_log_gains(n: int, edges: list[tuple[int, int, float, float]]) -> np.ndarray:
-    """Minimise Σ w (xᵢ − xⱼ − d)² by conjugate gradients on the tile graph's Laplacian.
-
-    Starting from 0, CG stays orthogonal to the Laplacian's null space (constants per connected
-    group), so it returns the solution with zero mean per group; it needs no dense matrix, which
-    keeps thousands of tiles cheap.
-    """
-    x = np.zeros(n)
-    if not edges:
-        return x
-    i, j = (np.array([e[k] for e in edges], dtype=np.int64) for k in (0, 1))
-    w, d = (np.array([e[k] for e in edges]) for k in (2, 3))
-
-    def laplacian(v: np.ndarray) -> np.ndarray:
-        diff = w * (v[i] - v[j])
-        return np.bincount(i, diff, n) - np.bincount(j, diff, n)
-
-    residual = np.bincount(i, w * d, n) - np.bincount(j, w * d, n)
-    direction, rs = residual.copy(), residual @ residual
-    tolerance = 1e-24 * rs
-    for _ in range(2 * n):
-        if rs <= tolerance:
-            break
-        lp = laplacian(direction)
-        alpha = rs / (direction @ lp)
-        x += alpha * direction
-        residual -= alpha * lp
-        rs, rs_old = residual @ residual, rs
-        direction = residual + (rs / rs_old) * direction
-    return x
+            solver.add(i, j, band, da[band], db[band], None if joint is None else joint[min(band, len(joint) - 1)])
+    if not pairs:
+        feedback.info("No tiles overlap: tone left unchanged.")
+    elif solver.empty:
+        feedback.warning("No overlap with enough valid pixels between the tiles: tone left unchanged.")
+    return solver.solve()
 
 
 def _to_dtype(values: np.ndarray, np_dtype: np.dtype) -> np.ndarray:
@@ -465,19 +467,19 @@ def _to_dtype(values: np.ndarray, np_dtype: np.dtype) -> np.ndarray:
     return values.astype(np_dtype)
 
 
-class _Gain:
-    """Applies one tile's gains: a lookup table for 8/16-bit unsigned data, else float maths."""
+class _Tone:
+    """Applies one tile's gains and offsets: a lookup table for 8/16-bit unsigned data, else float maths."""
 
-    def __init__(self, gains: np.ndarray, np_dtype: np.dtype):
-        self.gains, self.dtype = gains, np_dtype
+    def __init__(self, gains: np.ndarray, offsets: np.ndarray, np_dtype: np.dtype):
+        self.gains, self.offsets, self.dtype = gains, offsets, np_dtype
         self.luts = None
         if np_dtype.kind == "u" and np_dtype.itemsize <= 2:
             domain = np.arange(np.iinfo(np_dtype).max + 1, dtype=np.float64)
-            self.luts = [_to_dtype(domain * g, np_dtype) for g in gains]
+            self.luts = [_to_dtype(domain * g + o, np_dtype) for g, o in zip(gains, offsets)]
 
     def __call__(self, data: np.ndarray) -> np.ndarray:
         if self.luts is None:
-            return _to_dtype(data * self.gains[:, None, None], self.dtype)
+            return _to_dtype(data * self.gains[:, None, None] + self.offsets[:, None, None], self.dtype)
         for lut, band in zip(self.luts, data):
             np.take(lut, band, out=band)
         return data
@@ -496,8 +498,8 @@ def _creation_options(first: gdal.Dataset, bands: int, np_dtype: np.dtype) -> li
     return options
 
 
-def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, gains: list[np.ndarray],
-           report: MergeReport, dtype: int, feedback: Feedback) -> None:
+def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, report: MergeReport, dtype: int,
+           feedback: Feedback) -> None:
     np_dtype = np.dtype(gdal_array.GDALTypeCodeToNumericTypeCode(dtype))
     try:
         ds = gdal.GetDriverByName("GTiff").Create(str(path), report.width, report.height, report.bands, dtype,
@@ -512,18 +514,19 @@ def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, gains: li
         if report.nodata is not None:
             for b in range(report.bands):
                 ds.GetRasterBand(b + 1).SetNoDataValue(report.nodata)
-        _write_blocks(ds, index, gains, report, np_dtype, feedback.scaled(0, _BLOCKS_SHARE))
+        _write_blocks(ds, index, report, np_dtype, feedback.scaled(0, _BLOCKS_SHARE))
         ds.FlushCache()
         _build_overviews(ds, feedback.scaled(_BLOCKS_SHARE, 100))
     finally:
         ds = None  # closes the file before it is renamed or removed
 
 
-def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, gains: list[np.ndarray], report: MergeReport,
-                  np_dtype: np.dtype, feedback: Feedback) -> None:
+def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, report: MergeReport, np_dtype: np.dtype,
+                  feedback: Feedback) -> None:
     """Compute and write the mosaic one ``block_size`` window at a time."""
     fill = report.nodata if report.nodata is not None else 0
-    appliers = [_Gain(g, np_dtype) if report.gain else None for g in gains]
+    appliers = [_Tone(np.array(g), np.array(o), np_dtype) if any(v != 1.0 for v in g) or any(o) else None
+                for g, o in zip(report.gains, report.offsets)]
     block_size = index.block_size
     gdal_type = gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype)
     for by in range(0, report.height, block_size):
@@ -560,7 +563,7 @@ def _blend(out: np.ndarray, block: tuple[int, int, int, int], pieces: list) -> i
     """Feather the pixels of ``out`` where two or more tiles are valid; return how many.
 
     ``pieces`` hold (tile, window, pixels, valid) for each tile over its part of the block, the
-    pixels already gain-corrected.
+    pixels already tone-corrected.
     """
     region = None
     for i, (_, wa, _, _) in enumerate(pieces):

@@ -49,6 +49,7 @@ from . import model
 from .errors import InputError, WitError
 from .feedback import SILENT, Feedback, LoggingFeedback
 from .fileio import atomic_file
+from .gdal_env import open_raster, read_window
 from .texture import mip_chain
 from .vector_io import open_step_layer
 
@@ -524,14 +525,10 @@ class _ImageCache:
 
     def _read(self, index: int) -> np.ndarray:
         path = self.folder / self.names[index]
-        try:
-            ds = gdal.Open(str(path))
-        except RuntimeError as exc:
-            raise InputError(f"Cannot read the texture image {path}: {exc}") from exc
-        if ds is None:
-            raise InputError(f"Cannot read the texture image {path}: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+        ds = open_raster(path, "texture image")
         bands = [1, 2, 3] if ds.RasterCount >= 3 else [1, 1, 1]
-        data = np.stack([ds.GetRasterBand(b).ReadAsArray() for b in bands], axis=-1)
+        data = np.stack([read_window(ds.GetRasterBand(b), 0, 0, ds.RasterXSize, ds.RasterYSize,
+                                     f"the texture image {path}") for b in bands], axis=-1)
         return np.clip(data, 0, 255).astype(np.uint8) if data.dtype != np.uint8 else data
 
 

@@ -71,7 +71,7 @@ from . import model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_files
-from .gdal_env import capped_block_cache
+from .gdal_env import capped_block_cache, open_raster, read_window
 from .gpkg_bulk import BulkTable
 from .vector_io import FieldDef
 
@@ -366,12 +366,7 @@ class _Ortho:
 
     def __init__(self, path: str, config: TextureConfig):
         self.path, self.scale = path, config.scale
-        try:
-            self.ds = gdal.Open(str(path))
-        except RuntimeError as exc:
-            raise InputError(f"Cannot open the orthoimage {path}: {exc}") from exc
-        if self.ds is None:
-            raise InputError(f"Cannot open the orthoimage {path}: {gdal.GetLastErrorMsg() or 'unknown format'}.")
+        self.ds = open_raster(path, "orthoimage")
         ds = self.ds
         if ds.RasterCount < 3 or any(ds.GetRasterBand(b).DataType != gdal.GDT_Byte for b in (1, 2, 3)):
             raise InputError(f"The orthoimage {path} must be RGB with 8-bit bands (it has {ds.RasterCount} band(s)): "
@@ -425,11 +420,8 @@ class _Ortho:
         if shrink < 1.0:
             tw, th = max(1, math.floor(tw * shrink)), max(1, math.floor(th * shrink))
         resample = gdal.GRIORA_Average if (tw, th) != (w, h) else gdal.GRIORA_NearestNeighbour
-        data = self.ds.ReadAsArray(c0, r0, w, h, buf_xsize=tw, buf_ysize=th, band_list=[1, 2, 3],
-                                   interleave="pixel", resample_alg=resample)
-        if data is None:
-            raise InputError(f"Cannot read the orthoimage {self.path} at pixels {c0},{r0} ({w} × {h}): "
-                             f"{gdal.GetLastErrorMsg() or 'read error'}.")
+        data = read_window(self.ds, c0, r0, w, h, f"the orthoimage {self.path}", buf_xsize=tw, buf_ysize=th,
+                           band_list=[1, 2, 3], interleave="pixel", resample_alg=resample)
         extent = (self.x0 + c0 * self.px, self.y0 - r1 * self.py, self.x0 + c1 * self.px, self.y0 - r0 * self.py)
         return _Patch(data, extent, shrink < 1.0)
 

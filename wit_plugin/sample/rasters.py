@@ -21,6 +21,7 @@ from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
 from ..feedback import Feedback, SILENT
+from ..gdal_env import read_window
 from .layout import (GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS,
                             CityLayout, footprints)
 
@@ -206,7 +207,7 @@ class Rasteriser:
             layer.SetSpatialFilterRect(x0, y_top - height * pixel, x0 + width * pixel, y_top)
             gdal.RasterizeLayer(mem, [band], layer, options=["ATTRIBUTE=v"])
             layer.SetSpatialFilter(None)
-        return mem.ReadAsArray()
+        return read_window(mem, 0, 0, width, height, "the rasterised sample scene (in memory)")
 
 
 def render_tile(path: Path, envelope: tuple[float, float, float, float], pixel: float, scene: OrthoScene,
