@@ -202,6 +202,21 @@ def sheet_at(lon: float, lat: float, scale: int = 5000) -> MapSheet:
     return _sheet_from_indices(math.floor(lon * per_cell + _EPS), math.floor(lat * per_cell + _EPS), scale)
 
 
+def sheets_at(lon: "np.ndarray", lat: "np.ndarray", scale: int = 5000) -> list[str]:
+    """``sheet_at(lon[i], lat[i], scale).number`` for many points at once (each distinct cell built once)."""
+    import numpy as np
+
+    _check_scale(scale)
+    lon, lat = np.asarray(lon, dtype=np.float64), np.asarray(lat, dtype=np.float64)
+    if not (np.isfinite(lon).all() and np.isfinite(lat).all()):
+        raise InputError("points with infinite or NaN longitude/latitude have no sheet")
+    per_cell = _UNITS_PER_DEGREE / _cell_units(scale)
+    cells = np.column_stack([np.floor(lon * per_cell + _EPS), np.floor(lat * per_cell + _EPS)]).astype(np.int64)
+    unique, inverse = np.unique(cells, axis=0, return_inverse=True)
+    numbers = [_sheet_from_indices(int(c), int(r), scale).number for c, r in unique]
+    return [numbers[k] for k in inverse.ravel()]
+
+
 def sheets_covering(west: float, south: float, east: float, north: float, scale: int = 5000) -> list[MapSheet]:
     """All sheets overlapping a degree box, north to south then west to east (reading order).
 

@@ -23,6 +23,7 @@ WIT_ID = "wit_id"
 PREPARED_BUILDINGS = "buildings"
 PREPARED_ROADS = "roads"  # road polygons: centre lines buffered by ROAD_BT / 2
 PREPARED_DISTRICTS = "districts"
+FOREIGN_BUILDINGS = "foreign_buildings"  # tiles: neighbouring tiles' buildings crossing into this one
 STUDY_AREA = "study_area"  # the study-area polygon, so later steps need not be told it again
 ROAD_WIDTH = "wit_width_m"  # width used for the buffer
 ROAD_WIDTH_SOURCE = "wit_width_src"  # "ROAD_BT", a class default or "default"

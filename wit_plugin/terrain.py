@@ -38,6 +38,7 @@ from .feedback import SILENT, Feedback
 from .fileio import refuse_overlap
 from .gpkg_bulk import write_layer
 from .model import (
+    FOREIGN_BUILDINGS,
     PREPARED_BUILDINGS,
     PREPARED_ROADS,
     TIN_FEATURE_ID,
@@ -351,6 +352,32 @@ def _split_long_segments(vertices: np.ndarray, segments: np.ndarray,
     return np.vstack([vertices, new]), np.column_stack([chain_a, chain_b]).astype(np.int32)
 
 
+def _split_for_dem(vertices: np.ndarray, segments: np.ndarray, dem: Dem, origin: np.ndarray, tolerance: float,
+                   max_rounds: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """Halve every segment along which the DEM leaves the straight line between its ends by more than
+    ``tolerance`` (exactly, ``Dem.deviation_range``), until none does.
+
+    A rule of the segment alone: two tiles that share a border segment split it alike, so with no
+    Steiner point allowed on segments afterwards their meshes meet vertex for vertex.
+    """
+    world = vertices + origin
+    z = dem.sample(world[:, 0], world[:, 1])
+    for _ in range(max_rounds):
+        p, q = segments[:, 0], segments[:, 1]
+        low, high = dem.deviation_range(world[p, 0], world[p, 1], z[p], world[q, 0], world[q, 1], z[q],
+                                        ends_on_surface=True)
+        bad = np.maximum(-low, high) > tolerance
+        if not bad.any():
+            break
+        mid = 0.5 * (vertices[p[bad]] + vertices[q[bad]])
+        ids = np.arange(len(vertices), len(vertices) + len(mid))
+        vertices = np.vstack([vertices, mid])
+        world = np.vstack([world, mid + origin])
+        z = np.concatenate([z, dem.sample(mid[:, 0] + origin[0], mid[:, 1] + origin[1])])
+        segments = np.vstack([segments[~bad], np.column_stack([p[bad], ids]), np.column_stack([ids, q[bad]])])
+    return vertices, segments.astype(np.int32)
+
+
 def _triangle_areas(xy: np.ndarray, tris: np.ndarray) -> np.ndarray:
     a, b, c = xy[tris[:, 0]], xy[tris[:, 1]], xy[tris[:, 2]]
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
@@ -493,8 +520,15 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
 
 def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature], dem: Dem,
                 max_edge: float = 5.0, tolerance: float = 0.5, footprints_as_holes: bool = True,
-                max_iterations: int = 10, feedback: Feedback = SILENT) -> tuple[Tin, TinStats]:
-    """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``."""
+                max_iterations: int = 10, fixed_segments: bool = False,
+                feedback: Feedback = SILENT) -> tuple[Tin, TinStats]:
+    """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``.
+
+    ``fixed_segments`` (tiles): every segment — the tile's border above all — is split beforehand by a
+    rule of the segment alone (equal pieces ≤ ``max_edge``, then halved until the DEM is within
+    ``tolerance`` along it) and Triangle may add no point on any segment, so neighbouring tiles share
+    their border vertices exactly.
+    """
     require(["triangle"])
     import triangle  # optional dependency: the plugin loads without it
 
@@ -515,6 +549,10 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
     if not len(cons.regions):
         raise InputError("Nothing is left to triangulate: building footprints cover the whole study area.")
     vertices, segments = _split_long_segments(cons.vertices, cons.segments, max_edge)
+    fixed = "YY" if fixed_segments else ""
+    if fixed_segments:
+        vertices, segments = _split_for_dem(vertices, segments, dem, np.array(cons.origin, dtype=np.float64),
+                                            tolerance)
     max_area = AREA_FACTOR * max_edge ** 2
     pslg = {"vertices": vertices, "segments": segments, "segment_markers": np.ones(len(segments), dtype=np.int32),
             "regions": np.column_stack([cons.regions, np.arange(1, len(cons.regions) + 1),
@@ -523,7 +561,7 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
         pslg["holes"] = cons.holes
     # the area bound both fixed and per region: snapping can pinch a face into parts that
     # Triangle's flood fill from the one seed does not reach (labelled afterwards by _labels)
-    mesh = triangle.triangulate(pslg, f"pq{MIN_ANGLE}a{max_area!r}aAen")
+    mesh = triangle.triangulate(pslg, f"pq{MIN_ANGLE}a{max_area!r}aAen{fixed}")
     origin = np.array(cons.origin, dtype=np.float64)
     xy = xyz = np.empty((0, 2))
     iterations = 0
@@ -560,7 +598,7 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
             mesh = triangle.triangulate({"vertices": xy, "segments": pieces, "triangles": tris,
                                          "segment_markers": np.ones(len(pieces), dtype=np.int32),
                                          "triangle_attributes": attributes, "triangle_max_area": limits},
-                                        f"prq{MIN_ANGLE}aen")
+                                        f"prq{MIN_ANGLE}aen{fixed}")
             continue
         patch = _patch(too_long, tris, neighbours)
         new_xy, new_tris, new_attributes = _refine_patch(triangle, xy, tris[patch], attributes[patch], limits[patch],
@@ -670,16 +708,21 @@ def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
 
 def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
         area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
-        footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT) -> TinStats:
+        footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT,
+        foreign: str | Path | None = None, fixed_segments: bool = False) -> TinStats:
     """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
     GeoPackage itself); ``area`` is a polygon, or a vector source whose polygons together form it,
-    grown to hold the footprints that cross its edge (``covering_area``).
+    grown to hold the footprints that cross its edge (``covering_area``). Tiles: ``foreign`` are the
+    neighbouring tiles' buildings that cross into this one (footprints here, but they do not grow the
+    area), and ``fixed_segments`` makes the border match the neighbours' (see ``triangulate``).
     """
-    refuse_overlap([(output, False)], [dem_path, buildings, roads, None if isinstance(area, BaseGeometry) else area])
+    refuse_overlap([(output, False)], [dem_path, buildings, roads, foreign,
+                                       None if isinstance(area, BaseGeometry) else area])
     layers = {kind: read_prepared(source, name, feedback) for kind, source, name in
-              (("buildings", buildings, PREPARED_BUILDINGS), ("roads", roads, PREPARED_ROADS)) if source}
+              (("buildings", buildings, PREPARED_BUILDINGS), ("roads", roads, PREPARED_ROADS),
+               ("foreign", foreign, FOREIGN_BUILDINGS)) if source}
     if not isinstance(area, BaseGeometry):
         area_layer = read_layer(area)
         polygons = [g for g in area_layer.geoms if g is not None]
@@ -695,9 +738,10 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
         area = covering_area(area, layers["buildings"].geoms, feedback)
     check_dem_crs(dem_path, crs, feedback)
     dem = Dem.open(dem_path, area.bounds, feedback=feedback)
-    tin, stats = triangulate(area, features(layers["buildings"]) if "buildings" in layers else [],
-                             features(layers["roads"]) if "roads" in layers else [], dem, max_edge, tolerance,
-                             footprints_as_holes, feedback=feedback.scaled(0, 80))
+    footprints = [f for kind in ("buildings", "foreign") if kind in layers for f in features(layers[kind])]
+    tin, stats = triangulate(area, footprints, features(layers["roads"]) if "roads" in layers else [], dem,
+                             max_edge, tolerance, footprints_as_holes, fixed_segments=fixed_segments,
+                             feedback=feedback.scaled(0, 80))
     stats.triangles = write_tin(output, tin, crs, spatial_index, feedback.scaled(80, 100))
     feedback.info("TIN: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))
     feedback.progress(100)

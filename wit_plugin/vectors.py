@@ -47,7 +47,7 @@ import math
 import os
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pyproj
@@ -212,6 +212,12 @@ class PrepareConfig:
     encoding: str | None = None  # force the text encoding of shapefile inputs
     source_crs: str | None = None  # CRS of inputs that declare none (no .prj); declared ones win
     stats_csv: str | None = None  # default: <output stem>_stats.csv beside the GeoPackage
+    # Tiles (wit_plugin.tiles): keep only the buildings whose point on surface ``owner`` accepts (an (n, 2)
+    # array → n booleans), read and simplify them together with their neighbours within ``context_margin``
+    # (so walls shared across the tile's edge are simplified alike on both sides), and write the
+    # neighbours that cross into the area as ``model.FOREIGN_BUILDINGS`` (holes in the tile's terrain).
+    owner: Callable[[np.ndarray], np.ndarray] | None = None
+    context_margin: float = 0.0
 
 
 @dataclass
@@ -721,6 +727,7 @@ class _Prepared:
     ids: list[str]
     extra_fields: list[FieldDef] = field(default_factory=list)
     extra_columns: dict[str, list] = field(default_factory=dict)
+    foreign: "_Prepared | None" = None  # tiles: the neighbours' buildings that cross into the area
 
 
 def _check_config(config: PrepareConfig) -> pyproj.CRS:
@@ -779,16 +786,34 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
     stats.repaired = rep.counts
     keep = _drop(layer, ids, rep.reasons, stats, dropped)
     geoms = rep.geoms[keep]
+    context = None
     if clip:
         # A neighbour that only touches the area, or reaches into it by less than the simplification
         # tolerance (a district bordering the chosen dong), is outside: clipping it would leave slivers.
         inner = area.buffer(-max(tolerance, 10 * GRID_SIZE))
         inside = shapely.intersects(inner if not inner.is_empty else area, geoms)
     else:
-        inside = shapely.contains(area, shapely.point_on_surface(geoms))
+        points = shapely.point_on_surface(geoms)
+        inside = shapely.contains(area, points)
+        if config.owner is not None:
+            inside &= np.asarray(config.owner(shapely.get_coordinates(points)), dtype=bool)
+        if config.context_margin > 0:  # neighbours simplified with the kept ones, so shared walls match
+            context = inside | shapely.intersects(area.buffer(config.context_margin), geoms)
     stats.outside_area = int(np.count_nonzero(~inside))
-    keep, geoms = keep[inside], geoms[inside]
     feedback.check_canceled()
+    if context is not None:
+        simplified, stats.arcs_kept = simplify_shared(geoms[context], tolerance, feedback=feedback)
+        ours = inside[context]
+        crossing = ~ours & shapely.intersects(area, simplified)
+        foreign = layer.take(keep[context][crossing])
+        foreign.geoms = simplified[crossing]
+        others = _Prepared(model.FOREIGN_BUILDINGS, foreign, [ids[i] for i in keep[context][crossing]])
+        keep, geoms = keep[context][ours], simplified[ours]
+        out = layer.take(keep)
+        out.geoms = geoms
+        stats.features_out, stats.vertices_out = len(out), vertex_count(geoms)
+        return _Prepared(name, out, [ids[i] for i in keep], foreign=others), stats
+    keep, geoms = keep[inside], geoms[inside]
     geoms, stats.arcs_kept = simplify_shared(geoms, tolerance, feedback=feedback)
     if clip:
         geoms = _polygonal(shapely.intersection(geoms, area, grid_size=GRID_SIZE))
@@ -897,7 +922,8 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     dropped: list[DroppedFeature] = []
     results: list[tuple[_Prepared, LayerStats]] = []
     if buildings:
-        layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config, polygon, feedback.scaled(10, 30))
+        reach = polygon.buffer(config.context_margin) if config.context_margin > 0 else polygon
+        layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config, reach, feedback.scaled(10, 30))
         results.append(_polygon_layer(layer, model.PREPARED_BUILDINGS, "BLD",
                                       [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO")], polygon,
                                       config.building_tolerance, False, config, dropped, feedback.scaled(30, 70)))
@@ -930,6 +956,7 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     drop_fields = [FieldDef("layer", ogr.OFTString), FieldDef("source_fid", ogr.OFTInteger64),
                    FieldDef(model.WIT_ID, ogr.OFTString), FieldDef("reason", ogr.OFTString)]
     layers = [_output_layer(p, feedback) for p, _ in results]
+    layers += [_output_layer(p.foreign, feedback) for p, _ in results if p.foreign is not None]
     layers.append(OutputLayer(model.STUDY_AREA, [FieldDef("area_m2", ogr.OFTReal)], {"area_m2": [polygon.area]},
                               np.array([polygon], dtype=object)))
     layers += [_table(STATS_TABLE, rows, stat_fields), _table(DROPPED_TABLE, [asdict(d) for d in dropped], drop_fields)]
@@ -943,4 +970,5 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
                 writer.writerows(rows)
             feedback.check_canceled()
     feedback.progress(100)
-    return PrepareReport(str(output_gpkg), str(csv_path), [p.name for p, _ in results], stats, dropped, polygon)
+    names = [p.name for p, _ in results] + [p.foreign.name for p, _ in results if p.foreign is not None]
+    return PrepareReport(str(output_gpkg), str(csv_path), names, stats, dropped, polygon)

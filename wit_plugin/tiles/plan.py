@@ -1,0 +1,83 @@
+"""The tile plan: which NGII map sheets a run covers, each sheet's tile, and which tile owns a building.
+
+Pure functions, no Dask and no files: the plan is decided before any work and tested alone.
+
+* **Tiles** are the sheets of the NGII grid at ``scale`` (1:5,000 by default, 1:1,000 for dense
+  cities) that meet the area; the sheet number is the tile id, so tiles line up with the
+  orthoimage sheets users have. A tile's polygon joins the sheet's four corners projected to the
+  target CRS by straight edges: neighbouring sheets share their corners exactly, so the tiles
+  partition the plane without gaps or overlaps.
+* **Ownership**: a building belongs to the sheet containing its point on surface (the point
+  ``wit:preparevectors`` already uses to keep a building whole in a study area), found from the
+  point's degrees on the sheet datum with the grid's half-open rule (an edge belongs to the cell
+  east/north of it). So every building has exactly one tile, whatever the tiles' polygons, and the
+  union of the tiles' buildings is the single-area selection.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pyproj
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from ..errors import InputError
+from ..mapsheet import MapSheet, parse_sheet_number, sheets_at, sheets_covering
+
+TILE_SCALES = (5000, 1000)
+
+
+@dataclass(frozen=True)
+class Tile:
+    """One tile of the plan: its sheet and its polygon in the target CRS."""
+
+    sheet: str
+    polygon: BaseGeometry
+
+
+def _check(scale: int) -> None:
+    if scale not in TILE_SCALES:
+        raise InputError(f"Tile scale 1:{scale} is not offered: use {' or '.join(f'{s}' for s in TILE_SCALES)} "
+                         "(the NGII 1:5,000 or 1:1,000 sheets).")
+
+
+def tile_polygon(sheet: MapSheet, target_crs: str, sheet_crs: str = "EPSG:4737") -> BaseGeometry:
+    """The sheet's corners (NW, NE, SE, SW) projected to ``target_crs``, joined by straight edges."""
+    to_target = pyproj.Transformer.from_crs(sheet_crs, target_crs, always_xy=True)
+    xs, ys = to_target.transform([sheet.west, sheet.east, sheet.east, sheet.west],
+                                 [sheet.north, sheet.north, sheet.south, sheet.south])
+    return shapely.Polygon(list(zip(xs, ys))[::-1])  # counter-clockwise: SW, SE, NE, NW
+
+
+def plan_tiles(area: BaseGeometry, target_crs: str, scale: int = 5000, sheet_crs: str = "EPSG:4737") -> list[Tile]:
+    """The tiles whose polygon overlaps ``area`` (with a positive area), in sheet-number order."""
+    _check(scale)
+    if area is None or area.is_empty or area.area <= 0:
+        raise InputError("The area to tile is empty.")
+    to_degrees = pyproj.Transformer.from_crs(target_crs, sheet_crs, always_xy=True)
+    ring = shapely.get_coordinates(shapely.segmentize(area.envelope, max(area.envelope.length / 256, 1.0)))
+    lon, lat = to_degrees.transform(ring[:, 0], ring[:, 1])
+    shapely.prepare(area)
+    tiles = []
+    for sheet in sheets_covering(min(lon), min(lat), max(lon), max(lat), scale):
+        polygon = tile_polygon(sheet, target_crs, sheet_crs)
+        if area.intersects(polygon) and area.intersection(polygon).area > 0:
+            tiles.append(Tile(sheet.number, polygon))
+    return sorted(tiles, key=lambda t: t.sheet)
+
+
+def owners(points: np.ndarray, target_crs: str, scale: int = 5000, sheet_crs: str = "EPSG:4737") -> list[str]:
+    """The sheet number owning each (x, y) point of ``points`` (target CRS)."""
+    _check(scale)
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if not len(points):
+        return []
+    lon, lat = pyproj.Transformer.from_crs(target_crs, sheet_crs, always_xy=True).transform(points[:, 0],
+                                                                                           points[:, 1])
+    return sheets_at(lon, lat, scale)
+
+
+def tile_of(sheet: str, target_crs: str, sheet_crs: str = "EPSG:4737") -> Tile:
+    """The tile of a sheet number (for a worker given only the number)."""
+    return Tile(sheet, tile_polygon(parse_sheet_number(sheet), target_crs, sheet_crs))
