@@ -16,6 +16,7 @@ REQUIREMENTS: dict[str, tuple[str, int | None]] = {
     "triangle": ("triangle", None),
     "lxml": ("lxml", None),
     "pyproj": ("pyproj", None),
+    "distributed": ("dask[distributed]", None),
 }
 
 

@@ -162,6 +162,31 @@ def _each(func, geoms: np.ndarray, *args, **kwargs) -> np.ndarray:
         return out
 
 
+SEAM_SNAP = 0.003  # m: noded vertices this close to a tile border are moved to its canonical point
+
+
+@dataclass(frozen=True)
+class Seam:
+    """A tile's border and its canonical points (see ``wit_plugin.tiles.seams``)."""
+
+    lines: BaseGeometry
+    points: np.ndarray  # (k, 2) on the border, on the 1 mm grid
+
+    def snap(self, coords: np.ndarray) -> np.ndarray:
+        """``coords`` with those near the border replaced by the nearest canonical point (within SEAM_SNAP)."""
+        if not len(self.points):
+            return coords
+        near = np.flatnonzero(shapely.dwithin(self.lines, shapely.points(coords), SEAM_SNAP))
+        if not len(near):
+            return coords
+        tree = shapely.STRtree(shapely.points(self.points))
+        index, distance = tree.query_nearest(shapely.points(coords[near]), return_distance=True, all_matches=False)
+        close = distance <= SEAM_SNAP
+        out = coords.copy()
+        out[near[index[0][close]]] = self.points[index[1][close]]
+        return out
+
+
 def clean_polygons(geoms: Sequence[BaseGeometry | None], area: BaseGeometry | None = None,
                    grid: float = GRID) -> np.ndarray:
     """Valid, snapped to ``grid`` and clipped to ``area``; None for what does not survive.
@@ -187,8 +212,12 @@ def clean_polygons(geoms: Sequence[BaseGeometry | None], area: BaseGeometry | No
 
 
 def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature] = (),
-                      footprints_as_holes: bool = True, grid: float = GRID) -> Constraints:
-    """Turn possibly messy polygons into a noded straight-line graph that Triangle cannot choke on."""
+                      footprints_as_holes: bool = True, grid: float = GRID, seam: Seam | None = None) -> Constraints:
+    """Turn possibly messy polygons into a noded straight-line graph that Triangle cannot choke on.
+
+    ``seam`` (tiles): vertices the noding left within ``SEAM_SNAP`` of the tile's border move onto the
+    border's canonical points, which the neighbouring tile computes alike.
+    """
     (clean_area,) = clean_polygons([area], None, grid)
     if clean_area is None:
         raise InputError("The study area is empty or has no area; give a polygon (or a point and a radius).")
@@ -222,6 +251,8 @@ def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: S
     coords, part = shapely.get_coordinates(rings, return_index=True)
     ring_face = mesh_faces[np.repeat(np.arange(len(mesh_faces)), shapely.get_num_interior_rings(faces[mesh_faces]) + 1)]
     origin = (math.floor(clean_area.bounds[0]), math.floor(clean_area.bounds[1]))
+    if seam is not None:
+        coords = seam.snap(coords)
     keys = np.rint((coords - origin) / grid).astype(np.int64)
     unique_keys, vertex = np.unique(keys, axis=0, return_inverse=True)
     vertex = vertex.ravel()
@@ -520,7 +551,7 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
 
 def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature], dem: Dem,
                 max_edge: float = 5.0, tolerance: float = 0.5, footprints_as_holes: bool = True,
-                max_iterations: int = 10, fixed_segments: bool = False,
+                max_iterations: int = 10, fixed_segments: bool = False, seam: Seam | None = None,
                 feedback: Feedback = SILENT) -> tuple[Tin, TinStats]:
     """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``.
 
@@ -535,7 +566,7 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
     if not max_edge > 0 or not tolerance > 0:
         raise InputError("Max edge length and vertical tolerance must be positive.")
     feedback.progress(0)
-    cons = clean_constraints(area, buildings, roads, footprints_as_holes)
+    cons = clean_constraints(area, buildings, roads, footprints_as_holes, seam=seam)
     estimate = cons.area.area / (AREA_FACTOR * max_edge ** 2)
     if estimate > MAX_TRIANGLES:
         raise InputError(f"A max edge length of {max_edge} m would make about {estimate:,.0f} triangles over this "
@@ -709,7 +740,7 @@ def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
 def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
         area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
         footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT,
-        foreign: str | Path | None = None, fixed_segments: bool = False) -> TinStats:
+        foreign: str | Path | None = None, fixed_segments: bool = False, seam: Seam | None = None) -> TinStats:
     """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
@@ -740,7 +771,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     dem = Dem.open(dem_path, area.bounds, feedback=feedback)
     footprints = [f for kind in ("buildings", "foreign") if kind in layers for f in features(layers[kind])]
     tin, stats = triangulate(area, footprints, features(layers["roads"]) if "roads" in layers else [], dem,
-                             max_edge, tolerance, footprints_as_holes, fixed_segments=fixed_segments,
+                             max_edge, tolerance, footprints_as_holes, fixed_segments=fixed_segments, seam=seam,
                              feedback=feedback.scaled(0, 80))
     stats.triangles = write_tin(output, tin, crs, spatial_index, feedback.scaled(80, 100))
     feedback.info("TIN: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))

@@ -156,7 +156,7 @@ class StudyArea:
             area = self._district(districts)
         else:
             raise InputError(f"Unknown study-area kind {self.kind!r}.")
-        area = _polygonal(np.array([area], dtype=object))[0]
+        area = polygonal(np.array([area], dtype=object))[0]
         if area is None or area.is_empty or area.area <= 0:
             raise InputError("The study area is empty.")
         return area
@@ -212,8 +212,8 @@ class PrepareConfig:
     encoding: str | None = None  # force the text encoding of shapefile inputs
     source_crs: str | None = None  # CRS of inputs that declare none (no .prj); declared ones win
     stats_csv: str | None = None  # default: <output stem>_stats.csv beside the GeoPackage
-    # Tiles (wit_plugin.tiles): keep only the buildings whose point on surface ``owner`` accepts (an (n, 2)
-    # array → n booleans), read and simplify them together with their neighbours within ``context_margin``
+    # Tiles (wit_plugin.tiles): keep the buildings whose point on surface ``owner`` accepts (an (n, 2)
+    # array → n booleans; it replaces the area test), read and simplify them together with their neighbours within ``context_margin``
     # (so walls shared across the tile's edge are simplified alike on both sides), and write the
     # neighbours that cross into the area as ``model.FOREIGN_BUILDINGS`` (holes in the tile's terrain).
     owner: Callable[[np.ndarray], np.ndarray] | None = None
@@ -279,7 +279,7 @@ def transform(geoms: np.ndarray, source: pyproj.CRS, target: pyproj.CRS) -> np.n
     return shapely.transform(geoms, _apply)
 
 
-def _polygonal(geoms: np.ndarray) -> np.ndarray:
+def polygonal(geoms: np.ndarray) -> np.ndarray:
     """Keep only the polygonal parts (overlay and make_valid may add lines and points); None if none."""
     out = geoms.copy()
     mixed = np.flatnonzero(shapely.get_type_id(geoms) == 7)
@@ -289,8 +289,8 @@ def _polygonal(geoms: np.ndarray) -> np.ndarray:
         out[mixed] = None
         for i in np.unique(index[keep]):
             out[mixed[i]] = shapely.union_all(parts[keep & (index == i)])
-    polygonal = np.isin(shapely.get_type_id(out), (3, 6)) & ~shapely.is_empty(out)
-    out[~polygonal] = None
+    areal = np.isin(shapely.get_type_id(out), (3, 6)) & ~shapely.is_empty(out)
+    out[~areal] = None
     return out
 
 
@@ -375,7 +375,7 @@ def repair_polygons(geoms: np.ndarray, unclosed: np.ndarray | None = None, min_a
     invalid = ~shapely.is_valid(deduped)
     counts["invalid"] = int(np.count_nonzero(invalid))
     if invalid.any():
-        fixed = _polygonal(shapely.make_valid(deduped[invalid], method="structure", keep_collapsed=False))
+        fixed = polygonal(shapely.make_valid(deduped[invalid], method="structure", keep_collapsed=False))
         counts["multipart"] = int(np.count_nonzero(shapely.get_num_geometries(fixed)
                                                    > shapely.get_num_geometries(deduped[invalid])))
         deduped[invalid] = fixed
@@ -694,7 +694,7 @@ def separate_roads(polys: np.ndarray, widths: np.ndarray, ids: Sequence[str]) ->
     out = polys.copy()
     for i in np.unique(a):
         out[i] = shapely.difference(polys[i], shapely.union_all(polys[b[a == i]]))
-    return _polygonal(out)
+    return polygonal(out)
 
 
 def road_area(roads: np.ndarray) -> shapely.Geometry:
@@ -794,9 +794,10 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
         inside = shapely.intersects(inner if not inner.is_empty else area, geoms)
     else:
         points = shapely.point_on_surface(geoms)
-        inside = shapely.contains(area, points)
-        if config.owner is not None:
-            inside &= np.asarray(config.owner(shapely.get_coordinates(points)), dtype=bool)
+        if config.owner is not None:  # a tile: its owner rule decides, also a few mm outside the area
+            inside = np.asarray(config.owner(shapely.get_coordinates(points)), dtype=bool)
+        else:
+            inside = shapely.contains(area, points)
         if config.context_margin > 0:  # neighbours simplified with the kept ones, so shared walls match
             context = inside | shapely.intersects(area.buffer(config.context_margin), geoms)
     stats.outside_area = int(np.count_nonzero(~inside))
@@ -816,7 +817,7 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
     keep, geoms = keep[inside], geoms[inside]
     geoms, stats.arcs_kept = simplify_shared(geoms, tolerance, feedback=feedback)
     if clip:
-        geoms = _polygonal(shapely.intersection(geoms, area, grid_size=GRID_SIZE))
+        geoms = polygonal(shapely.intersection(geoms, area, grid_size=GRID_SIZE))
         emptied = shapely.is_missing(geoms)
         stats.outside_area += int(np.count_nonzero(emptied))
         keep, geoms = keep[~emptied], orient(geoms[~emptied])[0]
@@ -853,7 +854,7 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
     widths, sources = road_widths(roads, config.default_road_width)
     feedback.check_canceled()
     polys = shapely.buffer(roads.geoms, widths / 2, quad_segs=ROAD_QUAD_SEGS, cap_style="round", join_style="round")
-    polys = _polygonal(shapely.intersection(polys, area))
+    polys = polygonal(shapely.intersection(polys, area))
     cut = np.flatnonzero(~shapely.is_missing(polys))
     polys[cut] = separate_roads(polys[cut], widths[cut], [ids[i] for i in cut])
     covered = shapely.is_missing(polys)

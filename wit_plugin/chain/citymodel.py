@@ -20,12 +20,15 @@ import os
 import shutil
 import tempfile
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from shapely.geometry.base import BaseGeometry
+
 from .. import extrude, model, terrain
+from ..terrain import Seam
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
@@ -39,6 +42,8 @@ from ..mosaic import merge_tiles
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
 from ..vector_io import read_prepared
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
+from ..tiles.job import TileJob
+from ..tiles.prepare import clip_context, prepare_tile_buildings
 from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
@@ -78,6 +83,7 @@ class ChainOptions:
     keep_work: bool = False  # keep the intermediate files as <output>/work
     metrics: bool = True
     encoding: str | None = None  # of shapefile inputs, when their declaration is wrong
+    tile: TileJob | None = None  # one tile of a tiled run (wit_plugin.tiles)
 
 
 @dataclass
@@ -160,19 +166,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     require_sheet_names(tifs)
 
     with clock.step("prepare") as fb:
-        prepared = str(work / "prepared.gpkg")
-        layers = set(prepare_vectors(inputs.buildings, inputs.roads, inputs.districts, options.area, prepared,
-                                     PrepareConfig(target_crs=options.target_crs, encoding=options.encoding,
-                                                   stats_csv=str(work / "prepared_stats.csv")), fb).layers)
-
-        def layer(name: str) -> str:
-            return f"{prepared}|layername={name}"
-
-        if model.PREPARED_BUILDINGS not in layers:
-            raise InputError("No building of the building layer lies in the study area.")
-        buildings = read_prepared(layer(model.PREPARED_BUILDINGS), model.PREPARED_BUILDINGS)
-        study = read_prepared(layer(model.STUDY_AREA), model.STUDY_AREA).geoms[0]
-        area = terrain.covering_area(study, buildings.geoms)  # what the terrain will cover (it logs it)
+        layers = _prepare(inputs, options, work, fb)
+        area = terrain.covering_area(layers.study, read_prepared(layers.buildings, model.PREPARED_BUILDINGS).geoms)
 
     with clock.step("coverage") as fb:
         require_dem(inputs.dem, area, options.target_crs, fb)
@@ -194,13 +189,13 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("terrain") as fb:
         tin = str(work / "tin.gpkg")
-        tin_stats = terrain.run(inputs.dem, layer(model.PREPARED_BUILDINGS), _if(layers, model.PREPARED_ROADS, layer),
-                                tin, study, options.max_edge, options.tolerance,
-                                spatial_index=options.keep_work, feedback=fb)
+        tin_stats = terrain.run(inputs.dem, layers.buildings, layers.roads, tin, layers.study, options.max_edge,
+                                options.tolerance, spatial_index=options.keep_work, feedback=fb,
+                                foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam)
 
     with clock.step("extrude") as fb:
         lod1 = str(work / "lod1.gpkg")
-        lod1_stats = extrude.run(layer(model.PREPARED_BUILDINGS), inputs.dem, lod1, options.heights,
+        lod1_stats = extrude.run(layers.buildings, inputs.dem, lod1, options.heights,
                                  spatial_index=options.keep_work, feedback=fb)
 
     with clock.step("texture") as fb:
@@ -212,8 +207,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     with clock.step("citygml") as fb:
         gml = staging / "model.gml"
         written = write_citygml(CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
-                                              roads=prepared if model.PREPARED_ROADS in layers else None,
-                                              districts=prepared if model.PREPARED_DISTRICTS in layers else None),
+                                              roads=layers.roads and layers.roads.split("|")[0],
+                                              districts=layers.districts and layers.districts.split("|")[0]),
                                 str(gml), srs_name=options.target_crs, feedback=fb)
 
     with clock.step("validate") as fb:
@@ -229,7 +224,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     if options.metrics:
         with clock.step("metrics") as fb:
             metrics_csv = staging / "metrics.csv"
-            quality_report(str(metrics_csv), model_source=lod1, source_buildings=layer(model.PREPARED_BUILDINGS),
+            quality_report(str(metrics_csv), model_source=lod1, source_buildings=layers.buildings,
                            textures=textures, ortho=mosaic, mosaic=mosaic, footprints=str(work / "sheets.gpkg"),
                            output_html=str(staging / "metrics.html"), feedback=fb)
     if not options.keep_work:
@@ -244,6 +239,45 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         seconds={}, work=str(output / "work") if options.keep_work else None)
 
 
-def _if(layers: set[str], name: str, source: Callable[[str], str]) -> str | None:
-    """The layer's source if prepare wrote it (a layer without features in the area is not written)."""
-    return source(name) if name in layers else None
+@dataclass
+class _Layers:
+    """The prepared sources the later steps read (``file|layername=…``), and the study area itself."""
+
+    buildings: str
+    study: BaseGeometry
+    roads: str | None = None
+    districts: str | None = None
+    foreign: str | None = None
+    seam: Seam | None = None  # a tile's border, met alike by its neighbours
+
+
+def _prepare(inputs: ChainInputs, options: ChainOptions, work: Path, feedback: Feedback) -> _Layers:
+    """Step 1: the area's layers, or a tile's (its own buildings, its neighbours' crossing in, the
+    run's roads and dongs cut at its border)."""
+    prepared = str(work / "prepared.gpkg")
+
+    def source(file: str, names: list[str], name: str) -> str | None:
+        return f"{file}|layername={name}" if name in names else None
+
+    config = PrepareConfig(target_crs=options.target_crs, encoding=options.encoding,
+                           stats_csv=str(work / "prepared_stats.csv"))
+    seam = None
+    if options.tile is None:
+        names = prepare_vectors(inputs.buildings, inputs.roads, inputs.districts, options.area, prepared, config,
+                                feedback).layers
+        context, context_names = prepared, names
+    else:
+        job = options.tile
+        tile_area = job.area(options.target_crs)
+        names = prepare_tile_buildings(inputs.buildings, tile_area, job.owner, prepared, options.encoding, feedback)
+        context = str(work / "context.gpkg")
+        context_names = clip_context(job.context, job.context_layers, tile_area, context) if job.context else []
+        seam = job.seam(options.target_crs, [f"{prepared}|layername={n}" for n in names
+                                             if n in (model.PREPARED_BUILDINGS, model.FOREIGN_BUILDINGS)])
+    if model.PREPARED_BUILDINGS not in names:
+        raise InputError("No building of the building layer lies in the study area.")
+    study = read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
+    return _Layers(source(prepared, names, model.PREPARED_BUILDINGS), study,
+                   source(context, context_names, model.PREPARED_ROADS),
+                   source(context, context_names, model.PREPARED_DISTRICTS),
+                   source(prepared, names, model.FOREIGN_BUILDINGS), seam)

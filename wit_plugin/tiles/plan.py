@@ -81,3 +81,22 @@ def owners(points: np.ndarray, target_crs: str, scale: int = 5000, sheet_crs: st
 def tile_of(sheet: str, target_crs: str, sheet_crs: str = "EPSG:4737") -> Tile:
     """The tile of a sheet number (for a worker given only the number)."""
     return Tile(sheet, tile_polygon(parse_sheet_number(sheet), target_crs, sheet_crs))
+
+
+@dataclass(frozen=True)
+class TileOwner:
+    """Accepts the points (x, y, target CRS) that lie in the run's area and belong to ``sheet``:
+    ``PrepareConfig.owner`` for a tile (picklable, so it travels to Dask workers)."""
+
+    sheet: str
+    scale: int
+    target_crs: str
+    sheet_crs: str = "EPSG:4737"
+    area_wkt: str | None = None  # the run's area; None: everything
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        inside = np.array(owners(points, self.target_crs, self.scale, self.sheet_crs), dtype=object) == self.sheet
+        if self.area_wkt is not None and inside.any():
+            inside &= shapely.contains_xy(shapely.from_wkt(self.area_wkt), points[:, 0], points[:, 1])
+        return inside

@@ -1,0 +1,99 @@
+"""Prepared layers for one tile, so that neighbouring tiles agree where they meet.
+
+* Roads and legal dongs are prepared once for the whole run (``prepare_context``): a road is
+  simplified and buffered as one line whatever tile it crosses, then each tile clips the same
+  polygons at its border (``clip_context``), so both sides are cut along the same line.
+* Buildings are prepared per tile (``prepare_vectors`` with a ``TileOwner``): the tile keeps the
+  buildings it owns, simplified together with their neighbours within ``CONTEXT_MARGIN`` so walls
+  shared across the border are simplified alike in both tiles, and writes the neighbours' buildings
+  that cross into it as ``foreign_buildings`` (holes in its terrain).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import shapely
+from osgeo import ogr
+from shapely.geometry.base import BaseGeometry
+
+from .. import model
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..fileio import atomic_file
+from ..vector_io import OutputLayer, read_prepared, write_gpkg
+from ..vectors import GRID_SIZE, PrepareConfig, StudyArea, orient, polygonal, prepare_vectors
+from .plan import TileOwner
+
+#: neighbours within this distance of a tile take part in simplifying its buildings (m)
+CONTEXT_MARGIN = 100.0
+CONTEXT_LAYERS = (model.PREPARED_ROADS, model.PREPARED_DISTRICTS)
+
+
+def prepare_context(roads: str | None, districts: str | None, area: BaseGeometry, target_crs: str, output: str,
+                    encoding: str | None = None, feedback: Feedback = SILENT) -> list[str]:
+    """Roads and legal dongs for the whole run's ``area`` into ``output``; the layers written."""
+    if not (roads or districts):
+        return []
+    report = prepare_vectors(None, roads, districts, StudyArea.polygon(area, target_crs), output,
+                             PrepareConfig(target_crs=target_crs, encoding=encoding,
+                                           stats_csv=str(Path(output).with_suffix(".csv"))), feedback)
+    return [name for name in report.layers if name in CONTEXT_LAYERS]
+
+
+def clip_context(context: str, layers: list[str], area: BaseGeometry, output: str) -> list[str]:
+    """The run's road and dong polygons cut to the tile's ``area``, into ``output``; the layers written."""
+    written = []
+    out_layers = []
+    crs = None
+    for name in layers:
+        source = read_prepared(f"{context}|layername={name}", name)
+        crs = source.crs
+        shapely.prepare(area)
+        near = np.flatnonzero(shapely.intersects(area, source.geoms))
+        cut = polygonal(shapely.intersection(source.geoms[near], area))  # exact: both sides of a border cut alike
+        alive = np.flatnonzero(~shapely.is_missing(cut))
+        if not len(alive):
+            continue
+        piece = source.take(near[alive])
+        piece.geoms = orient(cut[alive])[0]
+        out_layers.append(OutputLayer(name, piece.fields, piece.columns, piece.geoms))
+        written.append(name)
+    if out_layers:
+        with atomic_file(output) as tmp:
+            write_gpkg(tmp, out_layers, crs)
+    return written
+
+
+def prepare_tile_buildings(buildings: str, tile_area: BaseGeometry, owner: TileOwner, output: str,
+                           encoding: str | None = None, feedback: Feedback = SILENT) -> list[str]:
+    """The buildings ``owner`` accepts (and the foreign ones crossing in) into ``output``; layers written.
+
+    Raises ``InputError`` when the tile owns no building (the caller records the tile as empty).
+    """
+    config = PrepareConfig(target_crs=owner.target_crs, encoding=encoding, owner=owner,
+                           context_margin=CONTEXT_MARGIN, stats_csv=str(Path(output).with_suffix(".csv")))
+    report = prepare_vectors(buildings, None, None, StudyArea.polygon(tile_area, owner.target_crs), output, config,
+                             feedback)
+    if not any(s.layer == model.PREPARED_BUILDINGS and s.features_out for s in report.stats):
+        raise EmptyTile(f"Sheet {owner.sheet} owns no building.")
+    return report.layers
+
+
+class EmptyTile(InputError):
+    """A tile with nothing of its own to model."""
+
+
+def area_of_layer(path: str, target_crs: str) -> BaseGeometry:
+    """The box of a layer's extent in ``target_crs`` ("everything the buildings layer covers")."""
+    ds = ogr.Open(str(path).split("|")[0])
+    if ds is None:
+        raise InputError(f"Cannot open {path} as a vector layer.")
+    layer = ds.GetLayer(0)
+    xmin, xmax, ymin, ymax = layer.GetExtent()
+    srs = layer.GetSpatialRef()
+    source = pyproj.CRS.from_wkt(srs.ExportToWkt()) if srs is not None else pyproj.CRS.from_user_input(target_crs)
+    box = shapely.segmentize(shapely.box(xmin, ymin, xmax, ymax), max(xmax - xmin, ymax - ymin) / 64 or 1.0)
+    transformer = pyproj.Transformer.from_crs(source, target_crs, always_xy=True)
+    return shapely.transform(box, lambda xy: np.column_stack(transformer.transform(xy[:, 0], xy[:, 1]))).envelope

@@ -1,0 +1,265 @@
+"""Map the tiles of a run to Dask workers: an embedded ``LocalCluster``, or a running scheduler.
+
+Workers are plain Python processes (``dask worker``) that import the core as ``wit_plugin``; they are started with
+an explicit interpreter (``worker_python``), never with ``sys.executable`` blindly, because inside
+QGIS on Windows and macOS that is QGIS itself. Progress advances per finished tile
+(``as_completed``); Cancel stops submitting and cancels the running tiles; a tile that fails is
+recorded in the index with its message and the others go on; a worker killed mid-run costs only
+its tile's time (Dask runs the tile again elsewhere); a run started again on the same output
+folder skips the tiles that are done and valid.
+"""
+from __future__ import annotations
+
+import contextlib
+import importlib
+import logging
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pyproj
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from ..chain import ChainInputs, ChainOptions
+from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
+from ..chain.coverage import require_sheet_names
+from ..deps import require
+from ..errors import CanceledError, InputError
+from ..feedback import SILENT, Feedback
+from ..fileio import ensure_writable_dir
+from ..georef import list_tifs
+from ..vector_io import read_layer
+from ..vectors import StudyArea, repair_polygons, transform
+from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
+from .plan import plan_tiles
+from .prepare import area_of_layer, prepare_context
+
+CORE_ROOT = Path(__file__).resolve().parents[2]  # the folder holding the package wit_plugin
+CONTEXT_FILE = "context.gpkg"
+POLL_SECONDS = 0.2
+
+
+@dataclass
+class TilesReport:
+    """What a tiled run did: one index row per tile."""
+
+    output: str
+    index: str
+    rows: list[dict] = field(default_factory=list)
+    resumed: int = 0
+    seconds: float = 0.0
+
+    def count(self, status: str) -> int:
+        return sum(r["status"] == status for r in self.rows)
+
+    @property
+    def buildings(self) -> int:
+        return sum(r.get("buildings") or 0 for r in self.rows)
+
+
+def worker_python(configured: str | None = None) -> str:
+    """The interpreter for worker processes: ``configured``, else ``$WIT_WORKER_PYTHON``, else
+    ``sys.executable`` when it is a Python (not QGIS embedding one), else ``python3`` on the PATH."""
+    for candidate in (configured, os.environ.get("WIT_WORKER_PYTHON")):
+        if candidate:
+            if not (Path(candidate).is_file() and os.access(candidate, os.X_OK)):
+                raise InputError(f"The worker Python {candidate} is not an executable file.")
+            return candidate
+    if Path(sys.executable).name.lower().startswith("python"):
+        return sys.executable
+    found = shutil.which("python3") or shutil.which("python")
+    if not found:
+        raise InputError("No Python interpreter found for the Dask workers: set WORKER_PYTHON (or "
+                         "$WIT_WORKER_PYTHON) to a Python with the plugin's dependencies.")
+    return found
+
+
+def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
+                 encoding: str | None = None) -> BaseGeometry:
+    """The run's area in ``target_crs``; None: everything the buildings layer covers."""
+    target = pyproj.CRS.from_user_input(target_crs)
+    if area is None:
+        return area_of_layer(inputs.buildings, target_crs)
+    if area.kind != "district":
+        return area.geometry(target)
+    if not inputs.districts:
+        raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
+    districts = read_layer(inputs.districts, encoding=encoding)
+    districts.geoms = repair_polygons(transform(districts.geoms, districts.crs, target)).geoms
+    return area.geometry(target, districts)
+
+
+def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, scale: int, area: BaseGeometry,
+          context: tuple[str | None, list[str]]) -> dict:
+    """Everything one tile needs, as plain values."""
+    heights = options.heights
+    if heights.expression is not None:
+        raise InputError("A height expression cannot travel to Dask workers: evaluate it into a field first "
+                         "(the glue does) and give that field.")
+    return {
+        "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area),
+        "target_crs": options.target_crs, "sheet_crs": options.sheet_crs, "margin": options.margin,
+        "max_edge": options.max_edge, "tolerance": options.tolerance, "texture_scale": options.texture_scale,
+        "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
+                    "default_height": heights.default_height},
+        "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir,
+        "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
+        "context": context[0], "context_layers": context[1],
+        "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
+                   "districts": None},
+    }
+
+
+def _finished(output: Path, row: dict | None) -> bool:
+    """A tile a previous run finished: done with its model on disk, or empty."""
+    if not row:
+        return False
+    if row.get("status") == EMPTY:
+        return True
+    return row.get("status") == DONE and bool(row.get("gml")) and (output / row["gml"]).is_file()
+
+
+def _task():
+    """``run_tile`` under the name workers import (``wit_plugin.…``), whatever name QGIS loaded us by."""
+    if str(CORE_ROOT) not in sys.path:
+        sys.path.append(str(CORE_ROOT))
+    return importlib.import_module("wit_plugin.tiles.worker").run_tile
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str | None, workers: int, python: str) -> Iterator:
+    """A client of the scheduler at ``scheduler``; else of an embedded one (a LocalCluster without workers
+    of its own) served by ``workers`` ``dask worker`` processes of ``python``, stopped on exit."""
+    require(["distributed"])
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=30)
+        except OSError as exc:
+            raise InputError(f"Cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    with LocalCluster(n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster, \
+            Client(cluster) as client:
+        processes = [start_worker(python, cluster.scheduler_address) for _ in range(workers)]
+        try:
+            client.wait_for_workers(workers, timeout=120)
+            yield client
+        finally:
+            stop_workers(processes)
+
+
+def start_worker(python: str, address: str) -> subprocess.Popen:
+    """One ``dask worker`` (with its nanny, which restarts it if it dies) of ``python``, importing the core
+    from this checkout; in its own process group so that stopping it stops its children too."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(CORE_ROOT), os.environ.get("PYTHONPATH")) if p))
+    command = [python, "-m", "distributed.cli.dask_worker", address, "--nworkers", "1", "--nthreads", "1",
+               "--memory-limit", "0", "--no-dashboard", "--name", f"wit-{os.getpid()}-{time.time_ns()}"]
+    try:
+        return subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                start_new_session=True)
+    except OSError as exc:
+        raise InputError(f"Cannot start a Dask worker with {python}: {exc}") from exc
+
+
+def stop_workers(processes: list[subprocess.Popen], grace: float = 10.0) -> None:
+    """Stop worker processes and their children: SIGTERM to the group, then SIGKILL after ``grace`` s."""
+    for process in processes:
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(process.pid, signal.SIGTERM)
+    deadline = time.monotonic() + grace
+    for process in processes:
+        try:
+            process.wait(timeout=max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike, area: StudyArea | None,
+              scale: int = 5000, scheduler: str | None = None, workers: int | None = None,
+              python: str | None = None, feedback: Feedback = SILENT) -> TilesReport:
+    """Build every tile of ``area`` (None: all the buildings) into ``output_dir``; see the module docstring."""
+    start = time.perf_counter()
+    output = ensure_writable_dir(output_dir)
+    require_sheet_names(list_tifs(inputs.ortho))
+    polygon = area_polygon(area, inputs, options.target_crs, options.encoding)
+    tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
+    previous = read_index(output)
+    write_index(output, tiles, options.target_crs, previous)
+    todo = [t for t in tiles if not _finished(output, previous.get(t.sheet))]
+    report = TilesReport(str(output), str(output / INDEX_FILE), resumed=len(tiles) - len(todo))
+    feedback.info(f"{len(tiles)} tile(s) of 1:{scale:,} over {polygon.area / 1e6:.2f} km²; "
+                  f"{report.resumed} already done, {len(todo)} to build.")
+    context = prepare_context(inputs.roads, inputs.districts, polygon, options.target_crs,
+                              str(output / CONTEXT_FILE), options.encoding, feedback.scaled(0, 2)) \
+        if todo else []
+    specs = {t.sheet: _spec(inputs, options, output, t.sheet, scale, polygon,
+                            (str(output / CONTEXT_FILE) if context else None, context)) for t in todo}
+    rows = {sheet: row for sheet, row in previous.items() if sheet in {t.sheet for t in tiles}}
+    if todo:
+        python = worker_python(python)
+        workers = workers or os.cpu_count() or 1
+        feedback.info(f"Dask: {'scheduler ' + scheduler if scheduler else f'LocalCluster of {workers} worker(s)'}"
+                      f"{'' if scheduler else ', Python ' + python}.")
+        with dask_client(scheduler, workers, python) as client:
+            rows.update(_map(client, specs, output, feedback))
+    report.rows = [rows.get(t.sheet, {"sheet": t.sheet, "status": PENDING}) for t in tiles]
+    report.seconds = round(time.perf_counter() - start, 3)
+    failed = [r for r in report.rows if r["status"] == FAILED]
+    for row in failed:
+        feedback.warning(f"Tile {row['sheet']} failed: {row['error']}")
+    if tiles and report.count(DONE) == 0:
+        reasons = "; ".join(f"{r['sheet']}: {r.get('error')}" for r in report.rows[:5])
+        raise InputError(f"No tile could be built ({len(failed)} failed, {report.count(EMPTY)} empty): {reasons}")
+    feedback.info(f"Tiles: {report.count(DONE)} done, {len(failed)} failed, {report.count(EMPTY)} empty, "
+                  f"{report.buildings} buildings, {report.seconds:.1f} s.")
+    return report
+
+
+def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> dict[str, dict]:
+    """Submit every tile, record each as it finishes; cancel everything on Cancel."""
+    from distributed import as_completed
+
+    task = _task()
+    futures = {client.submit(task, spec, key=f"wit-tile-{sheet}-{time.time_ns()}", pure=False, retries=1): sheet
+               for sheet, spec in specs.items()}
+    done: dict[str, dict] = {}
+    finished = as_completed(list(futures))
+    try:
+        while not finished.is_empty():
+            if feedback.is_canceled():
+                raise CanceledError("Cancelled by the user.")
+            batch = finished.next_batch(block=False)
+            if not batch:
+                time.sleep(POLL_SECONDS)
+                continue
+            for future in batch:
+                sheet = futures[future]
+                try:
+                    row = future.result()
+                except Exception as exc:  # noqa: BLE001 — e.g. a worker killed again and again
+                    row = {"sheet": sheet, "status": FAILED, "error": f"{type(exc).__name__}: {exc}"}
+                update_row(output, sheet, row)
+                done[sheet] = row
+                feedback.info(f"Tile {sheet}: {row['status']}, {row.get('buildings') or 0} buildings, "
+                              f"{row.get('seconds') or 0:.1f} s, peak {row.get('peak_mb') or 0:.0f} MB"
+                              + (f" — {row['error']}" if row.get("error") else ""))
+                feedback.progress(2 + 98 * len(done) / len(futures))
+    except BaseException:
+        client.cancel(list(futures), force=True)
+        raise
+    return done
