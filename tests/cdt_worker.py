@@ -54,7 +54,11 @@ def check_mesh(tin: terrain.Tin, dem: Dem, footprints_as_holes: bool) -> None:
     lines = shapely.linestrings(np.stack([cons.vertices[cons.segments[:, 0]], cons.vertices[cons.segments[:, 1]]],
                                          axis=1) + origin)
     expected = shapely.area(faces[meshed]).sum()
-    assert abs(areas.sum() - expected) <= 1e-6 * expected, (areas.sum(), expected)
+    # a face narrower than the snapping grid collapses onto a bent chain shared by both its sides
+    # (segments are split at vertices snap rounding left within 0.7 mm): its area is not meshed
+    widths = 2 * shapely.area(faces[meshed]) / shapely.length(faces[meshed])
+    collapsed = shapely.area(faces[meshed][widths < terrain.GRID]).sum()
+    assert abs(areas.sum() - expected) <= 1e-6 * expected + collapsed, (areas.sum(), expected, collapsed)
     centroids = shapely.points((a + b + c) / 3 + origin)
     hit, _ = shapely.STRtree(faces[meshed]).query(centroids, predicate="within")
     assert len(np.unique(hit)) == len(tris), "a triangle lies outside the meshed faces"
