@@ -91,3 +91,22 @@ def test_ring_texts_equal_point_by_point_formatting(point_format):
     assert ring_texts(corners, np.full(100, 3), point_format) == [
         " ".join(point_format % tuple(p) for p in corners[k:k + 3].tolist()) for k in range(0, 300, 3)]
     assert ring_texts(np.empty((0, 3)), np.zeros(0, dtype=int), point_format) == []
+
+
+def test_the_collector_is_paused_inside_and_restored_after():
+    import gc
+
+    from wit_plugin.gc_pause import collector_paused
+
+    assert gc.isenabled()
+    with pytest.raises(KeyError), collector_paused():
+        assert not gc.isenabled()
+        raise KeyError
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with collector_paused():
+            pass
+        assert not gc.isenabled()  # left as it was found
+    finally:
+        gc.enable()

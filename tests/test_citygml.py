@@ -393,6 +393,7 @@ def test_texture_coordinates_are_checked_and_normalised_in_bulk():
     expected = [" ".join(format(float(v), ".7g") for v in t.split()) for t in texts]
     assert citygml._uv(texts, what, True) == expected
     assert citygml._uv(["0 0 1 0 1 1 0 1 0 0"], what, False) == ["0 0 1 0 1 1 0 1 0 0"]
+    assert citygml._uv([texts[0], "0.25\t0.75  0.5 0.5 1 1\n0.25 0.75 "], what, True) == expected  # any spacing
     for bad, triangles in (("0 0 1 0 1 1", True), ("0 0 1 0 1 1 0 0 1", True), ("0 0 1 0 1 1 0 0 nan 0", False),
                            ("0 0 1 x 1 1 0 0", True), ("", True), ("0 0 1 0 1 1 0 0 0 0", True)):
         with pytest.raises(InputError, match=r"triangle 1 are not a valid list"):

@@ -447,3 +447,19 @@ def test_a_face_that_is_not_a_polygon_is_refused(scene: dict, tmp_path: Path) ->
     with pytest.raises(InputError, match="Feature 2 of layer 'tin' .* is a POINT, not a polygon face"):
         texture_model(scene["ortho"], None, tin, str(out))
     assert not out.exists() or list(out.iterdir()) == []
+
+
+def test_no_garbage_collection_during_the_step(scene: dict, tmp_path: Path) -> None:
+    """The step makes millions of short-lived objects and no cycles: the collector is paused, then back."""
+    import gc
+
+    class Spy(Feedback):
+        seen: set = set()
+
+        def is_canceled(self) -> bool:  # asked between tiles
+            self.seen.add(gc.isenabled())
+            return False
+
+    texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(tmp_path / "tex"), TextureConfig(atlas_size=64),
+                  feedback=Spy())
+    assert Spy.seen == {False} and gc.isenabled()

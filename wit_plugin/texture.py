@@ -71,6 +71,7 @@ from . import bulk_read, model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_files
+from .gc_pause import collector_paused
 from .gdal_env import capped_block_cache, open_raster, read_window
 from .gpkg_bulk import BulkTable
 from .numtext import ring_texts
@@ -200,6 +201,7 @@ def texture_model(
     if not lod1_gpkg and not tin_gpkg:
         raise InputError("Give the LoD1 faces layer, the TIN layer or both: there is nothing to texture.")
     with contextlib.ExitStack() as stack:  # datasets closed on any exit, not when a traceback dies
+        stack.enter_context(collector_paused())
         image = _Ortho(ortho, config)
         stack.callback(image.close)
         roofs = tin = None

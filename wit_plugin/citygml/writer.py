@@ -50,6 +50,7 @@ from .. import bulk_read, model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
+from ..gc_pause import collector_paused
 from ..numtext import ring_texts
 from .schemas import CITYGML_MODULES
 from ..vector_io import open_step_layer
@@ -116,6 +117,8 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
     report = WriteReport()
     out = Path(output)
     with contextlib.ExitStack() as stack:
+        stack.enter_context(collector_paused())
+
         def layer(path: str | None, *args: Any, **kwargs: Any) -> _Layer | None:
             return stack.enter_context(_Layer.open(path, *args, **kwargs)) if path else None
 
@@ -361,24 +364,31 @@ def _uv(texts: list[str], what: Callable[[int], str], triangles: bool) -> list[s
     """Validated texture coordinates, normalised to 7 significant digits (each distinct pair formatted once).
 
     Each text must hold u v pairs: 4 for a triangle (closing point included), at least 4 for a
-    ring; ``what(i)`` names the surface of text i for the error message.
+    ring; ``what(i)`` names the surface of text i for the error message. Texts of numbers
+    separated by single spaces (as wit:wittexture writes them) are parsed in one go.
     """
-    tokens = [text.split() for text in texts]
-    counts = np.fromiter(map(len, tokens), dtype=np.int64, count=len(tokens))
-    try:
-        values = np.fromiter(map(float, chain.from_iterable(tokens)), dtype=np.float64, count=int(counts.sum()))
+    joined = " ".join(texts)
+    tokens = joined.split()
+    counts = np.fromiter((text.count(" ") + 1 for text in texts), dtype=np.int64, count=len(texts))
+    try:  # the counts hold when the texts are the tokens joined by single spaces, none empty
+        values = np.array(tokens, dtype=np.float64) if joined == " ".join(tokens) else None
     except ValueError:
         values = None
-    bad = (counts == 0) | (counts % 2 == 1) | ((counts != 8) if triangles else (counts < 8))
-    if values is None or bad.any() or not np.isfinite(values).all():
-        for i, text in enumerate(texts):  # the first bad row, for the message
+    if values is None or ((counts != 8) if triangles else (counts < 8) | (counts % 2 == 1)).any() \
+            or not np.isfinite(values).all():  # irregular spacing, or a text to report: one by one
+        rows = []
+        for i, text in enumerate(texts):
             try:
-                numbers = [float(v) for v in tokens[i]]
+                numbers = [float(v) for v in text.split()]
             except ValueError:
                 numbers = []
-            if bad[i] or not numbers or not all(map(math.isfinite, numbers)):
+            if not numbers or len(numbers) % 2 or (len(numbers) != 8 if triangles else len(numbers) < 8) \
+                    or not all(map(math.isfinite, numbers)):
                 raise InputError(f"Texture coordinates of {what(i)} are not a valid list of u v pairs: {text!r}. "
                                  "Re-run wit:wittexture.")
+            rows.append(numbers)
+        counts = np.array([len(numbers) for numbers in rows], dtype=np.int64)
+        values = np.array([v for numbers in rows for v in numbers], dtype=np.float64)
     return ring_texts(values.reshape(-1, 2), counts // 2, "%.7g %.7g")
 
 
