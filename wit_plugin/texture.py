@@ -310,7 +310,7 @@ class _Rings:
 
 
 class _Layer:
-    """A textured layer: the faces of the given kinds, read tile by tile through a spatial filter."""
+    """A textured layer: the faces of the given kinds, read in bulk tile by tile (``tiles``)."""
 
     def __init__(self, path: str, name: str, kind_field: str, fields: tuple[str, ...], kinds: tuple[str, ...],
                  producer: str):
