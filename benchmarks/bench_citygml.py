@@ -27,7 +27,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-import measure  # noqa: E402  (benchmarks/measure.py)
+import measure  # benchmarks/measure.py
 
 ORIGIN = (200000.0, 540000.0)  # EPSG:5186 metres, Seoul
 SPACING, SIDE = 20.0, 12.0  # building pitch and footprint side (m)
@@ -138,14 +138,10 @@ def _case(name: str, inputs: dict, output: Path, qgis: bool) -> dict:
     result["reference_xmllint_stream"] = measure.run(["xmllint", "--stream", "--noout", str(output)]).as_dict()
     result["reference_read"] = measure.run(["dd", f"if={output}", "of=/dev/null", "bs=1M", "status=none"]).as_dict()
     if qgis:
-        startup = measure.qgis_startup()
         copy = output.parent / "qgis" / output.name  # same name: same texture folder name in the image URIs
         copy.parent.mkdir(exist_ok=True)
-        q = measure.qgis_process("wit:writecitygml", _qgis_parameters(inputs, copy))
-        result["qgis_process"] = {**q.as_dict(), "startup": startup.as_dict(),
-                                  "seconds_without_startup": round(q.seconds - startup.seconds, 2),
-                                  "cpu_without_startup": round(q.cpu_seconds - startup.cpu_seconds, 2),
-                                  "same_bytes": copy.read_bytes() == output.read_bytes()}
+        result["qgis_process"] = measure.through_qgis("wit:writecitygml", _qgis_parameters(inputs, copy))
+        result["qgis_process"]["same_bytes"] = copy.read_bytes() == output.read_bytes()
         shutil.rmtree(copy.with_name(f"{copy.stem}_textures"), ignore_errors=True)
         copy.unlink()
     return result
@@ -184,16 +180,10 @@ def main() -> None:
         r = _case(name, inputs, output, qgis=not args.no_qgis)
         results.append(r)
         ref = r["reference_xmllint_stream"]["seconds"]
-        line = (f"{name:24s} {r['gml_mb']:6.0f} MB GML | core {r['core']['seconds']:5.1f} s (CPU "
+        head = (f"{name:24s} {r['gml_mb']:6.0f} MB GML | core {r['core']['seconds']:5.1f} s (CPU "
                 f"{r['core']['cpu_seconds']:5.1f}), peak {r['peak_rss_mb']:4.0f} MB (+{r['rss_growth_mb']:3.0f})")
-        q = r.get("qgis_process")
-        if q:
-            line += (f" | qgis_process {q['seconds']:5.1f} s, {q['seconds_without_startup']:5.1f} without start-up "
-                     f"(CPU {q['cpu_without_startup']:5.1f}), peak {q['peak_rss_mb']:4d} MB"
-                     f"{'' if q['same_bytes'] else ', OUTPUT DIFFERS'}")
-        line += (f" | xmllint --stream {ref:4.1f} s, read {r['reference_read']['seconds']:4.2f} s: core "
-                 f"{r['core']['seconds'] / ref:3.1f}×" + (f", qgis_process {q['seconds_without_startup'] / ref:3.1f}×"
-                                                          if q else ""))
+        line = measure.table_line(head, r["core"]["seconds"], r.get("qgis_process"),
+                                  f"xmllint --stream {ref:4.1f} s, read {r['reference_read']['seconds']:4.2f} s", ref)
         print(line, flush=True)
         if not args.keep:
             output.unlink()

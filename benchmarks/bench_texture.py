@@ -29,7 +29,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-import measure  # noqa: E402  (benchmarks/measure.py)
+import measure  # benchmarks/measure.py
 
 SIZE, PIXEL = 8000, 0.25
 X0, Y0 = 208842.55, 544511.46  # north-west corner of sheet 37709005 (Suseo station, SPEC §3)
@@ -193,28 +193,17 @@ def _case(name: str, ortho: str, lod1: str, tin: str, config: dict, qgis: bool) 
                        str(x1), str(y0), ortho, str(out / "reference.jpg")])
     result["reference_gdal_translate"] = ref.as_dict()
     if qgis:
-        startup = measure.qgis_startup()
-        run = measure.qgis_process("wit:wittexture", {"ORTHO": ortho, "LOD1": lod1, "TIN": tin,
-                                                      "OUTPUT": str(out / "qgis")})
-        result["qgis_process"] = {**run.as_dict(), "startup": startup.as_dict(),
-                                  "seconds_without_startup": round(run.seconds - startup.seconds, 2),
-                                  "cpu_without_startup": round(run.cpu_seconds - startup.cpu_seconds, 2)}
+        result["qgis_process"] = measure.through_qgis("wit:wittexture", {"ORTHO": ortho, "LOD1": lod1, "TIN": tin,
+                                                                         "OUTPUT": str(out / "qgis")})
     shutil.rmtree(out)
     return result
 
 
 def _print(r: dict) -> None:
     ref = r["reference_gdal_translate"]["seconds"]
-    line = (f"{r['config']:24s} core {r['seconds']:6.1f} s (CPU {r['cpu_seconds']:5.1f}) {r['peak_rss_mb']:5d} MB"
+    head = (f"{r['config']:24s} core {r['seconds']:6.1f} s (CPU {r['cpu_seconds']:5.1f}) {r['peak_rss_mb']:5d} MB"
             f" {r['output_mb']:6.1f} MB out {r['images']:3d} images")
-    q = r.get("qgis_process")
-    if q:
-        line += (f" | qgis_process {q['seconds']:5.1f} s, {q['seconds_without_startup']:5.1f} s without start-up "
-                 f"(CPU {q['cpu_without_startup']:4.1f}) {q['peak_rss_mb']:5d} MB")
-    line += f" | reference {ref:4.1f} s: core {r['seconds'] / ref:4.1f}×"
-    if q:
-        line += f", qgis_process {q['seconds_without_startup'] / ref:4.1f}×"
-    print(line, flush=True)
+    print(measure.table_line(head, r["seconds"], r.get("qgis_process"), f"reference {ref:4.1f} s", ref), flush=True)
 
 
 def main() -> None:

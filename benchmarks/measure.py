@@ -31,7 +31,7 @@ class Measured:
 def run(cmd: list[str], env: dict[str, str] | None = None) -> Measured:
     """Run ``cmd`` under ``/usr/bin/time``; raise with its output if it fails."""
     with tempfile.NamedTemporaryFile("r", suffix=".time") as stats:
-        proc = subprocess.run(["/usr/bin/time", "-f", "%e %U %S %M", "-o", stats.name, *cmd],
+        proc = subprocess.run(["/usr/bin/time", "-f", "%e %U %S %M", "-o", stats.name, *cmd], check=False,
                               capture_output=True, text=True, env={**os.environ, **(env or {})})
         if proc.returncode:
             raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
@@ -49,3 +49,25 @@ def qgis_startup() -> Measured:
     """A trivial algorithm through qgis_process: QGIS's start-up, to subtract from the runs above."""
     with tempfile.TemporaryDirectory() as tmp:
         return qgis_process("native:extenttolayer", {"INPUT": "0,1,0,1 [EPSG:5186]", "OUTPUT": f"{tmp}/extent.gpkg"})
+
+
+def through_qgis(algorithm: str, parameters: dict[str, str]) -> dict:
+    """The algorithm through qgis_process, with QGIS's start-up measured just before and subtracted."""
+    startup = qgis_startup()
+    run = qgis_process(algorithm, parameters)
+    return {**run.as_dict(), "startup": startup.as_dict(),
+            "seconds_without_startup": round(run.seconds - startup.seconds, 2),
+            "cpu_without_startup": round(run.cpu_seconds - startup.cpu_seconds, 2)}
+
+
+def table_line(head: str, core_seconds: float, qgis: dict | None, reference: str, reference_seconds: float) -> str:
+    """One case for the printed table: its core figures (``head``), qgis_process's, the reference and
+    the wall times as multiples of the reference's (qgis_process's without its start-up)."""
+    parts = [head]
+    ratios = f"core {core_seconds / reference_seconds:4.1f}×"
+    if qgis:
+        parts.append(f"qgis_process {qgis['seconds']:5.1f} s, {qgis['seconds_without_startup']:5.1f} s without "
+                     f"start-up (CPU {qgis['cpu_without_startup']:5.1f}), peak {qgis['peak_rss_mb']:4d} MB"
+                     + ("" if qgis.get("same_bytes", True) else ", OUTPUT DIFFERS"))
+        ratios += f", qgis_process {qgis['seconds_without_startup'] / reference_seconds:4.1f}×"
+    return " | ".join([*parts, f"{reference}: {ratios}"])
