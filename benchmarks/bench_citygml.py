@@ -3,9 +3,14 @@
 Generates synthetic LoD1 face layers of N box buildings (6 faces each, attributes with Korean
 text, like ``wit:extrudebuildings`` writes them) plus a 10 × 10 grid of districts, then writes
 CityGML for each N in its own process and reads that process's peak RSS. Constant memory shows
-as the same peak for 10k and 100k buildings.
+as the same peak for 10k and 100k buildings. Each case also runs through ``qgis_process`` as
+users run it (QGIS's start-up measured in the same run and subtracted; the file must come out
+byte-identical), and beside both times the references measured in the same run on the written
+file: ``xmllint --stream --noout`` (a C reader parsing it once, no schema) and a plain read.
+``--work`` adds a kept chain work folder (``wit:citymodel --KEEP_WORK=true``: the default
+sample's TIN, roads and textures, a 353 MB model).
 
-Usage: ``python benchmarks/bench_citygml.py [out.json] [--sizes 10000 100000] [--keep]``.
+Usage: ``python benchmarks/bench_citygml.py [out.json] [--sizes 10000 100000] [--work DIR] [--no-qgis] [--keep]``.
 Inputs are cached under /tmp and reused; the .gml outputs are deleted unless ``--keep``.
 """
 from __future__ import annotations
@@ -14,13 +19,16 @@ import argparse
 import json
 import os
 import resource
-import subprocess
+import shutil
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import measure  # benchmarks/measure.py
+
 ORIGIN = (200000.0, 540000.0)  # EPSG:5186 metres, Seoul
 SPACING, SIDE = 20.0, 12.0  # building pitch and footprint side (m)
 GRID = 10  # districts per side
@@ -94,56 +102,95 @@ def make_inputs(folder: Path, n: int) -> tuple[str, str]:
     return str(lod1), str(districts)
 
 
-def child(lod1: str, districts: str, output: str) -> None:
+def child(output: str, inputs: str) -> None:
     """Run in the measured process: print seconds and RSS before/after as JSON."""
     sys.path.insert(0, str(ROOT))
     from wit_plugin.citygml import writer as citygml
 
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     start = time.perf_counter()
-    report = citygml.write_citygml(citygml.CityGMLInputs(lod1=lod1, districts=districts), output)
+    report = citygml.write_citygml(citygml.CityGMLInputs(**json.loads(inputs)), output)
     seconds = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    print(json.dumps({"seconds": seconds, "rss_before_mb": before / 1024, "peak_rss_mb": peak / 1024,
-                      "buildings": report.buildings, "faces": report.faces, "groups": report.groups,
+    print(json.dumps({"seconds_in_call": seconds, "rss_before_mb": before / 1024, "peak_rss_mb": peak / 1024,
+                      "buildings": report.buildings, "faces": report.faces, "triangles": report.triangles,
+                      "textured_surfaces": report.textured_surfaces, "groups": report.groups,
                       "gml_mb": os.path.getsize(output) / 2**20}))
+
+
+def _qgis_parameters(inputs: dict, output: Path) -> dict[str, str]:
+    """wit:writecitygml's parameters for the same inputs (prepared layers named as the chain names them)."""
+    from wit_plugin import model
+
+    layers = {"LOD1": inputs["lod1"], "TIN": inputs.get("tin"),
+              "ROADS": inputs.get("roads") and f"{inputs['roads']}|layername={model.PREPARED_ROADS}",
+              "DISTRICTS": inputs.get("districts") and f"{inputs['districts']}|layername={model.PREPARED_DISTRICTS}",
+              "TEXTURES": inputs.get("textures")}
+    return {**{k: v for k, v in layers.items() if v}, "OUTPUT": str(output)}
+
+
+def _case(name: str, inputs: dict, output: Path, qgis: bool) -> dict:
+    """Core in a child process, through qgis_process, and the references on the written file, in this run."""
+    run = measure.run([sys.executable, __file__, "--child", str(output), json.dumps(inputs)],
+                      env={"PROJ_DATA": "/usr/share/proj"})
+    result = {"case": name, **json.loads(run.stdout.strip().splitlines()[-1]), "core": run.as_dict()}
+    result["rss_growth_mb"] = result["peak_rss_mb"] - result["rss_before_mb"]
+    result["reference_xmllint_stream"] = measure.run(["xmllint", "--stream", "--noout", str(output)]).as_dict()
+    result["reference_read"] = measure.run(["dd", f"if={output}", "of=/dev/null", "bs=1M", "status=none"]).as_dict()
+    if qgis:
+        copy = output.parent / "qgis" / output.name  # same name: same texture folder name in the image URIs
+        copy.parent.mkdir(exist_ok=True)
+        result["qgis_process"] = measure.through_qgis("wit:writecitygml", _qgis_parameters(inputs, copy))
+        result["qgis_process"]["same_bytes"] = copy.read_bytes() == output.read_bytes()
+        shutil.rmtree(copy.with_name(f"{copy.stem}_textures"), ignore_errors=True)
+        copy.unlink()
+    return result
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", nargs="?", default=str(ROOT / "out" / "bench" / "citygml.json"))
     parser.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000])
+    parser.add_argument("--work", help="also a kept chain work folder (wit:citymodel KEEP_WORK: lod1.gpkg, tin.gpkg, "
+                                       "prepared.gpkg, textures/), e.g. the default sample's")
+    parser.add_argument("--no-qgis", action="store_true", help="core only (no qgis_process runs)")
     parser.add_argument("--keep", action="store_true")
-    parser.add_argument("--child", nargs=3, metavar=("LOD1", "DISTRICTS", "OUTPUT"), help=argparse.SUPPRESS)
+    parser.add_argument("--child", nargs=2, metavar=("OUTPUT", "INPUTS_JSON"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         child(*args.child)
         return
     sys.path.insert(0, str(ROOT))
     cache = Path(tempfile.gettempdir()) / "wit-bench-citygml"
-    results = []
+    cases = []
     for n in args.sizes:
         t0 = time.perf_counter()
         lod1, districts = make_inputs(cache, n)
-        generate = time.perf_counter() - t0
-        output = cache / f"city_{n}.gml"
-        run = subprocess.run([sys.executable, __file__, "--child", lod1, districts, str(output)],
-                             capture_output=True, text=True, env={**os.environ, "PROJ_DATA": "/usr/share/proj"})
-        if run.returncode:
-            sys.exit(run.stderr)
-        result = json.loads(run.stdout.strip().splitlines()[-1])
-        result.update(n=n, generate_seconds=generate, buildings_per_second=result["buildings"] / result["seconds"],
-                      rss_growth_mb=result["peak_rss_mb"] - result["rss_before_mb"])
-        results.append(result)
+        print(f"{n} buildings: inputs ready in {time.perf_counter() - t0:.1f} s", flush=True)
+        cases.append((f"{n} buildings", {"lod1": lod1, "districts": districts}, cache / f"city_{n}.gml"))
+    if args.work:
+        work = Path(args.work)
+        cases.append((f"work folder ({work.name})", {"lod1": str(work / "lod1.gpkg"), "tin": str(work / "tin.gpkg"),
+                       "roads": str(work / "prepared.gpkg"), "districts": str(work / "prepared.gpkg"),
+                       "textures": str(work / "textures")}, cache / "city_work.gml"))
+    print("reference: xmllint --stream --noout (no schema) and a plain read (dd) of the written file; "
+          "qgis_process: its start-up (a trivial algorithm) measured and subtracted in the same run", flush=True)
+    results = []
+    for name, inputs, output in cases:
+        r = _case(name, inputs, output, qgis=not args.no_qgis)
+        results.append(r)
+        ref = r["reference_xmllint_stream"]["seconds"]
+        head = (f"{name:24s} {r['gml_mb']:6.0f} MB GML | core {r['core']['seconds']:5.1f} s (CPU "
+                f"{r['core']['cpu_seconds']:5.1f}), peak {r['peak_rss_mb']:4.0f} MB (+{r['rss_growth_mb']:3.0f})")
+        line = measure.table_line(head, r["core"]["seconds"], r.get("qgis_process"),
+                                  f"xmllint --stream {ref:4.1f} s, read {r['reference_read']['seconds']:4.2f} s", ref)
+        print(line, flush=True)
         if not args.keep:
             output.unlink()
-    print(f"{'buildings':>10} {'faces':>8} {'seconds':>8} {'bldg/s':>8} {'RSS before':>11} {'peak RSS':>9} "
-          f"{'growth':>7} {'GML MB':>7}")
-    for r in results:
-        print(f"{r['buildings']:>10} {r['faces']:>8} {r['seconds']:>8.1f} {r['buildings_per_second']:>8.0f} "
-              f"{r['rss_before_mb']:>9.0f}MB {r['peak_rss_mb']:>7.0f}MB {r['rss_growth_mb']:>5.0f}MB {r['gml_mb']:>7.0f}")
+            shutil.rmtree(output.with_name(f"{output.stem}_textures"), ignore_errors=True)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps({"benchmark": "citygml", "results": results}, indent=2))
+    Path(args.out).write_text(json.dumps({"benchmark": "citygml", "load_average": os.getloadavg(),
+                                          "results": results}, indent=2))
     print(f"wrote {args.out}")
 
 

@@ -5,16 +5,22 @@ square, tiled GeoTIFF like wit:mergetiles writes), an LoD1 faces layer of 5,041 
 (roof + ground + 4 walls each) and a TIN of 100,352 grid triangles (70 % terrain, 20 % road,
 10 % footprint), all in EPSG:5186 in the ``model`` schema. Each configuration then runs
 ``texture_model`` in its own child process under ``/usr/bin/time``, whose peak RSS is the run's
-own (the parent imports nothing heavy). The paper has no figure for this step; its Table 10 is
-the mip chain (full chain to 1 × 1 here) and Table 18 the model size (bytes written here).
+own (the parent imports nothing heavy); the default configuration also runs through
+``qgis_process`` as users run it (QGIS's start-up measured in the same run and subtracted). The
+reference, in the same run, is ``gdal_translate`` of the same ortho window to JPEG (read and
+encode the pixels once), printed beside each time. ``--work`` adds a kept chain work folder
+(``wit:citymodel --KEEP_WORK=true``: the default sample's 592,000-triangle TIN). The paper has
+no figure for this step; its Table 10 is the mip chain (full chain to 1 × 1 here) and Table 18
+the model size (bytes written here).
 
-Run: ``.venv/bin/python benchmarks/bench_texture.py [out.json] [--only NAME …]``
+Run: ``.venv/bin/python benchmarks/bench_texture.py [out.json] [--only NAME …] [--work DIR] [--no-qgis]``
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -22,6 +28,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import measure  # benchmarks/measure.py
+
 SIZE, PIXEL = 8000, 0.25
 X0, Y0 = 208842.55, 544511.46  # north-west corner of sheet 37709005 (Suseo station, SPEC §3)
 BUILDINGS_PER_SIDE = 71  # 5,041 buildings
@@ -156,49 +165,77 @@ def _child(args: list[str]) -> None:
     print(json.dumps(report))
 
 
-def _run(cmd: list[str]) -> tuple[float, int, dict]:
-    """Wall seconds, peak RSS (MB) and the printed report of one child process."""
-    with tempfile.NamedTemporaryFile("r", suffix=".rss") as rss:
-        start = time.perf_counter()
-        proc = subprocess.run(["/usr/bin/time", "-f", "%M", "-o", rss.name, *cmd], check=True,
-                              stdout=subprocess.PIPE, text=True)
-        elapsed = time.perf_counter() - start
-        return elapsed, int(rss.read().split()[-1]) // 1024, json.loads(proc.stdout.strip().splitlines()[-1])
+def _extent(lod1: str, tin: str) -> tuple[float, float, float, float]:
+    """xmin, ymin, xmax, ymax of both layers: the ortho window the step textures."""
+    from osgeo import ogr
+
+    boxes = []
+    for path in (lod1, tin):
+        ds = ogr.Open(path)
+        x0, x1, y0, y1 = ds.GetLayer(0).GetExtent()
+        boxes.append((x0, y0, x1, y1))
+    return (min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes), max(b[3] for b in boxes))
+
+
+def _case(name: str, ortho: str, lod1: str, tin: str, config: dict, qgis: bool) -> dict:
+    """One configuration: core in a child process, through qgis_process (default parameters only)
+    and the reference, gdal_translate of the same ortho window to JPEG, all in this run."""
+    out = Path(tempfile.mkdtemp(prefix="wit_bench_texture_out_"))
+    core = measure.run([sys.executable, __file__, "--child", ortho, lod1, tin, str(out / "core"), json.dumps(config)])
+    report = json.loads(core.stdout.strip().splitlines()[-1])
+    result = {"config": name, **core.as_dict(), "seconds_in_call": report["seconds_in_call"],
+              "images": report["images"], "atlases": report["atlases"], "ground_images": report["ground_images"],
+              "mip_files": report["mip_files"], "surfaces": report["surfaces"], "untextured": report["untextured"],
+              "texel_size_m": report["texel_size"], "texels_per_m2": report["texels_per_m2"],
+              "downscaled": report["downscaled"], "output_mb": round(report["bytes_written"] / 1e6, 1)}
+    x0, y0, x1, y1 = _extent(lod1, tin)
+    ref = measure.run(["gdal_translate", "-q", "-of", "JPEG", "-co", "QUALITY=90", "-projwin", str(x0), str(y1),
+                       str(x1), str(y0), ortho, str(out / "reference.jpg")])
+    result["reference_gdal_translate"] = ref.as_dict()
+    if qgis:
+        result["qgis_process"] = measure.through_qgis("wit:wittexture", {"ORTHO": ortho, "LOD1": lod1, "TIN": tin,
+                                                                         "OUTPUT": str(out / "qgis")})
+    shutil.rmtree(out)
+    return result
+
+
+def _print(r: dict) -> None:
+    ref = r["reference_gdal_translate"]["seconds"]
+    head = (f"{r['config']:24s} core {r['seconds']:6.1f} s (CPU {r['cpu_seconds']:5.1f}) {r['peak_rss_mb']:5d} MB"
+            f" {r['output_mb']:6.1f} MB out {r['images']:3d} images")
+    print(measure.table_line(head, r["seconds"], r.get("qgis_process"), f"reference {ref:4.1f} s", ref), flush=True)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("json", nargs="?", default=str(ROOT / "out" / "bench" / "texture.json"))
     parser.add_argument("--only", nargs="*", help="run only these configuration names")
+    parser.add_argument("--work", help="also a kept chain work folder (wit:citymodel KEEP_WORK: ortho.tif, "
+                                       "lod1.gpkg, tin.gpkg), e.g. the default sample's")
+    parser.add_argument("--no-qgis", action="store_true", help="core only (no qgis_process runs)")
     args = parser.parse_args()
     os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
     data = Path(tempfile.gettempdir()) / "wit_bench_texture"
     start = time.perf_counter()
     subprocess.run([sys.executable, __file__, "--make", str(data)], check=True)
-    print(f"inputs ready in {time.perf_counter() - start:.1f} s ({data})", flush=True)
-    ortho, lod1, tin = (str(data / n) for n in ("ortho.tif", "lod1.gpkg", "tin.gpkg"))
+    print(f"inputs ready in {time.perf_counter() - start:.1f} s ({data}); reference: gdal_translate of the same "
+          "ortho window to JPEG; qgis_process with wit:wittexture's defaults (S=1 JPEG), its start-up "
+          "(a trivial algorithm) measured and subtracted in the same run", flush=True)
+    cases = [(name, (str(data / "ortho.tif"), str(data / "lod1.gpkg"), str(data / "tin.gpkg")), config)
+             for name, config in CONFIGS.items() if not args.only or name in args.only]
+    if args.work:
+        work = Path(args.work)
+        cases.append((f"work folder ({work.name})", tuple(str(work / n) for n in ("ortho.tif", "lod1.gpkg", "tin.gpkg")),
+                      {}))
     results = []
-    for name, config in CONFIGS.items():
-        if args.only and name not in args.only:
-            continue
-        out = Path(tempfile.mkdtemp(prefix="wit_bench_texture_out_"))
-        seconds, rss, report = _run([sys.executable, __file__, "--child", ortho, lod1, tin, str(out),
-                                     json.dumps(config)])
-        for p in out.iterdir():
-            p.unlink()
-        out.rmdir()
-        results.append({"config": name, "seconds": round(seconds, 2), "peak_rss_mb": rss,
-                        "seconds_in_call": report["seconds_in_call"], "images": report["images"],
-                        "atlases": report["atlases"], "ground_images": report["ground_images"],
-                        "mip_files": report["mip_files"], "surfaces": report["surfaces"],
-                        "untextured": report["untextured"], "texel_size_m": report["texel_size"],
-                        "texels_per_m2": report["texels_per_m2"], "downscaled": report["downscaled"],
-                        "output_mb": round(report["bytes_written"] / 1e6, 1)})
-        print(f"{name:24s} {seconds:7.1f} s {rss:6d} MB peak {results[-1]['output_mb']:7.1f} MB out "
-              f"{report['images']:4d} images", flush=True)
+    for name, (ortho, lod1, tin), config in cases:
+        defaults = config in ({}, {"scale": 1.0})  # what qgis_process runs without parameters
+        results.append(_case(name, ortho, lod1, tin, config, qgis=defaults and not args.no_qgis))
+        _print(results[-1])
     ortho_mb = round(SIZE * SIZE * 3 / 1e6, 1)
     info = {"ortho_px": [SIZE, SIZE], "pixel_m": PIXEL, "ortho_uncompressed_mb": ortho_mb,
             "buildings": BUILDINGS_PER_SIDE ** 2, "tin_triangles": 2 * TIN_CELLS ** 2, "cpus": os.cpu_count(),
+            "load_average": os.getloadavg(),
             "paper": "no figure for texturing (Table 10: mip chain to 1x1; Table 18: 796 -> 216 MB model)",
             "results": results}
     out = Path(args.json)

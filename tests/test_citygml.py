@@ -6,6 +6,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 from lxml import etree
 from osgeo import gdal, ogr, osr
@@ -364,12 +365,36 @@ def test_raw_polygon_markup_is_what_lxml_would_write():
 
 
 def test_a_tin_triangle_id_must_be_an_integer():
-    ds = ogr.GetDriverByName("Memory").CreateDataSource("m")  # kept: the layer dies with it
-    layer = ds.CreateLayer("t")
-    layer.CreateField(ogr.FieldDefn("tri_id", ogr.OFTString))
-    feature = ogr.Feature(layer.GetLayerDefn())
-    feature.SetField(0, "12")
-    assert citygml._tri_id(feature, 0) == "tri_12"
-    feature.SetField(0, '1"><x')
-    with pytest.raises(InputError, match="not an integer"):
-        citygml._tri_id(feature, 0)
+    assert citygml._tri_ids(np.array([12, -3], dtype=np.int32)) == ["tri_12", "tri_-3"]
+    assert citygml._tri_ids(np.array([b"12"])) == ["tri_12"]  # a text field holding integers
+    for bad in (np.array([b"12", b'1"><x']), np.ma.masked_array([5, 6], mask=[False, True])):
+        with pytest.raises(InputError, match="not an integer"):
+            citygml._tri_ids(bad)
+
+
+def test_raw_road_texture_association_is_what_lxml_would_write(tmp_path):
+    """The ready-made markup of a road triangle's texture association equals what ``association`` writes."""
+    with open(tmp_path / "a.xml", "wb") as fh, etree.xmlfile(fh, encoding="utf-8") as xf:
+        with xf.element("r", nsmap={"app": citygml.NS["app"]}):
+            writer = citygml._Writer(xf, fh, citygml.WriteReport(), None)
+            with writer.association("#tri_7"):
+                writer.leaf(citygml.APP + "textureCoordinates", "0.5 0.25 1 0 0 1 0.5 0.25")
+                writer.leaf(citygml.APP + "ring", "#tri_7_r")
+            writer.raw(citygml._ROAD_ASSOCIATION.format(tri="7", uv="0.5 0.25 1 0 0 1 0.5 0.25"))
+    text = (tmp_path / "a.xml").read_text(encoding="utf-8")
+    body = text[text.index(">", text.index("<r ")) + 1:text.rindex("</r>")]
+    lxml_part, raw_part = body[:len(body) // 2], body[len(body) // 2:]
+    assert lxml_part == raw_part and raw_part.startswith("\n<app:textureParameterization>")
+
+
+def test_texture_coordinates_are_checked_and_normalised_in_bulk():
+    what = "triangle {}".format
+    texts = ["0.1234567891 0.5 1.0 0 -0.0 1e-05 0.1234567891 0.5", "0.25 0.75 0.5 0.5 1 1 0.25 0.75"]
+    expected = [" ".join(format(float(v), ".7g") for v in t.split()) for t in texts]
+    assert citygml._uv(texts, what, True) == expected
+    assert citygml._uv(["0 0 1 0 1 1 0 1 0 0"], what, False) == ["0 0 1 0 1 1 0 1 0 0"]
+    assert citygml._uv([texts[0], "0.25\t0.75  0.5 0.5 1 1\n0.25 0.75 "], what, True) == expected  # any spacing
+    for bad, triangles in (("0 0 1 0 1 1", True), ("0 0 1 0 1 1 0 0 1", True), ("0 0 1 0 1 1 0 0 nan 0", False),
+                           ("0 0 1 x 1 1 0 0", True), ("", True), ("0 0 1 0 1 1 0 0 0 0", True)):
+        with pytest.raises(InputError, match=r"triangle 1 are not a valid list"):
+            citygml._uv([texts[1], bad], what, triangles)

@@ -59,6 +59,15 @@ def test_written_layer_reads_back_exactly(tmp_path, index):
     assert ("rtree_faces_geom" in tables) == index
     assert db.execute("SELECT feature_count FROM gpkg_ogr_contents WHERE table_name = 'faces'").fetchone() == \
         (len(geoms),)  # the count GDAL keeps and trusts
+    # OGR's feature-count triggers, dropped while the rows went in, are back as OGR made them
+    triggers = "SELECT name FROM sqlite_master WHERE type = 'trigger' AND name LIKE 'trigger_%'"
+    assert {r[0] for r in db.execute(triggers)} == {"trigger_insert_feature_count_faces",
+                                                    "trigger_delete_feature_count_faces"}
+    if not index:  # (the R-tree's triggers need OGR's SQL functions)
+        db.execute("INSERT INTO faces (n) VALUES (99)")
+        assert db.execute("SELECT feature_count FROM gpkg_ogr_contents WHERE table_name = 'faces'").fetchone() == \
+            (len(geoms) + 1,)
+        db.rollback()
     if index:
         assert db.execute("SELECT rtreecheck('rtree_faces_geom')").fetchone() == ("ok",)
         assert db.execute("SELECT count(*) FROM rtree_faces_geom").fetchone() == (len(geoms),)

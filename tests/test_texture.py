@@ -417,3 +417,49 @@ def test_surfaces_outside_the_coverage_are_left_untextured_and_counted(tmp_path)
     rows = sqlite3.connect(tmp_path / "tex" / model.TEXCOORD_FILE).execute(
         f"SELECT {model.TEX_FEATURE} FROM {model.TEXCOORD_TABLE}").fetchall()
     assert rows == [("BLD_IN",)]
+
+
+def test_layers_read_in_several_runs_give_the_same_output(scene: dict, tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """Tiles whose points do not fit in memory together are read in runs: the output does not change."""
+    def run(name: str) -> tuple[list, dict]:
+        out = tmp_path / name
+        texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(out), TextureConfig(atlas_size=64, gutter=2))
+        with sqlite3.connect(out / texture.TEXCOORDS_FILE) as db:
+            rows = db.execute(f'SELECT * FROM "{model.TEXCOORD_TABLE}" ORDER BY fid').fetchall()
+        return rows, {p.name: p.read_bytes() for p in out.iterdir() if p.suffix == ".jpg"}
+
+    whole = run("whole")
+    monkeypatch.setattr(texture, "_POINTS_IN_MEMORY", 500)  # ~125 triangles: one tile at a time
+    assert run("runs") == whole
+    assert len(whole[0]) == 4 + sum(s != "footprint" for s, _ in scene["triangles"]) and len(whole[1]) > 9
+
+
+def test_a_face_that_is_not_a_polygon_is_refused(scene: dict, tmp_path: Path) -> None:
+    tin = write_tin(tmp_path / "points.gpkg", [("terrain", [centre(5, 5), centre(9, 5), centre(5, 9)])] * 3)
+    ds = ogr.Open(tin, 1)
+    layer = ds.GetLayer(0)
+    feature = layer.GetFeature(2)
+    feature.SetGeometry(ogr.CreateGeometryFromWkt("POINT Z (200003 499997 30)"))
+    layer.SetFeature(feature)
+    ds = None
+    out = tmp_path / "tex"
+    with pytest.raises(InputError, match="Feature 2 of layer 'tin' .* is a POINT, not a polygon face"):
+        texture_model(scene["ortho"], None, tin, str(out))
+    assert not out.exists() or list(out.iterdir()) == []
+
+
+def test_no_garbage_collection_during_the_step(scene: dict, tmp_path: Path) -> None:
+    """The step makes millions of short-lived objects and no cycles: the collector is paused, then back."""
+    import gc
+
+    class Spy(Feedback):
+        seen: set = set()
+
+        def is_canceled(self) -> bool:  # asked between tiles
+            self.seen.add(gc.isenabled())
+            return False
+
+    texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(tmp_path / "tex"), TextureConfig(atlas_size=64),
+                  feedback=Spy())
+    assert Spy.seen == {False} and gc.isenabled()

@@ -78,11 +78,14 @@ class BulkTable:
     """A GeoPackage table that OGR creates (file, SRS, metadata) and SQLite then fills in bulk.
 
     The file must be a staging file that is moved into place only when complete: it is written
-    without a rollback journal and without fsync per commit (halves the insert time).
+    without a rollback journal and without fsync per commit (halves the insert time), and OGR's
+    feature-count trigger (an UPDATE per inserted row, a third of the insert time) is dropped
+    while rows go in and re-created, with the count, by ``close``. ``threaded`` lets another
+    thread than the creating one insert (one thread at a time).
     """
 
     def __init__(self, path: str | Path, layer: str, fields: Sequence[FieldDef], crs: pyproj.CRS | None = None,
-                 geometry_type: int = ogr.wkbNone):
+                 geometry_type: int = ogr.wkbNone, threaded: bool = False):
         srs = None
         if crs is not None:
             srs = osr.SpatialReference()
@@ -102,9 +105,14 @@ class BulkTable:
         self.geometry_column = lyr.GetGeometryColumn() if srs else ""
         lyr = ds = None
         self.layer, self.count = layer, 0
-        self.db = sqlite3.connect(path)
+        self.db = sqlite3.connect(path, check_same_thread=not threaded)
         self.db.execute("PRAGMA journal_mode = OFF")
         self.db.execute("PRAGMA synchronous = OFF")
+        self._triggers = self.db.execute(
+            "SELECT name, sql FROM sqlite_master WHERE type = 'trigger' AND tbl_name = ? AND name LIKE ?",
+            (layer, "trigger_insert_feature_count_%")).fetchall()
+        for name, _ in self._triggers:
+            self.db.execute(f'DROP TRIGGER "{name}"')
         names = [self.geometry_column] * bool(srs) + [fd.name for fd in fields]
         quoted = ", ".join('"%s"' % name for name in names)
         self._insert = f'INSERT INTO "{layer}" ({quoted}) VALUES ({", ".join("?" * len(names))})'
@@ -125,6 +133,8 @@ class BulkTable:
                                 "WHERE table_name = ?", (*bounds, self.layer))
             self.db.execute("UPDATE gpkg_ogr_contents SET feature_count = ? WHERE table_name = ?",
                             (self.count, self.layer))
+            for _, sql in self._triggers:
+                self.db.execute(sql)
             self.db.commit()
         finally:
             self.db.close()

@@ -39,10 +39,12 @@ maps onto its texel rectangle and U, V are taken over the atlas.
 
 Scale S: a texel is about 1/S ortho pixels; windows are snapped to multiples of round(1/S)
 pixels, so S = 1/n averages exact n × n pixel blocks (GDAL average resampling). Every texture
-window is read with a windowed ``ReadAsArray``; the ortho is never loaded whole, and features are
-read per ground tile through OGR spatial filters (the GeoPackage R-tree); GDAL's block cache is
-capped during the run as in wit:mergetiles. Memory is bounded by the cache cap, one atlas and one
-tile's features, whatever the size of the ortho.
+window is read with a windowed ``ReadAsArray``; the ortho is never loaded whole, and GDAL's block
+cache is capped during the run as in wit:mergetiles. Features are read in bulk (``bulk_read``): a
+first pass places each in its ground tile (4 bytes a feature kept), then runs of tiles whose
+points fit in ``_POINTS_IN_MEMORY`` are read together (one run for the 1 km demo's 592,000
+triangles). Memory is bounded by the cache cap, one atlas and one run of tiles, whatever the
+size of the ortho. Images are encoded and table rows inserted in a worker thread.
 
 Coverage: if a textured layer's extent is not inside the ortho's, the run stops before writing
 anything (``InputError``): merge the tiles that cover the study area or clip the study area.
@@ -56,8 +58,8 @@ does not package; the only installable wheel (alktx2) is a young single-author p
 from __future__ import annotations
 
 import contextlib
-import functools
 import math
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
@@ -67,12 +69,14 @@ import shapely
 from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
-from . import model
+from . import bulk_read, model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_files
+from .gc_pause import collector_paused
 from .gdal_env import capped_block_cache, open_raster, read_window
 from .gpkg_bulk import BulkTable
+from .numtext import ring_texts
 from .vector_io import FieldDef
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
@@ -81,9 +85,10 @@ TEXTURED_TIN_SURFACES = ("terrain", "road")
 ROOF_TARGET, TIN_TARGET, ROAD_TARGET = "roof", "tin", "road"  # TEX_TARGET values
 OUTSIDE_ORTHO = "outside_ortho"  # TextureReport.untextured key: surfaces beyond the ortho's coverage
 
+_POINTS_IN_MEMORY = 4_000_000  # ring points read at a time (~100 MB with their rings' data): a run of tiles
 _BACKGROUND = 128  # grey for unused atlas space: neutral under JPEG ringing
 _TILE_FILL = 0.875  # share of the image side given to a ground tile; the rest takes triangle overhang
-_UV_DIGITS = 12  # decimals of u and v: 1e-12 of an image side, far below a texel of any atlas
+_UV_PAIR = "%.12f %.12f"  # 12 decimals of u and v: 1e-12 of an image side, far below a texel of any atlas
 
 
 @dataclass(frozen=True)
@@ -198,6 +203,7 @@ def texture_model(
     if not lod1_gpkg and not tin_gpkg:
         raise InputError("Give the LoD1 faces layer, the TIN layer or both: there is nothing to texture.")
     with contextlib.ExitStack() as stack:  # datasets closed on any exit, not when a traceback dies
+        stack.enter_context(collector_paused())
         image = _Ortho(ortho, config)
         stack.callback(image.close)
         roofs = tin = None
@@ -264,20 +270,47 @@ def _check_config(config: TextureConfig) -> None:
 # --- inputs -------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class _Surface:
-    """One ring to texture: its TEX_TARGET, TEX_FEATURE, TEX_FACE and 2D points (closing point included)."""
+class _Rings:
+    """Rings to texture, as arrays: per ring its TEX_TARGET, TEX_FEATURE (as any value ``str`` turns
+    into it) and TEX_FACE; the 2D points of all rings one after another (closing points included)
+    and where each ring starts (one more entry: the end)."""
 
-    target: str
-    feature: str
-    face: int | None
+    targets: np.ndarray
+    features: np.ndarray
+    faces: np.ndarray
     xy: np.ndarray
+    starts: np.ndarray
 
-    def bbox(self) -> tuple[float, float, float, float]:
-        return (*self.xy.min(axis=0), *self.xy.max(axis=0))
+    def __len__(self) -> int:
+        return len(self.targets)
+
+    def bbox(self, i: int) -> tuple[float, float, float, float]:
+        xy = self.xy[self.starts[i]:self.starts[i + 1]]
+        return (*xy.min(axis=0), *xy.max(axis=0))
+
+    def bboxes(self) -> np.ndarray:
+        """(xmin, ymin, xmax, ymax) of every ring, as rows."""
+        first = self.starts[:-1]
+        return np.hstack([np.minimum.reduceat(self.xy, first), np.maximum.reduceat(self.xy, first)])
+
+    def take(self, index: np.ndarray) -> "_Rings":
+        """The rings at ``index``, in that order."""
+        counts = self.starts[1:][index] - self.starts[:-1][index]
+        starts = np.concatenate([[0], np.cumsum(counts)])
+        points = np.repeat(self.starts[:-1][index] - starts[:-1], counts) + np.arange(starts[-1])
+        return _Rings(self.targets[index], self.features[index], self.faces[index], self.xy[points], starts)
+
+    @staticmethod
+    def concat(parts: list["_Rings"]) -> "_Rings":
+        if not parts:
+            return _Rings(*(np.empty(0, dtype=object),) * 3, np.empty((0, 2)), np.zeros(1, dtype=np.int64))
+        counts = np.concatenate([np.diff(part.starts) for part in parts])
+        return _Rings(*(np.concatenate([getattr(part, name) for part in parts])
+                        for name in ("targets", "features", "faces", "xy")), np.concatenate([[0], np.cumsum(counts)]))
 
 
 class _Layer:
-    """A textured layer: the faces of the given kinds, read tile by tile through a spatial filter."""
+    """A textured layer: the faces of the given kinds, read in bulk tile by tile (``tiles``)."""
 
     def __init__(self, path: str, name: str, kind_field: str, fields: tuple[str, ...], kinds: tuple[str, ...],
                  producer: str):
@@ -294,7 +327,8 @@ class _Layer:
             raise InputError(f"{path} has no layer {name!r} (it has: {', '.join(names) or 'none'}): "
                              f"use the output of {producer}.")
         defn = self.layer.GetLayerDefn()
-        lacking = [f for f in fields if defn.GetFieldIndex(f) < 0]
+        self._fields = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
+        lacking = [f for f in fields if f not in self._fields]
         if lacking:
             raise InputError(f"Layer {name!r} in {path} lacks the field(s) {', '.join(lacking)}: "
                              f"use the output of {producer}.")
@@ -315,41 +349,68 @@ class _Layer:
         self.layer.SetAttributeFilter(self._where(kinds))
         return self.layer.GetFeatureCount()
 
-    def tiles(self, grid: _Grid, surface: Callable[[ogr.Feature, np.ndarray], _Surface],
-              ) -> Iterator[tuple[tuple[int, int], list[_Surface]]]:
-        """Each ground tile over the layer's extent with the surfaces whose first vertex lies in it.
+    def tiles(self, grid: _Grid, columns: tuple[str, ...],
+              describe: Callable[[list[np.ndarray]], tuple[np.ndarray, ...]]) -> Iterator[tuple[tuple[int, int], _Rings]]:
+        """Each ground tile over the layer's extent (row by row from the north-west) with the rings whose
+        first point lies in it, in the layer's order: every ring comes exactly once.
 
-        Every feature is returned by the spatial filter of the tile holding its first vertex (a
-        point of the geometry), and is kept there only, so each surface comes exactly once.
+        Read in bulk (``bulk_read``): once to place every ring in its tile (an int per feature
+        kept), then once per run of tiles whose points fit in memory together (one run for the 1
+        km demo); OGR spatial filters would read the whole layer per tile when it has no
+        spatial index (the chain's intermediate files have none). ``describe`` turns a batch's
+        ``columns`` into the rings' targets, features and faces.
         """
+        keys = grid.keys(self.extent)
+        (r0, c0), (_, c1) = keys[0], keys[-1]
+
+        def tile_of(xy: np.ndarray, counts: np.ndarray) -> np.ndarray:
+            row, col = grid.key_arrays(*xy[np.cumsum(counts) - counts].T)
+            return (row - r0) * (c1 - c0 + 1) + (col - c0)
+
+        placed = [(tile_of(xy, counts), counts) for xy, counts, _ in self._read(columns[:1])]
+        tile = np.concatenate([t for t, _ in placed] or [np.empty(0, dtype=np.int64)]).astype(np.int32)
+        points = np.bincount(tile, weights=np.concatenate([c for _, c in placed] or [np.empty(0)]), minlength=len(keys))
+        del placed
+        first = 0
+        while first < len(keys):
+            last = first + max(1, int(np.searchsorted(np.cumsum(points[first:]), _POINTS_IN_MEMORY, side="right")))
+            wanted = (tile >= first) & (tile < last)
+            parts = []
+            for xy, counts, batch in self._read(columns, wanted):
+                starts = np.concatenate([[0], np.cumsum(counts)])
+                parts.append(_Rings(*describe([batch[c] for c in columns]), xy, starts))
+            rings = _Rings.concat(parts)
+            del parts
+            mine = tile[wanted]
+            order = np.argsort(mine, kind="stable")
+            bounds = np.searchsorted(mine[order], np.arange(first, last + 1))
+            for n in range(first, last):
+                yield keys[n], rings.take(order[bounds[n - first]:bounds[n - first + 1]])
+            first = last
+
+    def _read(self, columns: tuple[str, ...], wanted: np.ndarray | None = None
+              ) -> Iterator[tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]]:
+        """(2D points, points per ring, the batch's columns) of the layer's surfaces, batch by batch,
+        only the ``wanted`` ones (a mask over all of them, in order) if given."""
         self.layer.SetAttributeFilter(self._where(self.kinds))
-        for key in grid.keys(self.extent):
-            yield key, self._tile(grid, key, surface)
-        self.layer.SetSpatialFilter(None)
-
-    def _tile(self, grid: _Grid, key: tuple[int, int], surface: Callable[[ogr.Feature, np.ndarray], _Surface],
-              ) -> list[_Surface]:
-        """The surfaces of one tile; no OGR feature outlives the call."""
-        self.layer.SetSpatialFilterRect(*grid.rect(key))
-        batch = []
-        for feature in self.layer:
-            xy = _ring(feature, self)
-            if grid.key(*xy[0]) == key:
-                batch.append(surface(feature, xy))
-        return batch
-
-
-def _ring(feature: ogr.Feature, layer: _Layer) -> np.ndarray:
-    """The 2D points of the feature's exterior ring as stored (closing point included)."""
-    geom = feature.GetGeometryRef()
-    flat = ogr.GT_Flatten(geom.GetGeometryType())
-    if flat == ogr.wkbMultiPolygon and geom.GetGeometryCount() == 1:
-        geom, flat = geom.GetGeometryRef(0), ogr.wkbPolygon
-    if flat != ogr.wkbPolygon or geom.GetGeometryCount() == 0:
-        raise InputError(f"Feature {feature.GetFID()} of layer {layer.name!r} in {layer.path} is a "
-                         f"{geom.GetGeometryName()}, not a polygon face: use the unmodified output of the "
-                         "previous step.")
-    return np.array(geom.GetGeometryRef(0).GetPoints(), dtype=np.float64)[:, :2]
+        self.layer.SetIgnoredFields([f for f in self._fields if f not in columns])
+        start = 0
+        try:
+            for batch in bulk_read.batches(self.layer, fid=True):
+                size = len(batch["geometry"])
+                if wanted is not None:
+                    keep = wanted[start:start + size]
+                    batch = {name: column[keep] for name, column in batch.items()}
+                start += size
+                points, counts, rings = bulk_read.exterior_rings(batch["geometry"])
+                if not rings.all():
+                    bad = int(np.argmin(rings))
+                    raise InputError(f"Feature {batch['fid'][bad]} of layer {self.name!r} in {self.path} is "
+                                     f"{bulk_read.geometry_name(batch['geometry'][bad])}, not a polygon face: use "
+                                     "the unmodified output of the previous step.")
+                yield np.ascontiguousarray(points[:, :2]), counts, batch
+        finally:
+            self.layer.SetIgnoredFields([])
 
 
 @dataclass(frozen=True)
@@ -437,6 +498,11 @@ class _Grid:
     def key(self, x: float, y: float) -> tuple[int, int]:
         return math.floor((self.y0 - y) / self.side), math.floor((x - self.x0) / self.side)
 
+    def key_arrays(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``key`` for arrays of points: (rows, columns)."""
+        return (np.floor((self.y0 - y) / self.side).astype(np.int64),
+                np.floor((x - self.x0) / self.side).astype(np.int64))
+
     def rect(self, key: tuple[int, int]) -> tuple[float, float, float, float]:
         """The tile's xmin, ymin, xmax, ymax, widened by a hair so rounding cannot drop a boundary vertex."""
         r, c = key
@@ -452,17 +518,6 @@ class _Grid:
 
 # --- output -------------------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class _Placement:
-    """Where a ground extent lies in an image: the texel rectangle (top-left origin) it maps onto."""
-
-    extent: tuple[float, float, float, float]
-    x: int
-    y: int
-    width: int
-    height: int
-
-
 def _uv(xy: np.ndarray, placements: np.ndarray, image_w: int, image_h: int) -> np.ndarray:
     """(u, v) per point: SPEC §5.1 over its placement's extent, in the image's texture space (v up).
 
@@ -474,17 +529,14 @@ def _uv(xy: np.ndarray, placements: np.ndarray, image_w: int, image_h: int) -> n
     return np.column_stack([u, v])
 
 
-@functools.lru_cache(maxsize=None)
-def _uv_format(values: int) -> str:
-    return " ".join([f"%.{_UV_DIGITS}f"] * values)
-
-
 class _Output:
     """Images (and their mips) plus the texture-coordinate table, in the staging folder.
 
     OGR creates the GeoPackage and its attribute table; the rows (one per surface, ~600,000 for
     the 1 km demo) then go in through SQLite, a batch per image, as OGR's feature-at-a-time
-    writing took most of this step's time.
+    writing took most of this step's time. Images are encoded and rows inserted by one worker
+    thread, an image behind the main thread (GDAL's encoders and SQLite release the GIL), while
+    the main thread reads the ortho and formats the next image's rows: the two cores overlap.
     """
 
     _FIELDS = [FieldDef(model.TEX_TARGET, ogr.OFTString), FieldDef(model.TEX_FEATURE, ogr.OFTString),
@@ -495,28 +547,42 @@ class _Output:
         self.folder, self.ext, self.config, self.report = folder, ext, config, report
         self._driver = gdal.GetDriverByName("JPEG" if ext == "jpg" else "PNG")
         self._options = [f"QUALITY={config.jpeg_quality}"] if ext == "jpg" else ["ZLEVEL=6"]
-        self._table = BulkTable(folder / TEXCOORDS_FILE, model.TEXCOORD_TABLE, self._FIELDS)
+        self._table = BulkTable(folder / TEXCOORDS_FILE, model.TEXCOORD_TABLE, self._FIELDS, threaded=True)
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="wit-texture-output")
+        self._pending: Future | None = None
 
-    def write(self, stem: str, pixels: np.ndarray, items: list[tuple[_Surface, _Placement]]) -> None:
-        """Write one image and the rows of the surfaces placed in it."""
+    def write(self, stem: str, pixels: np.ndarray, rings: _Rings, placements: np.ndarray) -> None:
+        """Write one image and the rows of the rings placed in it (``placements``: one row per ring,
+        or one for all, of x, y, width, height, xmin, ymin, xmax, ymax; see ``_uv``).
+
+        ``pixels`` must not change afterwards: the worker encodes it later.
+        """
         name = f"{stem}.{self.ext}"
-        self._save(name, pixels)
         self.report.images.append(name)
+        counts = np.diff(rings.starts)
+        per_point = placements if len(placements) == 1 else np.repeat(placements, counts, axis=0)
+        uv = ring_texts(_uv(rings.xy, per_point, pixels.shape[1], pixels.shape[0]), counts, _UV_PAIR)
+        targets = rings.targets.tolist()
+        rows = list(zip(targets, map(str, rings.features.tolist()), rings.faces.tolist(), [name] * len(uv), uv))
+        for target in set(targets):
+            self.report.surfaces[target] += targets.count(target)
+        self._wait()  # at most one image in the worker's hands: memory stays at two images' rows
+        self._pending = self._worker.submit(self._store, stem, pixels, rows)
+
+    def _store(self, stem: str, pixels: np.ndarray, rows: list[tuple]) -> None:
+        """In the worker: the image, its mips and its rows."""
+        self._save(f"{stem}.{self.ext}", pixels)
         if self.config.write_mipmaps:
             for k, level in enumerate(mip_chain(pixels)[1:], start=1):
                 self._save(f"{stem}_mip{k}.{self.ext}", level)
                 self.report.mip_files += 1
-        counts = [len(surface.xy) for surface, _ in items]
-        placements = np.array([(p.x, p.y, p.width, p.height, *p.extent) for _, p in items], dtype=np.float64)
-        uv = _uv(np.concatenate([surface.xy for surface, _ in items]), np.repeat(placements, counts, axis=0),
-                 pixels.shape[1], pixels.shape[0]).ravel().tolist()
-        starts = np.cumsum([0] + counts)
-        rows = [(surface.target, surface.feature, surface.face, name,
-                 _uv_format(2 * n) % tuple(uv[2 * start:2 * (start + n)]))
-                for (surface, _), n, start in zip(items, counts, starts.tolist())]
         self._table.insert(rows)
-        for surface, _ in items:
-            self.report.surfaces[surface.target] += 1
+
+    def _wait(self) -> None:
+        """Let the worker finish its image; its error, if any, is raised here."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.result()
 
     def _save(self, name: str, pixels: np.ndarray) -> None:
         h, w, bands = pixels.shape
@@ -527,10 +593,13 @@ class _Output:
 
     def finish(self) -> None:
         """Index the table in the order the CityGML writer reads it (image, target, feature, face)."""
+        self._wait()
         columns = ", ".join(f'"{c}"' for c in (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE))
         self._table.db.execute(f'CREATE INDEX "{model.TEXCOORD_TABLE}_order" ON "{model.TEXCOORD_TABLE}" ({columns})')
 
     def close(self) -> None:
+        """Stop the worker (after its current image) and close the table; on success after ``finish``."""
+        self._worker.shutdown(wait=True)
         self._table.close()
 
 
@@ -547,10 +616,11 @@ class _AtlasPacker:
 
     def _reset(self) -> None:
         self.pixels = np.full((self.size, self.size, 3), _BACKGROUND, dtype=np.uint8)
-        self.items: list[tuple[_Surface, _Placement]] = []
+        self.items: list[_Rings] = []  # one ring each
+        self.placements: list[tuple[float, ...]] = []  # as _Output.write takes them
         self.x = self.y = self.shelf = self.used_w = 0
 
-    def add(self, surface: _Surface, patch: _Patch) -> None:
+    def add(self, ring: _Rings, patch: _Patch) -> None:
         h, w = patch.pixels.shape[:2]
         g, a = self.gutter, self.align
         sw, sh = -(-(w + 2 * g) // a) * a, -(-(h + 2 * g) // a) * a
@@ -560,7 +630,8 @@ class _AtlasPacker:
             self.flush()
         self.pixels[self.y:self.y + sh, self.x:self.x + sw] = np.pad(
             patch.pixels, ((g, sh - h - g), (g, sw - w - g), (0, 0)), mode="edge")
-        self.items.append((surface, _Placement(patch.extent, self.x + g, self.y + g, w, h)))
+        self.items.append(ring)
+        self.placements.append((self.x + g, self.y + g, w, h, *patch.extent))
         self.x += sw
         self.shelf = max(self.shelf, sh)
         self.used_w = max(self.used_w, self.x)
@@ -569,7 +640,8 @@ class _AtlasPacker:
         """Write the current atlas, cropped to powers of two around the used area, and start a new one."""
         if self.items:
             w, h = _pow2_ceil(self.used_w), _pow2_ceil(self.y + self.shelf)
-            self.out.write(f"roof_atlas_{self.count:04d}", self.pixels[:h, :w], self.items)
+            self.out.write(f"roof_atlas_{self.count:04d}", self.pixels[:h, :w], _Rings.concat(self.items),
+                           np.array(self.placements, dtype=np.float64))
             self.out.report.atlases += 1
             self.count += 1
         self._reset()
@@ -583,13 +655,12 @@ class _Inside:
         if coverage is not None:
             shapely.prepare(coverage)
 
-    def __call__(self, batch: list[_Surface]) -> list[_Surface]:
-        if self.coverage is None or not batch:
-            return batch
-        boxes = shapely.box(*np.array([s.bbox() for s in batch]).T)
-        keep = shapely.covers(self.coverage, boxes)
+    def __call__(self, rings: _Rings) -> _Rings:
+        if self.coverage is None or not len(rings):
+            return rings
+        keep = shapely.covers(self.coverage, shapely.box(*rings.bboxes().T))
         self.untextured[OUTSIDE_ORTHO] = self.untextured.get(OUTSIDE_ORTHO, 0) + int((~keep).sum())
-        return [s for s, k in zip(batch, keep) if k]
+        return rings.take(np.flatnonzero(keep))
 
 
 def _pow2_ceil(n: int) -> int:
@@ -599,22 +670,22 @@ def _pow2_ceil(n: int) -> int:
 def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
                    inside: _Inside, feedback: Feedback) -> None:
     """Roof islands tile by tile (spatial order), tallest first within a tile for tighter shelves."""
+    def roof(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        wit_id, face_no = columns
+        faces = np.ma.filled(face_no, 0).astype(object)  # as OGR's GetFieldAsInteger: NULL is 0
+        return np.full(len(faces), ROOF_TARGET, dtype=object), np.array(bulk_read.texts(wit_id), dtype=object), faces
+
     packer = _AtlasPacker(config, out)
     limit = config.atlas_size - 2 * config.gutter
-    keys = grid.keys(layer.extent)
-
-    def roof(feature: ogr.Feature, xy: np.ndarray) -> _Surface:
-        return _Surface(ROOF_TARGET, feature.GetFieldAsString(model.WIT_ID),
-                        feature.GetFieldAsInteger(model.FACE_NUMBER), xy)
-
-    for n, (_, batch) in enumerate(layer.tiles(grid, roof)):
+    count = len(grid.keys(layer.extent))
+    for n, (_, rings) in enumerate(layer.tiles(grid, (model.WIT_ID, model.FACE_NUMBER), roof)):
         feedback.check_canceled()
-        batch = inside(batch)
-        patches = [ortho.patch(s.bbox(), limit) for s in batch]
-        for surface, patch in sorted(zip(batch, patches), key=lambda sp: -sp[1].pixels.shape[0]):
-            packer.add(surface, patch)
+        rings = inside(rings)
+        patches = [ortho.patch(rings.bbox(i), limit) for i in range(len(rings))]
+        for i, patch in sorted(enumerate(patches), key=lambda ip: -ip[1].pixels.shape[0]):
+            packer.add(rings.take(np.array([i])), patch)
             out.report.downscaled += patch.downscaled
-        feedback.progress(100.0 * (n + 1) / len(keys))
+        feedback.progress(100.0 * (n + 1) / count)
     packer.flush()
 
 
@@ -623,24 +694,24 @@ def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, conf
 def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
                     inside: _Inside, feedback: Feedback) -> None:
     """One image per non-empty ground tile, covering its triangles' bounding box plus the gutter."""
-    keys = grid.keys(layer.extent)
+    def triangle(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        tri_id, surface, feature_id = columns
+        on_road = (np.ma.filled(surface, b"") == b"road") & bulk_read.valid(feature_id)
+        features = tri_id if not np.ma.is_masked(tri_id) else np.array(bulk_read.texts(tri_id), dtype=object)
+        return (np.array([TIN_TARGET, ROAD_TARGET], dtype=object)[on_road.astype(np.intp)], np.asarray(features),
+                np.full(len(on_road), None, dtype=object))
 
-    def triangle(feature: ogr.Feature, xy: np.ndarray) -> _Surface:
-        on_road = (feature.GetFieldAsString(model.TIN_SURFACE) == "road"
-                   and feature.IsFieldSetAndNotNull(model.TIN_FEATURE_ID))
-        return _Surface(ROAD_TARGET if on_road else TIN_TARGET, feature.GetFieldAsString(model.TIN_TRIANGLE_ID),
-                        None, xy)
-
-    for n, ((r, c), batch) in enumerate(layer.tiles(grid, triangle)):
+    count = len(grid.keys(layer.extent))
+    tiles = layer.tiles(grid, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), triangle)
+    for n, ((r, c), batch) in enumerate(tiles):
         feedback.check_canceled()
         batch = inside(batch)
-        if batch:
-            points = np.concatenate([s.xy for s in batch])
-            bbox = (*points.min(axis=0), *points.max(axis=0))
+        if len(batch):
+            bbox = (*batch.xy.min(axis=0), *batch.xy.max(axis=0))
             patch = ortho.patch(bbox, config.atlas_size, margin=config.gutter)
             h, w = patch.pixels.shape[:2]
-            placement = _Placement(patch.extent, 0, 0, w, h)
-            out.write(f"ground_r{r:04d}_c{c:04d}", patch.pixels, [(s, placement) for s in batch])
+            placement = np.array([(0, 0, w, h, *patch.extent)], dtype=np.float64)
+            out.write(f"ground_r{r:04d}_c{c:04d}", patch.pixels, batch, placement)
             out.report.ground_images += 1
             out.report.downscaled += patch.downscaled
-        feedback.progress(100.0 * (n + 1) / len(keys))
+        feedback.progress(100.0 * (n + 1) / count)

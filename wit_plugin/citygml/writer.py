@@ -36,6 +36,7 @@ import sqlite3
 import tempfile
 from dataclasses import dataclass
 from itertools import chain, groupby, islice
+from operator import itemgetter
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 from xml.sax.saxutils import escape
@@ -45,10 +46,12 @@ import shapely
 from lxml import etree
 from osgeo import ogr
 
-from .. import model
+from .. import bulk_read, model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
+from ..gc_pause import collector_paused
+from ..numtext import ring_texts
 from .schemas import CITYGML_MODULES
 from ..vector_io import open_step_layer
 
@@ -77,6 +80,7 @@ GML_ID = GML + "id"
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 _NCNAME = re.compile(r"[^\W\d][\w.\-]*")
 _BATCH = 10_000  # rows between progress/cancel checks and district-lookup batches
+_BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
 
 
 @dataclass(frozen=True)
@@ -113,6 +117,8 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
     report = WriteReport()
     out = Path(output)
     with contextlib.ExitStack() as stack:
+        stack.enter_context(collector_paused())
+
         def layer(path: str | None, *args: Any, **kwargs: Any) -> _Layer | None:
             return stack.enter_context(_Layer.open(path, *args, **kwargs)) if path else None
 
@@ -252,9 +258,11 @@ def _envelope(layers: list[_Layer]) -> tuple[float, ...] | None:
         # all but one field: GDAL 3.6's GPKG Arrow reader returns empty geometries when every field is ignored
         layer.SetIgnoredFields([name for _, name, _ in source.fields()[1:]])
         try:
-            stream = layer.GetArrowStreamAsNumPy(options=["INCLUDE_FID=NO", "MAX_FEATURES_IN_BATCH=4096"])
-            for batch in stream:
-                xyz = shapely.get_coordinates(shapely.from_wkb(batch[layer.GetGeometryColumn()]), include_z=True)
+            for batch in bulk_read.batches(layer, _BULK):
+                wkb = batch["geometry"]
+                corners = bulk_read.triangles(wkb)
+                xyz = (corners.reshape(-1, 3) if corners is not None
+                       else shapely.get_coordinates(shapely.from_wkb(wkb), include_z=True))
                 if len(xyz):
                     lo, hi = np.fmin(lo, np.nanmin(xyz, axis=0)), np.fmax(hi, np.nanmax(xyz, axis=0))
         finally:
@@ -306,20 +314,44 @@ def _poslist(points: list[tuple[float, ...]]) -> str:
 
 def _polygon(gml_id: str, geometry: ogr.Geometry) -> str:
     """A ``gml:Polygon`` with rings as stored; ring ids ``<id>_r`` (exterior), ``<id>_r<i>``."""
-    rings = []
-    for i in range(geometry.GetGeometryCount()):
-        side = "interior" if i else "exterior"
-        rings.append(f'<gml:{side}><gml:LinearRing gml:id="{gml_id}_r{i or ""}"><gml:posList srsDimension="3">'
-                     f"{_poslist(geometry.GetGeometryRef(i).GetPoints())}</gml:posList></gml:LinearRing></gml:{side}>")
-    return f'<gml:Polygon gml:id="{gml_id}">{"".join(rings)}</gml:Polygon>'
+    return _polygon_markup(gml_id, [_poslist(geometry.GetGeometryRef(i).GetPoints())
+                                    for i in range(geometry.GetGeometryCount())])
 
 
-def _tri_id(feature: ogr.Feature, column: int) -> str:
-    """``tri_<n>`` from the TIN's integer ``tri_id``."""
-    value = feature.GetFieldAsString(column)
-    if not value.lstrip("-").isdigit():
-        raise InputError(f"TIN triangle id {value!r} is not an integer: re-run wit:triangulateterrain.")
-    return f"tri_{value}"
+def _polygon_markup(gml_id: str, poslists: list[str]) -> str:
+    """``_polygon`` from the rings' ready-made posList texts."""
+    rings = "".join(f'<gml:{"interior" if i else "exterior"}><gml:LinearRing gml:id="{gml_id}_r{i or ""}">'
+                    f'<gml:posList srsDimension="3">{poslist}</gml:posList></gml:LinearRing>'
+                    f'</gml:{"interior" if i else "exterior"}>' for i, poslist in enumerate(poslists))
+    return f'<gml:Polygon gml:id="{gml_id}">{rings}</gml:Polygon>'
+
+
+def _tri_ids(column: np.ndarray) -> list[str]:
+    """``tri_<n>`` from the TIN's integer ``tri_id`` column (a batch of ``bulk_read``)."""
+    if column.dtype.kind in "iu" and not np.ma.is_masked(column):
+        return [f"tri_{value}" for value in column.tolist()]
+    values = bulk_read.texts(column)
+    for value in values:
+        if not value.lstrip("-").isdigit():
+            raise InputError(f"TIN triangle id {value!r} is not an integer: re-run wit:triangulateterrain.")
+    return [f"tri_{value}" for value in values]
+
+
+def _tin_triangles(tin: "_Layer", where: str, order: tuple[str, ...]
+                   ) -> Iterator[tuple[list[str], list[str], dict[str, np.ndarray]]]:
+    """Batches of the TIN triangles matching ``where`` in ``order``: (ids ``tri_<n>``, posList texts, the batch).
+
+    Read in bulk (``bulk_read``); each distinct corner is formatted once (``numtext``).
+    """
+    with tin.select(where, order) as result:
+        for batch in bulk_read.batches(result, _BULK):
+            ids = _tri_ids(batch[model.TIN_TRIANGLE_ID])
+            points, counts, rings = bulk_read.exterior_rings(batch["geometry"])
+            bad = np.flatnonzero((rings != 1) | (counts != 4))
+            if len(bad):
+                raise InputError(f"TIN feature tri_id={ids[bad[0]][4:]} is not a closed triangle: "
+                                 "re-run wit:triangulateterrain.")
+            yield ids, ring_texts(points, counts, "%.3f %.3f %.3f"), batch
 
 
 def _batches(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
@@ -328,16 +360,36 @@ def _batches(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
         yield batch
 
 
-def _uv(text: str | None, what: str, pairs: Callable[[int], bool]) -> str:
-    """Validated texture coordinates, normalised to 7 significant digits."""
-    try:
-        values = [float(v) for v in (text or "").split()]
+def _uv(texts: list[str], what: Callable[[int], str], triangles: bool) -> list[str]:
+    """Validated texture coordinates, normalised to 7 significant digits (each distinct pair formatted once).
+
+    Each text must hold u v pairs: 4 for a triangle (closing point included), at least 4 for a
+    ring; ``what(i)`` names the surface of text i for the error message. Texts of numbers
+    separated by single spaces (as wit:wittexture writes them) are parsed in one go.
+    """
+    joined = " ".join(texts)
+    tokens = joined.split()
+    counts = np.fromiter((text.count(" ") + 1 for text in texts), dtype=np.int64, count=len(texts))
+    try:  # the counts hold when the texts are the tokens joined by single spaces, none empty
+        values = np.array(tokens, dtype=np.float64) if joined == " ".join(tokens) else None
     except ValueError:
-        values = []
-    if not values or len(values) % 2 or not pairs(len(values) // 2) or not all(map(math.isfinite, values)):
-        raise InputError(f"Texture coordinates of {what} are not a valid list of u v pairs: {text!r}. "
-                         "Re-run wit:wittexture.")
-    return " ".join(format(v, ".7g") for v in values)
+        values = None
+    if values is None or ((counts != 8) if triangles else (counts < 8) | (counts % 2 == 1)).any() \
+            or not np.isfinite(values).all():  # irregular spacing, or a text to report: one by one
+        rows = []
+        for i, text in enumerate(texts):
+            try:
+                numbers = [float(v) for v in text.split()]
+            except ValueError:
+                numbers = []
+            if not numbers or len(numbers) % 2 or (len(numbers) != 8 if triangles else len(numbers) < 8) \
+                    or not all(map(math.isfinite, numbers)):
+                raise InputError(f"Texture coordinates of {what(i)} are not a valid list of u v pairs: {text!r}. "
+                                 "Re-run wit:wittexture.")
+            rows.append(numbers)
+        counts = np.array([len(numbers) for numbers in rows], dtype=np.int64)
+        values = np.array([v for numbers in rows for v in numbers], dtype=np.float64)
+    return ring_texts(values.reshape(-1, 2), counts // 2, "%.7g %.7g")
 
 
 class _Progress:
@@ -549,7 +601,6 @@ class _Writer:
     def roads(self, roads: _Layer | None, tin: _Layer | None) -> None:
         """One ``tran:Road`` per road wit_id in the road layer or among the road triangles."""
         fields: list[tuple[int, str, int]] = []
-        tri_col = -1
         with contextlib.ExitStack() as stack:
             road_rows: Iterator[tuple[str, Any]] = iter(())
             tri_rows: Iterator[tuple[str, Any]] = iter(())
@@ -558,15 +609,16 @@ class _Writer:
                 fields, key = _fields(result), _columns(result)[model.WIT_ID]
                 road_rows = ((k, next(g)) for k, g in groupby(result, key=lambda f: f.GetFieldAsString(key)))
             if tin:
-                result = stack.enter_context(tin.select(_ROAD_TRIANGLES, (model.TIN_FEATURE_ID, model.TIN_TRIANGLE_ID)))
-                col = _columns(result)
-                tri_key, tri_col = col[model.TIN_FEATURE_ID], col[model.TIN_TRIANGLE_ID]
-                tri_rows = groupby(result, key=lambda f: f.GetFieldAsString(tri_key))
+                triangles = chain.from_iterable(
+                    zip(bulk_read.texts(batch[model.TIN_FEATURE_ID]), ids, poslists) for ids, poslists, batch in
+                    _tin_triangles(tin, _ROAD_TRIANGLES, (model.TIN_FEATURE_ID, model.TIN_TRIANGLE_ID)))
+                tri_rows = groupby(triangles, key=itemgetter(0))
             for wit_id, road, triangles in _join_sorted(road_rows, tri_rows):
-                self.road(_wit_id(wit_id, "A road"), road, fields, triangles, tri_col)
+                self.road(_wit_id(wit_id, "A road"), road, fields, triangles)
 
     def road(self, wit_id: str, road: ogr.Feature | None, fields: list[tuple[int, str, int]],
-             triangles: Iterator[ogr.Feature] | None, tri_col: int) -> None:
+             triangles: Iterator[tuple[str, str, str]] | None) -> None:
+        """A road with its attributes and its triangles: (road wit_id, triangle id, posList) each."""
         with self.member(TRAN + "Road", wit_id):
             if road is not None:
                 self.attributes(road, fields, {model.WIT_ID})
@@ -575,8 +627,8 @@ class _Writer:
                     with self.el(CORE + "boundary"), self.el(TRAN + "TrafficArea", {GML_ID: f"{wit_id}_area"}), \
                             self.el(CORE + ROAD_LOD_PROPERTY), self.el(GML + "MultiSurface"):
                         for batch in _batches(triangles, self.RAW_BATCH):
-                            self.raw("".join(f"\n<gml:surfaceMember>{_polygon(_tri_id(t, tri_col), _triangle(t))}"
-                                             "</gml:surfaceMember>" for t in batch))
+                            self.raw("".join(f"\n<gml:surfaceMember>{_polygon_markup(gml_id, [poslist])}"
+                                             "</gml:surfaceMember>" for _, gml_id, poslist in batch))
                             self.report.triangles += len(batch)
                             self.progress.tick(len(batch))
                     self.leaf(TRAN + "granularity", "way")
@@ -592,15 +644,15 @@ class _Writer:
             with self.el(DEM + "reliefComponent"), self.el(DEM + "TINRelief", {GML_ID: TIN_RELIEF_ID}):
                 self.leaf(DEM + "lod", RELIEF_LOD)
                 with self.el(DEM + "tin"), self.el(GML + "TriangulatedSurface", {GML_ID: TIN_SURFACE_ID}), \
-                        self.el(GML + "patches"), tin.select(where, (model.TIN_TRIANGLE_ID,)) as result:
-                    tri_col = _columns(result)[model.TIN_TRIANGLE_ID]
-                    for batch in _batches(result, self.RAW_BATCH):
+                        self.el(GML + "patches"):
+                    for ids, poslists, _ in _tin_triangles(tin, where, (model.TIN_TRIANGLE_ID,)):
                         self.raw("".join(
-                            f'\n<gml:Triangle><gml:exterior><gml:LinearRing gml:id="{_tri_id(t, tri_col)}_r">'
-                            f'<gml:posList srsDimension="3">{_poslist(_triangle(t).GetGeometryRef(0).GetPoints())}'
-                            "</gml:posList></gml:LinearRing></gml:exterior></gml:Triangle>" for t in batch))
-                        self.report.triangles += len(batch)
-                        self.progress.tick(len(batch))
+                            f'\n<gml:Triangle><gml:exterior><gml:LinearRing gml:id="{gml_id}_r">'
+                            f'<gml:posList srsDimension="3">{poslist}'
+                            "</gml:posList></gml:LinearRing></gml:exterior></gml:Triangle>"
+                            for gml_id, poslist in zip(ids, poslists)))
+                        self.report.triangles += len(ids)
+                        self.progress.tick(len(ids))
 
     def groups(self, members: _Membership) -> None:
         for wit_id, district, buildings in members.groups():
@@ -620,9 +672,10 @@ class _Writer:
         """Per image one ``app:Appearance`` (``app_1``…) with its ``ParameterizedTexture`` (``tex_1``…)."""
         order = (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE)
         with texcoords.select(order=order) as result:
-            col = _columns(result)
-            image_col, target_col = col[model.TEX_IMAGE], col[model.TEX_TARGET]
-            for number, (image, rows) in enumerate(groupby(result, key=lambda f: f.GetFieldAsString(image_col)), 1):
+            rows = chain.from_iterable(
+                zip(*(bulk_read.texts(batch[name]) for name in order + (model.TEX_COORDS,)))
+                for batch in bulk_read.batches(result, _BULK))
+            for number, (image, group) in enumerate(groupby(rows, key=itemgetter(0)), 1):
                 # one appearanceMember per image: a reader (or validator) streaming member by member
                 # then holds one image's associations, not the whole model's
                 self.xf.write("\n")
@@ -634,45 +687,47 @@ class _Writer:
                         mime = mimetypes.guess_type(image)[0]
                         if mime:
                             self.leaf(APP + "mimeType", mime)
-                        for target, group in groupby(rows, key=lambda f: f.GetFieldAsString(target_col)):
-                            self.textured(target, group, col, texcoords.path)
+                        for target, target_rows in groupby(group, key=itemgetter(1)):
+                            self.textured(target, target_rows, texcoords.path)
                 self.report.textures += 1
 
-    def textured(self, target: str, rows: Iterator[ogr.Feature], col: dict[str, int], path: str) -> None:
+    def textured(self, target: str, rows: Iterator[tuple[str, ...]], path: str) -> None:
         """Texture associations: one per roof face / road triangle, one for all TIN triangles.
 
-        The TIN's association lists the ring ids after all coordinates, so those ids (not the
-        coordinates) are held for one image's terrain triangles.
+        ``rows``: (image, target, feature, face, uv) texts. The TIN's association lists the ring
+        ids after all coordinates, so those ids (not the coordinates) are held for one image's
+        terrain triangles. Roads' and the TIN's markup is ready-made (``raw``), a batch at a time.
         """
-        feature_col, face_col, uv_col = col[model.TEX_FEATURE], col[model.TEX_FACE], col[model.TEX_COORDS]
-        if target == "tin":
-            refs: list[str] = []
-            with self.association(f"#{TIN_SURFACE_ID}"):
-                for batch in _batches(rows, self.RAW_BATCH):
-                    coords = []
-                    for row in batch:
-                        feature = row.GetFieldAsString(feature_col)
-                        uv = _uv(row.GetFieldAsString(uv_col), f"TIN triangle {feature} in {path}", lambda n: n == 4)
-                        coords.append(f"<app:textureCoordinates>{uv}</app:textureCoordinates>")
-                        refs.append(f"<app:ring>#tri_{escape(feature)}_r</app:ring>")
-                    self.raw("".join(coords))
-                    self.report.textured_surfaces += len(batch)
-                    self.progress.tick(len(batch))
-                for start in range(0, len(refs), self.RAW_BATCH):
-                    self.raw("".join(refs[start:start + self.RAW_BATCH]))
-            return
-        if target not in ("roof", "road"):
+        if target not in ("roof", "road", "tin"):
             raise InputError(f"Texture table {path} has the unknown target {target!r}: use roof, road or tin.")
-        for row in rows:
-            feature = row.GetFieldAsString(feature_col)
-            surface = f"{feature}_f{row.GetFieldAsString(face_col)}" if target == "roof" else f"tri_{feature}"
-            coords = _uv(row.GetFieldAsString(uv_col), f"{target} {surface} in {path}",
-                         (lambda n: n >= 4) if target == "roof" else (lambda n: n == 4))
-            with self.association(f"#{surface}"):
-                self.leaf(APP + "textureCoordinates", coords)
-                self.leaf(APP + "ring", f"#{surface}_r")
-            self.report.textured_surfaces += 1
-            self.progress.tick()
+        refs: list[str] = []
+        with contextlib.ExitStack() as stack:
+            if target == "tin":
+                stack.enter_context(self.association(f"#{TIN_SURFACE_ID}"))
+            for batch in _batches(rows, self.RAW_BATCH):
+                features = [escape(row[2]) for row in batch]
+                if target == "roof":
+                    surfaces = [f"{row[2]}_f{row[3]}" for row in batch]
+                    coords = _uv([row[4] for row in batch],
+                                 lambda i, names=surfaces: f"roof {names[i]} in {path}", False)
+                    for surface, uv in zip(surfaces, coords):
+                        with self.association(f"#{surface}"):
+                            self.leaf(APP + "textureCoordinates", uv)
+                            self.leaf(APP + "ring", f"#{surface}_r")
+                else:
+                    label = "TIN triangle {} in {}" if target == "tin" else "road tri_{} in {}"
+                    coords = _uv([row[4] for row in batch],
+                                 lambda i, rows=batch, label=label: label.format(rows[i][2], path), True)
+                    if target == "tin":
+                        self.raw("".join(f"<app:textureCoordinates>{uv}</app:textureCoordinates>" for uv in coords))
+                        refs.extend(f"<app:ring>#tri_{feature}_r</app:ring>" for feature in features)
+                    else:
+                        self.raw("".join(_ROAD_ASSOCIATION.format(tri=feature, uv=uv)
+                                         for feature, uv in zip(features, coords)))
+                self.report.textured_surfaces += len(batch)
+                self.progress.tick(len(batch))
+            for start in range(0, len(refs), self.RAW_BATCH):
+                self.raw("".join(refs[start:start + self.RAW_BATCH]))
 
     @contextlib.contextmanager
     def association(self, target: str) -> Iterator[None]:
@@ -688,12 +743,12 @@ _ROAD_TRIANGLES = f"\"{model.TIN_SURFACE}\" = 'road' AND \"{model.TIN_FEATURE_ID
 """Triangles written into their road's traffic area; every other triangle goes into the relief."""
 
 
-def _triangle(feature: ogr.Feature) -> ogr.Geometry:
-    geometry = feature.GetGeometryRef()
-    if geometry is None or geometry.GetGeometryCount() != 1 or geometry.GetGeometryRef(0).GetPointCount() != 4:
-        raise InputError(f"TIN feature tri_id={feature.GetField(model.TIN_TRIANGLE_ID)} is not a closed triangle: "
-                         "re-run wit:triangulateterrain.")
-    return geometry
+_ROAD_ASSOCIATION = (
+    "\n<app:textureParameterization><app:TextureAssociation><app:target>#tri_{tri}</app:target>"
+    "<app:textureParameterization><app:TexCoordList><app:textureCoordinates>{uv}</app:textureCoordinates>"
+    "<app:ring>#tri_{tri}_r</app:ring></app:TexCoordList></app:textureParameterization></app:TextureAssociation>"
+    "</app:textureParameterization>")
+"""What ``association`` writes for a road triangle, as ready-made markup."""
 
 
 def _join_sorted(left: Iterator[tuple[str, Any]], right: Iterator[tuple[str, Any]]
