@@ -16,6 +16,7 @@ REQUIREMENTS: dict[str, tuple[str, int | None]] = {
     "triangle": ("triangle", None),
     "lxml": ("lxml", None),
     "pyproj": ("pyproj", None),
+    "pygltflib": ("pygltflib>=1.16", 1),
 }
 
 
