@@ -41,7 +41,7 @@ try {
   await page.waitForFunction(() => window.witViewer && window.witViewer.state !== "loading", null,
                              { timeout, polling: 200 });
   result.navigationSeconds = (Date.now() - started) / 1000;
-  Object.assign(result, await page.evaluate(() => ({ state: witViewer.state, loadSeconds: witViewer.loadSeconds,
+  Object.assign(result, await page.evaluate(() => ({ state: witViewer.state, loadSeconds: witViewer.loadSeconds, loadedTiles: witViewer.loadedTiles,
                                                      viewerErrors: witViewer.errors })));
   result.loaded = result.state === "ready";
   await page.waitForTimeout(500);  // a few frames after the last tile

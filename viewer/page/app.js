@@ -52,14 +52,19 @@ async function main() {
   const radius = tileset.boundingSphere.radius;
   await viewer.zoomTo(tileset, new Cesium.HeadingPitchRange(Cesium.Math.toRadians(-30), Cesium.Math.toRadians(-35),
                                                              radius * 1.2));
-  const ready = () => {
-    if (witViewer.state !== "loading") return;
+  // Ready: tiles have loaded, none is pending for this view, and two frames have been drawn since.
+  let loadedTiles = 0;
+  let settledFrames = 0;
+  tileset.tileLoad.addEventListener(() => { loadedTiles += 1; });
+  const removeWatch = scene.postRender.addEventListener(() => {
+    settledFrames = loadedTiles > 0 && tileset.tilesLoaded ? settledFrames + 1 : 0;
+    if (settledFrames < 2 || witViewer.state !== "loading") return;
+    removeWatch();
     witViewer.loadSeconds = (performance.now() - started) / 1000;
+    witViewer.loadedTiles = loadedTiles;
     witViewer.state = "ready";
     status.textContent = `Loaded in ${witViewer.loadSeconds.toFixed(2)} s — click a building for its attributes`;
-  };
-  tileset.allTilesLoaded.addEventListener(ready);
-  if (tileset.tilesLoaded) ready();
+  });
 
   let highlighted = null;
   new Cesium.ScreenSpaceEventHandler(scene.canvas).setInputAction((click) => {
