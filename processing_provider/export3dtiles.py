@@ -12,6 +12,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm, crs_string, layer_file
+from .load_results import load_results
 
 
 class Export3DTiles(WitAlgorithm):
@@ -76,5 +77,6 @@ class Export3DTiles(WitAlgorithm):
             layer_file(lod1), layer_file(tin), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             output, crs_string(crs), feedback,
             TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context)))
+        load_results(context, tileset=report.tileset)  # a 3D Tiles layer on QGIS ≥ 3.34, from the GUI
         return {self.OUTPUT: output, "TILESET": report.tileset, "TILES": report.tiles,
                 "BUILDINGS": report.buildings, "MEGABYTES": round(report.bytes_written / 1e6, 3)}

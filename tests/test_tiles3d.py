@@ -290,3 +290,31 @@ def test_terrain_only_and_a_rerun_replaces_the_tileset(chain, tmp_path):
     assert first.buildings == 0 and first.tin_triangles == chain["triangles"] and first.leaves > 4
     second = export_tileset(None, chain["tin"], None, str(out), config=TilesetConfig(leaf_size=1000.0))
     assert second.tiles == 1 and [p.name for p in (out / "tiles").iterdir()] == ["0"]
+
+
+def test_gui_run_loads_the_results_as_a_group_with_3d_renderers(chain):
+    """Processing's own post-processing (what the GUI runs after an algorithm) loads the queued layers."""
+    from processing.gui.Postprocessing import handleAlgorithmResults
+    from qgis._3d import QgsVectorLayer3DRenderer
+    from qgis.core import QgsAbstract3DSymbol, QgsApplication, QgsProcessingContext, QgsProcessingFeedback, QgsProject
+
+    from wit_citymodel.processing_provider.load_results import load_results
+
+    project = QgsProject()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    names = load_results(context, lod1=chain["lod1"], tin=chain["tin"],
+                         tileset=str(chain["folder"] / "tileset.json"))
+    assert names == ["LoD1 buildings", "Terrain (TIN)"]  # QGIS 3.22: no tiled-scene layer before 3.34
+    algorithm = QgsApplication.processingRegistry().algorithmById("wit:export3dtiles")
+    assert handleAlgorithmResults(algorithm, context, QgsProcessingFeedback(), showResults=True)
+    group = project.layerTreeRoot().findGroup("WIT city model")
+    assert group is not None and [n.name() for n in group.findLayers()] == names
+    buildings = project.mapLayersByName("LoD1 buildings")[0]
+    assert buildings.featureCount() == chain["buildings"]  # one footprint per building
+    renderer = buildings.renderer3D()
+    assert isinstance(renderer, QgsVectorLayer3DRenderer)
+    extrusion = renderer.symbol().dataDefinedProperties().property(QgsAbstract3DSymbol.PropertyExtrusionHeight)
+    assert extrusion.field() == "height"
+    terrain = project.mapLayersByName("Terrain (TIN)")[0]
+    assert terrain.featureCount() == chain["triangles"] and terrain.renderer3D() is not None
