@@ -64,7 +64,7 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
     if tin:
         layers.append((QgsVectorLayer(f"{tin}|layername=tin", tr("Terrain (TIN)"), "ogr"), _terrain_renderer))
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
-        from qgis.core import QgsTiledSceneLayer  # noqa: PLC0415 - QGIS ≥ 3.34 only
+        from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 
         layers.append((QgsTiledSceneLayer(tileset, tr("3D Tiles"), "cesiumtiles"), None))
     names = []
@@ -83,14 +83,14 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
 
 def _polygon_symbol(rgb: tuple[int, int, int], extrusion_field: str | None = None):
     """A 3D polygon symbol at the features' own heights (absolute), optionally extruded by a field."""
-    from qgis._3d import QgsPhongMaterialSettings, QgsPolygon3DSymbol  # noqa: PLC0415
-    from qgis.core import QgsAbstract3DSymbol  # noqa: PLC0415
+    from qgis._3d import QgsPhongMaterialSettings, QgsPolygon3DSymbol
+    from qgis.core import QgsAbstract3DSymbol
 
     symbol = QgsPolygon3DSymbol()
     if hasattr(Qgis, "AltitudeClamping"):  # QGIS ≥ 3.26
         symbol.setAltitudeClamping(Qgis.AltitudeClamping.Absolute)
     else:
-        from qgis._3d import Qgs3DTypes  # noqa: PLC0415
+        from qgis._3d import Qgs3DTypes
 
         symbol.setAltitudeClamping(Qgs3DTypes.AltClampAbsolute)
     material = QgsPhongMaterialSettings()
@@ -105,7 +105,7 @@ def _polygon_symbol(rgb: tuple[int, int, int], extrusion_field: str | None = Non
 
 
 def _set_renderer(layer: QgsVectorLayer, symbol) -> None:
-    from qgis._3d import QgsVectorLayer3DRenderer  # noqa: PLC0415
+    from qgis._3d import QgsVectorLayer3DRenderer
 
     renderer = QgsVectorLayer3DRenderer()
     renderer.setSymbol(symbol)

@@ -36,12 +36,14 @@ from pathlib import Path
 
 import numpy as np
 import shapely
+from osgeo import osr
 
 from .. import model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_files
 from ..meshes import fan_triangles, planar_triangles
+from ..vector_io import open_step_layer
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
 from .geo import Georeference, union_region
 from .glb import GlbBuilder
@@ -183,10 +185,6 @@ def _check_output(out: Path, inputs: list[str]) -> Path:
 
 
 def _check_crs(path: str, layer_name: str, georef: Georeference) -> None:
-    from osgeo import osr
-
-    from ..vector_io import open_step_layer
-
     ds, layer, _ = open_step_layer(path, layer_name, f"layer '{layer_name}'")
     srs = layer.GetSpatialRef()
     if srs is not None:
@@ -199,8 +197,6 @@ def _check_crs(path: str, layer_name: str, georef: Georeference) -> None:
 
 
 def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, float]:
-    from ..vector_io import open_step_layer
-
     boxes = []
     for path, name in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
         if path:
