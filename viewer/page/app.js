@@ -45,7 +45,7 @@ async function main() {
   scene.fog.enabled = false;
   const url = new URLSearchParams(location.search).get("tileset") || "3dtiles/tileset.json";
   const started = performance.now();
-  const tileset = await Cesium.Cesium3DTileset.fromUrl(url, { maximumScreenSpaceError: 8 });
+  const tileset = await Cesium.Cesium3DTileset.fromUrl(url, { maximumScreenSpaceError: 16 });
   witViewer.tileset = tileset;
   scene.primitives.add(tileset);
   tileset.tileFailed.addEventListener((error) => fail(`tile ${error.url}: ${error.message}`));

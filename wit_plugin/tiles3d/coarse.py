@@ -20,7 +20,7 @@ from .store import TriangleRows
 from .textures import TextureSet
 
 NO_COLOUR = 128
-_CANDIDATES = 1 << 21  # grid points tested per chunk of triangles (bounds memory)
+_CANDIDATES = 1 << 18  # grid points tested per chunk of triangles (bounds memory)
 
 
 @dataclass
