@@ -72,6 +72,7 @@ def serve(folder: Path, port: int, host: str = "127.0.0.1") -> None:
         sys.exit(f"{folder} holds no index.html: run `make demo` first (it builds out/demo/viewer/).")
     server = http.server.ThreadingHTTPServer((host, port), functools.partial(_Handler, directory=str(folder)))
     print(f"http://{host}:{server.server_address[1]}/index.html", flush=True)
+    print("(open it in a browser; Ctrl-C stops the server)", file=sys.stderr, flush=True)
     try:
         server.serve_forever()
     except KeyboardInterrupt:

@@ -8,8 +8,12 @@ the model (the inputs need no spatial index of their own, and are never written 
   larger of footprint diagonal and height, to keep the largest ones in coarse tiles) and its
   attributes (JSON, every field of the LoD1 layer but the per-face ones).
 * ``face``: roof and wall faces (WKB), joined to their building; ``tex_roof`` their texture rows.
-* ``tri``: TIN triangles (9 float64), with the leaf of their centroid; ``tri_box`` an R-tree on
-  their extents; ``tex_tri`` their texture rows (image number, 3 uv pairs).
+* ``tri``: TIN triangles (9 float64), with the leaf of their centroid; ``spill`` lists the other
+  leaves a triangle's extent reaches (a leaf's coarse terrain is sampled from its own triangles and
+  those), a few per cent of them; ``tex_tri`` their texture rows (image number, 3 uv pairs).
+
+Batches are read as columns (GDAL's Arrow interface where it exists) and written with one
+``executemany`` each; no spatial index is built (an R-tree insert per triangle cost more than all the rest).
 """
 from __future__ import annotations
 
@@ -116,7 +120,7 @@ class Store:
             CREATE TABLE tex_roof (wit_id TEXT, face_no INTEGER, image INTEGER, uv BLOB,
                                    PRIMARY KEY (wit_id, face_no)) WITHOUT ROWID;
             CREATE TABLE tri (id INTEGER PRIMARY KEY, leaf INTEGER, surface INTEGER, xyz BLOB);
-            CREATE VIRTUAL TABLE tri_box USING rtree (id, x0, x1, y0, y1);
+            CREATE TABLE spill (leaf INTEGER, tri INTEGER);
             CREATE TABLE tex_tri (tri_id INTEGER PRIMARY KEY, image INTEGER, uv BLOB);
         """)
         self.images: list[str] = []
@@ -133,35 +137,44 @@ class Store:
         fields = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
         ds, layer, _ = open_step_layer(str(path), model.TEXCOORD_TABLE, "texture table (wit:wittexture)", fields)
         numbers: dict[str, int] = {}
-        for rows in _feature_batches(layer, fields):
+        for batch in _column_batches(layer, fields):
             feedback.check_canceled()
             try:
-                uv, counts = parse_texcoords([r[4] for r in rows])
+                uv, counts = parse_texcoords(_texts(batch[model.TEX_COORDS]))
             except ValueError:
                 raise InputError(f"The texture table {path} has malformed texture coordinates: "
                                  "re-run wit:wittexture.") from None
+            uv = uv.astype(np.float32)
             starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            roofs, tris = [], []
-            for i, (target, feature, face, image, _) in enumerate(rows):
-                number = numbers.setdefault(image, len(numbers))
-                pairs = uv[starts[i]:starts[i + 1]].astype(np.float32)
-                if target == "roof":
-                    roofs.append((feature, int(face or 0), number, pairs.tobytes()))
-                elif len(pairs) == 4 and str(feature).isdigit():
-                    tris.append((int(feature), number, pairs[:3].tobytes()))
-            self.db.executemany("INSERT OR REPLACE INTO tex_roof VALUES (?, ?, ?, ?)", roofs)
-            self.db.executemany("INSERT OR REPLACE INTO tex_tri VALUES (?, ?, ?)", tris)
+            names, image = np.unique(_texts(batch[model.TEX_IMAGE]), return_inverse=True)
+            image = np.array([numbers.setdefault(name, len(numbers)) for name in names.tolist()], dtype=np.int64)[image]
+            target = np.array(_texts(batch[model.TEX_TARGET]), dtype=object)
+            roof = np.flatnonzero(target == "roof")
+            features = np.array(_texts(batch[model.TEX_FEATURE]), dtype=object)
+            self.db.executemany("INSERT OR REPLACE INTO tex_roof VALUES (?, ?, ?, ?)", [
+                (features[i], int(batch[model.TEX_FACE][i] or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
+                for i in roof.tolist()])
+            tri = np.flatnonzero((target != "roof") & (counts == 4))
+            try:
+                ids = features[tri].astype(np.int64)
+            except ValueError:
+                raise InputError(f"The texture table {path} names a TIN triangle by a non-numeric id: "
+                                 "re-run wit:wittexture.") from None
+            corners = uv[starts[tri][:, None] + np.arange(3)].reshape(len(tri), 6)
+            self.db.executemany("INSERT OR REPLACE INTO tex_tri VALUES (?, ?, ?)",
+                                zip(ids.tolist(), image[tri].tolist(), map(bytes, corners)))
         del layer, ds
         self.images = sorted(numbers, key=numbers.get)
         self.db.executemany("INSERT INTO image VALUES (?, ?)", [(n, name) for name, n in numbers.items()])
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
         """Buildings from their ground faces, then their roof and wall faces; returns the building count."""
-        ds, layer, _present = open_step_layer(path, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
-                                             (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.HEIGHT))
+        ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
+                                       (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.HEIGHT))
         defn = layer.GetLayerDefn()
-        self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType())
-                       for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
+        kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
+        self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept]
+        wit_id, height = defn.GetFieldIndex(model.WIT_ID), defn.GetFieldIndex(model.HEIGHT)
         layer.SetAttributeFilter(f"{model.FACE_TYPE} = 'ground'")
         rows: list[tuple] = []
         for feature in layer:
@@ -169,20 +182,22 @@ class Store:
             if geometry is None or geometry.IsEmpty():
                 continue
             xmin, xmax, ymin, ymax = geometry.GetEnvelope()
-            attrs = [None if feature.IsFieldNull(name) else feature.GetField(name) for name, _ in self.fields]
-            height = feature.GetField(model.HEIGHT) or 0.0
-            rows.append((feature.GetField(model.WIT_ID), (xmin + xmax) / 2, (ymin + ymax) / 2,
-                         max(math.hypot(xmax - xmin, ymax - ymin), height), json.dumps(attrs, ensure_ascii=False)))
+            attrs = [None if feature.IsFieldNull(i) else feature.GetField(i) for i in kept]
+            rows.append((feature.GetField(wit_id), (xmin + xmax) / 2, (ymin + ymax) / 2,
+                         max(math.hypot(xmax - xmin, ymax - ymin), feature.GetField(height) or 0.0),
+                         json.dumps(attrs, ensure_ascii=False)))
             if len(rows) == BATCH:
                 self._insert_buildings(rows, grid)
                 rows = []
                 feedback.check_canceled()
         self._insert_buildings(rows, grid)
         layer.SetAttributeFilter(f"{model.FACE_TYPE} IN ('roof', 'wall')")
-        for batch in _feature_batches(layer, (model.WIT_ID, model.FACE_NUMBER, model.FACE_TYPE), geometry=True):
+        for batch in _column_batches(layer, (model.WIT_ID, model.FACE_NUMBER, model.FACE_TYPE), geometry=True):
             feedback.check_canceled()
-            self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?)",
-                                [(w, int(n or 0), FACE_KINDS[k], g) for w, n, k, g in batch if g])
+            kinds = [FACE_KINDS[k] for k in _texts(batch[model.FACE_TYPE])]
+            self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?)", [
+                row for row in zip(_texts(batch[model.WIT_ID]), batch[model.FACE_NUMBER].tolist(), kinds, batch[None])
+                if row[3]])
         del layer, ds
         self.db.execute("CREATE INDEX face_building ON face (wit_id)")
         self.orphan_faces = self.db.execute(
@@ -201,28 +216,33 @@ class Store:
         ds, layer, _ = open_step_layer(path, model.TIN_LAYER, "TIN (wit:triangulateterrain)",
                                        (model.TIN_TRIANGLE_ID, model.TIN_SURFACE))
         total = 0
-        for batch in _feature_batches(layer, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE), geometry=True):
+        for batch in _column_batches(layer, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE), geometry=True):
             feedback.check_canceled()
-            xyz = triangle_vertices(shapely.from_wkb(np.array([g for _, _, g in batch], dtype=object),
-                                                     on_invalid="ignore"))
+            xyz = triangle_vertices(shapely.from_wkb(np.array(batch[None], dtype=object), on_invalid="ignore"))
             ok = np.isfinite(xyz).all(axis=(1, 2))
-            ids = np.array([t for t, _, _ in batch], dtype=np.int64)[ok]
-            surface = [SURFACES.get(s, 0) for (_, s, _), keep in zip(batch, ok) if keep]
+            ids = np.asarray(batch[model.TIN_TRIANGLE_ID], dtype=np.int64)[ok]
+            names, surface = np.unique(_texts(batch[model.TIN_SURFACE]), return_inverse=True)
+            surface = np.array([SURFACES.get(name, 0) for name in names.tolist()], dtype=np.int64)[surface][ok]
             xyz = xyz[ok]
             centre = xyz.mean(axis=1)
-            leaves = grid.leaf_codes(centre[:, 0], centre[:, 1])
-            lo, hi = xyz.min(axis=1), xyz.max(axis=1)
+            own = grid.leaf_codes(centre[:, 0], centre[:, 1])
             try:
                 self.db.executemany("INSERT INTO tri VALUES (?, ?, ?, ?)", zip(
-                    ids.tolist(), leaves.tolist(), surface, [row.tobytes() for row in xyz.reshape(-1, 9)]))
+                    ids.tolist(), own.tolist(), surface.tolist(), map(bytes, xyz.reshape(-1, 9))))
             except sqlite3.IntegrityError:
                 raise InputError(f"The TIN {path} repeats triangle ids ({model.TIN_TRIANGLE_ID}): "
                                  "re-run wit:triangulateterrain.") from None
-            self.db.executemany("INSERT INTO tri_box VALUES (?, ?, ?, ?, ?)", zip(
-                ids.tolist(), lo[:, 0].tolist(), hi[:, 0].tolist(), lo[:, 1].tolist(), hi[:, 1].tolist()))
+            lo, hi = xyz.min(axis=1), xyz.max(axis=1)
+            spills = set()
+            for x, y in ((lo[:, 0], lo[:, 1]), (hi[:, 0], lo[:, 1]), (lo[:, 0], hi[:, 1]), (hi[:, 0], hi[:, 1])):
+                other = grid.leaf_codes(x, y)
+                crossing = np.flatnonzero(other != own)
+                spills.update(zip(other[crossing].tolist(), ids[crossing].tolist()))
+            self.db.executemany("INSERT INTO spill VALUES (?, ?)", spills)
             total += len(ids)
         del layer, ds
         self.db.execute("CREATE INDEX tri_leaf ON tri (leaf)")
+        self.db.execute("CREATE INDEX spill_leaf ON spill (leaf)")
         return total
 
     # --- reading -----------------------------------------------------------------------------
@@ -263,12 +283,13 @@ class Store:
                                   "ORDER BY size DESC, wit_id LIMIT 1 OFFSET ?", (first, end, skip)).fetchone()
         return float(row[0]) if row and row[0] is not None else 0.0
 
-    def triangles(self, rect: tuple[float, float, float, float]) -> TriangleRows:
-        """TIN triangles whose extent meets ``rect`` (xmin, ymin, xmax, ymax)."""
+    def triangles(self, leaf: int) -> TriangleRows:
+        """The leaf's TIN triangles and those of its neighbours reaching into it (``leaf`` tells which)."""
+        columns = "t.leaf, t.surface, t.xyz, x.image, x.uv"
         rows = self.db.execute(
-            "SELECT t.leaf, t.surface, t.xyz, x.image, x.uv FROM tri_box b JOIN tri t ON t.id = b.id "
-            "LEFT JOIN tex_tri x ON x.tri_id = t.id WHERE b.x1 >= ? AND b.x0 <= ? AND b.y1 >= ? AND b.y0 <= ?",
-            (rect[0], rect[2], rect[1], rect[3])).fetchall()
+            f"SELECT {columns} FROM tri t LEFT JOIN tex_tri x ON x.tri_id = t.id WHERE t.leaf = ? UNION ALL "
+            f"SELECT {columns} FROM spill s JOIN tri t ON t.id = s.tri LEFT JOIN tex_tri x ON x.tri_id = t.id "
+            "WHERE s.leaf = ?", (leaf, leaf)).fetchall()
         n = len(rows)
         xyz = np.frombuffer(b"".join(r[2] for r in rows), dtype=np.float64).reshape(n, 3, 3)
         uv = np.zeros((n, 3, 2), np.float32)
@@ -280,30 +301,36 @@ class Store:
                             np.array([r[0] for r in rows], dtype=np.int64))
 
 
-def _feature_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = False) -> Iterator[list[tuple]]:
-    """Rows (field values …[, ISO WKB]) in batches, through GDAL's Arrow interface when it has one."""
+def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = False) -> Iterator[dict]:
+    """Batches of columns (numpy arrays; key None: the ISO WKB geometries), through GDAL's Arrow
+    interface when it has one, else a feature loop. Text may come as bytes: see ``_texts``."""
     if hasattr(layer, "GetArrowStreamAsNumPy"):
         geom_name = layer.GetGeometryColumn() or "geom"
         options = ["USE_MASKED_ARRAYS=NO", f"MAX_FEATURES_IN_BATCH={BATCH}", "INCLUDE_FID=NO"]
         for batch in layer.GetArrowStreamAsNumPy(options=options):
-            columns = [[_text(v) for v in batch[f].tolist()] for f in fields]
+            columns = {f: batch[f] for f in fields}
             if geometry:
-                columns.append([bytes(w) if w is not None else None for w in batch[geom_name]])
-            yield list(zip(*columns))
+                columns[None] = [bytes(w) if w is not None else None for w in batch[geom_name]]
+            yield columns
         return
-    rows: list[tuple] = []
+    rows: list[list] = []
     for feature in layer:
-        values = [feature.GetField(f) for f in fields]
-        if geometry:
-            geom = feature.GetGeometryRef()
-            values.append(bytes(geom.ExportToIsoWkb()) if geom else None)
-        rows.append(tuple(values))
+        geom = feature.GetGeometryRef() if geometry else None
+        rows.append([feature.GetField(f) for f in fields] + [bytes(geom.ExportToIsoWkb()) if geom else None])
         if len(rows) == BATCH:
-            yield rows
+            yield _as_columns(rows, fields, geometry)
             rows = []
     if rows:
-        yield rows
+        yield _as_columns(rows, fields, geometry)
 
 
-def _text(value):
-    return value.decode() if isinstance(value, bytes) else value
+def _as_columns(rows: list[list], fields: tuple[str, ...], geometry: bool) -> dict:
+    columns: dict = {f: np.array([r[k] for r in rows], dtype=object) for k, f in enumerate(fields)}
+    if geometry:
+        columns[None] = [r[-1] for r in rows]
+    return columns
+
+
+def _texts(column: np.ndarray) -> list[str]:
+    """A text column as str (Arrow gives UTF-8 bytes; NULL → "")."""
+    return [v.decode("utf-8") if isinstance(v, bytes) else ("" if v is None else str(v)) for v in column.tolist()]

@@ -254,7 +254,7 @@ class _Writer:
 
     def _leaf(self, level: int, col: int, row: int, code: int) -> _Tile:
         rect = self.grid.rect(level, col, row)
-        triangles = self.store.triangles(rect)
+        triangles = self.store.triangles(code)
         buildings = self.store.buildings(code, code + 1)
         glb, corners = GlbBuilder(), []
         heights = np.concatenate([triangles.xyz[triangles.leaf == code].reshape(-1, 3)[:, 2],
