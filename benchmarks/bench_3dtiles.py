@@ -15,7 +15,7 @@ On the sample (default: 1 km around Suseo station, the chain's default 5 m maxim
    the scene redrawn continuously. No GPU here: WebGL runs on SwiftShader (software, 2 shared
    cores), so the frame rate says little about a desktop with a graphics card.
 
-Writes ``out/bench/3dtiles.json`` and prints a Markdown table.
+Writes ``out/bench/3dtiles-r<radius>.json`` and prints a Markdown table.
 Usage: ``python benchmarks/bench_3dtiles.py [--radius 1000] [--max-edge 5] [--runs 3] [--fps-seconds 5]``
 """
 from __future__ import annotations
@@ -148,7 +148,7 @@ def main() -> int:
         "export": runs["3dtiles"], "citygml_writer": runs["citygml"],
         "viewer": [{k: v[k] for k in ("navigationSeconds", "loadSeconds", "loadedTiles", "fps", "webgl")} for v in views],
     }
-    (OUT / "3dtiles.json").write_text(json.dumps(results, indent=1), encoding="utf-8")
+    (OUT / f"3dtiles-r{args.radius:g}.json").write_text(json.dumps(results, indent=1), encoding="utf-8")
     export_s = [r["seconds"] for r in runs["3dtiles"]]
     writer_s = [r["seconds"] for r in runs["citygml"]]
     print(f"\n3D Tiles on the sample of radius {args.radius:g} m (max TIN edge {args.max_edge:g} m), "
