@@ -19,6 +19,7 @@ from qgis.core import (
 )
 from qgis.PyQt.QtGui import QColor
 
+from ..wit_plugin import model
 from .base import tr, translatable
 
 GROUP_NAME = translatable("WIT city model")
@@ -58,11 +59,11 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
     group_name = group_name or tr(GROUP_NAME)
     layers: list[tuple[QgsMapLayer, object]] = []
     if lod1:
-        buildings = QgsVectorLayer(f"{lod1}|layername=lod1_faces", tr("LoD1 buildings"), "ogr")
-        buildings.setSubsetString("\"face\" = 'ground'")  # footprints, extruded by their height in 3D
+        buildings = QgsVectorLayer(f"{lod1}|layername={model.LOD1_LAYER}", tr("LoD1 buildings"), "ogr")
+        buildings.setSubsetString(f"\"{model.FACE_TYPE}\" = 'ground'")  # footprints, extruded by their height
         layers.append((buildings, _building_renderer))
     if tin:
-        layers.append((QgsVectorLayer(f"{tin}|layername=tin", tr("Terrain (TIN)"), "ogr"), _terrain_renderer))
+        layers.append((QgsVectorLayer(f"{tin}|layername={model.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"), _terrain_renderer))
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 
@@ -113,7 +114,7 @@ def _set_renderer(layer: QgsVectorLayer, symbol) -> None:
 
 
 def _building_renderer(layer: QgsVectorLayer) -> None:
-    _set_renderer(layer, _polygon_symbol(BUILDING_RGB, extrusion_field="height"))
+    _set_renderer(layer, _polygon_symbol(BUILDING_RGB, extrusion_field=model.HEIGHT))
 
 
 def _terrain_renderer(layer: QgsVectorLayer) -> None:

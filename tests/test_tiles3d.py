@@ -16,6 +16,7 @@ import shapely
 from osgeo import gdal, ogr
 
 from conftest import ensure_wit_provider
+from wit_plugin import model
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.sample import SampleConfig, generate_sample
@@ -152,7 +153,7 @@ def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):
     for f in ds.GetLayer():
         polygon = f.GetGeometryRef()
         for ring in range(polygon.GetGeometryCount()):  # roof triangles use the holes' corners too
-            faces.setdefault(f.GetField("wit_id"), []).extend(polygon.GetGeometryRef(ring).GetPoints())
+            faces.setdefault(f.GetField(model.WIT_ID), []).extend(polygon.GetGeometryRef(ring).GetPoints())
     tin_tree = shapely.STRtree(shapely.points(tin[:, :2]))
     buildings_seen = 0
     for tile, world, _ in _tiles(document["root"], np.eye(4)):
@@ -165,9 +166,9 @@ def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):
         assert np.abs(tin[nearest] - xyz[ground]).max() < 0.01
         ids = _property_strings(content["gltf"], content["blob"], "wit_id")
         for number, wit_id in enumerate(ids):
-            model = np.array(faces[wit_id])
+            corners = np.array(faces[wit_id])
             mine = xyz[content["feature"] == number]
-            distance = np.sqrt(((mine[:, None, :] - model[None, :, :]) ** 2).sum(axis=2)).min(axis=1)
+            distance = np.sqrt(((mine[:, None, :] - corners[None, :, :]) ** 2).sum(axis=2)).min(axis=1)
             assert distance.max() < 0.01, wit_id
         buildings_seen += len(ids)
     assert buildings_seen == chain["buildings"]  # every building once in the full-detail tiles
@@ -176,8 +177,8 @@ def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):
 def test_buildings_carry_their_attributes_and_korean_names(chain):
     ds = ogr.Open(chain["lod1"])
     layer = ds.GetLayer()
-    layer.SetAttributeFilter("face = 'ground'")
-    names = {f.GetField("wit_id"): f.GetField("BULD_NM") or "" for f in layer}
+    layer.SetAttributeFilter(f"{model.FACE_TYPE} = 'ground'")
+    names = {f.GetField(model.WIT_ID): f.GetField("BULD_NM") or "" for f in layer}
     assert any(names.values())
     checked = 0
     for path in (chain["folder"] / "tiles").rglob("*.glb"):
@@ -186,8 +187,8 @@ def test_buildings_carry_their_attributes_and_korean_names(chain):
             continue
         metadata = content["gltf"].extensions["EXT_structural_metadata"]
         properties = metadata["schema"]["classes"]["building"]["properties"]
-        assert properties["height"]["componentType"] == "FLOAT64" and properties["BULD_NM"]["type"] == "STRING"
-        assert {"wit_id", "height", "height_src", "storeys_above", "storeys_below"} <= set(properties)
+        assert properties[model.HEIGHT]["componentType"] == "FLOAT64" and properties["BULD_NM"]["type"] == "STRING"
+        assert {model.WIT_ID, model.HEIGHT, model.HEIGHT_SOURCE, model.STOREYS_ABOVE, model.STOREYS_BELOW} <= set(properties)
         ids = _property_strings(content["gltf"], content["blob"], "wit_id")
         if "BULD_NM" in metadata["propertyTables"][0]["properties"]:
             for wit_id, name in zip(ids, _property_strings(content["gltf"], content["blob"], "BULD_NM")):
@@ -232,18 +233,18 @@ def test_viewer_in_headless_chromium_shows_the_model_and_a_buildings_attributes(
     assert report["externalRequests"] == []  # offline: nothing but the local server
     picture = np.moveaxis(gdal.Open(str(shot)).ReadAsArray()[:3], 0, -1).reshape(-1, 3).astype(int)
     background = picture[0]  # the top-left corner is sky
-    model = np.abs(picture - background).sum(axis=1) > 30
-    assert model.mean() > 0.3  # the model fills a good part of the view
-    colours = picture[model]
+    drawn = np.abs(picture - background).sum(axis=1) > 30
+    assert drawn.mean() > 0.3  # the model fills a good part of the view
+    colours = picture[drawn]
     assert colours.std(axis=0).mean() > 20  # textured: many colours, not one flat shade
     assert (colours[:, 1] > colours[:, 0] + 10).mean() > 0.02  # green of the orthophoto's trees and lawns
     info = report["info"]
     assert info and info["rows"]["wit_id"].startswith("BLD_")
     ds = ogr.Open(chain["lod1"])
     layer = ds.GetLayer()
-    layer.SetAttributeFilter(f"face = 'ground' AND wit_id = '{info['rows']['wit_id']}'")
+    layer.SetAttributeFilter(f"{model.FACE_TYPE} = 'ground' AND {model.WIT_ID} = '{info['rows']['wit_id']}'")
     ground = layer.GetNextFeature()
-    assert float(info["rows"]["height"]) == pytest.approx(ground.GetField("height"))
+    assert float(info["rows"][model.HEIGHT]) == pytest.approx(ground.GetField(model.HEIGHT))
     name = ground.GetField("BULD_NM")
     assert name and info["title"] == name == info["rows"]["BULD_NM"]  # Korean, intact
 
@@ -315,6 +316,6 @@ def test_gui_run_loads_the_results_as_a_group_with_3d_renderers(chain):
     renderer = buildings.renderer3D()
     assert isinstance(renderer, QgsVectorLayer3DRenderer)
     extrusion = renderer.symbol().dataDefinedProperties().property(QgsAbstract3DSymbol.PropertyExtrusionHeight)
-    assert extrusion.field() == "height"
+    assert extrusion.field() == model.HEIGHT
     terrain = project.mapLayersByName("Terrain (TIN)")[0]
     assert terrain.featureCount() == chain["triangles"] and terrain.renderer3D() is not None
