@@ -41,7 +41,7 @@ from osgeo import osr
 from .. import model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_files
+from ..fileio import atomic_files, refuse_overlap
 from ..meshes import fan_triangles, planar_triangles
 from ..vector_io import open_step_layer
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
@@ -172,10 +172,7 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
 def _check_output(out: Path, inputs: list[str]) -> Path:
     """Refuse an output folder that holds an input, or that is not empty and not a tileset."""
     out = out.resolve()
-    for path in inputs:
-        source = Path(path).resolve()
-        if source == out or out in source.parents:
-            raise InputError(f"The output folder {out} holds the input {path}: choose another folder.")
+    refuse_overlap([(out, True)], inputs)
     if out.is_dir() and any(out.iterdir()) and not (out / TILESET_FILE).is_file():
         raise InputError(f"The output folder {out} is not empty and holds no {TILESET_FILE}: "
                          "choose an empty or new folder (a tileset folder is replaced whole).")
