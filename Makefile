@@ -1,12 +1,16 @@
 # The two commands a new user needs (README): `make demo` and `make test`.
 # Each does its own set-up (scripts/setup.sh is idempotent).
-.PHONY: setup demo test bench package translations clean
+.PHONY: setup demo view test bench package translations clean
 
 setup:
 	bash scripts/setup.sh
 
 demo: setup
 	bash scripts/demo.sh
+
+# the web viewer of the demo's tileset on http://127.0.0.1:8716/ (WIT_VIEWER_PORT to change)
+view: setup
+	.venv/bin/python scripts/viewer.py serve out/demo/viewer
 
 test: setup
 	bash scripts/test.sh

@@ -204,6 +204,54 @@
       <translation>Give points to colour, a patch extent, or both.</translation>
     </message>
     <message>
+      <source>Export 3D Tiles</source>
+      <translation>Export 3D Tiles</translation>
+    </message>
+    <message>
+      <source>CityGML</source>
+      <translation>CityGML</translation>
+    </message>
+    <message>
+      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</source>
+      <translation>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</translation>
+    </message>
+    <message>
+      <source>Side of a full-detail tile (m)</source>
+      <translation>Side of a full-detail tile (m)</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 buildings (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>Terrain TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Texture folder (wit:wittexture)</source>
+      <translation>Texture folder (wit:wittexture)</translation>
+    </message>
+    <message>
+      <source>Model CRS (when the layers carry none)</source>
+      <translation>Model CRS (when the layers carry none)</translation>
+    </message>
+    <message>
+      <source>Tileset folder</source>
+      <translation>Tileset folder</translation>
+    </message>
+    <message>
+      <source>tileset.json</source>
+      <translation>tileset.json</translation>
+    </message>
+    <message>
+      <source>Tiles written</source>
+      <translation>Tiles written</translation>
+    </message>
+    <message>
+      <source>Size of the tileset (MB)</source>
+      <translation>Size of the tileset (MB)</translation>
+    </message>
+    <message>
       <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
       <translation>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</translation>
     </message>
@@ -368,6 +416,22 @@
       <translation>VRT</translation>
     </message>
     <message>
+      <source>WIT city model</source>
+      <translation>WIT city model</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings</source>
+      <translation>LoD1 buildings</translation>
+    </message>
+    <message>
+      <source>Terrain (TIN)</source>
+      <translation>Terrain (TIN)</translation>
+    </message>
+    <message>
+      <source>3D Tiles</source>
+      <translation>3D Tiles</translation>
+    </message>
+    <message>
       <source>Merge tiles (WIT seam feathering)</source>
       <translation>Merge tiles (WIT seam feathering)</translation>
     </message>
@@ -492,10 +556,6 @@
       <translation>Quality metrics</translation>
     </message>
     <message>
-      <source>CityGML</source>
-      <translation>CityGML</translation>
-    </message>
-    <message>
       <source>Measures the model against its sources, as the paper's Tables 17 and 19 (paper figures beside ours). Geometry (the CityGML file or the LoD1 layer against the prepared 2D footprints, matched by wit_id): placement error = distance between the centroids of footprint and ground face; coordinate error = each roof vertex to the nearest footprint vertex (mean, max); Hausdorff distance of the outlines; shape similarity index SSI = area(A∩B) / area(A∪B) (intersection over union) of footprint and ground face. Texture: sharpness = variance of the 4-neighbour Laplacian of the grey image (0.299R + 0.587G + 0.114B, as OpenCV's Laplacian().var()) and contrast = standard deviation of the grey values, on the texture images (inside the texture islands) and on the orthoimage for comparison. Seams: mean colour step across tile borders in the mosaic. Writes a CSV table, per-building rows, a GeoPackage and an HTML report.</source>
       <translation>Measures the model against its sources, as the paper's Tables 17 and 19 (paper figures beside ours). Geometry (the CityGML file or the LoD1 layer against the prepared 2D footprints, matched by wit_id): placement error = distance between the centroids of footprint and ground face; coordinate error = each roof vertex to the nearest footprint vertex (mean, max); Hausdorff distance of the outlines; shape similarity index SSI = area(A∩B) / area(A∪B) (intersection over union) of footprint and ground face. Texture: sharpness = variance of the 4-neighbour Laplacian of the grey image (0.299R + 0.587G + 0.114B, as OpenCV's Laplacian().var()) and contrast = standard deviation of the grey values, on the texture images (inside the texture islands) and on the orthoimage for comparison. Seams: mean colour step across tile borders in the mosaic. Writes a CSV table, per-building rows, a GeoPackage and an HTML report.</translation>
     </message>
@@ -506,10 +566,6 @@
     <message>
       <source>2D source footprints (prepared buildings)</source>
       <translation>2D source footprints (prepared buildings)</translation>
-    </message>
-    <message>
-      <source>Texture folder (wit:wittexture)</source>
-      <translation>Texture folder (wit:wittexture)</translation>
     </message>
     <message>
       <source>Orthoimage for comparison</source>
@@ -726,14 +782,6 @@
     <message>
       <source>Merged orthoimage</source>
       <translation>Merged orthoimage</translation>
-    </message>
-    <message>
-      <source>LoD1 buildings (wit:extrudebuildings)</source>
-      <translation>LoD1 buildings (wit:extrudebuildings)</translation>
-    </message>
-    <message>
-      <source>Terrain TIN (wit:triangulateterrain)</source>
-      <translation>Terrain TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Image format</source>

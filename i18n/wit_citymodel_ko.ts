@@ -204,6 +204,54 @@
       <translation>점, 패치 범위, 또는 둘 다를 지정하십시오.</translation>
     </message>
     <message>
+      <source>Export 3D Tiles</source>
+      <translation>3D Tiles 내보내기</translation>
+    </message>
+    <message>
+      <source>CityGML</source>
+      <translation>CityGML</translation>
+    </message>
+    <message>
+      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</source>
+      <translation>도시 모델을 OGC 3D Tiles 1.1 타일셋(tileset.json, glTF 바이너리 타일, 텍스처 이미지)으로 내보냅니다. CesiumJS, QGIS 3.34 이상(3D Tiles 레이어) 및 그 밖의 3D Tiles 뷰어에서 볼 수 있습니다. 가장 상세한 타일에는 LoD1 건물(wit:wittexture의 텍스처 아틀라스를 입힌 지붕, 음영만 준 벽면)과 TIN의 지형·도로가 지면 이미지와 함께 그대로 재사용되어 담깁니다. 그 위의 개략 타일에는 자체 이미지를 가진 지형 격자와, 아틀라스의 더 작은 밉 레벨을 입힌 큰 건물들이 담겨 넓은 지역도 스트리밍으로 볼 수 있습니다. 좌표는 모델 좌표계에서 변환한 지구 중심 좌표이며, 각 타일은 자체 지역 좌표계를 가집니다. 모든 건물은 식별자와 속성(이름, 높이, 층수, 높이 출처, 원본 필드)을 3D Tiles 메타데이터(EXT_mesh_features, EXT_structural_metadata)로 지니므로 뷰어에서 클릭하면 표시됩니다. 출력 폴더는 통째로 교체되므로 새 폴더, 빈 폴더 또는 이전에 만든 타일셋 폴더여야 합니다.</translation>
+    </message>
+    <message>
+      <source>Side of a full-detail tile (m)</source>
+      <translation>상세 타일 한 변의 길이(m)</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 건물 (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>지형 TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Texture folder (wit:wittexture)</source>
+      <translation>텍스처 폴더 (wit:wittexture)</translation>
+    </message>
+    <message>
+      <source>Model CRS (when the layers carry none)</source>
+      <translation>모델 좌표계(레이어에 좌표계가 없을 때)</translation>
+    </message>
+    <message>
+      <source>Tileset folder</source>
+      <translation>타일셋 폴더</translation>
+    </message>
+    <message>
+      <source>tileset.json</source>
+      <translation>tileset.json</translation>
+    </message>
+    <message>
+      <source>Tiles written</source>
+      <translation>작성한 타일 수</translation>
+    </message>
+    <message>
+      <source>Size of the tileset (MB)</source>
+      <translation>타일셋 크기(MB)</translation>
+    </message>
+    <message>
       <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
       <translation>식 {expression}이(가) 피처 {count}개에서 실패했습니다(예: {error}). 해당 피처에는 다음 규칙을 적용했습니다.</translation>
     </message>
@@ -368,6 +416,22 @@
       <translation>VRT</translation>
     </message>
     <message>
+      <source>WIT city model</source>
+      <translation>WIT 도시 모델</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings</source>
+      <translation>LoD1 건물</translation>
+    </message>
+    <message>
+      <source>Terrain (TIN)</source>
+      <translation>지형(TIN)</translation>
+    </message>
+    <message>
+      <source>3D Tiles</source>
+      <translation>3D Tiles</translation>
+    </message>
+    <message>
       <source>Merge tiles (WIT seam feathering)</source>
       <translation>타일 병합 (WIT 경계 보간)</translation>
     </message>
@@ -492,10 +556,6 @@
       <translation>품질 지표</translation>
     </message>
     <message>
-      <source>CityGML</source>
-      <translation>CityGML</translation>
-    </message>
-    <message>
       <source>Measures the model against its sources, as the paper's Tables 17 and 19 (paper figures beside ours). Geometry (the CityGML file or the LoD1 layer against the prepared 2D footprints, matched by wit_id): placement error = distance between the centroids of footprint and ground face; coordinate error = each roof vertex to the nearest footprint vertex (mean, max); Hausdorff distance of the outlines; shape similarity index SSI = area(A∩B) / area(A∪B) (intersection over union) of footprint and ground face. Texture: sharpness = variance of the 4-neighbour Laplacian of the grey image (0.299R + 0.587G + 0.114B, as OpenCV's Laplacian().var()) and contrast = standard deviation of the grey values, on the texture images (inside the texture islands) and on the orthoimage for comparison. Seams: mean colour step across tile borders in the mosaic. Writes a CSV table, per-building rows, a GeoPackage and an HTML report.</source>
       <translation>논문의 표 17과 19처럼 모델을 원본과 비교해 측정합니다(논문 수치를 함께 표시). 기하(CityGML 파일 또는 LoD1 레이어를 준비된 2D 외곽선과 wit_id로 대응): 배치 오차 = 외곽선과 바닥면 중심 사이 거리, 좌표 오차 = 각 지붕 꼭짓점에서 가장 가까운 외곽선 꼭짓점까지(평균, 최대), 외곽선의 하우스도르프 거리, 형상 유사도 SSI = 외곽선과 바닥면의 면적(A∩B) / 면적(A∪B)(IoU). 텍스처: 선명도 = 회색 영상(0.299R + 0.587G + 0.114B)의 4-이웃 라플라시안 분산(OpenCV Laplacian().var()와 같음), 대비 = 회색 값의 표준편차; 텍스처 이미지(텍스처 섬 내부)와 비교용 정사영상에서 계산. 경계: 모자이크에서 타일 경계를 가로지르는 평균 색상 차. CSV 표, 건물별 행, GeoPackage, HTML 보고서를 씁니다.</translation>
     </message>
@@ -506,10 +566,6 @@
     <message>
       <source>2D source footprints (prepared buildings)</source>
       <translation>2D 원본 외곽선 (준비된 건물)</translation>
-    </message>
-    <message>
-      <source>Texture folder (wit:wittexture)</source>
-      <translation>텍스처 폴더 (wit:wittexture)</translation>
     </message>
     <message>
       <source>Orthoimage for comparison</source>
@@ -726,14 +782,6 @@
     <message>
       <source>Merged orthoimage</source>
       <translation>병합된 정사영상</translation>
-    </message>
-    <message>
-      <source>LoD1 buildings (wit:extrudebuildings)</source>
-      <translation>LoD1 건물 (wit:extrudebuildings)</translation>
-    </message>
-    <message>
-      <source>Terrain TIN (wit:triangulateterrain)</source>
-      <translation>지형 TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Image format</source>

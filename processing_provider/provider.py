@@ -5,6 +5,7 @@ from qgis.PyQt.QtGui import QIcon
 from .base import PLUGIN_DIR, tr, translatable
 from .citymodel import CityModel
 from .colorstore_algorithms import BuildColorStore, QueryColorStore
+from .export3dtiles import Export3DTiles
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
 from .extrudebuildings import ExtrudeBuildings
@@ -25,6 +26,7 @@ ALGORITHMS = (
     ExtrudeBuildings,
     WitTexture,
     WriteCityGML,
+    Export3DTiles,
     ValidateCityGML,
     BuildColorStore,
     QueryColorStore,

@@ -2,7 +2,8 @@
 
 Generates the default sample (1 km around Suseo station), then runs every step as its own
 `scripts/qgis-process run wit:…` call, each output feeding the next, and prints a summary:
-counts, validity, time per step and where the files are. Results go to out/demo/.
+counts, validity, time per step and where the files are. Results go to out/demo/: the model, a
+preview picture, the 3D Tiles tileset (3dtiles/) and the offline web viewer (viewer/, `make view`).
 """
 from __future__ import annotations
 
@@ -62,6 +63,13 @@ def main() -> int:
     subprocess.run([sys.executable, "-m", "wit_plugin.preview", str(work / "lod1.gpkg"), str(work / "tin.gpkg"),
                     str(work / "textures"), str(OUT / "preview.png")], check=True, cwd=ROOT)
     times["preview"] = time.perf_counter() - start
+    tiles = step("3D Tiles 1.1 for the web viewer and QGIS ≥ 3.34", "wit:export3dtiles",
+                 LOD1=work / "lod1.gpkg", TIN=work / "tin.gpkg", TEXTURES=work / "textures", OUTPUT=OUT / "3dtiles")
+    print("== web viewer (CesiumJS, offline)", flush=True)
+    viewer = subprocess.run([sys.executable, str(ROOT / "scripts" / "viewer.py"), "build", str(OUT / "3dtiles"),
+                             str(OUT / "viewer")], capture_output=True, text=True, cwd=ROOT)
+    if viewer.returncode != 0:
+        print(f"   WARNING: no web viewer: {(viewer.stderr or viewer.stdout).strip()}", flush=True)
 
     print("\nSummary")
     print(f"  buildings generated {sample['BUILDINGS_WRITTEN']}, written to CityGML {model['BUILDINGS_WRITTEN']}")
@@ -69,6 +77,9 @@ def main() -> int:
     print(f"  valid: {model['VALID']} ({model['ERROR_COUNT']} errors) — report {model['VALIDATION_REPORT']}")
     print(f"  metrics: {model['METRICS']}")
     print(f"  preview: {OUT / 'preview.png'}")
+    print(f"  3D Tiles: {tiles['TILESET']} ({tiles['TILES']} tiles, {tiles['MEGABYTES']:.1f} MB)")
+    if viewer.returncode == 0:
+        print(f"  web viewer: {OUT / 'viewer' / 'index.html'} — `make view` serves it on 127.0.0.1")
     print("  seconds per step of the chain (inside wit:citymodel):")
     for name, seconds in json.loads(model["STEP_TIMES"]).items():
         print(f"    {name:14s} {seconds:7.2f}")

@@ -60,4 +60,6 @@ if ! "$SYS_PY" -c 'import psycopg2' 2>/dev/null; then
     log "installing python3-psycopg2"
     as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-psycopg2 >/dev/null
 fi
+# The web viewer and the browser tests: Node.js, Chromium, the pinned npm packages (viewer/).
+bash scripts/setup-viewer.sh
 [ "$did" = 0 ] || printf '[setup] ready\n' >&2

@@ -16,7 +16,8 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS, MODELS
 from conftest import ROOT
 
 EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
-                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics", "wit:citymodel"}
+                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics", "wit:citymodel",
+                "wit:export3dtiles"}
 
 
 def _without_registered_provider():

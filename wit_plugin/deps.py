@@ -17,6 +17,7 @@ REQUIREMENTS: dict[str, tuple[str, int | None]] = {
     "lxml": ("lxml", None),
     "pyproj": ("pyproj", None),
     "distributed": ("dask[distributed]", None),
+    "pygltflib": ("pygltflib>=1.16", 1),
 }
 
 

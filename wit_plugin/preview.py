@@ -50,6 +50,7 @@ from .errors import InputError, WitError
 from .feedback import SILENT, Feedback, LoggingFeedback
 from .fileio import atomic_file
 from .gdal_env import open_raster, read_window
+from .meshes import fan_triangles, parse_texcoords, planar_triangles, triangle_vertices
 from .texture import mip_chain
 from .vector_io import open_step_layer
 
@@ -228,12 +229,10 @@ class _TexTable:
         fields = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
         with _open_layer(str(path), model.TEXCOORD_TABLE, "texture table (wit:wittexture)", fields) as layer:
             cols = _read_columns(layer, fields)
-        texts = [" ".join(t.split()) if t else "" for t in cols[model.TEX_COORDS].tolist()]
-        counts = np.array([t.count(" ") + 1 if t else 0 for t in texts], dtype=np.int64)
-        flat = np.fromstring(" ".join(texts), sep=" ")  # one C parse, no list of millions of str
-        if len(flat) != counts.sum() or np.any(counts % 2):
+        try:
+            uv, counts = parse_texcoords(cols[model.TEX_COORDS].tolist())
+        except ValueError:
             raise InputError(f"The texture table {path} has malformed texture coordinates: re-run wit:wittexture.")
-        counts //= 2
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
         names, image = np.unique(cols[model.TEX_IMAGE].astype(str), return_inverse=True)
         images.extend(names.tolist())
@@ -241,7 +240,7 @@ class _TexTable:
         columns = (cols[model.TEX_TARGET].tolist(), cols[model.TEX_FEATURE].tolist(), cols[model.TEX_FACE].tolist())
         for i, (target, feature, face) in enumerate(zip(*columns)):
             keys[(feature, int(face or 0)) if target == "roof" else feature] = i
-        return cls(keys, flat.reshape(-1, 2), starts, counts, image.astype(np.int32))
+        return cls(keys, uv, starts, counts, image.astype(np.int32))
 
     def rows(self, keys: list) -> np.ndarray:
         """Row of each key, -1 where absent."""
@@ -266,8 +265,8 @@ def _read_lod1(path: str, table: _TexTable | None, report: PreviewReport) -> _Me
 def _roof_mesh(polygons: np.ndarray, building: np.ndarray, rows: np.ndarray,
                table: _TexTable | None) -> tuple[_Mesh, int]:
     """Constrained Delaunay triangles of the roofs (z and uv affine in x, y per face); untextured faces."""
-    rings = shapely.get_exterior_ring(polygons)
-    ring_xyz, ring_face = shapely.get_coordinates(rings, include_z=True, return_index=True)
+    ring_xyz, ring_face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True,
+                                                  return_index=True)
     n = len(polygons)
     values = np.column_stack([ring_xyz[:, 2], np.zeros((len(ring_xyz), 2))])
     textured = np.zeros(n, dtype=bool)
@@ -279,11 +278,7 @@ def _roof_mesh(polygons: np.ndarray, building: np.ndarray, rows: np.ndarray,
         first = np.concatenate([[0], np.cumsum(ring_counts)[:-1]])
         within = point - first[ring_face[point]]
         values[point, 1:] = table.uv[table.starts[rows[ring_face[point]]] + within]
-    coef = _affine_fit(ring_xyz[:, :2], values, ring_face, n)
-    tris, face = shapely.get_parts(_triangulate(shapely.force_2d(polygons)), return_index=True)
-    xy = shapely.get_coordinates(tris).reshape(-1, 4, 2)[:, :3]
-    c = coef[face]  # (t, 3 values, 3 coefficients)
-    fitted = np.einsum("tvk,tpk->tpv", c, np.concatenate([xy, np.ones(xy.shape[:2] + (1,))], axis=2))
+    xy, fitted, face = planar_triangles(polygons, values)
     xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
     image = np.where(textured[face], table.image[np.maximum(rows[face], 0)] if table is not None else -1, -1)
     mesh = _Mesh(xyz, np.full(len(face), _ROOF, np.int8), building[face].astype(np.int32),
@@ -291,61 +286,18 @@ def _roof_mesh(polygons: np.ndarray, building: np.ndarray, rows: np.ndarray,
     return mesh, int(np.count_nonzero(~textured)) if table is not None else 0
 
 
-def _triangulate(polygons: np.ndarray) -> np.ndarray:
-    """Constrained Delaunay triangles per polygon; an invalid one is made valid first (empty if hopeless)."""
-    try:
-        return shapely.constrained_delaunay_triangles(polygons)
-    except shapely.errors.GEOSException:
-        out = np.empty(len(polygons), dtype=object)
-        for i, polygon in enumerate(polygons):
-            try:
-                out[i] = shapely.constrained_delaunay_triangles(polygon)
-            except shapely.errors.GEOSException:
-                valid = shapely.get_parts(shapely.make_valid(polygon))
-                out[i] = shapely.GeometryCollection(list(shapely.get_parts(shapely.constrained_delaunay_triangles(
-                    valid[shapely.get_type_id(valid) == 3]))))
-        return out
-
-
-def _affine_fit(xy: np.ndarray, values: np.ndarray, owner: np.ndarray, n: int) -> np.ndarray:
-    """Per group ``owner``: least-squares a, b, c with value ≈ a·x + b·y + c, shape (n, values, 3)."""
-    count = np.maximum(np.bincount(owner, minlength=n), 1)
-    mean = np.column_stack([np.bincount(owner, xy[:, k], minlength=n) for k in (0, 1)]) / count[:, None]
-    d = xy - mean[owner]
-    sums = {(i, j): np.bincount(owner, d[:, i] * d[:, j], minlength=n) for i, j in ((0, 0), (0, 1), (1, 1))}
-    normal = np.zeros((n, 2, 2))
-    normal[:, 0, 0], normal[:, 0, 1], normal[:, 1, 0], normal[:, 1, 1] = (
-        sums[0, 0], sums[0, 1], sums[0, 1], sums[1, 1])
-    inverse = np.linalg.pinv(normal)
-    coef = np.zeros((n, values.shape[1], 3))
-    for v in range(values.shape[1]):
-        vmean = np.bincount(owner, values[:, v], minlength=n) / count
-        dv = values[:, v] - vmean[owner]
-        rhs = np.column_stack([np.bincount(owner, d[:, k] * dv, minlength=n) for k in (0, 1)])
-        ab = np.einsum("nij,nj->ni", inverse, rhs)
-        coef[:, v, :2] = ab
-        coef[:, v, 2] = vmean - (ab * mean).sum(axis=1)
-    return coef
-
-
 def _wall_mesh(polygons: np.ndarray, building: np.ndarray) -> _Mesh:
     """Walls fanned from their first vertex (convex quads in LoD1)."""
-    xyz, face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True, return_index=True)
-    counts = np.bincount(face, minlength=len(polygons)) - 1  # without the closing point
-    first = np.concatenate([[0], np.cumsum(counts + 1)[:-1]])
-    fans = np.maximum(counts - 2, 0)
-    owner = np.repeat(np.arange(len(polygons)), fans)
-    step = np.arange(len(owner)) - np.repeat(np.cumsum(fans) - fans, fans) + 1
-    index = np.stack([first[owner], first[owner] + step, first[owner] + step + 1], axis=1)
+    xyz, owner = fan_triangles(polygons)
     t = len(owner)
-    return _Mesh(xyz[index], np.full(t, _WALL, np.int8), building[owner].astype(np.int32),
+    return _Mesh(xyz, np.full(t, _WALL, np.int8), building[owner].astype(np.int32),
                  np.zeros((t, 3, 2), np.float32), np.full(t, -1, np.int32))
 
 
 def _read_tin(path: str, table: _TexTable | None) -> _Mesh:
     fields = (model.TIN_TRIANGLE_ID, model.TIN_SURFACE)
     with _open_layer(path, model.TIN_LAYER, "TIN (wit:triangulateterrain)", fields) as layer:
-        cols = _read_columns(layer, fields, _triangle_vertices)
+        cols = _read_columns(layer, fields, triangle_vertices)
     ok = np.flatnonzero(np.isfinite(cols[None]).all(axis=(1, 2)))
     xyz = cols[None][ok]
     surface = cols[model.TIN_SURFACE][ok]
@@ -358,14 +310,6 @@ def _read_tin(path: str, table: _TexTable | None) -> _Mesh:
         uv[hit] = table.uv[table.starts[rows[hit]][:, None] + np.arange(3)]
         image[hit] = table.image[rows[hit]]
     return _Mesh(xyz, kind, np.full(len(ok), -1, np.int32), uv, image)
-
-
-def _triangle_vertices(geoms: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) vertices of triangle polygons; NaN for anything else."""
-    xyz = np.full((len(geoms), 3, 3), np.nan)
-    ok = ~shapely.is_missing(geoms) & (shapely.get_num_coordinates(geoms) == 4)
-    xyz[ok] = shapely.get_coordinates(geoms[ok], include_z=True).reshape(-1, 4, 3)[:, :3]
-    return xyz
 
 
 # --- camera and rasteriser ----------------------------------------------------------------------

@@ -1,0 +1,121 @@
+"""The chain's results into the QGIS project when a run from the GUI finishes: one layer group with
+the LoD1 buildings (a 3D renderer extruding the footprints by their height), the terrain TIN (3D
+polygons at their heights) and, on QGIS ≥ 3.34, the 3D Tiles tileset as a tiled-scene layer — so the
+3D map view shows the city without leaving QGIS.
+
+Processing loads the layers queued with ``context.addLayerToLoadOnCompletion`` after the algorithm
+(Processing's own post-processing, in the GUI only); a post-processor per layer then moves it into
+the group and sets its 3D renderer, after Processing has applied its default style.
+"""
+from __future__ import annotations
+
+from qgis.core import (
+    Qgis,
+    QgsMapLayer,
+    QgsProcessingContext,
+    QgsProcessingLayerPostProcessorInterface,
+    QgsProperty,
+    QgsVectorLayer,
+)
+from qgis.PyQt.QtGui import QColor
+
+from ..wit_plugin import model
+from .base import tr, translatable
+
+GROUP_NAME = translatable("WIT city model")
+BUILDING_RGB, TERRAIN_RGB = (222, 213, 196), (128, 146, 108)
+TILED_SCENE_VERSION = 33400  # QgsTiledSceneLayer ("cesiumtiles") since QGIS 3.34
+
+_processors: list = []  # post-processors must outlive the run that queued them
+
+
+class _IntoGroup(QgsProcessingLayerPostProcessorInterface):
+    """Moves the loaded layer into the results group (created on top if missing), then styles it."""
+
+    def __init__(self, group_name: str, style=None):
+        super().__init__()
+        self.group_name, self.style = group_name, style
+
+    def postProcessLayer(self, layer, context, feedback):  # noqa: N802 - QGIS API
+        project = context.project()
+        root = project.layerTreeRoot()
+        group = root.findGroup(self.group_name) or root.insertGroup(0, self.group_name)
+        node = root.findLayer(layer.id())
+        if node is not None and node.parent() is not group:
+            parent = node.parent()
+            group.addLayer(layer)
+            parent.removeChildNode(node)
+        if self.style is not None:
+            self.style(layer)
+
+
+def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: str | None = None,
+                 tileset: str | None = None, group_name: str | None = None) -> list[str]:
+    """Queue the results for loading into ``context.project()`` at the end of the run; returns the layer names.
+
+    ``lod1``, ``tin``: GeoPackage paths (the chain's work files or kept outputs); ``tileset``: path of a
+    ``tileset.json`` (loaded on QGIS ≥ 3.34 only). Call it from ``execute`` of the algorithm that made them.
+    """
+    group_name = group_name or tr(GROUP_NAME)
+    layers: list[tuple[QgsMapLayer, object]] = []
+    if lod1:
+        buildings = QgsVectorLayer(f"{lod1}|layername={model.LOD1_LAYER}", tr("LoD1 buildings"), "ogr")
+        buildings.setSubsetString(f"\"{model.FACE_TYPE}\" = 'ground'")  # footprints, extruded by their height
+        layers.append((buildings, _building_renderer))
+    if tin:
+        layers.append((QgsVectorLayer(f"{tin}|layername={model.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"), _terrain_renderer))
+    if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
+        from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
+
+        layers.append((QgsTiledSceneLayer(tileset, tr("3D Tiles"), "cesiumtiles"), None))
+    names = []
+    for layer, style in layers:
+        if not layer.isValid():
+            continue
+        context.temporaryLayerStore().addMapLayer(layer)
+        details = QgsProcessingContext.LayerDetails(layer.name(), context.project(), layer.name())
+        processor = _IntoGroup(group_name, style)
+        _processors.append(processor)
+        details.setPostProcessor(processor)
+        context.addLayerToLoadOnCompletion(layer.id(), details)
+        names.append(layer.name())
+    return names
+
+
+def _polygon_symbol(rgb: tuple[int, int, int], extrusion_field: str | None = None):
+    """A 3D polygon symbol at the features' own heights (absolute), optionally extruded by a field."""
+    from qgis._3d import QgsPhongMaterialSettings, QgsPolygon3DSymbol
+    from qgis.core import QgsAbstract3DSymbol
+
+    symbol = QgsPolygon3DSymbol()
+    if hasattr(Qgis, "AltitudeClamping"):  # QGIS ≥ 3.26
+        symbol.setAltitudeClamping(Qgis.AltitudeClamping.Absolute)
+    else:
+        from qgis._3d import Qgs3DTypes
+
+        symbol.setAltitudeClamping(Qgs3DTypes.AltClampAbsolute)
+    material = QgsPhongMaterialSettings()
+    material.setDiffuse(QColor(*rgb))
+    material.setAmbient(QColor(*rgb).darker(150))
+    symbol.setMaterial(material)
+    if extrusion_field:
+        properties = symbol.dataDefinedProperties()
+        properties.setProperty(QgsAbstract3DSymbol.PropertyExtrusionHeight, QgsProperty.fromField(extrusion_field))
+        symbol.setDataDefinedProperties(properties)
+    return symbol
+
+
+def _set_renderer(layer: QgsVectorLayer, symbol) -> None:
+    from qgis._3d import QgsVectorLayer3DRenderer
+
+    renderer = QgsVectorLayer3DRenderer()
+    renderer.setSymbol(symbol)
+    layer.setRenderer3D(renderer)
+
+
+def _building_renderer(layer: QgsVectorLayer) -> None:
+    _set_renderer(layer, _polygon_symbol(BUILDING_RGB, extrusion_field=model.HEIGHT))
+
+
+def _terrain_renderer(layer: QgsVectorLayer) -> None:
+    _set_renderer(layer, _polygon_symbol(TERRAIN_RGB))

@@ -1,0 +1,178 @@
+"""Coarse terrain for the upper tiles: a height grid and an image per tile, built bottom-up.
+
+Each tile of the quadtree gets a *patch*: heights at the (n + 1)² vertices of a regular grid over its
+square (row 0 on the north edge, NaN where the TIN does not reach) and an r × r RGB image of the
+same square. A leaf samples its patch from the TIN triangles meeting it: heights by barycentric
+interpolation, colours from the ground images at the mip level nearest the patch's texel size. A
+parent takes every other height of its four children and their images halved (2 × 2 averages), so
+the whole model is never read at once and no ground image is read more than once per leaf.
+
+The parent's vertical error is measured: the largest difference between its grid (bilinear between
+its vertices) and its children's grids at their vertices, plus the children's own error.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .store import TriangleRows
+from .textures import TextureSet
+
+NO_COLOUR = 128
+_CANDIDATES = 1 << 18  # grid points tested per chunk of triangles (bounds memory)
+
+
+@dataclass
+class Patch:
+    heights: np.ndarray  # (n + 1, n + 1) float64, NaN = no terrain
+    image: np.ndarray  # (r, r, 3) uint8
+    error: float  # vertical error of the heights against the TIN (m)
+
+
+def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols: int
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The triangle (index into ``xy`` (t, 3, 2), -1 if none) and barycentric weights at each point of
+    the grid x = x0 + j·step, y = y_top − i·step; flat arrays of rows × cols."""
+    found = np.full(rows * cols, -1, dtype=np.int64)
+    weights = np.zeros((rows * cols, 3))
+    if len(xy) == 0:
+        return found, weights
+    lo, hi = xy.min(axis=1), xy.max(axis=1)
+    c0 = np.clip(np.ceil((lo[:, 0] - x0) / step - 1e-9), 0, cols).astype(np.int64)
+    c1 = np.clip(np.floor((hi[:, 0] - x0) / step + 1e-9), -1, cols - 1).astype(np.int64)
+    r0 = np.clip(np.ceil((y_top - hi[:, 1]) / step - 1e-9), 0, rows).astype(np.int64)
+    r1 = np.clip(np.floor((y_top - lo[:, 1]) / step + 1e-9), -1, rows - 1).astype(np.int64)
+    ncol, nrow = np.maximum(c1 - c0 + 1, 0), np.maximum(r1 - r0 + 1, 0)
+    count = ncol * nrow
+    ends = np.cumsum(count)
+    start = 0
+    while start < len(xy):
+        stop = int(np.searchsorted(ends, (ends[start - 1] if start else 0) + _CANDIDATES, side="right"))
+        stop = max(stop, start + 1)
+        chunk = np.arange(start, stop)
+        tri = np.repeat(chunk, count[chunk])
+        k = np.arange(len(tri)) - np.repeat(np.cumsum(count[chunk]) - count[chunk], count[chunk])
+        col = c0[tri] + k % np.maximum(ncol[tri], 1)
+        row = r0[tri] + k // np.maximum(ncol[tri], 1)
+        px, py = x0 + col * step, y_top - row * step
+        a, b, c = xy[tri, 0], xy[tri, 1], xy[tri, 2]
+        det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+        safe = np.where(det == 0, 1.0, det)
+        w1 = ((px - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (py - a[:, 1])) / safe
+        w2 = ((b[:, 0] - a[:, 0]) * (py - a[:, 1]) - (px - a[:, 0]) * (b[:, 1] - a[:, 1])) / safe
+        w0 = 1.0 - w1 - w2
+        inside = (det != 0) & (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
+        cell = row[inside] * cols + col[inside]
+        found[cell] = tri[inside]
+        weights[cell] = np.column_stack([w0, w1, w2])[inside]
+        start = stop
+    return found, weights
+
+
+def leaf_patch(triangles: TriangleRows, rect: tuple[float, float, float, float], cells: int, size: int,
+               textures: TextureSet | None) -> Patch:
+    """Sample a leaf's patch from the TIN triangles meeting its square ``rect``."""
+    xmin, _, xmax, ymax = rect
+    side = xmax - xmin
+    xy = triangles.xyz[:, :, :2]
+    tri, w = locate(xy, xmin, ymax, side / cells, cells + 1, cells + 1)
+    heights = np.full((cells + 1) ** 2, np.nan)
+    hit = tri >= 0
+    heights[hit] = (triangles.xyz[tri[hit], :, 2] * w[hit]).sum(axis=1)
+    step = side / size
+    tri, w = locate(xy, xmin + step / 2, ymax - step / 2, step, size, size)
+    return Patch(heights.reshape(cells + 1, cells + 1), _colours(triangles, tri, w, step, size, textures), 0.0)
+
+
+def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: float, size: int,
+             textures: TextureSet | None) -> np.ndarray:
+    """Texel colours from the ground images at the mip level nearest ``step``; the mean elsewhere."""
+    rgb = np.full((size * size, 3), NO_COLOUR, dtype=np.uint8)
+    image = np.where(tri >= 0, triangles.image[np.maximum(tri, 0)], -1)
+    if textures is None:
+        return rgb.reshape(size, size, 3)
+    for number in np.unique(image[image >= 0]).tolist():
+        texels = np.flatnonzero(image == number)
+        corners = tri[texels]
+        uv = (triangles.uv[corners] * w[texels, :, None]).sum(axis=1)
+        chain = textures.levels(number)
+        level = min(_mip_level(triangles, number, chain[0].shape, step), len(chain) - 1)
+        pixels = chain[level]
+        h, wd = pixels.shape[:2]
+        col = np.clip((uv[:, 0] * wd).astype(np.int64), 0, wd - 1)
+        row = np.clip(((1.0 - uv[:, 1]) * h).astype(np.int64), 0, h - 1)  # texture-table v grows upwards
+        rgb[texels] = pixels[row, col]
+    coloured = image >= 0
+    if coloured.any():
+        rgb[~coloured] = rgb[coloured].mean(axis=0).astype(np.uint8)
+    return rgb.reshape(size, size, 3)
+
+
+def _mip_level(triangles: TriangleRows, number: int, shape: tuple[int, ...], step: float) -> int:
+    """Mip level whose texels are nearest ``step`` metres for image ``number`` (median over its triangles)."""
+    mine = triangles.image == number
+    xy, uv = triangles.xyz[mine, :, :2], triangles.uv[mine].astype(np.float64) * [shape[1], shape[0]]
+    ground = np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
+    texels = np.abs(np.cross(uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]))
+    ok = texels > 0
+    if not ok.any():
+        return 0
+    texel = float(np.median(np.sqrt(ground[ok] / texels[ok])))
+    return max(0, int(np.floor(np.log2(step / texel + 1e-9)))) if texel > 0 else 0
+
+
+def parent_patch(children: dict[tuple[int, int], Patch], cells: int, size: int) -> Patch:
+    """Join four children's patches (key (dx, dy), dy = 1 the northern half) into their parent's."""
+    half, half_size = cells // 2, size // 2
+    heights = np.full((cells + 1, cells + 1), np.nan)
+    image = np.full((size, size, 3), NO_COLOUR, dtype=np.uint8)
+    for (dx, dy), child in children.items():
+        r, c = (0 if dy else half), dx * half
+        block = heights[r:r + half + 1, c:c + half + 1]
+        np.copyto(block, child.heights[::2, ::2], where=np.isnan(block))
+        r, c = (0 if dy else half_size), dx * half_size
+        pixels = child.image
+        if len(pixels) != half_size:  # an upper tile's image; leaves sample theirs at half size directly
+            pixels = pixels.astype(np.uint16)
+            pixels = ((pixels[0::2, 0::2] + pixels[1::2, 0::2] + pixels[0::2, 1::2] + pixels[1::2, 1::2] + 2) // 4)
+        image[r:r + half_size, c:c + half_size] = pixels
+    error = 0.0
+    for (dx, dy), child in children.items():
+        r, c = (0 if dy else half), dx * half
+        coarse = _bilinear_double(heights[r:r + half + 1, c:c + half + 1])
+        deviation = np.abs(coarse - child.heights)
+        if np.isfinite(deviation).any():
+            error = max(error, float(np.nanmax(deviation)) + child.error)
+        else:
+            error = max(error, child.error)
+    return Patch(heights, image, error)
+
+
+def _bilinear_double(grid: np.ndarray) -> np.ndarray:
+    """A (k + 1)² grid interpolated to (2k + 1)²: the points between vertices take their neighbours' mean."""
+    k = grid.shape[0] - 1
+    out = np.full((2 * k + 1, 2 * k + 1), np.nan)
+    out[::2, ::2] = grid
+    out[::2, 1::2] = (grid[:, :-1] + grid[:, 1:]) / 2
+    out[1::2, ::2] = (grid[:-1, :] + grid[1:, :]) / 2
+    out[1::2, 1::2] = (grid[:-1, :-1] + grid[1:, :-1] + grid[:-1, 1:] + grid[1:, 1:]) / 4
+    return out
+
+
+def grid_triangles(patch: Patch, rect: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The patch as triangles: model corners (t, 3, 3) and glTF uv (t, 3, 2) over its image; cells
+    with a corner outside the terrain are left out."""
+    n = patch.heights.shape[0] - 1
+    xmin, _, xmax, ymax = rect
+    step = (xmax - xmin) / n
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+    points = np.stack([xmin + j * step, ymax - i * step, patch.heights], axis=-1)
+    uv = np.stack([j / n, i / n], axis=-1)
+    corner = {(a, b): (slice(a, n + a), slice(b, n + b)) for a in (0, 1) for b in (0, 1)}
+    nw, ne, sw, se = (corner[0, 0], corner[0, 1], corner[1, 0], corner[1, 1])
+    valid = np.isfinite(patch.heights)
+    keep = (valid[nw] & valid[ne] & valid[sw] & valid[se]).ravel()
+    quads = [np.stack([points[a].reshape(-1, 3) for a in order], axis=1)[keep] for order in ((nw, sw, se), (nw, se, ne))]
+    quad_uv = [np.stack([uv[a].reshape(-1, 2) for a in order], axis=1)[keep] for order in ((nw, sw, se), (nw, se, ne))]
+    return np.concatenate(quads), np.concatenate(quad_uv)

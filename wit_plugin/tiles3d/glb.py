@@ -1,0 +1,168 @@
+"""One tile's content as a glTF 2.0 binary (.glb), through pygltflib.
+
+Primitives are indexed triangle lists (vertices shared within a primitive, float32 positions in the
+tile's local frame). Photo-textured surfaces (roofs, terrain, roads) use ``KHR_materials_unlit`` so
+they show the orthoimage's colours; walls are lit (flat normals) in a plain colour. Images are either
+external files of the tileset, referenced by a relative URI and so shared by every tile that uses
+them, or embedded (the coarse terrain's own image).
+
+Building metadata follows the 3D Tiles 1.1 glTF extensions: each building primitive has a
+``_FEATURE_ID_0`` vertex attribute (``EXT_mesh_features``) indexing the rows of one property table
+(``EXT_structural_metadata``, class ``building``); a NULL is the property's ``noData`` value.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pygltflib as gl
+
+UNLIT = "KHR_materials_unlit"
+MESH_FEATURES = "EXT_mesh_features"
+METADATA = "EXT_structural_metadata"
+ALIGN = 8  # EXT_structural_metadata wants 8-byte aligned buffer views
+LINEAR, LINEAR_MIPMAP_LINEAR, CLAMP = 9729, 9987, 33071
+_COMPONENT = {np.dtype(np.float32): gl.FLOAT, np.dtype(np.uint32): gl.UNSIGNED_INT,
+              np.dtype(np.uint16): gl.UNSIGNED_SHORT}  # the last two for indices only
+_TYPE = {1: gl.SCALAR, 2: gl.VEC2, 3: gl.VEC3}
+_PROPERTY_DTYPE = {"INT32": np.int32, "INT64": np.int64, "FLOAT64": np.float64}
+
+
+class GlbBuilder:
+    """Accumulates primitives, materials, images and a property table; ``to_bytes`` gives the .glb."""
+
+    def __init__(self) -> None:
+        self.gltf = gl.GLTF2(asset=gl.Asset(version="2.0", generator="WIT City Model"))
+        self.blob = bytearray()
+        self.primitives: list[gl.Primitive] = []
+        self._textures: dict[str, int] = {}
+        self._extensions: set[str] = set()
+
+    # --- buffers -----------------------------------------------------------------------------
+
+    def _view(self, data: bytes, target: int | None = None) -> int:
+        self.blob.extend(b"\0" * (-len(self.blob) % ALIGN))
+        self.gltf.bufferViews.append(gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data),
+                                                   target=target))
+        self.blob.extend(data)
+        return len(self.gltf.bufferViews) - 1
+
+    def _accessor(self, array: np.ndarray, target: int, bounds: bool = False) -> int:
+        array = np.ascontiguousarray(array)
+        width = 1 if array.ndim == 1 else array.shape[1]
+        accessor = gl.Accessor(bufferView=self._view(array.tobytes(), target), componentType=_COMPONENT[array.dtype],
+                               count=len(array), type=_TYPE[width])
+        if bounds:
+            flat = array.reshape(len(array), width)
+            accessor.min, accessor.max = flat.min(axis=0).tolist(), flat.max(axis=0).tolist()
+        self.gltf.accessors.append(accessor)
+        return len(self.gltf.accessors) - 1
+
+    # --- materials ---------------------------------------------------------------------------
+
+    def _texture(self, key: str, uri: str | None = None, data: bytes | None = None, mime: str = "image/jpeg") -> int:
+        if key not in self._textures:
+            if not self.gltf.samplers:
+                self.gltf.samplers.append(gl.Sampler(magFilter=LINEAR, minFilter=LINEAR_MIPMAP_LINEAR,
+                                                     wrapS=CLAMP, wrapT=CLAMP))
+            image = gl.Image(uri=uri) if uri else gl.Image(bufferView=self._view(data), mimeType=mime)
+            self.gltf.images.append(image)
+            self.gltf.textures.append(gl.Texture(sampler=0, source=len(self.gltf.images) - 1))
+            self._textures[key] = len(self.gltf.textures) - 1
+        return self._textures[key]
+
+    def photo_material(self, uri: str | None = None, data: bytes | None = None, name: str = "") -> int:
+        """Unlit material showing an image (an external ``uri`` or embedded JPEG ``data``)."""
+        texture = self._texture(uri or f"embedded:{name}", uri, data)
+        pbr = gl.PbrMetallicRoughness(baseColorTexture=gl.TextureInfo(index=texture), metallicFactor=0.0,
+                                      roughnessFactor=1.0)
+        return self._material(gl.Material(name=name, pbrMetallicRoughness=pbr, extensions={UNLIT: {}}))
+
+    def plain_material(self, rgb: tuple[int, int, int], lit: bool, name: str = "") -> int:
+        pbr = gl.PbrMetallicRoughness(baseColorFactor=[c / 255 for c in rgb] + [1.0], metallicFactor=0.0,
+                                      roughnessFactor=1.0)
+        return self._material(gl.Material(name=name, pbrMetallicRoughness=pbr, doubleSided=lit,
+                                          extensions={} if lit else {UNLIT: {}}))
+
+    def _material(self, material: gl.Material) -> int:
+        self._extensions.update(material.extensions)
+        self.gltf.materials.append(material)
+        return len(self.gltf.materials) - 1
+
+    # --- geometry ----------------------------------------------------------------------------
+
+    def triangles(self, corners: np.ndarray, material: int, uv: np.ndarray | None = None,
+                  feature: np.ndarray | None = None, normals: bool = False) -> None:
+        """Add triangles (t, 3, 3 local glTF coordinates, float64) as one indexed primitive.
+
+        ``uv`` (t, 3, 2) in glTF's convention (v down from the image's top), ``feature`` (t,) the
+        property-table row of each triangle, ``normals`` flat normals per triangle.
+        """
+        if len(corners) == 0:
+            return
+        t = len(corners)
+        columns = [corners.reshape(-1, 3).astype(np.float32)]
+        if normals:
+            n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+            length = np.linalg.norm(n, axis=1, keepdims=True)
+            n = np.where(length > 0, n / np.where(length > 0, length, 1), [0.0, 1.0, 0.0])
+            columns.append(np.repeat(n, 3, axis=0).astype(np.float32))
+        if uv is not None:
+            columns.append(uv.reshape(-1, 2).astype(np.float32))
+        if feature is not None:
+            columns.append(np.repeat(feature, 3).astype(np.float32)[:, None])
+        rows = np.concatenate(columns, axis=1)
+        unique, index = np.unique(rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel(),
+                                  return_index=True, return_inverse=True)[1:]
+        vertices = rows[unique]
+        attributes = gl.Attributes(POSITION=self._accessor(vertices[:, :3], gl.ARRAY_BUFFER, bounds=True))
+        column = 3
+        if normals:
+            attributes.NORMAL = self._accessor(vertices[:, 3:6], gl.ARRAY_BUFFER)
+            column = 6
+        if uv is not None:
+            attributes.TEXCOORD_0 = self._accessor(vertices[:, column:column + 2], gl.ARRAY_BUFFER)
+            column += 2
+        primitive = gl.Primitive(attributes=attributes, material=material, mode=gl.TRIANGLES,
+                                 indices=self._accessor(index.astype(np.uint16 if len(vertices) < 65536 else np.uint32)
+                                                        .reshape(t * 3), gl.ELEMENT_ARRAY_BUFFER))
+        if feature is not None:
+            # float: a 1- or 2-byte vertex attribute would need padding to 4 bytes per vertex anyway
+            attributes._FEATURE_ID_0 = self._accessor(vertices[:, column], gl.ARRAY_BUFFER)
+            primitive.extensions = {MESH_FEATURES: {"featureIds": [
+                {"featureCount": int(feature.max()) + 1, "attribute": 0, "propertyTable": 0}]}}
+            self._extensions.add(MESH_FEATURES)
+        self.primitives.append(primitive)
+
+    # --- metadata ----------------------------------------------------------------------------
+
+    def property_table(self, schema: dict, class_name: str, columns: dict[str, list]) -> None:
+        """The property table of ``class_name`` (rows = feature ids) with the ``columns`` given."""
+        properties = schema["classes"][class_name]["properties"]
+        count = len(next(iter(columns.values()))) if columns else 0
+        table: dict = {"class": class_name, "count": count, "properties": {}}
+        for name, values in columns.items():
+            spec = properties[name]
+            if all(v is None or v == "" for v in values):
+                continue  # a property left out of a table is no data for every row (and no empty buffer view)
+            if spec["type"] == "STRING":
+                encoded = [(v if v is not None else "").encode("utf-8") for v in values]
+                offsets = np.concatenate([[0], np.cumsum([len(e) for e in encoded])]).astype(np.uint32)
+                table["properties"][name] = {"values": self._view(b"".join(encoded)),
+                                             "stringOffsets": self._view(offsets.tobytes()),
+                                             "stringOffsetType": "UINT32"}
+            else:
+                fill = spec["noData"]
+                array = np.array([fill if v is None else v for v in values], dtype=_PROPERTY_DTYPE[spec["componentType"]])
+                table["properties"][name] = {"values": self._view(array.tobytes())}
+        self.gltf.extensions[METADATA] = {"schema": schema, "propertyTables": [table]}
+        self._extensions.add(METADATA)
+
+    def to_bytes(self) -> bytes:
+        self.gltf.meshes = [gl.Mesh(primitives=self.primitives)]
+        self.gltf.nodes = [gl.Node(mesh=0)]
+        self.gltf.scenes = [gl.Scene(nodes=[0])]
+        self.gltf.scene = 0
+        self.gltf.extensionsUsed = sorted(self._extensions)
+        self.blob.extend(b"\0" * (-len(self.blob) % 4))
+        self.gltf.buffers = [gl.Buffer(byteLength=len(self.blob))]
+        self.gltf.set_binary_blob(bytes(self.blob))
+        return b"".join(self.gltf.save_to_bytes())

@@ -1,0 +1,78 @@
+"""The metadata schema of the tileset's buildings (3D Tiles 1.1 / ``EXT_structural_metadata``).
+
+One class, ``building``, with a property per field of the LoD1 layer except the per-face ones
+(``face``, ``face_no``): the chain's own (``wit_id``, ``height``, ``height_src``, storeys, ``base_z``)
+and every source attribute kept by wit:extrudebuildings (e.g. ``BULD_NM``, the building's name, in
+Korean). OGR strings → STRING (UTF-8), integers → INT32 / INT64, reals → FLOAT64, anything else → its
+text. A NULL is stored as the property's ``noData`` value (the empty string for text).
+"""
+from __future__ import annotations
+
+import re
+
+from osgeo import ogr
+
+from .. import model
+
+BUILDING_CLASS = "building"
+SCHEMA_ID = "wit_citymodel"
+INT32_NO_DATA = -(2 ** 31)
+INT64_NO_DATA = -(2 ** 63)
+FLOAT_NO_DATA = -3.4028234663852886e38
+
+#: descriptions of the fields a user looks for first (the others keep their source name only)
+DESCRIPTIONS = {
+    model.WIT_ID: "Stable building id (the CityGML gml:id)",
+    model.HEIGHT: "Building height (m)",
+    model.HEIGHT_SOURCE: "Where the height comes from: floors, field, expression or default",
+    model.STOREYS_ABOVE: "Storeys above ground",
+    model.STOREYS_BELOW: "Storeys below ground",
+    model.BASE_Z: "Ground height at the footprint (m)",
+    "BULD_NM": "Building name",
+    "BD_MGT_SN": "Building management number",
+}
+
+
+def property_id(name: str) -> str:
+    """A field name as a metadata property id (letters, digits, underscore; not starting with a digit)."""
+    clean = re.sub(r"\W", "_", name, flags=re.ASCII)
+    return clean if re.match(r"[A-Za-z_]", clean) else f"_{clean}"
+
+
+def building_schema(fields: list[tuple[str, int]]) -> dict:
+    """The schema for the LoD1 layer's building-level ``fields`` ((name, OGR type) in layer order)."""
+    properties: dict[str, dict] = {}
+    for name, kind in fields:
+        spec: dict = {"name": name}
+        if kind == ogr.OFTInteger:
+            spec.update(type="SCALAR", componentType="INT32", noData=INT32_NO_DATA)
+        elif kind == ogr.OFTInteger64:
+            spec.update(type="SCALAR", componentType="INT64", noData=INT64_NO_DATA)
+        elif kind == ogr.OFTReal:
+            spec.update(type="SCALAR", componentType="FLOAT64", noData=FLOAT_NO_DATA)
+        else:
+            spec.update(type="STRING", noData="")
+        if name in DESCRIPTIONS:
+            spec["description"] = DESCRIPTIONS[name]
+        key = property_id(name)
+        while key in properties:  # two names that differ in characters an id cannot hold
+            key += "_"
+        properties[key] = spec
+    if property_id(model.WIT_ID) not in properties:  # the id is there whatever the layer holds
+        properties[property_id(model.WIT_ID)] = {"name": model.WIT_ID, "type": "STRING", "noData": "",
+                                                 "description": DESCRIPTIONS[model.WIT_ID]}
+    return {"id": SCHEMA_ID, "classes": {BUILDING_CLASS: {"name": "Building", "properties": properties}}}
+
+
+def property_columns(schema: dict, ids: list[str], attributes: list[list]) -> dict[str, list]:
+    """Columns of the property table: one list per property, one value per building (row = feature id)."""
+    properties = schema["classes"][BUILDING_CLASS]["properties"]
+    columns: dict[str, list] = {}
+    for position, (key, spec) in enumerate(properties.items()):
+        if spec["name"] == model.WIT_ID:
+            columns[key] = list(ids)
+        elif spec["type"] == "STRING":
+            columns[key] = [None if row[position] is None else str(row[position]) for row in attributes]
+        else:
+            columns[key] = [row[position] for row in attributes]
+    return columns

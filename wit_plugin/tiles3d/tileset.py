@@ -1,0 +1,383 @@
+"""``export_tileset``: the chain's LoD1 buildings, TIN and textures as a 3D Tiles 1.1 tileset.
+
+Tiles form a quadtree over the model's extent (model CRS), with square leaves of ``leaf_size``:
+
+* **Leaves** (geometric error 0) hold the full detail: every building whose footprint centre lies in
+  the leaf (roofs with the texture step's atlases, walls plain and lit) and every TIN triangle whose
+  centroid lies in it (terrain and roads with the ground images). Images are the texture folder's,
+  copied once into ``textures/`` and referenced by every tile that uses them.
+* **Upper tiles** (``refine: REPLACE``) hold a coarse version of their square: the terrain as a
+  regular grid of ``grid_cells``² cells with one image of ``image_size``² texels (see ``coarse``),
+  and the buildings at least as large as a grid cell (footprint diagonal or height), the largest
+  first up to ``building_budget``, their roofs on the atlases' mip level *k* for a tile *k* levels
+  above the leaves. The geometric error of such a tile is what it leaves out, measured: the
+  largest of its grid spacing, its terrain's vertical error and the size of the largest building
+  it drops — and never less than a child's.
+
+Each tile has its own east-north-up frame (``geo``); its ``transform`` is relative to its parent's.
+Bounding volumes are regions computed from the vertices, so each holds its content and children.
+Building metadata: ``EXT_mesh_features`` + ``EXT_structural_metadata`` (class ``building``: every
+LoD1 field but the per-face ones; see ``metadata``).
+
+Memory: the inputs are staged into an indexed SQLite file (``store``), then tiles are written
+depth-first, one at a time; only the patches of the pending parents stay in memory. The tileset is
+written into a temporary folder and moved onto ``output`` at the end: a failed or cancelled run
+leaves nothing.
+"""
+from __future__ import annotations
+
+import bisect
+import json
+import os
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import shapely
+from osgeo import osr
+
+from .. import model
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..fileio import atomic_files, refuse_overlap
+from ..meshes import fan_triangles, planar_triangles
+from ..vector_io import open_step_layer
+from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
+from .geo import Georeference, union_region
+from .glb import GlbBuilder
+from .metadata import BUILDING_CLASS, building_schema, property_columns
+from .store import FACE_KINDS, Grid, Store
+from .textures import TextureSet, encode_image
+
+TILESET_FILE = "tileset.json"
+TILE_DIR = "tiles"
+WALL_RGB = (222, 213, 196)
+ROOF_RGB = (176, 120, 100)
+GROUND_RGB = (150, 150, 140)
+_MAX_MIP = 4
+
+
+@dataclass(frozen=True)
+class TilesetConfig:
+    leaf_size: float = 256.0
+    """Side of a leaf tile (m)."""
+    grid_cells: int = 64
+    """Cells a side of an upper tile's terrain grid (even)."""
+    image_size: int = 512
+    """Texels a side of an upper tile's terrain image (even)."""
+    building_budget: int = 3000
+    """Most buildings in an upper tile."""
+    jpeg_quality: int = 85
+
+
+@dataclass
+class TilesetReport:
+    output: str
+    tileset: str
+    tiles: int = 0
+    leaves: int = 0
+    levels: int = 0
+    buildings: int = 0
+    tin_triangles: int = 0
+    triangles_written: int = 0
+    """Triangles in all tiles (full detail and coarse)."""
+    images: int = 0
+    """Image files in textures/ (levels 0 and mips)."""
+    bytes_written: int = 0
+    geometric_error: float = 0.0
+    """The root tile's."""
+    orphan_faces: int = 0
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class _Tile:
+    json: dict
+    frame: np.ndarray
+    region: list[float]
+    error: float
+    patch: Patch | None
+
+
+def export_tileset(lod1: str | None, tin: str | None, textures: str | None, output: str, crs: str = "EPSG:5186",
+                   feedback: Feedback = SILENT, config: TilesetConfig = TilesetConfig()) -> TilesetReport:
+    """Write the 3D Tiles 1.1 tileset of the chain's outputs into the folder ``output``.
+
+    ``lod1`` (wit:extrudebuildings), ``tin`` (wit:triangulateterrain) and ``textures`` (wit:wittexture's
+    folder) may each be None, but not both layers. Returns what was written; raises ``InputError``
+    for unusable inputs and ``CanceledError`` on cancel (then nothing is written).
+    """
+    if not (lod1 or tin):
+        raise InputError("Give the LoD1 buildings, the TIN, or both.")
+    if config.grid_cells < 2 or config.grid_cells % 2 or config.image_size < 2 or config.image_size % 2 \
+            or config.leaf_size <= 0 or config.building_budget < 1:
+        raise InputError(f"Tileset settings out of range: {config}.")
+    out = _check_output(Path(output), [p for p in (lod1, tin, textures) if p])
+    georef = Georeference(crs)
+    for path, layer in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
+        if path:
+            _check_crs(path, layer, georef)
+    report = TilesetReport(output=str(out), tileset=str(out / TILESET_FILE))
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix=".wit-stage-", dir=out.parent) as stage_dir, \
+            atomic_files([out]) as tmp_dir:
+        store = Store(Path(stage_dir) / "stage.sqlite")
+        try:
+            grid = Grid.covering(_extent(lod1, tin), config.leaf_size)
+            if textures:
+                store.add_textures(textures, feedback)
+            feedback.progress(5.0)
+            if lod1:
+                report.buildings = store.add_buildings(lod1, grid, feedback)
+            feedback.progress(15.0)
+            if tin:
+                report.tin_triangles = store.add_triangles(tin, grid, feedback)
+            store.db.commit()
+            report.orphan_faces = store.orphan_faces
+            if report.orphan_faces:
+                feedback.warning(f"{report.orphan_faces} roof/wall face(s) belong to no building with a ground "
+                                 "face: left out of the tileset.")
+            report.seconds["stage"] = round(time.perf_counter() - start, 3)
+            feedback.progress(30.0)
+            folder = tmp_dir / out.name
+            folder.mkdir()
+            writer = _Writer(store, grid, georef, folder, config, report, feedback,
+                             TextureSet(Path(textures) if textures else None, store.images, folder,
+                                        config.jpeg_quality))
+            root = writer.tile(0, 0, 0)
+            if root is None:
+                raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
+            root.json["transform"] = _column_major(root.frame)
+            report.geometric_error = root.error
+            side = grid.size * (1 << grid.depth)
+            document = {"asset": {"version": "1.1", "generator": "WIT City Model (wit:export3dtiles)"},
+                        "geometricError": max(2.0 * root.error, side / 4),
+                        "root": root.json}
+            (folder / TILESET_FILE).write_text(json.dumps(document, ensure_ascii=False), encoding="utf-8")
+            report.levels = grid.depth + 1
+            report.images = len(writer.textures.written)
+            report.bytes_written = folder_size(folder)
+        finally:
+            store.close()
+    report.seconds["total"] = round(time.perf_counter() - start, 3)
+    feedback.progress(100.0)
+    feedback.info(f"3D Tiles: {report.tiles} tiles ({report.leaves} leaves, {report.levels} levels), "
+                  f"{report.buildings} buildings, {report.tin_triangles} TIN triangles, {report.images} images, "
+                  f"{report.bytes_written / 1e6:.1f} MB in {out}")
+    return report
+
+
+def _check_output(out: Path, inputs: list[str]) -> Path:
+    """Refuse an output folder that holds an input, or that is not empty and not a tileset."""
+    out = out.resolve()
+    refuse_overlap([(out, True)], inputs)
+    if out.is_dir() and any(out.iterdir()) and not (out / TILESET_FILE).is_file():
+        raise InputError(f"The output folder {out} is not empty and holds no {TILESET_FILE}: "
+                         "choose an empty or new folder (a tileset folder is replaced whole).")
+    if out.exists() and not out.is_dir():
+        raise InputError(f"The output {out} is a file: give a folder.")
+    return out
+
+
+def _check_crs(path: str, layer_name: str, georef: Georeference) -> None:
+    ds, layer, _ = open_step_layer(path, layer_name, f"layer '{layer_name}'")
+    srs = layer.GetSpatialRef()
+    if srs is not None:
+        wanted = osr.SpatialReference()
+        wanted.ImportFromWkt(georef.crs.to_wkt())
+        if not srs.IsSame(wanted, ["IGNORE_DATA_AXIS_TO_SRS_AXIS_MAPPING=YES", "CRITERION=EQUIVALENT"]):
+            raise InputError(f"{path} is in {srs.GetAuthorityName(None) or '?'}:{srs.GetAuthorityCode(None) or '?'}, "
+                             f"not in the model CRS {georef.crs.to_string()}: give the CRS the chain used.")
+    del layer, ds
+
+
+def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, float]:
+    boxes = []
+    for path, name in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
+        if path:
+            ds, layer, _ = open_step_layer(path, name, f"layer '{name}'")
+            if layer.GetFeatureCount() > 0:
+                xmin, xmax, ymin, ymax = layer.GetExtent()
+                boxes.append((xmin, ymin, xmax, ymax))
+            del layer, ds
+    if not boxes:
+        raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
+    a = np.array(boxes)
+    return float(a[:, 0].min()), float(a[:, 1].min()), float(a[:, 2].max()), float(a[:, 3].max())
+
+
+def _column_major(matrix: np.ndarray) -> list[float]:
+    return [float(v) for v in matrix.T.ravel()]
+
+
+def _face_up(xyz: np.ndarray, *others: np.ndarray) -> None:
+    """Swap two corners of the triangles wound clockwise seen from above (in place), so they face up."""
+    d1, d2 = xyz[:, 1, :2] - xyz[:, 0, :2], xyz[:, 2, :2] - xyz[:, 0, :2]
+    down = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0] < 0
+    for array in (xyz, *others):
+        array[down, 1], array[down, 2] = array[down, 2].copy(), array[down, 1].copy()
+
+
+class _Writer:
+    """Writes tiles depth-first (children before their parent)."""
+
+    def __init__(self, store: Store, grid: Grid, georef: Georeference, folder: Path, config: TilesetConfig,
+                 report: TilesetReport, feedback: Feedback, textures: TextureSet):
+        self.store, self.grid, self.georef, self.folder = store, grid, georef, folder
+        self.config, self.report, self.feedback, self.textures = config, report, feedback, textures
+        self.occupied = sorted(store.leaves())
+        self.schema = building_schema(store.fields)
+        self.done = 0
+
+    def tile(self, level: int, col: int, row: int) -> _Tile | None:
+        first, end = self.grid.code_range(level, col, row)
+        if bisect.bisect_left(self.occupied, first) == bisect.bisect_left(self.occupied, end):
+            return None
+        self.feedback.check_canceled()
+        if level == self.grid.depth:
+            tile = self._leaf(level, col, row, first)
+            self.done += 1
+            self.report.leaves += 1
+            self.feedback.progress(30.0 + 70.0 * self.done / len(self.occupied))
+        else:
+            children = {(dx, dy): self.tile(level + 1, 2 * col + dx, 2 * row + dy) for dy in (1, 0) for dx in (0, 1)}
+            tile = self._upper(level, col, row, {k: c for k, c in children.items() if c is not None})
+        self.report.tiles += 1
+        return tile
+
+    # --- contents ----------------------------------------------------------------------------
+
+    def _leaf(self, level: int, col: int, row: int, code: int) -> _Tile:
+        rect = self.grid.rect(level, col, row)
+        triangles = self.store.triangles(code)
+        buildings = self.store.buildings(code, code + 1)
+        glb, corners = GlbBuilder(), []
+        heights = np.concatenate([triangles.xyz[triangles.leaf == code].reshape(-1, 3)[:, 2],
+                                  shapely.get_coordinates(buildings.polygons, include_z=True)[:, 2]])
+        frame = self._frame(rect, heights)
+        corners += self._buildings(glb, frame, buildings, mip=0)
+        own = np.flatnonzero(triangles.leaf == code)
+        xyz, uv, image = triangles.xyz[own].copy(), triangles.uv[own].astype(np.float64), triangles.image[own]
+        _face_up(xyz, uv)
+        uv[:, :, 1] = 1.0 - uv[:, :, 1]  # texture table: v up; glTF: v down
+        for number in np.unique(image).tolist():
+            mine = image == number
+            if number >= 0:
+                material = glb.photo_material(uri="../../" + self.textures.uri(number), name=self.store.images[number])
+                glb.triangles(self.georef.local(frame, xyz[mine].reshape(-1, 3)).reshape(-1, 3, 3), material, uv[mine])
+            else:
+                glb.triangles(self.georef.local(frame, xyz[mine].reshape(-1, 3)).reshape(-1, 3, 3),
+                              glb.plain_material(GROUND_RGB, lit=False, name="ground"))
+        corners.append(xyz.reshape(-1, 3))
+        patch = leaf_patch(triangles, rect, self.config.grid_cells, self.config.image_size // 2,
+                           self.textures if self.textures.folder else None)
+        return self._finish(level, col, row, glb, frame, corners, [], 0.0, patch)
+
+    def _upper(self, level: int, col: int, row: int, children: dict[tuple[int, int], _Tile]) -> _Tile:
+        rect = self.grid.rect(level, col, row)
+        first, end = self.grid.code_range(level, col, row)
+        patches = {key: child.patch for key, child in children.items() if child.patch is not None}
+        patch = parent_patch(patches, self.config.grid_cells, self.config.image_size)
+        for child in children.values():
+            child.patch = None  # the parent's patch holds what is needed from now on
+        cell = (rect[2] - rect[0]) / self.config.grid_cells
+        budget = self.config.building_budget
+        buildings = self.store.buildings(first, end, min_size=cell, limit=budget)
+        dropped = (self.store.largest_building(first, end, skip=budget) if len(buildings.ids) == budget
+                   else self.store.largest_building(first, end, below=cell))
+        glb, corners = GlbBuilder(), []
+        xyz, uv = grid_triangles(patch, rect)
+        frame = self._frame(rect, xyz[..., 2])
+        if len(xyz):
+            material = glb.photo_material(data=encode_image(patch.image, quality=self.config.jpeg_quality),
+                                          name="terrain")
+            glb.triangles(self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3), material, uv)
+            corners.append(xyz.reshape(-1, 3))
+        corners += self._buildings(glb, frame, buildings, mip=min(self.grid.depth - level, _MAX_MIP))
+        error = max(cell, patch.error, dropped, *(c.error for c in children.values()))
+        return self._finish(level, col, row, glb, frame, corners, list(children.values()), error, patch)
+
+    def _buildings(self, glb: GlbBuilder, frame: np.ndarray, rows, mip: int) -> list[np.ndarray]:
+        """Roofs (textured where the texture row fits) and walls of ``rows`` with their feature ids."""
+        if not rows.ids:
+            return []
+        corners = []
+        kind = rows.face_kind
+        roofs = np.flatnonzero(kind == FACE_KINDS["roof"])
+        if len(roofs):
+            polygons = rows.polygons[roofs]
+            ring_xyz, ring_face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True,
+                                                          return_index=True)
+            ring_counts = np.bincount(ring_face, minlength=len(roofs))
+            values = np.column_stack([ring_xyz[:, 2], np.zeros((len(ring_xyz), 2))])
+            textured = np.array([rows.roof_uv[i] is not None and len(rows.roof_uv[i]) == n
+                                 for i, n in zip(roofs.tolist(), ring_counts.tolist())], dtype=bool)
+            for k in np.flatnonzero(textured).tolist():
+                values[ring_face == k, 1:] = rows.roof_uv[roofs[k]]
+            xy, fitted, face = planar_triangles(polygons, values)
+            xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
+            uv = fitted[:, :, 1:].copy()
+            _face_up(xyz, uv)
+            uv[:, :, 1] = 1.0 - uv[:, :, 1]
+            image = np.where(textured[face], rows.roof_image[roofs][face], -1)
+            feature = rows.face_building[roofs][face]
+            for number in np.unique(image).tolist():
+                mine = image == number
+                local = self.georef.local(frame, xyz[mine].reshape(-1, 3)).reshape(-1, 3, 3)
+                if number >= 0:
+                    material = glb.photo_material(uri="../../" + self.textures.uri(number, mip),
+                                                  name=self.store.images[number])
+                    glb.triangles(local, material, uv[mine], feature=feature[mine])
+                else:
+                    glb.triangles(local, glb.plain_material(ROOF_RGB, lit=False, name="roof"), feature=feature[mine])
+            corners.append(xyz.reshape(-1, 3))
+        walls = np.flatnonzero(kind == FACE_KINDS["wall"])
+        if len(walls):
+            xyz, owner = fan_triangles(rows.polygons[walls])
+            local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
+            glb.triangles(local, glb.plain_material(WALL_RGB, lit=True, name="wall"),
+                          feature=rows.face_building[walls][owner], normals=True)
+            corners.append(xyz.reshape(-1, 3))
+        glb.property_table(self.schema, BUILDING_CLASS, property_columns(self.schema, rows.ids, rows.attributes))
+        return corners
+
+    # --- tile bookkeeping --------------------------------------------------------------------
+
+    def _frame(self, rect: tuple[float, float, float, float], z: np.ndarray) -> np.ndarray:
+        """East-north-up frame at the centre of ``rect``, halfway between the lowest and highest ``z``."""
+        height = float((np.nanmin(z) + np.nanmax(z)) / 2) if z.size and np.isfinite(z).any() else 0.0
+        return self.georef.frame((rect[0] + rect[2]) / 2, (rect[1] + rect[3]) / 2, height)
+
+    def _finish(self, level: int, col: int, row: int, glb: GlbBuilder, frame: np.ndarray,
+                corners: list[np.ndarray], children: list[_Tile], error: float, patch: Patch | None) -> _Tile:
+        tile: dict = {"boundingVolume": {}, "geometricError": error, "refine": "REPLACE"}
+        regions = [child.region for child in children]
+        if glb.primitives:
+            uri = f"{TILE_DIR}/{level}/{col}_{row}.glb"
+            path = self.folder / uri
+            path.parent.mkdir(parents=True, exist_ok=True)
+            data = glb.to_bytes()
+            path.write_bytes(data)
+            tile["content"] = {"uri": uri}
+            points = np.concatenate(corners)
+            regions.append(self.georef.region(points[np.isfinite(points).all(axis=1)]))
+            self.report.triangles_written += sum(self._count(glb, p) for p in glb.primitives)
+        if children:
+            inverse = np.linalg.inv(frame)
+            tile["children"] = []
+            for child in children:
+                child.json["transform"] = _column_major(inverse @ child.frame)
+                tile["children"].append(child.json)
+        tile["boundingVolume"]["region"] = union_region(regions)
+        return _Tile(tile, frame, tile["boundingVolume"]["region"], error, patch)
+
+    @staticmethod
+    def _count(glb: GlbBuilder, primitive) -> int:
+        return glb.gltf.accessors[primitive.indices].count // 3
+
+
+def folder_size(path: str | os.PathLike) -> int:
+    """Bytes in the files under ``path``."""
+    return sum(f.stat().st_size for f in Path(path).rglob("*") if f.is_file())
