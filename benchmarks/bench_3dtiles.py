@@ -58,7 +58,7 @@ def prepare(radius: float, max_edge: float) -> Path:
     """The chain's outputs for the sample (cached): returns the model folder (model.gml, work/)."""
     data = OUT / "3dtiles" / f"r{radius:g}-e{max_edge:g}"
     model = data / "model"
-    if not (model / "work" / "lod1.gpkg").is_file() or not (model / "model.gml").is_file():
+    if not (model / "lod1.gpkg").is_file() or not (model / "model.gml").is_file():
         print(f"preparing the data in {data} (not timed)", flush=True)
         sample = _qgis_process("wit:generatesample", RADIUS=radius, SEED=42, OUTPUT=data / "sample")
         _qgis_process("wit:citymodel", ORTHO_INPUT=sample["ORTHO_FOLDER"], DEM=sample["DEM"],
@@ -75,12 +75,12 @@ def child(kind: str, model: Path, output: Path) -> None:
         from wit_plugin.tiles3d import export_tileset
 
         start = time.perf_counter()
-        export_tileset(str(work / "lod1.gpkg"), str(work / "tin.gpkg"), str(work / "textures"), str(output))
+        export_tileset(str(model / "lod1.gpkg"), str(model / "tin.gpkg"), str(work / "textures"), str(output))
     else:
         from wit_plugin.citygml.writer import CityGMLInputs, write_citygml
 
         start = time.perf_counter()
-        write_citygml(CityGMLInputs(lod1=str(work / "lod1.gpkg"), tin=str(work / "tin.gpkg"),
+        write_citygml(CityGMLInputs(lod1=str(model / "lod1.gpkg"), tin=str(model / "tin.gpkg"),
                                     roads=str(work / "prepared.gpkg"), districts=str(work / "prepared.gpkg"),
                                     textures=str(work / "textures")), str(output))
     print(json.dumps({"seconds": round(time.perf_counter() - start, 3), "peak_mb": _vm_hwm_mb()}))

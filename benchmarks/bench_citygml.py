@@ -169,8 +169,9 @@ def main() -> None:
         print(f"{n} buildings: inputs ready in {time.perf_counter() - t0:.1f} s", flush=True)
         cases.append((f"{n} buildings", {"lod1": lod1, "districts": districts}, cache / f"city_{n}.gml"))
     if args.work:
-        work = Path(args.work)
-        cases.append((f"work folder ({work.name})", {"lod1": str(work / "lod1.gpkg"), "tin": str(work / "tin.gpkg"),
+        work = Path(args.work)  # <model>/work of a kept chain run; the LoD1 and TIN layers are beside it
+        cases.append((f"work folder ({work.name})", {"lod1": str(work.parent / "lod1.gpkg"),
+                                                      "tin": str(work.parent / "tin.gpkg"),
                        "roads": str(work / "prepared.gpkg"), "districts": str(work / "prepared.gpkg"),
                        "textures": str(work / "textures")}, cache / "city_work.gml"))
     print("reference: xmllint --stream --noout (no schema) and a plain read (dd) of the written file; "

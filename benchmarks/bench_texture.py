@@ -224,9 +224,9 @@ def main() -> None:
     cases = [(name, (str(data / "ortho.tif"), str(data / "lod1.gpkg"), str(data / "tin.gpkg")), config)
              for name, config in CONFIGS.items() if not args.only or name in args.only]
     if args.work:
-        work = Path(args.work)
-        cases.append((f"work folder ({work.name})", tuple(str(work / n) for n in ("ortho.tif", "lod1.gpkg", "tin.gpkg")),
-                      {}))
+        work = Path(args.work)  # <model>/work of a kept chain run; the LoD1 and TIN layers are beside it
+        cases.append((f"work folder ({work.name})", (str(work / "ortho.tif"), str(work.parent / "lod1.gpkg"),
+                                                      str(work.parent / "tin.gpkg")), {}))
     results = []
     for name, (ortho, lod1, tin), config in cases:
         defaults = config in ({}, {"scale": 1.0})  # what qgis_process runs without parameters

@@ -20,8 +20,12 @@
       <translation>Chain</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step); everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step); everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
+    </message>
+    <message>
+      <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
+      <translation>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</translation>
     </message>
     <message>
       <source>Keep the intermediate files</source>
@@ -62,6 +66,10 @@
     <message>
       <source>Surfaces left untextured outside the orthoimage</source>
       <translation>Surfaces left untextured outside the orthoimage</translation>
+    </message>
+    <message>
+      <source>3D Tiles tileset (tileset.json)</source>
+      <translation>3D Tiles tileset (tileset.json)</translation>
     </message>
     <message>
       <source>Seconds per step (JSON)</source>
@@ -118,6 +126,70 @@
     <message>
       <source>Leave them untextured (warning)</source>
       <translation>Leave them untextured (warning)</translation>
+    </message>
+    <message>
+      <source>City model in map-sheet tiles (Dask)</source>
+      <translation>City model in map-sheet tiles (Dask)</translation>
+    </message>
+    <message>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the others go on; a run started again on the same folder skips the tiles already done; Cancel stops every tile.</source>
+      <translation>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the others go on; a run started again on the same folder skips the tiles already done; Cancel stops every tile.</translation>
+    </message>
+    <message>
+      <source>Python interpreter of the workers (empty = found automatically)</source>
+      <translation>Python interpreter of the workers (empty = found automatically)</translation>
+    </message>
+    <message>
+      <source>Bounding box (instead of centre and radius)</source>
+      <translation>Bounding box (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Everything the buildings layer covers (instead of centre and radius)</source>
+      <translation>Everything the buildings layer covers (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Tile grid (NGII map sheets)</source>
+      <translation>Tile grid (NGII map sheets)</translation>
+    </message>
+    <message>
+      <source>Dask scheduler address (empty = an embedded one on this computer)</source>
+      <translation>Dask scheduler address (empty = an embedded one on this computer)</translation>
+    </message>
+    <message>
+      <source>Worker processes (embedded scheduler)</source>
+      <translation>Worker processes (embedded scheduler)</translation>
+    </message>
+    <message>
+      <source>Tile index</source>
+      <translation>Tile index</translation>
+    </message>
+    <message>
+      <source>Tiles done</source>
+      <translation>Tiles done</translation>
+    </message>
+    <message>
+      <source>Tiles failed</source>
+      <translation>Tiles failed</translation>
+    </message>
+    <message>
+      <source>Tiles without buildings</source>
+      <translation>Tiles without buildings</translation>
+    </message>
+    <message>
+      <source>Tiles already done before this run</source>
+      <translation>Tiles already done before this run</translation>
+    </message>
+    <message>
+      <source>1:5,000 sheets</source>
+      <translation>1:5,000 sheets</translation>
+    </message>
+    <message>
+      <source>1:1,000 sheets (dense cities)</source>
+      <translation>1:1,000 sheets (dense cities)</translation>
+    </message>
+    <message>
+      <source>Cannot write {path}: {error}</source>
+      <translation>Cannot write {path}: {error}</translation>
     </message>
     <message>
       <source>Build colour store</source>
@@ -418,6 +490,10 @@
     <message>
       <source>WIT city model</source>
       <translation>WIT city model</translation>
+    </message>
+    <message>
+      <source>Tiles of the run</source>
+      <translation>Tiles of the run</translation>
     </message>
     <message>
       <source>LoD1 buildings</source>

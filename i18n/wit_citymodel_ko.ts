@@ -20,8 +20,12 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html) and steps.json (time per step); everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며, 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), steps.json(단계별 시간)이 생깁니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며, 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
+    </message>
+    <message>
+      <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
+      <translation>뷰어용 3D Tiles 1.1 타일셋 쓰기 (3dtiles/)</translation>
     </message>
     <message>
       <source>Keep the intermediate files</source>
@@ -62,6 +66,10 @@
     <message>
       <source>Surfaces left untextured outside the orthoimage</source>
       <translation>정사영상 밖이라 텍스처 없이 남긴 면</translation>
+    </message>
+    <message>
+      <source>3D Tiles tileset (tileset.json)</source>
+      <translation>3D Tiles 타일셋 (tileset.json)</translation>
     </message>
     <message>
       <source>Seconds per step (JSON)</source>
@@ -118,6 +126,70 @@
     <message>
       <source>Leave them untextured (warning)</source>
       <translation>텍스처 없이 남김 (경고)</translation>
+    </message>
+    <message>
+      <source>City model in map-sheet tiles (Dask)</source>
+      <translation>도엽 타일 단위 도시 모델 (Dask)</translation>
+    </message>
+    <message>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the others go on; a run started again on the same folder skips the tiles already done; Cancel stops every tile.</source>
+      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786; 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 실패한 타일은 기록되고 나머지는 계속되며, 같은 폴더에서 다시 실행하면 이미 끝난 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다.</translation>
+    </message>
+    <message>
+      <source>Python interpreter of the workers (empty = found automatically)</source>
+      <translation>작업자 프로세스의 Python 인터프리터 (비우면 자동으로 찾음)</translation>
+    </message>
+    <message>
+      <source>Bounding box (instead of centre and radius)</source>
+      <translation>범위 상자 (중심점과 반경 대신)</translation>
+    </message>
+    <message>
+      <source>Everything the buildings layer covers (instead of centre and radius)</source>
+      <translation>건물 레이어 전체 범위 (중심점과 반경 대신)</translation>
+    </message>
+    <message>
+      <source>Tile grid (NGII map sheets)</source>
+      <translation>타일 격자 (국토지리정보원 도엽)</translation>
+    </message>
+    <message>
+      <source>Dask scheduler address (empty = an embedded one on this computer)</source>
+      <translation>Dask 스케줄러 주소 (비우면 이 컴퓨터의 내장 스케줄러)</translation>
+    </message>
+    <message>
+      <source>Worker processes (embedded scheduler)</source>
+      <translation>작업자 프로세스 수 (내장 스케줄러)</translation>
+    </message>
+    <message>
+      <source>Tile index</source>
+      <translation>타일 색인</translation>
+    </message>
+    <message>
+      <source>Tiles done</source>
+      <translation>완료된 타일</translation>
+    </message>
+    <message>
+      <source>Tiles failed</source>
+      <translation>실패한 타일</translation>
+    </message>
+    <message>
+      <source>Tiles without buildings</source>
+      <translation>건물이 없는 타일</translation>
+    </message>
+    <message>
+      <source>Tiles already done before this run</source>
+      <translation>이번 실행 전에 이미 완료된 타일</translation>
+    </message>
+    <message>
+      <source>1:5,000 sheets</source>
+      <translation>1:5,000 도엽</translation>
+    </message>
+    <message>
+      <source>1:1,000 sheets (dense cities)</source>
+      <translation>1:1,000 도엽 (밀집 도시)</translation>
+    </message>
+    <message>
+      <source>Cannot write {path}: {error}</source>
+      <translation>{path}을(를) 쓸 수 없습니다: {error}</translation>
     </message>
     <message>
       <source>Build colour store</source>
@@ -418,6 +490,10 @@
     <message>
       <source>WIT city model</source>
       <translation>WIT 도시 모델</translation>
+    </message>
+    <message>
+      <source>Tiles of the run</source>
+      <translation>실행의 타일</translation>
     </message>
     <message>
       <source>LoD1 buildings</source>

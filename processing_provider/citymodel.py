@@ -20,6 +20,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm, crs_string
+from .load_results import load_results
 from .shared_parameters import add_area_parameters, add_height_parameters, height_options, schema_choice, study_area
 
 OUTSIDE_ORTHO = ("fail", "untextured")
@@ -39,7 +40,9 @@ class CityModel(WitAlgorithm):
         "the common layers recognised by name; buildings given the default height are a warning and the "
         "DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and "
         "measure its quality. The output folder receives model.gml with its textures, validation.html, "
-        "metrics.csv (and metrics.html) and steps.json (time per step); everything appears at the end, so "
+        "metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, "
+        "for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load "
+        "into the project as a group for the 3D map view. Everything appears at the end, so "
         "a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in "
         "<output>/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the "
         "centre point and radius."
@@ -57,6 +60,7 @@ class CityModel(WitAlgorithm):
     TEXTURE_SCALE = "TEXTURE_SCALE"
     OUTSIDE_ORTHO = "OUTSIDE_ORTHO"
     SCHEMA_DIR = "SCHEMA_DIR"
+    TILES3D = "TILES3D"
     KEEP_WORK = "KEEP_WORK"
     OUTPUT = "OUTPUT"
 
@@ -67,6 +71,8 @@ class CityModel(WitAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.add_chain_parameters()
+        self.addParameter(QgsProcessingParameterBoolean(
+            self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)"), defaultValue=True))
         self.addParameter(QgsProcessingParameterBoolean(
             self.KEEP_WORK, self.tr("Keep the intermediate files"), defaultValue=False))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
@@ -79,6 +85,7 @@ class CityModel(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("DEFAULT_HEIGHTS", self.tr("Buildings with the default height")))
         self.addOutput(QgsProcessingOutputNumber("UNTEXTURED", self.tr("Surfaces left untextured outside the "
                                                                        "orthoimage")))
+        self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset (tileset.json)")))
         self.addOutput(QgsProcessingOutputString("STEP_TIMES", self.tr("Seconds per step (JSON)")))
 
     def add_chain_parameters(self) -> None:
@@ -144,12 +151,15 @@ class CityModel(WitAlgorithm):
 
         inputs, options, expression = self.chain_settings(parameters, context)
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
+        options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)
+        load_results(context, lod1=report.lod1, tin=report.tin, tileset=report.tileset)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {
             self.OUTPUT: report.output, "GML": report.gml, "VALIDATION_REPORT": report.validation_report,
             "METRICS": report.metrics, "VALID": report.valid, "ERROR_COUNT": report.errors,
             "BUILDINGS_WRITTEN": report.buildings, "DEFAULT_HEIGHTS": report.default_heights,
-            "UNTEXTURED": report.untextured_outside, "STEP_TIMES": json.dumps(report.seconds),
+            "UNTEXTURED": report.untextured_outside, "TILESET": report.tileset,
+            "STEP_TIMES": json.dumps(report.seconds),
         }

@@ -68,6 +68,11 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 
         layers.append((QgsTiledSceneLayer(tileset, tr("3D Tiles"), "cesiumtiles"), None))
+    return _queue(context, layers, group_name)
+
+
+def _queue(context: QgsProcessingContext, layers: list[tuple[QgsMapLayer, object]], group_name: str) -> list[str]:
+    """Queue valid layers for loading at the end of the run, each moved into the group and styled."""
     names = []
     for layer, style in layers:
         if not layer.isValid():
@@ -119,3 +124,9 @@ def _building_renderer(layer: QgsVectorLayer) -> None:
 
 def _terrain_renderer(layer: QgsVectorLayer) -> None:
     _set_renderer(layer, _polygon_symbol(TERRAIN_RGB))
+
+
+def load_index(context: QgsProcessingContext, index: str, group_name: str | None = None) -> None:
+    """Queue a tiled run's index (its tiles coloured by status) for loading into the results group."""
+    layer = QgsVectorLayer(f"{index}|layername=tiles", tr("Tiles of the run"), "ogr")
+    _queue(context, [(layer, None)], group_name or tr(GROUP_NAME))

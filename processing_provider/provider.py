@@ -4,6 +4,7 @@ from qgis.PyQt.QtGui import QIcon
 
 from .base import PLUGIN_DIR, tr, translatable
 from .citymodel import CityModel
+from .citymodeltiles import CityModelTiles
 from .colorstore_algorithms import BuildColorStore, QueryColorStore
 from .export3dtiles import Export3DTiles
 from .generatesample import GenerateSample
@@ -32,6 +33,7 @@ ALGORITHMS = (
     QueryColorStore,
     QualityMetrics,
     CityModel,
+    CityModelTiles,
 )
 
 

@@ -60,11 +60,10 @@ def main() -> int:
     work = OUT / "model" / "work"
     print("== preview picture", flush=True)
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "wit_plugin.preview", str(work / "lod1.gpkg"), str(work / "tin.gpkg"),
+    subprocess.run([sys.executable, "-m", "wit_plugin.preview", str(OUT / "model" / "lod1.gpkg"), str(OUT / "model" / "tin.gpkg"),
                     str(work / "textures"), str(OUT / "preview.png")], check=True, cwd=ROOT)
     times["preview"] = time.perf_counter() - start
-    tiles = step("3D Tiles 1.1 for the web viewer and QGIS ≥ 3.34", "wit:export3dtiles",
-                 LOD1=work / "lod1.gpkg", TIN=work / "tin.gpkg", TEXTURES=work / "textures", OUTPUT=OUT / "3dtiles")
+    (OUT / "3dtiles").symlink_to(Path("model") / "3dtiles")  # the chain's tileset, where the viewer expects it
     print("== web viewer (CesiumJS, offline)", flush=True)
     viewer = subprocess.run([sys.executable, str(ROOT / "scripts" / "viewer.py"), "build", str(OUT / "3dtiles"),
                              str(OUT / "viewer")], capture_output=True, text=True, cwd=ROOT)
@@ -77,7 +76,8 @@ def main() -> int:
     print(f"  valid: {model['VALID']} ({model['ERROR_COUNT']} errors) — report {model['VALIDATION_REPORT']}")
     print(f"  metrics: {model['METRICS']}")
     print(f"  preview: {OUT / 'preview.png'}")
-    print(f"  3D Tiles: {tiles['TILESET']} ({tiles['TILES']} tiles, {tiles['MEGABYTES']:.1f} MB)")
+    tileset_mb = sum(p.stat().st_size for p in (OUT / "model" / "3dtiles").rglob("*") if p.is_file()) / 1e6
+    print(f"  3D Tiles: {model['TILESET']} ({tileset_mb:.1f} MB)")
     if viewer.returncode == 0:
         print(f"  web viewer: {OUT / 'viewer' / 'index.html'} — `make view` serves it on 127.0.0.1")
     print("  seconds per step of the chain (inside wit:citymodel):")

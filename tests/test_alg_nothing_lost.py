@@ -104,6 +104,8 @@ INPUTS = {
     "wit:qualitymetrics": lambda d: {"MODEL": d["gml"], "SOURCE_BUILDINGS": d["buildings"], "ORTHO": d["rgb"]},
     "wit:citymodel": lambda d: {"ORTHO_INPUT": [d["sheet"]], "DEM": d["dem"], "BUILDINGS": d["buildings_shp"],
                                 "ROADS": d["roads_shp"]},
+    "wit:citymodeltiles": lambda d: {"ORTHO_INPUT": [d["sheet"]], "DEM": d["dem"], "BUILDINGS": d["buildings_shp"],
+                                     "ROADS": d["roads_shp"]},
 }
 
 #: per algorithm: its destination parameters (name → "file" or "folder")
@@ -121,6 +123,7 @@ DESTINATIONS = {
     "wit:querycolorstore": {"OUTPUT": "file", "OUTPUT_PATCH": "file"},
     "wit:qualitymetrics": {"OUTPUT": "file", "OUTPUT_HTML": "file"},
     "wit:citymodel": {"OUTPUT": "folder"},
+    "wit:citymodeltiles": {"OUTPUT": "folder"},
 }
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+from pathlib import Path
 
 import pytest
 from lxml import etree
@@ -156,6 +157,9 @@ def test_citymodel_in_one_call_gives_the_same_model(chain, shared_dir, tmp_path)
     assert {"model.gml", "model_textures", "validation.html", "metrics.csv", "metrics.html", "steps.json"} <= produced
     assert not any(name.startswith((".wit-run-", "work")) for name in produced), "staging or work folder left"
     assert list(json.loads(result["STEP_TIMES"])) == ["prepare", "coverage", "georeference", "merge", "terrain",
-                                                       "extrude", "texture", "citygml", "validate", "metrics"]
+                                                       "extrude", "texture", "citygml", "3dtiles", "validate",
+                                                       "metrics"]
+    assert result["TILESET"] == str(tmp_path / "city" / "3dtiles" / "tileset.json") and Path(result["TILESET"]).is_file()
+    assert {"lod1.gpkg", "tin.gpkg", "3dtiles"} <= produced
     assert result["DEFAULT_HEIGHTS"] == chain["lod1"]["DEFAULT_HEIGHTS"] == 1  # the sample's one building without floors here
     assert result["UNTEXTURED"] == 0

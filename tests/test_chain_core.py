@@ -145,7 +145,7 @@ def test_outside_the_ortho_left_untextured_on_request(sample, tmp_path):
                             tmp_path / "city")
     assert report.valid and report.untextured_outside > 0
     assert sorted(p.name for p in Path(report.output).iterdir()) == [
-        "model.gml", "model_textures", "steps.json", "validation.html"]
+        "3dtiles", "lod1.gpkg", "model.gml", "model_textures", "steps.json", "tin.gpkg", "validation.html"]
 
 
 def test_dem_that_stops_short_is_named(sample, tmp_path):
@@ -168,4 +168,4 @@ def test_district_by_name_and_the_whole_chain_result(sample, tmp_path):
                             tmp_path / "city")
     assert report.valid and report.buildings > 0 and report.metrics
     assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude",
-                                    "texture", "citygml", "validate", "metrics"]
+                                    "texture", "citygml", "3dtiles", "validate", "metrics"]

@@ -86,6 +86,7 @@ class HeightRule:
     default_height: float = 3.0
     sources: list[HeightSource] = field(default_factory=lambda: [HeightSource(FLOORS, JUSO_FLOORS)])
     expression: Callable[[dict], Any] | None = None  # evaluates the EXPRESSION source
+    expression_column: str | None = None  # ... or the column it was evaluated into beforehand (tiles)
     floors_field: str | None = JUSO_FLOORS  # storeys above ground (con:storeysAboveGround)
     basement_field: str | None = "UND_FLO_CO"
 
@@ -126,6 +127,7 @@ class HeightOptions:
     height_field: str | None = None
     expression_text: str | None = None
     expression: Callable[[dict], Any] | None = None  # evaluates ``expression_text`` on a building's attributes
+    expression_column: str | None = None  # or: the field it was evaluated into beforehand (tiles: workers have no QGIS)
     storey_height: float = 3.0
     default_height: float = 3.0
 
@@ -143,19 +145,20 @@ class HeightOptions:
             sources.append(HeightSource(FLOORS, juso))
         if chosen:
             sources.append(HeightSource(FIELD, chosen))
-        if self.expression is not None:
+        evaluated = self.expression is not None or bool(self.expression_column)
+        if evaluated:
             sources.append(HeightSource(EXPRESSION, self.expression_text or "(expression)"))
         known = recognise(field_names)
         floors = basement = None
         if known is not None:
             floors, basement = _lookup(field_names, known.floors), _lookup(field_names, known.basement)
-            if not (chosen or self.expression is not None):
+            if not (chosen or evaluated):
                 for kind, names in ((FIELD, known.height), (FLOORS, known.floors)):
                     name = _lookup(field_names, names)
                     if name and all(s.name != name for s in sources):
                         sources.append(HeightSource(kind, name, known.label))
-        return HeightRule(self.storey_height, self.default_height, sources, self.expression, floors or juso,
-                          basement or _lookup(field_names, ["UND_FLO_CO"]))
+        return HeightRule(self.storey_height, self.default_height, sources, self.expression, self.expression_column,
+                          floors or juso, basement or _lookup(field_names, ["UND_FLO_CO"]))
 
 
 _NUMBER_UNIT = re.compile(r"^\s*([-+]?\d+(?:[.,]\d+)?)\s*(m|meters?|metres?|ft|feet|'|)\s*$", re.IGNORECASE)
@@ -198,8 +201,9 @@ def building_height(attributes: dict, rule: HeightRule) -> tuple[float, HeightSo
             value = parse_height(attributes.get(source.name))
             if value is not None:
                 return value, source
-        elif rule.expression is not None:
-            value = positive(rule.expression(attributes))
+        else:
+            value = positive(rule.expression(attributes) if rule.expression is not None
+                             else attributes.get(rule.expression_column or ""))
             if value is not None:
                 return value, source
     return rule.default_height, None

@@ -8,7 +8,8 @@
 2. coverage: the DEM and the orthoimage sheets (from their sheet numbers) must cover that area —
    checked in seconds, before anything heavy, naming what is missing;
 3. georeference (as VRTs pointing at the untouched pixels) and merge only the sheets the area needs;
-4. terrain TIN, 5. LoD1 solids, 6. textures, 7. CityGML, 8. validation, 9. quality metrics.
+4. terrain TIN, 5. LoD1 solids, 6. textures, 7. CityGML, 8. the 3D Tiles tileset, 9. validation,
+10. quality metrics. The output folder also keeps the LoD1 and TIN GeoPackages (QGIS's 3D view).
 
 Everything is written into a staging folder inside the output folder and moved into place at the
 end, so a failed or cancelled run leaves nothing behind (and never a half-updated output folder).
@@ -40,6 +41,7 @@ from ..heights import HeightOptions
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
+from ..tiles3d import export_tileset
 from ..vector_io import read_prepared
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
 from ..tiles.job import TileJob
@@ -48,10 +50,11 @@ from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
 DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
+TILESET_DIR = "3dtiles"
 
 #: (label, share of the progress bar) of each step, in order
 STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("terrain", 10), ("extrude", 4),
-         ("texture", 17), ("citygml", 17), ("validate", 25), ("metrics", 13))
+         ("texture", 12), ("citygml", 12), ("3dtiles", 12), ("validate", 22), ("metrics", 10))
 
 
 @dataclass
@@ -82,6 +85,7 @@ class ChainOptions:
     schema_cache: str | None = None
     keep_work: bool = False  # keep the intermediate files as <output>/work
     metrics: bool = True
+    tiles3d: bool = True  # write the 3D Tiles 1.1 tileset (<output>/3dtiles) for viewers
     encoding: str | None = None  # of shapefile inputs, when their declaration is wrong
     tile: TileJob | None = None  # one tile of a tiled run (wit_plugin.tiles)
 
@@ -102,6 +106,9 @@ class ChainReport:
     triangles: int
     seconds: dict[str, float]
     work: str | None = None
+    lod1: str | None = None
+    tin: str | None = None
+    tileset: str | None = None
 
     def as_dict(self) -> dict:
         return {k: v for k, v in self.__dict__.items()}
@@ -211,6 +218,11 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
                                               districts=layers.districts and layers.districts.split("|")[0]),
                                 str(gml), srs_name=options.target_crs, feedback=fb)
 
+    tileset = None
+    if options.tiles3d:
+        with clock.step("3dtiles") as fb:
+            tileset = export_tileset(lod1, tin, textures, str(staging / TILESET_DIR), options.target_crs, fb).tileset
+
     with clock.step("validate") as fb:
         schema_dir, source = schemas.find_schema_dir(options.schema_dir, str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
                                                      allow_download=True, feedback=fb)
@@ -227,6 +239,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
             quality_report(str(metrics_csv), model_source=lod1, source_buildings=layers.buildings,
                            textures=textures, ortho=mosaic, mosaic=mosaic, footprints=str(work / "sheets.gpkg"),
                            output_html=str(staging / "metrics.html"), feedback=fb)
+    for layer in (lod1, tin):  # the model's GIS layers, for QGIS's 3D view
+        os.replace(layer, staging / Path(layer).name)
     if not options.keep_work:
         shutil.rmtree(work)
 
@@ -236,7 +250,9 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         metrics=str(output / "metrics.csv") if metrics_csv else None, valid=all(r.valid for r in validation),
         errors=errors, buildings=written.buildings, default_heights=lod1_stats.height_sources.get("default", 0),
         untextured_outside=texture_report.untextured.get(OUTSIDE_ORTHO, 0), triangles=tin_stats.triangles,
-        seconds={}, work=str(output / "work") if options.keep_work else None)
+        seconds={}, work=str(output / "work") if options.keep_work else None,
+        lod1=str(output / Path(lod1).name), tin=str(output / Path(tin).name),
+        tileset=str(output / TILESET_DIR / Path(tileset).name) if tileset else None)
 
 
 @dataclass

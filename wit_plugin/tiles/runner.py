@@ -101,14 +101,15 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
     """Everything one tile needs, as plain values."""
     heights = options.heights
     if heights.expression is not None:
-        raise InputError("A height expression cannot travel to Dask workers: evaluate it into a field first "
-                         "(the glue does) and give that field.")
+        raise InputError("A height expression cannot travel to Dask workers: evaluate it into a column of a copy "
+                         "of the buildings first and give HeightOptions.expression_column (wit:citymodeltiles does).")
     return {
         "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area),
         "target_crs": options.target_crs, "sheet_crs": options.sheet_crs, "margin": options.margin,
         "max_edge": options.max_edge, "tolerance": options.tolerance, "texture_scale": options.texture_scale,
         "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
-                    "default_height": heights.default_height},
+                    "default_height": heights.default_height, "expression_text": heights.expression_text,
+                    "expression_column": heights.expression_column},
         "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir,
         "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],

@@ -1,0 +1,147 @@
+"""wit:citymodeltiles — the whole chain over a district or a city, in NGII map-sheet tiles on Dask."""
+import os
+
+from qgis.core import (
+    QgsFeatureRequest,
+    QgsField,
+    QgsFields,
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingOutputVectorLayer,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterDefinition,
+    QgsProcessingParameterEnum,
+    QgsProcessingParameterExtent,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterFolderDestination,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterString,
+    QgsVectorFileWriter,
+    QgsVectorLayer,
+    QgsWkbTypes,
+)
+from qgis.PyQt.QtCore import QVariant
+
+from .base import crs_string
+from .citymodel import CityModel
+from .load_results import load_index
+
+TILE_SCALES = (5000, 1000)
+EXPRESSION_COLUMN = "wit_expr_height"
+
+
+class CityModelTiles(CityModel):
+    algorithm_id = "citymodeltiles"
+    display_name = "City model in map-sheet tiles (Dask)"
+    group_name = "Chain"
+    help_text = (
+        "The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole "
+        "city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): "
+        "the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong "
+        "(code or name), else a polygon layer, else a bounding box, else everything the buildings layer "
+        "covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the "
+        "sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and "
+        "heights, roads are cut along the same border, and a building crossing it lies on terrain in its "
+        "own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker "
+        "processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing "
+        "scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core "
+        "wit_plugin and see the same files). The output folder receives tiles/<sheet>/model.gml (with "
+        "textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / "
+        "empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the "
+        "others go on; a run started again on the same folder skips the tiles already done; Cancel stops "
+        "every tile."
+    )
+
+    TILE_SCALE = "TILE_SCALE"
+    EXTENT = "EXTENT"
+    ALL_BUILDINGS = "ALL_BUILDINGS"
+    SCHEDULER = "SCHEDULER"
+    WORKERS = "WORKERS"
+    WORKER_PYTHON = "WORKER_PYTHON"
+
+    def initAlgorithm(self, config=None):  # noqa: N802
+        self.add_chain_parameters()
+        self.addParameter(QgsProcessingParameterExtent(
+            self.EXTENT, self.tr("Bounding box (instead of centre and radius)"), optional=True))
+        self.addParameter(QgsProcessingParameterBoolean(
+            self.ALL_BUILDINGS, self.tr("Everything the buildings layer covers (instead of centre and radius)"),
+            defaultValue=False))
+        self.addParameter(QgsProcessingParameterEnum(
+            self.TILE_SCALE, self.tr("Tile grid (NGII map sheets)"),
+            options=[self.tr("1:5,000 sheets"), self.tr("1:1,000 sheets (dense cities)")], defaultValue=0))
+        self.addParameter(QgsProcessingParameterString(
+            self.SCHEDULER, self.tr("Dask scheduler address (empty = an embedded one on this computer)"),
+            optional=True))
+        self.addParameter(QgsProcessingParameterNumber(
+            self.WORKERS, self.tr("Worker processes (embedded scheduler)"), QgsProcessingParameterNumber.Integer,
+            defaultValue=os.cpu_count() or 1, minValue=1))
+        python = QgsProcessingParameterFile(
+            self.WORKER_PYTHON, self.tr("Python interpreter of the workers (empty = found automatically)"),
+            optional=True)
+        python.setFlags(python.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        self.addParameter(python)
+        self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
+        self.addOutput(QgsProcessingOutputVectorLayer("INDEX", self.tr("Tile index")))
+        for name, label in (("TILES_DONE", self.tr("Tiles done")), ("TILES_FAILED", self.tr("Tiles failed")),
+                            ("TILES_EMPTY", self.tr("Tiles without buildings")),
+                            ("TILES_RESUMED", self.tr("Tiles already done before this run")),
+                            ("BUILDINGS_WRITTEN", self.tr("Buildings written"))):
+            self.addOutput(QgsProcessingOutputNumber(name, label))
+
+    def execute(self, parameters, context, feedback):
+        from ..wit_plugin.tiles.runner import run_tiles
+        from ..wit_plugin.vectors import StudyArea
+
+        inputs, options, expression = self.chain_settings(parameters, context)
+        output = self.parameterAsString(parameters, self.OUTPUT, context)
+        area = options.area
+        code = self.parameterAsString(parameters, "DISTRICT_CODE", context).strip()
+        if not code and self.parameterAsVectorLayer(parameters, "AREA_LAYER", context) is None:
+            if parameters.get(self.EXTENT):
+                target = self.parameterAsCrs(parameters, self.TARGET_CRS, context)
+                box = self.parameterAsExtent(parameters, self.EXTENT, context, target)
+                area = StudyArea.polygon(box.asWktPolygon(), crs_string(target))
+            elif self.parameterAsBool(parameters, self.ALL_BUILDINGS, context):
+                area = None
+        if expression is not None:  # workers have no QGIS: the expression is evaluated here, into a copy
+            inputs.buildings = self._evaluated_copy(parameters, context, expression, output, feedback)
+            options.heights.expression, options.heights.expression_column = None, EXPRESSION_COLUMN
+        report = run_tiles(inputs, options, output, area, TILE_SCALES[self.parameterAsEnum(
+            parameters, self.TILE_SCALE, context)], self.parameterAsString(parameters, self.SCHEDULER, context).strip()
+            or None, self.parameterAsInt(parameters, self.WORKERS, context),
+            self.parameterAsFile(parameters, self.WORKER_PYTHON, context) or None, feedback)
+        load_index(context, report.index)
+        return {self.OUTPUT: output, "INDEX": report.index, "TILES_DONE": report.count("done"),
+                "TILES_FAILED": report.count("failed"), "TILES_EMPTY": report.count("empty"),
+                "TILES_RESUMED": report.resumed, "BUILDINGS_WRITTEN": report.buildings}
+
+    def _evaluated_copy(self, parameters, context, expression, output, feedback) -> str:
+        """The buildings layer with the height expression's value in EXPRESSION_COLUMN, in <output>/work."""
+        from pathlib import Path
+
+        layer = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
+        work = Path(output) / "work"
+        work.mkdir(parents=True, exist_ok=True)
+        target = str(work / "buildings_expression.gpkg")
+        fields = QgsFields(layer.fields())
+        fields.append(QgsField(EXPRESSION_COLUMN, QVariant.Double))
+        memory = QgsVectorLayer(QgsWkbTypes.displayString(layer.wkbType()), "buildings", "memory")
+        memory.setCrs(layer.crs())
+        memory.dataProvider().addAttributes(fields.toList())
+        memory.updateFields()
+        rows = []
+        for feature in layer.getFeatures(QgsFeatureRequest()):
+            value = expression({name: feature[name] for name in layer.fields().names()})
+            copy = feature.__class__(memory.fields())
+            copy.setGeometry(feature.geometry())
+            copy.setAttributes(list(feature.attributes()) + [value])
+            rows.append(copy)
+        memory.dataProvider().addFeatures(rows)
+        options = QgsVectorFileWriter.SaveVectorOptions()
+        options.driverName = "GPKG"
+        error = QgsVectorFileWriter.writeAsVectorFormatV2(memory, target, context.transformContext(), options)
+        if error[0] != QgsVectorFileWriter.NoError:
+            raise QgsProcessingException(self.tr("Cannot write {path}: {error}").format(path=target, error=error[1]))
+        if expression.failure_warning():
+            feedback.warning(expression.failure_warning())
+        return target
