@@ -162,29 +162,72 @@ def _each(func, geoms: np.ndarray, *args, **kwargs) -> np.ndarray:
         return out
 
 
-SEAM_SNAP = 0.003  # m: noded vertices this close to a tile border are moved to its canonical point
+SEAM_SNAP = 0.003  # m: noded vertices this close to a tile border are moved onto it (a canonical point) or off it
+SEAM_REACH = 0.05  # m: how far along the border such a vertex may move to its canonical point (shallow crossings)
 
 
 @dataclass(frozen=True)
 class Seam:
     """A tile's border and its canonical points (see ``wit_plugin.tiles.seams``)."""
 
-    lines: BaseGeometry
-    points: np.ndarray  # (k, 2) on the border, on the 1 mm grid
+    tile: BaseGeometry  # the tile's polygon
+    points: np.ndarray  # (k, 2) canonical points on its border, on the 1 mm grid
 
     def snap(self, coords: np.ndarray) -> np.ndarray:
-        """``coords`` with those near the border replaced by the nearest canonical point (within SEAM_SNAP)."""
-        if not len(self.points):
-            return coords
-        near = np.flatnonzero(shapely.dwithin(self.lines, shapely.points(coords), SEAM_SNAP))
+        """``coords`` within SEAM_SNAP of the border moved onto the nearest canonical point (within SEAM_REACH:
+        where a wall crosses the border at a shallow angle a sub-millimetre shift moves the crossing along it by
+        millimetres), the others SEAM_SNAP × 1.5 inside the tile: a point on only one side of a border (a wall a
+        millimetre from it) would split the border on that side alone."""
+        border = self.tile.exterior
+        near = np.flatnonzero(shapely.dwithin(border, shapely.points(coords), SEAM_SNAP))
         if not len(near):
             return coords
-        tree = shapely.STRtree(shapely.points(self.points))
-        index, distance = tree.query_nearest(shapely.points(coords[near]), return_distance=True, all_matches=False)
-        close = distance <= SEAM_SNAP
         out = coords.copy()
-        out[near[index[0][close]]] = self.points[index[1][close]]
+        close = np.zeros(len(near), dtype=bool)
+        if len(self.points):
+            tree = shapely.STRtree(shapely.points(self.points))
+            index, distance = tree.query_nearest(shapely.points(coords[near]), return_distance=True, all_matches=False)
+            close[index[0]] = distance <= SEAM_REACH
+            out[near[index[0][distance <= SEAM_REACH]]] = self.points[index[1][distance <= SEAM_REACH]]
+        for k in near[~close]:
+            foot = shapely.get_coordinates(border.interpolate(border.project(shapely.Point(coords[k]))))[0]
+            edge = shapely.get_coordinates(border.interpolate(border.project(shapely.Point(coords[k])) + 1e-3))[0] - foot
+            normal = np.array([-edge[1], edge[0]]) / (np.hypot(*edge) or 1.0) * SEAM_SNAP * 1.5
+            inside = foot + normal if self.tile.contains(shapely.Point(foot + normal)) else foot - normal
+            out[k] = np.round(inside, 3)
         return out
+
+
+def _split_border(seam: Seam, vertices: np.ndarray, segments: np.ndarray,
+                  tol: float = 1.5e-3) -> tuple[np.ndarray, np.ndarray]:
+    """Split the segments that run along the tile's border at every canonical point lying on them, so both
+    sides of a border hold all of its canonical points (``vertices`` in world coordinates)."""
+    if not len(seam.points) or not len(segments):
+        return vertices, segments
+    on = shapely.dwithin(seam.tile.exterior, shapely.points(vertices), tol)
+    along = np.flatnonzero(on[segments[:, 0]] & on[segments[:, 1]])
+    if not len(along):
+        return vertices, segments
+    p, q = vertices[segments[along, 0]], vertices[segments[along, 1]]
+    lines = shapely.linestrings(np.stack([p, q], axis=1))
+    which, point = shapely.STRtree(shapely.points(seam.points)).query(lines, predicate="dwithin", distance=tol)
+    d = q[which] - p[which]
+    t = ((seam.points[point] - p[which]) * d).sum(axis=1) / (d * d).sum(axis=1)
+    inner = (t > 1e-9) & (t < 1 - 1e-9) & (np.hypot(*(seam.points[point] - p[which]).T) > tol) \
+        & (np.hypot(*(seam.points[point] - q[which]).T) > tol)
+    if not inner.any():
+        return vertices, segments
+    which, point, t = which[inner], point[inner], t[inner]
+    ids = np.arange(len(vertices), len(vertices) + len(point))
+    vertices = np.vstack([vertices, seam.points[point]])
+    chains = []
+    for k in np.unique(which):
+        mine = np.flatnonzero(which == k)
+        chain = [segments[along[k], 0], *ids[mine[np.argsort(t[mine])]], segments[along[k], 1]]
+        chains += list(zip(chain[:-1], chain[1:]))
+    split = np.zeros(len(segments), dtype=bool)
+    split[along[np.unique(which)]] = True
+    return vertices, np.vstack([segments[~split], np.array(chains, dtype=segments.dtype)])
 
 
 def clean_polygons(geoms: Sequence[BaseGeometry | None], area: BaseGeometry | None = None,
@@ -261,6 +304,9 @@ def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: S
     edges = np.column_stack([np.sort(np.column_stack([a[keep], b[keep]]), axis=1), host[ring_face[part[:-1][keep]]]])
     rows, count = np.unique(edges, axis=0, return_counts=True)  # an edge twice in one host is inside it
     segments = _split_at_near_vertices(unique_keys * grid, rows[count == 1, :2], 0.7 * grid)
+    if seam is not None:  # every canonical point of the border on it, here as on the neighbour's side
+        world, segments = _split_border(seam, unique_keys * grid + origin, segments)
+        unique_keys = np.rint((world - origin) / grid).astype(np.int64)
     # a sliver keeps its seed (snap rounding can leave it cut off from its host after all) with its host's labels
     surface, feature = surface[host], feature[host]
     return Constraints(

@@ -1,8 +1,8 @@
 """Prepared layers for one tile, so that neighbouring tiles agree where they meet.
 
 * Roads and legal dongs are prepared once for the whole run (``prepare_context``): a road is
-  simplified and buffered as one line whatever tile it crosses, then each tile clips the same
-  polygons at its border (``clip_context``), so both sides are cut along the same line.
+  simplified and buffered as one line whatever tile it crosses; each tile takes the same polygons
+  (``clip_context``) and its terrain cuts them along the same border.
 * Buildings are prepared per tile (``prepare_vectors`` with a ``TileOwner``): the tile keeps the
   buildings it owns, simplified together with their neighbours within ``CONTEXT_MARGIN`` so walls
   shared across the border are simplified alike in both tiles, and writes the neighbours' buildings
@@ -23,7 +23,7 @@ from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
 from ..vector_io import OutputLayer, read_prepared, write_gpkg
-from ..vectors import GRID_SIZE, PrepareConfig, StudyArea, orient, polygonal, prepare_vectors
+from ..vectors import PrepareConfig, StudyArea, prepare_vectors
 from .plan import TileOwner
 
 #: neighbours within this distance of a tile take part in simplifying its buildings (m)
@@ -43,21 +43,23 @@ def prepare_context(roads: str | None, districts: str | None, area: BaseGeometry
 
 
 def clip_context(context: str, layers: list[str], area: BaseGeometry, output: str) -> list[str]:
-    """The run's road and dong polygons cut to the tile's ``area``, into ``output``; the layers written."""
+    """The run's road and dong polygons that meet the tile's ``area``, into ``output``; the layers written.
+
+    They are not cut here: the terrain cuts them at the tile's border on the 1 mm grid as it cuts the
+    area itself, so a road edge along the border is the border (a cut made here would run a fraction
+    of a millimetre beside it and bend the border on one side only).
+    """
     written = []
     out_layers = []
     crs = None
+    shapely.prepare(area)
     for name in layers:
         source = read_prepared(f"{context}|layername={name}", name)
         crs = source.crs
-        shapely.prepare(area)
         near = np.flatnonzero(shapely.intersects(area, source.geoms))
-        cut = polygonal(shapely.intersection(source.geoms[near], area))  # exact: both sides of a border cut alike
-        alive = np.flatnonzero(~shapely.is_missing(cut))
-        if not len(alive):
+        if not len(near):
             continue
-        piece = source.take(near[alive])
-        piece.geoms = orient(cut[alive])[0]
+        piece = source.take(near)
         out_layers.append(OutputLayer(name, piece.fields, piece.columns, piece.geoms))
         written.append(name)
     if out_layers:

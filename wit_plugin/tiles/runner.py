@@ -39,6 +39,7 @@ from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
 from .plan import plan_tiles
+from .worker import TILES_DIR
 from .prepare import area_of_layer, prepare_context
 
 CORE_ROOT = Path(__file__).resolve().parents[2]  # the folder holding the package wit_plugin
@@ -216,8 +217,12 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         workers = workers or os.cpu_count() or 1
         feedback.info(f"Dask: {'scheduler ' + scheduler if scheduler else f'LocalCluster of {workers} worker(s)'}"
                       f"{'' if scheduler else ', Python ' + python}.")
-        with dask_client(scheduler, workers, python) as client:
-            rows.update(_map(client, specs, output, feedback))
+        try:
+            with dask_client(scheduler, workers, python) as client:
+                rows.update(_map(client, specs, output, feedback))
+        finally:
+            if not scheduler:  # our workers are stopped: what a cancelled tile began is removed
+                _remove_unfinished(output)
     report.rows = [rows.get(t.sheet, {"sheet": t.sheet, "status": PENDING}) for t in tiles]
     report.seconds = round(time.perf_counter() - start, 3)
     failed = [r for r in report.rows if r["status"] == FAILED]
@@ -229,6 +234,15 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     feedback.info(f"Tiles: {report.count(DONE)} done, {len(failed)} failed, {report.count(EMPTY)} empty, "
                   f"{report.buildings} buildings, {report.seconds:.1f} s.")
     return report
+
+
+def _remove_unfinished(output: Path) -> None:
+    """Staging folders of tiles that did not finish, and tile folders left empty by them."""
+    for staging in output.glob(f"{TILES_DIR}/*/.wit-run-*"):
+        shutil.rmtree(staging, ignore_errors=True)
+    for folder in output.glob(f"{TILES_DIR}/*"):
+        if folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
 
 
 def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> dict[str, dict]:

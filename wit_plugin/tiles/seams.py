@@ -38,4 +38,4 @@ def tile_seam(tile: BaseGeometry, crossing: Sequence[BaseGeometry]) -> Seam:
         if len(near):
             points.append(shapely.get_coordinates(shapely.intersection(edge, near)))
     xy = np.round(np.concatenate(points), GRID_DECIMALS)
-    return Seam(shapely.MultiLineString(edges), np.unique(xy, axis=0))
+    return Seam(tile, np.unique(xy, axis=0))

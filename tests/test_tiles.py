@@ -1,0 +1,308 @@
+"""Tiled runs (wit_plugin.tiles): the tile plan alone, then real runs on Dask — an embedded scheduler,
+and a `dask scheduler` with two `dask worker` processes started here — checked against the
+single-area chain: same buildings, none twice, tiles valid, borders shared vertex for vertex;
+resume, a failing tile, a killed worker and Cancel."""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from lxml import etree
+
+from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+from wit_plugin.errors import CanceledError
+from wit_plugin.feedback import Feedback
+from wit_plugin.mapsheet import sheet_at
+from wit_plugin.sample import SampleConfig, generate_sample
+from wit_plugin.tiles import plan
+from wit_plugin.tiles.index import read_index
+from wit_plugin.tiles.runner import run_tiles, stop_workers, worker_python
+from wit_plugin.vectors import StudyArea
+
+ROOT = Path(__file__).resolve().parents[1]
+NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "gml": "http://www.opengis.net/gml/3.2",
+      "dem": "http://www.opengis.net/citygml/relief/3.0", "tran": "http://www.opengis.net/citygml/transportation/3.0"}
+SUSEO = (127.1020, 37.4876)
+AREA = StudyArea.circle(*SUSEO, 280.0)
+GID = "{http://www.opengis.net/gml/3.2}id"
+
+
+# -- the plan, alone ----------------------------------------------------------------------------
+
+def test_tiles_partition_the_area_and_meet_corner_to_corner():
+    area = shapely.Point(209020.9, 543132.8).buffer(1200)
+    tiles = plan.plan_tiles(area, "EPSG:5186", 1000)
+    assert len(tiles) >= 9 and [t.sheet for t in tiles] == sorted(t.sheet for t in tiles)
+    pieces = [t.polygon.intersection(area) for t in tiles]
+    assert sum(p.area for p in pieces) == pytest.approx(area.area, rel=1e-9)
+    assert shapely.union_all(pieces).area == pytest.approx(area.area, rel=1e-9)  # no overlap, no gap
+    corners = {tuple(c) for t in tiles for c in shapely.get_coordinates(t.polygon)}
+    for t in tiles:  # a neighbour's corner is this tile's corner, bit for bit, or off its border
+        for c in corners:
+            d = t.polygon.exterior.distance(shapely.Point(c))
+            assert d == 0.0 or d > 1.0 or c in {tuple(x) for x in shapely.get_coordinates(t.polygon)}
+
+
+def test_ownership_is_one_sheet_per_point_and_follows_the_grid():
+    rng = np.random.default_rng(3)
+    points = np.column_stack([rng.uniform(207000, 211000, 5000), rng.uniform(541000, 545000, 5000)])
+    owners = plan.owners(points, "EPSG:5186", 1000)
+    tiles = {t.sheet: t.polygon for t in plan.plan_tiles(shapely.box(206900, 540900, 211100, 545100),
+                                                         "EPSG:5186", 1000)}
+    inside = [tiles[o].distance(shapely.Point(p)) < 0.01 for o, p in zip(owners, points)]  # straight vs curved edges
+    assert all(inside)
+    import pyproj
+    lon, lat = pyproj.Transformer.from_crs("EPSG:5186", "EPSG:4737", always_xy=True).transform(*points[:10].T)
+    assert owners[:10] == [sheet_at(x, y, 1000).number for x, y in zip(lon, lat)]
+    owner = plan.TileOwner(owners[0], 1000, "EPSG:5186")
+    assert owner(points).sum() == owners.count(owners[0])
+
+
+def test_tile_scale_must_be_a_sheet_grid():
+    from wit_plugin.errors import InputError
+
+    with pytest.raises(InputError, match="1:2500 is not offered"):
+        plan.plan_tiles(shapely.box(0, 0, 1, 1), "EPSG:5186", 2500)
+
+
+# -- real runs ----------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def sample(tmp_path_factory):
+    return generate_sample(tmp_path_factory.mktemp("tiles-sample"), SampleConfig(radius_m=320.0, seed=8,
+                                                                                   ortho_pixel_size=1.0))
+
+
+def _inputs(sample, **kw) -> ChainInputs:
+    base = dict(ortho=[str(sample.ortho_tiles[0].parent)], dem=str(sample.dem), buildings=str(sample.buildings),
+                roads=str(sample.roads), districts=str(sample.districts))
+    base.update(kw)
+    return ChainInputs(**base)
+
+
+def _options() -> ChainOptions:
+    return ChainOptions(area=None, max_edge=15.0, metrics=False, tiles3d=False)
+
+
+@pytest.fixture(scope="module")
+def local_run(sample, tmp_path_factory):
+    out = tmp_path_factory.mktemp("tiled")
+    report = run_tiles(_inputs(sample), _options(), out, AREA, scale=1000, workers=2)
+    return out, report
+
+
+@pytest.fixture(scope="module")
+def single(sample, tmp_path_factory):
+    out = tmp_path_factory.mktemp("single")
+    return run_city_model(_inputs(sample), ChainOptions(area=AREA, max_edge=15.0, metrics=False, tiles3d=False), out)
+
+
+def _building_ids(gml: Path) -> list[str]:
+    return [b.get(GID) for b in etree.parse(str(gml)).iterfind(".//bldg:Building", NS)]
+
+
+def _ground_triangles(gml: Path) -> np.ndarray:
+    """(n, 3, 3) terrain and road triangles of a model."""
+    triangles = [np.array(p.text.split(), dtype=float).reshape(-1, 3)[:3]
+                 for p in etree.parse(str(gml)).iterfind(".//gml:Triangle//gml:posList", NS)]
+    return np.array(triangles)
+
+
+def test_every_building_in_exactly_one_tile_same_as_the_single_area(local_run, single):
+    out, report = local_run
+    assert report.count("done") >= 3 and report.count("failed") == 0
+    ids = [i for row in report.rows if row["status"] == "done" for i in _building_ids(out / row["gml"])]
+    assert len(ids) == len(set(ids)) == report.buildings
+    assert set(ids) == set(_building_ids(Path(single.gml)))
+    index = read_index(out)
+    assert {r["status"] for r in index.values()} <= {"done", "empty"}
+    assert all(index[r["sheet"]]["buildings"] == r["buildings"] for r in report.rows)
+    assert all(r["peak_mb"] > 50 and r["seconds"] > 0 for r in report.rows if r["status"] == "done")
+
+
+def test_every_tile_is_a_valid_citygml_file(local_run):
+    out, report = local_run
+    for row in report.rows:
+        if row["status"] == "done":
+            result = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
+                                     str(ROOT / "wit_plugin/citygml/xsd/citygml3-all.xsd"), str(out / row["gml"])],
+                                    capture_output=True, text=True)
+            assert result.returncode == 0, result.stderr[-2000:]
+
+
+def test_neighbouring_tiles_share_their_border_vertex_for_vertex(local_run):
+    """On every shared border: the same vertices (x, y and z, to the millimetre) on both sides."""
+    out, report = local_run
+    done = [r["sheet"] for r in report.rows if r["status"] == "done"]
+    polygons = {s: plan.tile_of(s, "EPSG:5186").polygon for s in done}
+    checked = 0
+    for k, a in enumerate(done):
+        for b in done[k + 1:]:
+            border = polygons[a].intersection(polygons[b])
+            if border.length < 1.0:
+                continue
+            sides = []
+            for sheet in (a, b):
+                v = _ground_triangles(out / "tiles" / sheet / "model.gml").reshape(-1, 3)
+                on = shapely.dwithin(shapely.points(v[:, :2]), border, 2e-3)
+                sides.append({tuple(p) for p in np.round(v[on], 3)})
+            assert sides[0] == sides[1], (a, b, sorted(sides[0] ^ sides[1])[:6])
+            assert len(sides[0]) > 10
+            checked += 1
+    assert checked >= 2
+
+
+def _t_junctions(triangles: np.ndarray) -> int:
+    """Vertices lying inside (not at the ends of) an edge that only one triangle uses: cracks."""
+    xy = np.round(triangles[:, :, :2], 6)
+    vertices, index = np.unique(xy.reshape(-1, 2), axis=0, return_inverse=True)
+    tris = index.reshape(-1, 3)
+    edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    open_edges = unique[count == 1]
+    lines = shapely.linestrings(np.stack([vertices[open_edges[:, 0]], vertices[open_edges[:, 1]]], axis=1))
+    tree = shapely.STRtree(shapely.points(vertices))
+    line_index, vertex_index = tree.query(lines, predicate="dwithin", distance=1e-4)
+    inner = (vertex_index != open_edges[line_index, 0]) & (vertex_index != open_edges[line_index, 1])
+    return int(inner.sum())
+
+
+def test_no_t_junction_inside_a_tile_nor_across_its_borders(local_run):
+    out, report = local_run
+    every = []
+    for row in report.rows:
+        if row["status"] == "done":
+            triangles = _ground_triangles(out / row["gml"])
+            assert _t_junctions(triangles) == 0, row["sheet"]
+            every.append(triangles)
+    assert _t_junctions(np.concatenate(every)) == 0  # the tiles together: no crack along the borders
+
+
+def test_a_second_run_resumes(local_run, sample):
+    out, first = local_run
+    stamps = {p: p.stat().st_mtime_ns for p in out.glob("tiles/*/model.gml")}
+    report = run_tiles(_inputs(sample), _options(), out, AREA, scale=1000, workers=1)
+    assert report.resumed == len(first.rows) and report.buildings == first.buildings
+    assert {p: p.stat().st_mtime_ns for p in out.glob("tiles/*/model.gml")} == stamps
+
+
+def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
+    """A DEM that stops in the middle: the tiles beyond it fail with the reason, the others are built."""
+    from osgeo import gdal
+
+    ds = gdal.Open(str(sample.dem))
+    half = tmp_path / "dem_west.tif"
+    gdal.Translate(str(half), ds, srcWin=[0, 0, ds.RasterXSize // 2 + 8, ds.RasterYSize])
+    report = run_tiles(_inputs(sample, dem=str(half)), _options(), tmp_path / "out", AREA, scale=1000, workers=2)
+    failed = [r for r in report.rows if r["status"] == "failed"]
+    assert failed and report.count("done") >= 1
+    assert all("does not cover the area" in r["error"] for r in failed)
+    assert not any((tmp_path / "out" / "tiles" / r["sheet"]).exists() for r in failed)
+    assert {s: r["status"] for s, r in read_index(tmp_path / "out").items()} == {
+        r["sheet"]: r["status"] for r in report.rows}
+
+
+class _CancelAfterFirstTile(Feedback):
+    def __init__(self):
+        self.finished = 0
+
+    def info(self, message: str) -> None:
+        self.finished += message.startswith("Tile ")
+
+    def is_canceled(self) -> bool:
+        return self.finished >= 1
+
+
+def test_cancel_stops_the_run_and_leaves_no_half_tile(sample, tmp_path):
+    with pytest.raises(CanceledError):
+        run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, workers=1,
+                  feedback=_CancelAfterFirstTile())
+    index = read_index(tmp_path / "out")
+    assert "pending" in {r["status"] for r in index.values()}
+    for folder in (tmp_path / "out" / "tiles").glob("*"):
+        assert (folder / "model.gml").is_file() and not list(folder.glob(".wit-run-*"))
+
+
+# -- a real distributed cluster: dask scheduler + dask worker processes --------------------------
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture()
+def cluster():
+    """`dask scheduler` and two `dask worker` processes on 127.0.0.1, importing the core from this checkout."""
+    python, port = worker_python(), _free_port()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    scheduler = subprocess.Popen([python, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port",
+                                  str(port), "--no-dashboard"], env=env, start_new_session=True,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    address = f"tcp://127.0.0.1:{port}"
+    workers = [subprocess.Popen([python, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                                 "--no-dashboard", "--memory-limit", "0"], env=env, start_new_session=True,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for _ in range(2)]
+    from distributed import Client
+
+    with Client(address, timeout=60) as client:
+        client.wait_for_workers(2, timeout=120)
+    yield address, workers
+    stop_workers(workers + [scheduler])
+
+
+def test_a_distributed_scheduler_gives_the_same_result(cluster, sample, local_run, tmp_path):
+    address, _ = cluster
+    report = run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address)
+    out, local = local_run
+    assert [(r["sheet"], r["status"], r["buildings"]) for r in report.rows] == [
+        (r["sheet"], r["status"], r["buildings"]) for r in local.rows]
+    for row in report.rows:
+        if row["status"] == "done":
+            assert _building_ids(tmp_path / "out" / row["gml"]) == _building_ids(out / row["gml"])
+
+
+def test_a_killed_worker_costs_only_its_tile(cluster, sample, local_run, tmp_path):
+    """Kill the process running a tile (by pid): Dask runs the tile again; the run ends complete."""
+    address, workers = cluster
+    from distributed import Client
+
+    def kill_a_busy_worker():
+        with Client(address, timeout=30) as client:
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline:
+                busy = [w for w, tasks in client.processing().items() if tasks]
+                if busy:
+                    pids = client.run(os.getpid, workers=busy[:1])
+                    os.kill(next(iter(pids.values())), signal.SIGKILL)
+                    return
+                time.sleep(0.05)
+
+    killer = threading.Thread(target=kill_a_busy_worker)
+    killer.start()
+    report = run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address)
+    killer.join()
+    assert report.count("failed") == 0 and report.buildings == local_run[1].buildings
+
+
+def test_no_worker_is_started_with_qgis_as_interpreter(monkeypatch, tmp_path):
+    """Inside QGIS on Windows/macOS sys.executable is QGIS: workers then use a Python found on the PATH."""
+    fake = tmp_path / "qgis-bin"
+    fake.write_text("#!/bin/sh\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(sys, "executable", str(fake))
+    monkeypatch.delenv("WIT_WORKER_PYTHON", raising=False)
+    chosen = worker_python()
+    assert chosen != str(fake) and Path(chosen).name.startswith("python")
+    assert worker_python(sys.base_prefix + "/bin/python3") == sys.base_prefix + "/bin/python3"
+
