@@ -226,7 +226,8 @@ def test_whole_extent_and_road_polygons_of_another_schema(tmp_path, shared_dir, 
         layer.CreateFeature(feature)
     del layer, ds
     before = snapshot(path)
-    result = draw_from_layers(tmp_path / "out", GivenLayers(roads=str(path)), SampleConfig(ortho_pixel_size=1.0))
+    result = draw_from_layers(tmp_path / "out", GivenLayers(roads=str(path)),
+                              SampleConfig(ortho_pixel_size=2.0, with_dem=False))
     assert snapshot(path) == before
     extent = shapely.box(*shapely.total_bounds(transform(polygons, roads.crs, TARGET)))
     assert result.area.contains(extent) and result.area.area < 1.03 * extent.area
@@ -236,7 +237,7 @@ def test_whole_extent_and_road_polygons_of_another_schema(tmp_path, shared_dir, 
     tiles = [(g.output, gains[Path(g.source).name]) for g in geo]
     cores = transform(shapely.buffer(roads.geoms, 3.0), roads.crs, TARGET)
     pixels = np.vstack([_pixels(tiles, c) for c in cores])
-    assert len(pixels) > 5000
+    assert len(pixels) > 1000
     asphalt = _chroma(_PALETTE[ASPHALT])
     # markings and street trees come with centre lines only: polygons are plain asphalt
     assert np.abs(_chroma(pixels) - asphalt).max() < 0.012

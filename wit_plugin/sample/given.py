@@ -180,7 +180,8 @@ def _region(layers: GivenLayers, target: pyproj.CRS,
     region = shapely.intersection(area, extent)
     if region.is_empty or region.area <= 0:
         raise InputError(f"The study area (bounds {_rounded(area.bounds)} in {RASTER_CRS}) does not meet the "
-                         f"given layers (extent {_rounded(extent.bounds)}): choose an area where they are.")
+                         f"given layers (extent {_rounded(extent.bounds)}): choose an area where they are, or draw over "
+                         "their whole extent.")
     return region, districts
 
 
