@@ -36,6 +36,7 @@ from ..feedback import SILENT, Feedback
 from ..fileio import atomic_files, refuse_overlap, source_file
 from ..heights import HeightOptions, building_height
 from ..terrain import covering_area
+from ..tiles.plan import plan_tiles
 from ..vector_io import VectorLayer, layer_extent, non_finite, read_layer
 from ..vectors import (
     ROAD_QUAD_SEGS,
@@ -67,7 +68,6 @@ from .rasters import (
 
 YARD_WIDTH = 6.0  # m of paving drawn around every footprint
 SIDEWALK_WIDTH = 2.5  # m of paving drawn along both sides of every road
-_SHEET_EDGE_POINTS = 11  # per sheet edge, when projecting a sheet's outline
 
 
 @dataclass(frozen=True)
@@ -198,24 +198,12 @@ def _read(path: str, layers: GivenLayers, bbox, target: pyproj.CRS, feedback: Fe
 
 
 def sheets_meeting(area: shapely.Geometry) -> list[mapsheet.MapSheet]:
-    """The NGII 1:5,000 sheets whose outline shares interior with ``area`` (EPSG:5186), in reading order."""
-    to_sheet = pyproj.Transformer.from_crs(RASTER_CRS, "EPSG:4737", always_xy=True)
+    """The NGII 1:5,000 sheets that overlap ``area`` (EPSG:5186), as the chain's tiles are planned."""
     try:
-        candidates = mapsheet.sheets_covering(*to_sheet.transform_bounds(*area.bounds, densify_pts=21))
+        return [mapsheet.parse_sheet_number(t.sheet) for t in plan_tiles(area, RASTER_CRS)]
     except InputError as exc:
         raise InputError(f"The area (bounds {_rounded(area.bounds)} in {RASTER_CRS}) has no NGII map sheets: "
                          f"{exc}") from None
-    to_target = pyproj.Transformer.from_crs("EPSG:4737", RASTER_CRS, always_xy=True)
-    t = np.linspace(0.0, 1.0, _SHEET_EDGE_POINTS)[:-1]
-    outlines = []
-    for s in candidates:
-        lon = np.concatenate([s.west + t * (s.east - s.west), np.full_like(t, s.east),
-                              s.east - t * (s.east - s.west), np.full_like(t, s.west)])
-        lat = np.concatenate([np.full_like(t, s.south), s.south + t * (s.north - s.south),
-                              np.full_like(t, s.north), s.north - t * (s.north - s.south)])
-        outlines.append(shapely.Polygon(np.column_stack(to_target.transform(lon, lat))))
-    inside = shapely.relate_pattern(np.array(outlines, dtype=object), area, "T********")
-    return [s for s, keep in zip(candidates, inside) if keep]
 
 
 @dataclass
@@ -259,7 +247,7 @@ def _sheets_and_layers(layers: GivenLayers, region: shapely.Geometry, target: py
         grown = sheets_meeting(covering_area(region, list(inside)))
         if {s.number for s in grown} <= {s.number for s in sheets}:
             break
-        sheets = sorted({s.number: s for s in sheets + grown}.values(), key=lambda s: (-s.north, s.west))
+        sheets = sorted({s.number: s for s in sheets + grown}.values(), key=lambda s: s.number)
     sources, heights = {}, np.zeros(0)
     if buildings is not None:
         sources["buildings"] = (buildings, len(roofs))
