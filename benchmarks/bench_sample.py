@@ -92,6 +92,10 @@ def child(*args: str) -> dict:
 
 
 CASES = ("synthetic-500", "drawn-500", "synthetic-1000", "drawn-1000", "drawn-yeoksam")
+#: the printed table: (key, title, alignment, width, format)
+COLUMNS = (("case", "case", "<", 16, ""), ("seconds", "time s", ">", 8, ".1f"), ("tiles", "tiles", ">", 7, ""),
+           ("megapixels", "Mpx", ">", 7, ".0f"), ("buildings", "buildings", ">", 11, ""), ("roads", "roads", ">", 7, ""),
+           ("peak_rss_mb", "peak RSS MB", ">", 13, ".0f"))
 
 
 def main() -> None:
@@ -116,10 +120,9 @@ def main() -> None:
               "cpus": os.cpu_count(), "load_average": os.getloadavg(), "paper": None, "runs": rows}
     print(f"pixel {args.pixel} m; building layers: {layers['suseo'][1]} footprints around Suseo, "
           f"{layers['yeoksam'][1]} in 역삼동 ({layers['dong_km2']} km²); roads: real TL_SPRD_MANAGE (paper: no figure)")
-    print(f"{'case':<16}{'time s':>8}{'tiles':>7}{'Mpx':>7}{'buildings':>11}{'roads':>7}{'peak RSS MB':>13}")
+    print("".join(f"{title:{align}{width}}" for _, title, align, width, _ in COLUMNS))
     for r in rows:
-        print(f"{r['case']:<16}{r['seconds']:>8.1f}{r['tiles']:>7}{r['megapixels']:>7.0f}{r['buildings']:>11}"
-              f"{r['roads']:>7}{r['peak_rss_mb']:>13.0f}")
+        print("".join(f"{r[key]:{align}{width}{spec}}" for key, _, align, width, spec in COLUMNS))
     print(json.dumps(report, indent=2, ensure_ascii=False))
 
 

@@ -208,23 +208,28 @@ def test_a_district_by_name_gives_its_sheets(shared_dir, tmp_path):
     assert manifest["files"]["dem"] is None and not (tmp_path / "out" / "dem_5186.tif").exists()
 
 
-def test_whole_extent_and_road_polygons_of_another_schema(tmp_path, shared_dir, suseo_buildings):
-    """No area: the layers' extent. Roads as polygons (no ROAD_BT) are drawn as they are."""
-    roads = read_layer(juso_roads(shared_dir), bbox=(964400.0, 1942900.0, 965200.0, 1943500.0))
-    polygons = shapely.buffer(roads.geoms, 4.0)
-    path = tmp_path / "in" / "road_areas.gpkg"
+def _osm_roads(path: Path, epsg: int, geoms: np.ndarray) -> Path:
+    """An OpenStreetMap-style road layer (``highway``, no width) in a new folder."""
     path.parent.mkdir()
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
     srs = osr.SpatialReference()
-    srs.ImportFromEPSG(5179)
-    layer = ds.CreateLayer("roads", srs, ogr.wkbPolygon)
+    srs.ImportFromEPSG(epsg)
+    layer = ds.CreateLayer("roads", srs, ogr.wkbUnknown)
     layer.CreateField(ogr.FieldDefn("highway", ogr.OFTString))
-    for geom in polygons:
+    for geom in geoms:
         feature = ogr.Feature(layer.GetLayerDefn())
         feature.SetField("highway", "residential")
         feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geom)))
         layer.CreateFeature(feature)
     del layer, ds
+    return path
+
+
+def test_whole_extent_and_road_polygons_of_another_schema(tmp_path, shared_dir, suseo_buildings):
+    """No area: the layers' extent. Roads as polygons (no ROAD_BT) are drawn as they are."""
+    roads = read_layer(juso_roads(shared_dir), bbox=(964400.0, 1942900.0, 965200.0, 1943500.0))
+    polygons = shapely.buffer(roads.geoms, 4.0)
+    path = _osm_roads(tmp_path / "in" / "road_areas.gpkg", 5179, polygons)
     before = snapshot(path)
     result = draw_from_layers(tmp_path / "out", GivenLayers(roads=str(path)),
                               SampleConfig(ortho_pixel_size=2.0, with_dem=False))
@@ -245,18 +250,8 @@ def test_whole_extent_and_road_polygons_of_another_schema(tmp_path, shared_dir, 
 
 
 def test_roads_without_width_get_the_class_or_default_width_with_a_warning(tmp_path):
-    path = tmp_path / "in" / "osm_roads.gpkg"
-    path.parent.mkdir()
-    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
-    srs = osr.SpatialReference()
-    srs.ImportFromEPSG(5186)
-    layer = ds.CreateLayer("roads", srs, ogr.wkbUnknown)
-    layer.CreateField(ogr.FieldDefn("highway", ogr.OFTString))
-    for wkt in ("LINESTRING(209000 543000,209300 543000)", "POINT(209100 543100)"):
-        feature = ogr.Feature(layer.GetLayerDefn())
-        feature.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
-        layer.CreateFeature(feature)
-    del layer, ds
+    path = _osm_roads(tmp_path / "in" / "osm_roads.gpkg", 5186, shapely.from_wkt(
+        ["LINESTRING(209000 543000,209300 543000)", "POINT(209100 543100)"]))
 
     class Recorder(Feedback):
         warnings: list[str] = []
