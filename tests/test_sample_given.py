@@ -24,13 +24,7 @@ from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers
 from wit_plugin.sample.ortho import RASTER_CRS
 from wit_plugin.sample.rasters import _PALETTE, ASPHALT, ROOF_COLOURS, roof_styles
 from wit_plugin.vector_io import read_layer
-from wit_plugin.vectors import (
-    ROAD_QUAD_SEGS,
-    StudyArea,
-    repair_polygons,
-    road_widths,
-    transform,
-)
+from wit_plugin.vectors import ROAD_QUAD_SEGS, StudyArea, repair_polygons, road_widths, transform
 
 SUSEO = (127.1020, 37.4876)
 TARGET = pyproj.CRS(RASTER_CRS)
@@ -103,7 +97,7 @@ def test_roofs_are_drawn_exactly_where_the_footprints_are(drawn):
     """Inside every footprint with a coloured roof each pixel has that roof's colour; in the 1 m ring of
     ground around it none has; the roof colour is the one roof_styles gives the footprint."""
     roofs = _footprints(drawn["buildings"])
-    area = shapely.Point(*pyproj.Transformer.from_crs("EPSG:4326", TARGET, always_xy=True).transform(*SUSEO)).buffer(250)
+    area = drawn["result"].area
     rgb, pitched = roof_styles(roofs, 9)
     tree = shapely.STRtree(roofs)
     styles = np.argmin(np.abs(_chroma(rgb)[:, None, :] - _chroma(ROOF_COLOURS)[None]).sum(axis=2), axis=1)

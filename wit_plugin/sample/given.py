@@ -38,33 +38,11 @@ from ..heights import HeightOptions, building_height
 from ..terrain import covering_area
 from ..tiles.plan import plan_tiles
 from ..vector_io import VectorLayer, layer_extent, non_finite, read_layer
-from ..vectors import (
-    ROAD_QUAD_SEGS,
-    PrepareConfig,
-    StudyArea,
-    repair_polygons,
-    road_widths,
-    transform,
-)
+from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, StudyArea, polygonal, repair_polygons, road_widths, transform
 from .config import MANIFEST, SampleConfig, check_rasters
 from .layout import GROUND_LANE
-from .ortho import (
-    DEM_NAME,
-    ORTHO_DIR,
-    RASTER_CRS,
-    render_tiles,
-    sheet_envelopes,
-    write_sample_dem,
-)
-from .rasters import (
-    NATURAL,
-    SIDEWALK,
-    Terrain,
-    assemble_scene,
-    grouped,
-    roof_styles,
-    street_trees,
-)
+from .ortho import DEM_NAME, ORTHO_DIR, RASTER_CRS, render_tiles, sheet_envelopes, write_sample_dem
+from .rasters import NATURAL, SIDEWALK, Terrain, assemble_scene, grouped, roof_styles, street_trees
 
 YARD_WIDTH = 6.0  # m of paving drawn around every footprint
 SIDEWALK_WIDTH = 2.5  # m of paving drawn along both sides of every road
@@ -125,7 +103,7 @@ def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: Sample
     sheets, drawn = _sheets_and_layers(layers, region, target, feedback.scaled(3, 12))
     if layers.districts and districts is None:
         feedback.info("The district layer is used only to find a district by code or name: not read.")
-    feedback.info(f"Area: {region.area / 1e6:.3f} km², bounds {tuple(round(v, 1) for v in region.bounds)} in "
+    feedback.info(f"Area: {region.area / 1e6:.3f} km², bounds {_rounded(region.bounds)} in "
                   f"{RASTER_CRS}; {len(sheets)} NGII 1:5,000 sheet(s): {', '.join(s.number for s in sheets)}")
     manifest: dict = {
         "generator": "wit_plugin.sample", "mode": "drawn from given layers", "raster_crs": RASTER_CRS,
@@ -141,7 +119,7 @@ def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: Sample
     with atomic_files(targets) as tmp:
         if config.with_dem:
             feedback.info("Writing the DEM")
-            manifest["dem_holes"] = write_sample_dem(tmp / DEM_NAME, region.bounds, config.dem_cell_size,
+            manifest["dem_holes"] = write_sample_dem(tmp / DEM_NAME, drawn.cover.bounds, config.dem_cell_size,
                                                      Terrain(config.seed), config.seed, feedback.scaled(12, 20))
         if config.with_ortho:
             feedback.info(f"Rendering {len(sheets)} orthoimage tile(s) from {drawn.counts['buildings']} "
@@ -177,11 +155,11 @@ def _region(layers: GivenLayers, target: pyproj.CRS,
         districts = _read(layers.districts, layers, None, target, feedback)
         districts = replace(districts, geoms=repair_polygons(districts.geoms).geoms)
     area = layers.area.geometry(target, districts, feedback)
-    region = shapely.intersection(area, extent)
-    if region.is_empty or region.area <= 0:
+    region = polygonal(np.array([shapely.intersection(area, extent)], dtype=object))[0]
+    if region is None or region.area <= 0:
         raise InputError(f"The study area (bounds {_rounded(area.bounds)} in {RASTER_CRS}) does not meet the "
-                         f"given layers (extent {_rounded(extent.bounds)}): choose an area where they are, or draw over "
-                         "their whole extent.")
+                         f"given layers (extent {_rounded(extent.bounds)}): choose an area where they are, or "
+                         "draw over their whole extent.")
     return region, districts
 
 
@@ -208,9 +186,11 @@ def sheets_meeting(area: shapely.Geometry) -> list[mapsheet.MapSheet]:
 
 @dataclass
 class _Drawn:
-    """The given features in EPSG:5186, ready to become a scene; ``sources``: kind → (layer, drawn)."""
+    """The given features in EPSG:5186, ready to become a scene; ``cover``: the area grown by the
+    buildings that cross its edge (what the chain's terrain covers); ``sources``: kind → (layer, drawn)."""
 
     view: shapely.Geometry
+    cover: shapely.Geometry
     roofs: np.ndarray
     heights: np.ndarray
     road_surfaces: np.ndarray
@@ -244,7 +224,8 @@ def _sheets_and_layers(layers: GivenLayers, region: shapely.Geometry, target: py
         buildings = _read(layers.buildings, layers, view.bounds, target, feedback) if layers.buildings else None
         roofs, keep, reasons = _footprints(buildings) if buildings is not None else (np.array([], dtype=object),) * 3
         inside = roofs[shapely.contains(region, shapely.point_on_surface(roofs))] if len(roofs) else roofs
-        grown = sheets_meeting(covering_area(region, list(inside)))
+        cover = covering_area(region, list(inside))
+        grown = sheets_meeting(cover)
         if {s.number for s in grown} <= {s.number for s in sheets}:
             break
         sheets = sorted({s.number: s for s in sheets + grown}.values(), key=lambda s: s.number)
@@ -259,7 +240,7 @@ def _sheets_and_layers(layers: GivenLayers, region: shapely.Geometry, target: py
         surfaces, lines, widths, drawn = _roads(roads, feedback)
         sources["roads"] = (roads, drawn)
     feedback.progress(100.0)
-    return sheets, _Drawn(view, roofs, heights, surfaces, lines, widths, sources)
+    return sheets, _Drawn(view, cover, roofs, heights, surfaces, lines, widths, sources)
 
 
 def _view(sheets: list[mapsheet.MapSheet]) -> shapely.Geometry:

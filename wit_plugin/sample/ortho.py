@@ -12,14 +12,7 @@ import numpy as np
 
 from .. import mapsheet
 from ..feedback import SILENT, Feedback
-from .rasters import (
-    OrthoScene,
-    Rasteriser,
-    Terrain,
-    noise_tables,
-    render_tile,
-    write_dem,
-)
+from .rasters import OrthoScene, Rasteriser, Terrain, noise_tables, render_tile, write_dem
 
 RASTER_CRS = "EPSG:5186"
 ORTHO_MARGIN = 50.0  # NGII tiles cover the sheet envelope plus 50 m on every side
