@@ -388,16 +388,24 @@
       <translation>Data</translation>
     </message>
     <message>
-      <source>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).</source>
-      <translation>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).</translation>
+      <source>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).&lt;br&gt;&lt;br&gt;With a building and/or road layer given (any CRS and schema: road-name-address, NGII, OpenStreetMap; roads as centre lines, buffered by ROAD_BT / 2, else by their class width or 6 m, or as polygons), it draws the orthoimage tiles from them instead, and the DEM over their area: roofs where the footprints are, roads where the roads are, paving, lawn and forest elsewhere. The tiles are the NGII sheets that cover the study area (centre and radius, a polygon layer, or a legal dong of the district layer) clipped to the layers' extent, or that whole extent. The given layers are only read; the output folder receives the tiles, the DEM and sample_manifest.json, which names the layers they were drawn from.</source>
+      <translation>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).&lt;br&gt;&lt;br&gt;With a building and/or road layer given (any CRS and schema: road-name-address, NGII, OpenStreetMap; roads as centre lines, buffered by ROAD_BT / 2, else by their class width or 6 m, or as polygons), it draws the orthoimage tiles from them instead, and the DEM over their area: roofs where the footprints are, roads where the roads are, paving, lawn and forest elsewhere. The tiles are the NGII sheets that cover the study area (centre and radius, a polygon layer, or a legal dong of the district layer) clipped to the layers' extent, or that whole extent. The given layers are only read; the output folder receives the tiles, the DEM and sample_manifest.json, which names the layers they were drawn from.</translation>
     </message>
     <message>
-      <source>Centre of the study area</source>
-      <translation>Centre of the study area</translation>
+      <source>Buildings to draw the orthoimage from (empty = a synthetic city)</source>
+      <translation>Buildings to draw the orthoimage from (empty = a synthetic city)</translation>
     </message>
     <message>
-      <source>Radius of the study area (m)</source>
-      <translation>Radius of the study area (m)</translation>
+      <source>Roads to draw the orthoimage from: centre lines or polygons</source>
+      <translation>Roads to draw the orthoimage from: centre lines or polygons</translation>
+    </message>
+    <message>
+      <source>Legal dongs (TL_SCCO_EMD), to name a district as the area</source>
+      <translation>Legal dongs (TL_SCCO_EMD), to name a district as the area</translation>
+    </message>
+    <message>
+      <source>Draw over the whole extent of the given layers (instead of the study area)</source>
+      <translation>Draw over the whole extent of the given layers (instead of the study area)</translation>
     </message>
     <message>
       <source>Number of buildings (0 = from the radius)</source>
@@ -420,6 +428,10 @@
       <translation>Generate orthoimage tiles</translation>
     </message>
     <message>
+      <source>Generate the DEM</source>
+      <translation>Generate the DEM</translation>
+    </message>
+    <message>
       <source>Buildings (TL_SPBD_BULD)</source>
       <translation>Buildings (TL_SPBD_BULD)</translation>
     </message>
@@ -432,8 +444,24 @@
       <translation>Sample manifest (JSON)</translation>
     </message>
     <message>
+      <source>Given buildings drawn</source>
+      <translation>Given buildings drawn</translation>
+    </message>
+    <message>
+      <source>Given roads drawn</source>
+      <translation>Given roads drawn</translation>
+    </message>
+    <message>
       <source>Orthoimage tiles written</source>
       <translation>Orthoimage tiles written</translation>
+    </message>
+    <message>
+      <source>A district layer, a study-area layer, a district or the whole extent apply only when drawing from a given building or road layer.</source>
+      <translation>A district layer, a study-area layer, a district or the whole extent apply only when drawing from a given building or road layer.</translation>
+    </message>
+    <message>
+      <source>The number of buildings applies to the synthetic city only: set it to 0 when drawing from given layers.</source>
+      <translation>The number of buildings applies to the synthetic city only: set it to 0 when drawing from given layers.</translation>
     </message>
     <message>
       <source>Georeference map-sheet orthoimages</source>
@@ -730,6 +758,14 @@
     <message>
       <source> or </source>
       <translation> or </translation>
+    </message>
+    <message>
+      <source>Centre of the study area</source>
+      <translation>Centre of the study area</translation>
+    </message>
+    <message>
+      <source>Radius of the study area (m)</source>
+      <translation>Radius of the study area (m)</translation>
     </message>
     <message>
       <source>Study area polygons (instead of centre and radius)</source>

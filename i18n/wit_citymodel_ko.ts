@@ -388,16 +388,24 @@
       <translation>데이터</translation>
     </message>
     <message>
-      <source>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).</source>
-      <translation>중심점 주변의 국가 공간정보 형식 샘플을 항상 같은 결과로(시드 기준) 생성합니다: 건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD)은 .cpg 없는 CP949 셰이프파일(EPSG:5179)이며 실제 데이터에 있는 몇 가지 오류를 포함합니다. DEM은 EPSG:5186 GeoTIFF로 NoData 지정 없이 -9999 셀을 가지며, 정사영상은 NGII 1:5,000 도엽번호로 이름 붙인 좌표 없는 TIF(도엽 범위 + 50 m, 타일마다 다른 밝기)입니다. 반경 또는 건물 수(0 = 반경으로 결정) 중 하나를 지정하십시오.</translation>
+      <source>Generates a deterministic sample of the Korean national data around a centre point: buildings (TL_SPBD_BULD), roads (TL_SPRD_MANAGE) and legal dongs (TL_SCCO_EMD) as CP949 shapefiles without .cpg in EPSG:5179 with a few real-world defects, a DEM GeoTIFF in EPSG:5186 with -9999 cells and no NoData flag, and unreferenced orthoimage TIFs named by NGII 1:5,000 map-sheet number (sheet envelope + 50 m, one brightness per tile). Set either the radius or the number of buildings (0 = from the radius).&lt;br&gt;&lt;br&gt;With a building and/or road layer given (any CRS and schema: road-name-address, NGII, OpenStreetMap; roads as centre lines, buffered by ROAD_BT / 2, else by their class width or 6 m, or as polygons), it draws the orthoimage tiles from them instead, and the DEM over their area: roofs where the footprints are, roads where the roads are, paving, lawn and forest elsewhere. The tiles are the NGII sheets that cover the study area (centre and radius, a polygon layer, or a legal dong of the district layer) clipped to the layers' extent, or that whole extent. The given layers are only read; the output folder receives the tiles, the DEM and sample_manifest.json, which names the layers they were drawn from.</source>
+      <translation>중심점 주변의 국가 공간정보 형식 샘플을 항상 같은 결과로(시드 기준) 생성합니다: 건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD)은 .cpg 없는 CP949 셰이프파일(EPSG:5179)이며 실제 데이터에 있는 몇 가지 오류를 포함합니다. DEM은 EPSG:5186 GeoTIFF로 NoData 지정 없이 -9999 셀을 가지며, 정사영상은 NGII 1:5,000 도엽번호로 이름 붙인 좌표 없는 TIF(도엽 범위 + 50 m, 타일마다 다른 밝기)입니다. 반경 또는 건물 수(0 = 반경으로 결정) 중 하나를 지정하십시오.&lt;br&gt;&lt;br&gt;건물 또는 도로 레이어를 주면(좌표계와 스키마는 무관: 도로명주소, 국토지리정보원, OpenStreetMap. 도로는 중심선이면 ROAD_BT / 2만큼, 없으면 도로 등급별 폭이나 6 m로 버퍼하고, 폴리곤이면 그대로 씁니다) 가상 도시 대신 그 레이어로부터 정사영상 타일을 그리고, 그 영역에 DEM을 만듭니다: 건물 외곽선에는 지붕, 도로 자리에는 도로, 그 밖에는 포장면·잔디·숲을 그립니다. 타일은 연구 지역(중심과 반경, 폴리곤 레이어, 또는 법정동 레이어의 법정동)을 레이어 범위로 자른 영역, 또는 레이어 전체 범위를 덮는 NGII 도엽입니다. 주어진 레이어는 읽기만 하며, 출력 폴더에는 타일, DEM, 그리고 어느 레이어에서 그렸는지 기록한 sample_manifest.json이 생깁니다.</translation>
     </message>
     <message>
-      <source>Centre of the study area</source>
-      <translation>연구 지역 중심</translation>
+      <source>Buildings to draw the orthoimage from (empty = a synthetic city)</source>
+      <translation>정사영상을 그릴 건물 (비우면 가상 도시)</translation>
     </message>
     <message>
-      <source>Radius of the study area (m)</source>
-      <translation>연구 지역 반경 (m)</translation>
+      <source>Roads to draw the orthoimage from: centre lines or polygons</source>
+      <translation>정사영상을 그릴 도로: 중심선 또는 폴리곤</translation>
+    </message>
+    <message>
+      <source>Legal dongs (TL_SCCO_EMD), to name a district as the area</source>
+      <translation>법정동(TL_SCCO_EMD): 법정동을 연구 지역으로 지정할 때</translation>
+    </message>
+    <message>
+      <source>Draw over the whole extent of the given layers (instead of the study area)</source>
+      <translation>주어진 레이어의 전체 범위에 그리기 (연구 지역 대신)</translation>
     </message>
     <message>
       <source>Number of buildings (0 = from the radius)</source>
@@ -420,6 +428,10 @@
       <translation>정사영상 타일 생성</translation>
     </message>
     <message>
+      <source>Generate the DEM</source>
+      <translation>DEM 생성</translation>
+    </message>
+    <message>
       <source>Buildings (TL_SPBD_BULD)</source>
       <translation>건물 (TL_SPBD_BULD)</translation>
     </message>
@@ -432,8 +444,24 @@
       <translation>샘플 목록 (JSON)</translation>
     </message>
     <message>
+      <source>Given buildings drawn</source>
+      <translation>그린 건물 수</translation>
+    </message>
+    <message>
+      <source>Given roads drawn</source>
+      <translation>그린 도로 수</translation>
+    </message>
+    <message>
       <source>Orthoimage tiles written</source>
       <translation>생성된 정사영상 타일 수</translation>
+    </message>
+    <message>
+      <source>A district layer, a study-area layer, a district or the whole extent apply only when drawing from a given building or road layer.</source>
+      <translation>법정동 레이어, 연구 지역 레이어, 법정동 지정, 전체 범위 옵션은 건물 또는 도로 레이어로부터 그릴 때만 쓸 수 있습니다.</translation>
+    </message>
+    <message>
+      <source>The number of buildings applies to the synthetic city only: set it to 0 when drawing from given layers.</source>
+      <translation>건물 수는 가상 도시에만 적용됩니다: 주어진 레이어로부터 그릴 때는 0으로 두십시오.</translation>
     </message>
     <message>
       <source>Georeference map-sheet orthoimages</source>
@@ -730,6 +758,14 @@
     <message>
       <source> or </source>
       <translation> 또는 </translation>
+    </message>
+    <message>
+      <source>Centre of the study area</source>
+      <translation>연구 지역 중심</translation>
+    </message>
+    <message>
+      <source>Radius of the study area (m)</source>
+      <translation>연구 지역 반경 (m)</translation>
     </message>
     <message>
       <source>Study area polygons (instead of centre and radius)</source>

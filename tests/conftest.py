@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -137,3 +138,52 @@ def real_rasters(tmp_path_factory, shared_dir, qgis_processing) -> dict:
     lod1 = processing.run("wit:extrudebuildings", {"BUILDINGS": footprints, "DEM": str(dem),
                                                    "OUTPUT": str(vectors / "lod1.gpkg")})["OUTPUT"]
     return {"folder": rasters, "ortho": ortho, "dem": str(dem), "footprints": footprints, "lod1": lod1}
+
+
+def juso_roads(shared: Path) -> Path:
+    """The real Gangnam road centre lines (TL_SPRD_MANAGE 2019: CP949 without .cpg, EPSG:5179)."""
+    return shared / "data" / "juso_gangnam_11680_2019" / "TL_SPRD_MANAGE.shp"
+
+
+@pytest.fixture(scope="session")
+def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
+    """Real-looking footprints around Suseo station that keep off the real roads, as an OpenStreetMap
+    export (EPSG:4326; ``osm_id``, ``building``, ``building:levels``): the sample generator's buildings
+    within 350 m, less those within 3 m of a real road surface (ROAD_BT / 2)."""
+    import numpy as np
+    import pyproj
+    import shapely
+    from osgeo import ogr, osr
+
+    from wit_plugin.sample import SampleConfig, generate_sample
+    from wit_plugin.vector_io import read_layer
+    from wit_plugin.vectors import road_widths, transform
+
+    folder = tmp_path_factory.mktemp("suseo")
+    synthetic = generate_sample(folder / "synthetic", SampleConfig(radius_m=350.0, with_ortho=False, with_dem=False))
+    buildings = read_layer(synthetic.buildings)
+    footprints = shapely.make_valid(buildings.geoms)
+    roads = read_layer(juso_roads(shared_dir), bbox=shapely.total_bounds(footprints), bbox_crs=buildings.crs)
+    widths, _ = road_widths(roads, 6.0)
+    surface = shapely.union_all(shapely.buffer(roads.geoms, widths / 2 + 3.0))
+    keep = np.flatnonzero(~shapely.intersects(footprints, surface) & (shapely.get_type_id(footprints) == 3))
+    lonlat = transform(footprints[keep], buildings.crs, pyproj.CRS("EPSG:4326"))
+    path = folder / "osm_buildings.gpkg"
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(4326)
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    layer = ds.CreateLayer("buildings", srs, ogr.wkbPolygon)
+    for name in ("osm_id", "building", "building:levels"):
+        layer.CreateField(ogr.FieldDefn(name, ogr.OFTString))
+    for k, (i, geom) in enumerate(zip(keep, lonlat)):
+        feature = ogr.Feature(layer.GetLayerDefn())
+        feature.SetField("osm_id", f"way/{100000 + k}")
+        feature.SetField("building", "yes")
+        if buildings.columns["GRO_FLO_CO"][i]:
+            feature.SetField("building:levels", str(buildings.columns["GRO_FLO_CO"][i]))
+        # the GeoPackage stores lon/lat (x = longitude) whatever the CRS's axis order
+        feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geom)))
+        layer.CreateFeature(feature)
+    del layer, ds
+    shutil.rmtree(folder / "synthetic")
+    return path

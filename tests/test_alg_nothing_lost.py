@@ -106,6 +106,8 @@ INPUTS = {
                                 "ROADS": d["roads_shp"]},
     "wit:citymodeltiles": lambda d: {"ORTHO_INPUT": [d["sheet"]], "DEM": d["dem"], "BUILDINGS": d["buildings_shp"],
                                      "ROADS": d["roads_shp"]},
+    "wit:generatesample": lambda d: {"BUILDINGS": d["buildings_shp"], "ROADS": d["roads_shp"],
+                                     "DISTRICTS": d["area"], "AREA_LAYER": d["area"]},
 }
 
 #: per algorithm: its destination parameters (name → "file" or "folder")
@@ -124,6 +126,7 @@ DESTINATIONS = {
     "wit:qualitymetrics": {"OUTPUT": "file", "OUTPUT_HTML": "file"},
     "wit:citymodel": {"OUTPUT": "folder"},
     "wit:citymodeltiles": {"OUTPUT": "folder"},
+    "wit:generatesample": {"OUTPUT": "folder"},
 }
 
 
@@ -149,7 +152,7 @@ def snapshot(folder: Path) -> dict[str, str]:
 
 def test_the_tables_cover_every_algorithm_and_destination(wit_provider):
     writers = {f"wit:{a.name()}": a for a in wit_provider.algorithms() if a.destinationParameterDefinitions()}
-    assert set(DESTINATIONS) == set(INPUTS) == set(writers) - {"wit:generatesample", "wit:citymodelmodel"}
+    assert set(DESTINATIONS) == set(INPUTS) == set(writers) - {"wit:citymodelmodel"}
     for key, algorithm in writers.items():
         if key in DESTINATIONS:
             assert {d.name() for d in algorithm.destinationParameterDefinitions()} == set(DESTINATIONS[key]), key

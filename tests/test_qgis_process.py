@@ -104,3 +104,25 @@ def test_georeference_without_the_footprint_index(tmp_path, profile):
     assert "OUTPUT_INDEX" not in results or not results["OUTPUT_INDEX"]
     assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == [
         "(B060)정사영상_2022_37709005.tif", "37709005.tif"]
+
+
+def test_sample_drawn_from_real_roads_then_the_whole_chain_headless(tmp_path, profile, shared_dir, suseo_buildings):
+    """500 m around Suseo: tiles and DEM drawn from the real Gangnam roads and footprints, then
+    wit:citymodel on them with those roads: the coverage check passes and the whole model is valid."""
+    from test_sample_given import snapshot
+
+    from conftest import juso_roads
+
+    roads = juso_roads(shared_dir)
+    districts = roads.with_name("TL_SCCO_EMD.shp")
+    before = snapshot(roads, suseo_buildings)
+    sample = qgis_process("run", "wit:generatesample", f"--BUILDINGS={suseo_buildings}", f"--ROADS={roads}",
+                          "--RADIUS=500", "--ORTHO_PIXEL_SIZE=1", f"--OUTPUT={tmp_path / 'sample'}",
+                          profile=profile)["results"]
+    assert sample["TILES_WRITTEN"] == 2 and sample["BUILDINGS_DRAWN"] > 400 and sample["ROADS_DRAWN"] > 50
+    model = qgis_process("run", "wit:citymodel", f"--ORTHO_INPUT={sample['ORTHO_FOLDER']}", f"--DEM={sample['DEM']}",
+                         f"--BUILDINGS={sample['BUILDINGS']}", f"--ROADS={sample['ROADS']}", f"--DISTRICTS={districts}",
+                         "--RADIUS=500", "--MAX_EDGE=20", f"--OUTPUT={tmp_path / 'model'}", profile=profile)["results"]
+    assert model["VALID"] is True and model["ERROR_COUNT"] == 0 and model["UNTEXTURED"] == 0
+    assert model["BUILDINGS_WRITTEN"] > 400
+    assert snapshot(roads, suseo_buildings) == before

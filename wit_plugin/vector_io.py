@@ -314,6 +314,28 @@ def open_step_layer(path: str, name: str, role: str, fields: Sequence[str] = ()
     return ds, layer, present
 
 
+def layer_extent(path: str | os.PathLike, target: pyproj.CRS, layer: str | None = None,
+                 crs: str | None = None) -> tuple[float, float, float, float] | None:
+    """The layer's bounding box in ``target`` without reading its features (None when it has none).
+
+    ``crs`` is the source CRS for a layer that declares none; an extent that is not finite (a
+    feature with an infinite or NaN coordinate) is an input error, since it bounds nothing.
+    """
+    ds, lyr, _ = open_layer(path, layer)
+    source = _crs_of(lyr, str(path), crs)
+    if lyr.GetFeatureCount() == 0:
+        return None
+    with gdal_quiet():
+        xmin, xmax, ymin, ymax = lyr.GetExtent()
+    del lyr, ds
+    bounds = pyproj.Transformer.from_crs(source, target, always_xy=True).transform_bounds(
+        xmin, ymin, xmax, ymax, densify_pts=21)
+    if not all(np.isfinite(bounds)):
+        raise InputError(f"{path}: its extent ({xmin}, {ymin}, {xmax}, {ymax}) is not finite in {target.name}: "
+                         "a feature has an infinite or NaN coordinate, or lies outside the CRS's area of use.")
+    return bounds
+
+
 def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedback = SILENT,
                   **options) -> VectorLayer:
     """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name.

@@ -5,6 +5,9 @@ road-name-address shapefiles (TL_SPBD_BULD, TL_SPRD_MANAGE, TL_SCCO_EMD) in CP94
 ``.cpg`` and in EPSG:5179, a DEM in EPSG:5186 with undeclared -9999 holes, and unreferenced
 orthoimage TIFs named by their 1:5,000 sheet number, all from one seed. A few buildings carry
 the defects real files have; ``sample_manifest.json`` says which.
+
+With real building and road layers at hand, :func:`draw_from_layers` draws the orthoimage (and
+the DEM) for them instead (``given.py``), so that a run on real vectors has an image that matches.
 """
 from __future__ import annotations
 
@@ -19,31 +22,17 @@ from .. import mapsheet
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_files
+from .config import MANIFEST, SampleConfig, check_rasters
+from .given import DrawnSample, GivenLayers, draw_from_layers
 from .layout import CityLayout
-from .rasters import Rasteriser, Terrain, build_scene, noise_tables, render_tile, write_dem
+from .ortho import DEM_NAME, ORTHO_DIR, render_tiles, sheet_envelopes, tile_name, write_sample_dem
+from .rasters import Terrain, build_scene
 from .vectors import add_defects, build_roads, building_columns, select, write_layers
 
-ORTHO_MARGIN = 50.0  # NGII tiles cover the sheet envelope plus 50 m on every side
-DEM_MARGIN = 250.0
-MANIFEST = "sample_manifest.json"
-ORTHO_DIR = "ortho"  # the tiles in a folder of their own, as wit:georeferencemapsheets takes them
+__all__ = ["MANIFEST", "ORTHO_DIR", "DrawnSample", "GivenLayers", "SampleConfig", "SampleResult",
+           "draw_from_layers", "generate_sample", "tile_name"]
 _DENSITY = 1.1e-3  # buildings per m² of the square, a first guess for ``n_buildings``
 _MAX_BUILDINGS = 2_000_000
-
-
-@dataclass
-class SampleConfig:
-    """What to generate. ``n_buildings``, when given, overrides ``radius_m``."""
-
-    center_lon: float = 127.1020  # Suseo station (EPSG:4737 degrees)
-    center_lat: float = 37.4876
-    radius_m: float = 1000.0  # half-side of the square study area
-    n_buildings: int | None = None
-    seed: int = 42
-    ortho_pixel_size: float = 0.5
-    dem_cell_size: float = 5.0
-    with_ortho: bool = True
-    with_dem: bool = True
 
 
 @dataclass
@@ -71,10 +60,7 @@ def _check(config: SampleConfig) -> None:
         raise InputError(f"radius {config.radius_m} m is out of range: use 100–30,000 m")
     if config.n_buildings is not None and not 50 <= config.n_buildings <= _MAX_BUILDINGS:
         raise InputError(f"n_buildings {config.n_buildings} is out of range: use 50–{_MAX_BUILDINGS:,}")
-    if not 0.05 <= config.ortho_pixel_size <= 50.0:
-        raise InputError(f"orthoimage pixel size {config.ortho_pixel_size} m is out of range (0.05–50 m)")
-    if not 0.5 <= config.dem_cell_size <= 500.0:
-        raise InputError(f"DEM cell size {config.dem_cell_size} m is out of range (0.5–500 m)")
+    check_rasters(config)
 
 
 def _square_in(target: str, center: np.ndarray, half: float) -> tuple[float, float, float, float]:
@@ -84,19 +70,6 @@ def _square_in(target: str, center: np.ndarray, half: float) -> tuple[float, flo
     ys = np.concatenate([np.full_like(t, -half), t, np.full_like(t, half), t[::-1]]) + center[1]
     x, y = Transformer.from_crs("EPSG:5179", target, always_xy=True).transform(xs, ys)
     return float(np.min(x)), float(np.min(y)), float(np.max(x)), float(np.max(y))
-
-
-def _tile_gain(sheet: mapsheet.MapSheet, seed: int) -> np.ndarray:
-    """Exposure and white balance of a tile: checkerboard of darker/brighter sheets (0.85–1.15)."""
-    col, row = round(sheet.west / 0.025), round(sheet.south / 0.025)
-    rng = np.random.default_rng([seed, 31, col, row])
-    base = rng.uniform(0.85, 0.96) if (col + row) % 2 == 0 else rng.uniform(1.04, 1.15)
-    return (base * rng.uniform(0.97, 1.03, 3)).astype(np.float32)
-
-
-def tile_name(sheet: mapsheet.MapSheet) -> str:
-    """NGII-style file name, e.g. ``(B060)정사영상_2022_37709005.tif``."""
-    return f"(B060)정사영상_2022_{sheet.number}.tif"
 
 
 def generate_sample(output_dir: str | Path, config: SampleConfig = SampleConfig(),
@@ -120,7 +93,7 @@ def generate_sample(output_dir: str | Path, config: SampleConfig = SampleConfig(
     lon0, lat0, lon1, lat1 = _square_in("EPSG:4737", center, data.half)
     sheets = mapsheet.sheets_covering(lon0, lat0, lon1, lat1) if config.with_ortho else []
     names = {"buildings": "TL_SPBD_BULD.shp", "roads": "TL_SPRD_MANAGE.shp", "districts": "TL_SCCO_EMD.shp"}
-    dem_name = "dem_5186.tif" if config.with_dem else None
+    dem_name = DEM_NAME if config.with_dem else None
     targets = [folder / n for n in names.values()] + [folder / MANIFEST]
     manifest: dict = {"generator": "wit_plugin.sample", "config": asdict(config), "radius_m": data.half,
                       "center_5179": [float(c) for c in center], "vector_crs": "EPSG:5179",
@@ -131,30 +104,21 @@ def generate_sample(output_dir: str | Path, config: SampleConfig = SampleConfig(
         counts = write_layers(tmp, data, np.random.default_rng([config.seed, 61]))
         if dem_name:
             feedback.info("Writing the DEM")
-            x0, y0, x1, y1 = _square_in("EPSG:5186", center, data.half)
-            bounds = (x0 - DEM_MARGIN, y0 - DEM_MARGIN, x1 + DEM_MARGIN, y1 + DEM_MARGIN)
-            manifest["dem_holes"] = write_dem(tmp / dem_name, bounds, config.dem_cell_size, terrain,
-                                              np.random.default_rng([config.seed, 70]), feedback.scaled(20, 30))
+            manifest["dem_holes"] = write_sample_dem(tmp / dem_name, _square_in("EPSG:5186", center, data.half),
+                                                     config.dem_cell_size, terrain, config.seed,
+                                                     feedback.scaled(20, 30))
         tiles, gains = [], {}
         if sheets:
             feedback.info(f"Rendering {len(sheets)} orthoimage tile(s)")
-            envelopes = [mapsheet.projected_envelope(s, "EPSG:5186", margin=ORTHO_MARGIN) for s in sheets]
+            envelopes = sheet_envelopes(sheets)
             to_5179 = Transformer.from_crs("EPSG:5186", "EPSG:5179", always_xy=True)
             xs, ys = to_5179.transform([e[i] for e in envelopes for i in (0, 2)],
                                        [e[i] for e in envelopes for i in (1, 3)])
             scene = build_scene(layout, (min(xs) - 100, min(ys) - 100, max(xs) + 100, max(ys) + 100), config.seed)
-            rasteriser = Rasteriser(scene)
-            tables = noise_tables(config.seed, 32, 3)
-            (tmp / ORTHO_DIR).mkdir()
-            for k, (sheet, envelope) in enumerate(zip(sheets, envelopes)):
-                name = f"{ORTHO_DIR}/{tile_name(sheet)}"
-                gain = _tile_gain(sheet, config.seed)
-                render_tile(tmp / name, envelope, config.ortho_pixel_size, scene, rasteriser, gain, config.seed,
-                            tables, feedback.scaled(30 + 70 * k / len(sheets), 30 + 70 * (k + 1) / len(sheets)))
-                tiles.append(name)
-                gains[name] = [round(float(g), 4) for g in gain]
-            manifest["tiles"] = [{"file": n, "sheet": s.number, "envelope_5186": [round(v, 3) for v in e],
-                                  "gain": gains[n]} for n, s, e in zip(tiles, sheets, envelopes)]
+            manifest["tiles"] = render_tiles(tmp, sheets, scene, config.ortho_pixel_size, config.seed,
+                                             feedback.scaled(30, 100))
+            tiles = [row["file"] for row in manifest["tiles"]]
+            gains = {row["file"]: row["gain"] for row in manifest["tiles"]}
         counts["tiles"] = len(tiles)
         manifest.update(files={**names, "dem": dem_name, "ortho": tiles}, counts=counts, defects=data.defects)
         (tmp / MANIFEST).write_text(json.dumps(manifest, ensure_ascii=False, indent=1, sort_keys=True),

@@ -132,9 +132,10 @@ def write_dem(path: Path, bounds: tuple[float, float, float, float], cell: float
 # --- orthoimages --------------------------------------------------------------------------------
 
 SIDEWALK, ASPHALT, WHITE_LINE, YELLOW_LINE, TREE = 0, 6, 7, 8, 9
+NATURAL = 10  # open ground whose cover (lawn, forest, bare soil) is chosen per pixel from smooth noise
 # class → RGB, and texture amplitudes (coarse 24 m, medium 5 m, fine 1.2 m, per pixel)
-_PALETTE = np.zeros((10, 3), np.float32)
-_TEXTURE = np.zeros((10, 4), np.float32)
+_PALETTE = np.zeros((11, 3), np.float32)
+_TEXTURE = np.zeros((11, 4), np.float32)
 for _cls, _rgb, _tex in (
         (SIDEWALK, (170, 163, 154), (0.05, 0.05, 0.04, 0.05)),
         (GROUND_LAWN, (98, 128, 72), (0.12, 0.14, 0.10, 0.08)),
@@ -176,7 +177,7 @@ class Rasteriser:
         self._srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)  # x = easting, as the geometries
         ground_geoms, ground_cls = scene.ground
         road_geoms, road_cls = scene.roads
-        edges = _grouped(shapely.boundary(scene.roofs))
+        edges = grouped(shapely.boundary(scene.roofs))
         self.passes = [  # (layer, band, use the attribute or burn value)
             (self._layer("ground", ground_geoms, ground_cls), 1),
             (self._layer("roads", road_geoms, road_cls), 1),
@@ -199,12 +200,13 @@ class Rasteriser:
         layer.CommitTransaction()
         return layer
 
-    def burn(self, x0: float, y_top: float, pixel: float, width: int, height: int) -> np.ndarray:
+    def burn(self, x0: float, y_top: float, pixel: tuple[float, float], width: int, height: int) -> np.ndarray:
+        """Class, mark and building-id bands of the strip; ``pixel`` = (width, height) of a pixel in metres."""
         mem = gdal.GetDriverByName("MEM").Create("", width, height, 3, gdal.GDT_Int32)
-        mem.SetGeoTransform((x0, pixel, 0.0, y_top, 0.0, -pixel))
+        mem.SetGeoTransform((x0, pixel[0], 0.0, y_top, 0.0, -pixel[1]))
         mem.SetSpatialRef(self._srs)
         for layer, band in self.passes:
-            layer.SetSpatialFilterRect(x0, y_top - height * pixel, x0 + width * pixel, y_top)
+            layer.SetSpatialFilterRect(x0, y_top - height * pixel[1], x0 + width * pixel[0], y_top)
             gdal.RasterizeLayer(mem, [band], layer, options=["ATTRIBUTE=v"])
             layer.SetSpatialFilter(None)
         return read_window(mem, 0, 0, width, height, "the rasterised sample scene (in memory)")
@@ -215,23 +217,26 @@ def render_tile(path: Path, envelope: tuple[float, float, float, float], pixel: 
                 feedback: Feedback = SILENT) -> tuple[int, int]:
     """Render one plain RGB TIFF (no georeferencing) over ``envelope``; returns (width, height).
 
-    ``gain`` (3 values) is the tile's own exposure and white balance, so that neighbouring tiles
-    differ in their overlap as real flight strips do.
+    The pixels fill the envelope exactly (their size is the envelope's extent over their number, a
+    hair off ``pixel``), as wit:georeferencemapsheets places them. ``gain`` (3 values) is the tile's
+    own exposure and white balance, so that neighbouring tiles differ in their overlap as real
+    flight strips do.
     """
     xmin, ymin, xmax, ymax = envelope
     width, height = int(round((xmax - xmin) / pixel)), int(round((ymax - ymin) / pixel))
+    size = ((xmax - xmin) / width, (ymax - ymin) / height)
     ds = gdal.GetDriverByName("GTiff").Create(
         str(path), width, height, 3, gdal.GDT_Byte,
         ["PHOTOMETRIC=RGB", "INTERLEAVE=PIXEL", "PROFILE=BASELINE", "TFW=NO", "COMPRESS=NONE"])
-    xs = (xmin + (np.arange(width) + 0.5) * pixel)[None, :]
+    xs = (xmin + (np.arange(width) + 0.5) * size[0])[None, :]
     strip = max(16, int(2_000_000 // width))
     rng = np.random.default_rng([seed, 30, int(xmin), int(ymax)])
     for row in range(0, height, strip):
         feedback.check_canceled()
         h = min(strip, height - row)
-        y_top = ymax - row * pixel
-        bands = rasteriser.burn(xmin, y_top, pixel, width, h)
-        ys = (y_top - (np.arange(h) + 0.5) * pixel)[:, None]
+        y_top = ymax - row * size[1]
+        bands = rasteriser.burn(xmin, y_top, size, width, h)
+        ys = (y_top - (np.arange(h) + 0.5) * size[1])[:, None]
         rgb = _colour(bands, xs, ys, scene, tables, rng) * gain
         ds.WriteRaster(0, row, width, h, np.clip(rgb, 0, 255).astype(np.uint8).tobytes(), band_list=[1, 2, 3],
                        buf_pixel_space=3, buf_line_space=3 * width, buf_band_space=1)
@@ -240,9 +245,21 @@ def render_tile(path: Path, envelope: tuple[float, float, float, float], pixel: 
     return width, height
 
 
+def _natural_cover(cls: np.ndarray, xs: np.ndarray, ys: np.ndarray, tables: np.ndarray) -> np.ndarray:
+    """``cls`` with NATURAL pixels turned into patches of lawn, forest and bare soil (~150 m noise)."""
+    rows, cols = np.nonzero(cls == NATURAL)
+    if len(rows) == 0:
+        return cls
+    x, y = xs[0, cols], ys[rows, 0]
+    noise = value_noise(x, y, 150.0, tables[0]) + 0.5 * value_noise(x, y, 40.0, tables[1])
+    cls = cls.copy()
+    cls[rows, cols] = np.where(noise > 0.3, GROUND_FOREST, np.where(noise < -0.75, GROUND_BARE, GROUND_LAWN))
+    return cls
+
+
 def _colour(bands: np.ndarray, xs: np.ndarray, ys: np.ndarray, scene: OrthoScene, tables: np.ndarray,
             rng: np.random.Generator) -> np.ndarray:
-    cls, marks, bid = bands[0], bands[1], bands[2]
+    cls, marks, bid = _natural_cover(bands[0], xs, ys, tables), bands[1], bands[2]
     coarse, medium, fine = (value_noise(xs, ys, cell, table) for cell, table in zip(_TEXTURE_CELLS, tables))
     grain = rng.standard_normal(cls.shape, dtype=np.float32)
     amp = _TEXTURE[cls]
@@ -273,11 +290,9 @@ def build_scene(layout: CityLayout, bbox: tuple[float, float, float, float], see
     ground = [(shapely.Polygon(ring), cls) for sb in superblocks for ring, cls in sb.ground]
     lines, widths = _road_lines(layout, superblocks)
     surfaces = shapely.buffer(lines, widths / 2, cap_style="flat", join_style="round")
-    markings, marking_cls = _markings(lines, widths)
     trees = np.array([t for sb in superblocks for t in sb.trees] or np.zeros((0, 3))).reshape(-1, 3)
-    street_trees = _street_trees(lines, widths, rng)
+    along_streets = street_trees(lines, widths, rng)
     buildings = [b for sb in superblocks for b in sb.buildings]
-    roofs = footprints(buildings)
     heights = np.array([3.0 * max(b.floors, 1) for b in buildings])
     roof_style = np.array([b.roof for b in buildings], dtype=int)
     roof_rgb = ROOF_COLOURS[roof_style] * rng.uniform(0.88, 1.12, (len(buildings), 1)) \
@@ -288,14 +303,26 @@ def build_scene(layout: CityLayout, bbox: tuple[float, float, float, float], see
         return shapely.transform(np.asarray(geoms, dtype=object),
                                  lambda c: np.column_stack(to_5186.transform(c[:, 0], c[:, 1])))
 
-    roofs = project(roofs)
+    return assemble_scene((project([g for g, _ in ground]), np.array([c for _, c in ground], dtype=int)),
+                          surfaces, lines, widths, np.vstack([along_streets, trees]), project(footprints(buildings)),
+                          heights, roof_rgb, np.isin(roof_style, PITCHED_ROOFS), project)
+
+
+def assemble_scene(ground: tuple[np.ndarray, np.ndarray], surfaces: np.ndarray, lines: np.ndarray,
+                   widths: np.ndarray, trees: np.ndarray, roofs: np.ndarray, heights: np.ndarray,
+                   roof_rgb: np.ndarray, pitched: np.ndarray, project=lambda geoms: geoms) -> OrthoScene:
+    """The scene from its parts: road ``surfaces`` and centre ``lines`` (for the markings), tree
+    (x, y, crown radius) rows, and for every roof its height (shadow), colour and whether it is pitched.
+
+    ``project`` takes the road and tree geometries into EPSG:5186; ``ground`` and ``roofs`` are in it.
+    """
+    markings, marking_cls = _markings(lines, widths)
     return OrthoScene(
-        ground=(project([g for g, _ in ground]), np.array([c for _, c in ground], dtype=int)),
+        ground=ground,
         roads=(project(np.concatenate([surfaces, markings])),
-               np.concatenate([np.full(len(surfaces), ASPHALT), marking_cls])),
-        trees=_crowns(np.vstack([street_trees, trees]), to_5186),
-        shadows=_grouped(_shadows(roofs, heights)), roofs=roofs, roof_rgb=roof_rgb.astype(np.float32),
-        ridge=_ridges(roofs, np.isin(roof_style, PITCHED_ROOFS)))
+               np.concatenate([np.full(len(surfaces), ASPHALT), marking_cls]).astype(int)),
+        trees=_crowns(trees, project), shadows=grouped(_shadows(roofs, heights)), roofs=roofs,
+        roof_rgb=np.asarray(roof_rgb, np.float32), ridge=_ridges(roofs, pitched))
 
 
 def _road_lines(layout: CityLayout, superblocks: list) -> tuple[np.ndarray, np.ndarray]:
@@ -334,11 +361,11 @@ def _markings(lines: np.ndarray, widths: np.ndarray) -> tuple[np.ndarray, np.nda
         for k in range(1, int((width / 2 - 1.5) // 3.4)):
             for sign in (-1, 1):
                 white += _dashes(shapely.offset_curve(line, sign * 3.4 * k), 3.0, 5.0)
-    yellow, white = _grouped(np.array(yellow, dtype=object)), _grouped(np.array(white, dtype=object))
+    yellow, white = grouped(np.array(yellow, dtype=object)), grouped(np.array(white, dtype=object))
     return np.concatenate([yellow, white]), np.array([YELLOW_LINE] * len(yellow) + [WHITE_LINE] * len(white))
 
 
-def _street_trees(lines: np.ndarray, widths: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def street_trees(lines: np.ndarray, widths: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """(x, y, crown radius) on both sidewalks of every road of 15 m and more, every ~9 m."""
     trees = [np.zeros((0, 3))]
     for line, width in zip(lines, widths):
@@ -351,14 +378,13 @@ def _street_trees(lines: np.ndarray, widths: np.ndarray, rng: np.random.Generato
     return np.vstack(trees)
 
 
-def _crowns(trees: np.ndarray, to_5186: Transformer) -> np.ndarray:
+def _crowns(trees: np.ndarray, project) -> np.ndarray:
     """Tree crowns as polygons in EPSG:5186, grouped in multipolygons (fewer features to burn)."""
-    x, y = to_5186.transform(trees[:, 0], trees[:, 1])
-    crowns = shapely.buffer(shapely.points(np.column_stack([x, y])), trees[:, 2], quad_segs=3)
-    return _grouped(crowns)
+    crowns = shapely.buffer(project(shapely.points(trees[:, :2])), trees[:, 2], quad_segs=3)
+    return grouped(crowns)
 
 
-def _grouped(geoms: np.ndarray, size: int = 256) -> np.ndarray:
+def grouped(geoms: np.ndarray, size: int = 256) -> np.ndarray:
     """Consecutive (hence nearby) geometries merged into collections of ``size``, to burn one value."""
     return np.array([shapely.geometrycollections(geoms[k:k + size]) for k in range(0, len(geoms), size)],
                     dtype=object)
@@ -388,3 +414,27 @@ def _ridges(roofs: np.ndarray, pitched: np.ndarray) -> np.ndarray:
     ridge[pitched, :2] = corners[:, :4].mean(axis=1)
     ridge[pitched, 2:] = np.column_stack([-long_axis[:, 1], long_axis[:, 0]])
     return ridge
+
+
+# Roof styles of buildings whose roof is unknown (given layers), by footprint area: (upper bound m², weights
+# of ROOF_COLOURS); small buildings are often houses with tiled, pitched roofs, large ones flat and pale.
+_ROOFS_BY_SIZE = ((200.0, (0.25, 0.22, 0.2, 0.15, 0.12, 0.06, 0.0)),
+                  (1500.0, (0.4, 0.15, 0.0, 0.0, 0.1, 0.2, 0.15)),
+                  (np.inf, (0.45, 0.0, 0.0, 0.0, 0.1, 0.25, 0.2)))
+
+
+def roof_styles(roofs: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(RGB, pitched) per footprint, drawn from its area and a random stream keyed by its centroid.
+
+    Keyed by position (to 0.1 m), not by feature order: a building keeps its roof whatever area or
+    layer it is drawn in.
+    """
+    centres = np.round(shapely.get_coordinates(shapely.centroid(roofs)) * 10).astype(np.int64)
+    draws = np.array([np.random.default_rng([seed, 52, int(x) & 0xFFFFFFFF, int(y) & 0xFFFFFFFF]).random(5)
+                      for x, y in centres]).reshape(-1, 5)
+    size_class = np.searchsorted([bound for bound, _ in _ROOFS_BY_SIZE], shapely.area(roofs))
+    cumulative = np.cumsum([weights for _, weights in _ROOFS_BY_SIZE], axis=1)
+    cumulative /= cumulative[:, -1:]
+    style = (draws[:, :1] >= cumulative[size_class]).sum(axis=1)
+    rgb = ROOF_COLOURS[style] * (0.88 + 0.24 * draws[:, 1:2]) * (0.96 + 0.08 * draws[:, 2:5])
+    return rgb.astype(np.float32), np.isin(style, PITCHED_ROOFS)
