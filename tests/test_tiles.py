@@ -5,7 +5,6 @@ resume, a failing tile, a killed worker and Cancel."""
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import socket
 import subprocess
@@ -306,3 +305,44 @@ def test_no_worker_is_started_with_qgis_as_interpreter(monkeypatch, tmp_path):
     assert chosen != str(fake) and Path(chosen).name.startswith("python")
     assert worker_python(sys.base_prefix + "/bin/python3") == sys.base_prefix + "/bin/python3"
 
+
+
+# -- as users run it: through Processing in the QGIS process, and headless through qgis_process ----
+
+def _parameters(sample, output: Path) -> dict:
+    return {"ORTHO_INPUT": [str(sample.ortho_tiles[0].parent)], "DEM": str(sample.dem),
+            "BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads), "DISTRICTS": str(sample.districts),
+            "RADIUS": 280.0, "MAX_EDGE": 15.0, "TILE_SCALE": 1, "WORKERS": 2, "OUTPUT": str(output)}
+
+
+def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, sample, local_run, tmp_path,
+                                                                 monkeypatch):
+    """In the QGIS process, with sys.executable pointing at a program that is not Python (QGIS on
+    Windows and macOS), the workers are plain Pythons and the run gives the core's result."""
+    fake = tmp_path / "qgis"
+    fake.write_text("#!/bin/sh\necho 'QGIS was started again' >&2\nexit 3\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(sys, "executable", str(fake))
+    monkeypatch.delenv("WIT_WORKER_PYTHON", raising=False)
+    result = run_algorithm("wit:citymodeltiles", _parameters(sample, tmp_path / "out"))
+    assert result["TILES_DONE"] == local_run[1].count("done") and result["TILES_FAILED"] == 0
+    assert result["BUILDINGS_WRITTEN"] == local_run[1].buildings
+    assert Path(result["INDEX"]).is_file()
+
+
+def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_path):
+    env = dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path / "profile"))
+    args = [str(ROOT / "scripts" / "qgis-process"), "--json", "run", "wit:citymodeltiles"]
+    for name, value in _parameters(sample, tmp_path / "out").items():
+        for item in value if isinstance(value, list) else [value]:
+            args.append(f"--{name}={item}")
+    result = subprocess.run(args, capture_output=True, text=True, env=env, timeout=900)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    import json
+
+    report = json.loads(result.stdout[result.stdout.index("{"):])
+    assert report["results"]["TILES_DONE"] == local_run[1].count("done")
+    assert report["results"]["BUILDINGS_WRITTEN"] == local_run[1].buildings
+    log = json.dumps(report.get("log", "")) + result.stdout + result.stderr
+    python = log.split(", Python ")[1].split(".")[0] if ", Python " in log else ""
+    assert "python" in Path(python).name.lower(), log[-2000:]

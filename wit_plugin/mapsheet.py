@@ -46,6 +46,7 @@ import math
 import re
 from dataclasses import dataclass
 
+import numpy as np
 from pyproj import Transformer
 from pyproj.exceptions import CRSError, ProjError
 
@@ -202,10 +203,8 @@ def sheet_at(lon: float, lat: float, scale: int = 5000) -> MapSheet:
     return _sheet_from_indices(math.floor(lon * per_cell + _EPS), math.floor(lat * per_cell + _EPS), scale)
 
 
-def sheets_at(lon: "np.ndarray", lat: "np.ndarray", scale: int = 5000) -> list[str]:
+def sheets_at(lon: np.ndarray, lat: np.ndarray, scale: int = 5000) -> list[str]:
     """``sheet_at(lon[i], lat[i], scale).number`` for many points at once (each distinct cell built once)."""
-    import numpy as np
-
     _check_scale(scale)
     lon, lat = np.asarray(lon, dtype=np.float64), np.asarray(lat, dtype=np.float64)
     if not (np.isfinite(lon).all() and np.isfinite(lat).all()):

@@ -168,7 +168,6 @@ def _publish(staging: Path, output: Path) -> None:
 def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock) -> ChainReport:
     work = staging / "work"
     work.mkdir()
-    feedback = clock.feedback
     tifs = list_tifs(inputs.ortho)
     require_sheet_names(tifs)
 

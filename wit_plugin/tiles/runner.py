@@ -18,6 +18,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -65,21 +66,49 @@ class TilesReport:
         return sum(r.get("buildings") or 0 for r in self.rows)
 
 
+WORKER_MODULES = ("distributed", "numpy", "shapely", "triangle", "pyproj", "lxml", "osgeo")
+
+
 def worker_python(configured: str | None = None) -> str:
-    """The interpreter for worker processes: ``configured``, else ``$WIT_WORKER_PYTHON``, else
-    ``sys.executable`` when it is a Python (not QGIS embedding one), else ``python3`` on the PATH."""
+    """The interpreter for worker processes: ``configured``, else ``$WIT_WORKER_PYTHON``, else the first Python
+    that imports the core's dependencies among ``sys.executable`` (when it is a Python, not QGIS embedding
+    one), the Python of QGIS's own prefix, and ``python3`` / ``python`` on the PATH."""
     for candidate in (configured, os.environ.get("WIT_WORKER_PYTHON")):
         if candidate:
             if not (Path(candidate).is_file() and os.access(candidate, os.X_OK)):
                 raise InputError(f"The worker Python {candidate} is not an executable file.")
+            problem = _cannot_serve(candidate)
+            if problem:
+                raise InputError(f"The worker Python {candidate} cannot run the tiles: {problem}")
             return candidate
-    if Path(sys.executable).name.lower().startswith("python"):
-        return sys.executable
-    found = shutil.which("python3") or shutil.which("python")
-    if not found:
-        raise InputError("No Python interpreter found for the Dask workers: set WORKER_PYTHON (or "
-                         "$WIT_WORKER_PYTHON) to a Python with the plugin's dependencies.")
-    return found
+    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
+    prefix = Path(sys.exec_prefix)
+    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
+                   shutil.which("python")]
+    tried = []
+    for candidate in dict.fromkeys(c for c in candidates if c and Path(c).is_file()):
+        problem = _cannot_serve(candidate)
+        if not problem:
+            return candidate
+        tried.append(f"{candidate}: {problem}")
+    raise InputError("No Python for the Dask workers imports the plugin's dependencies ("
+                     + "; ".join(tried or ["none found"]) + "). Set WORKER_PYTHON (or $WIT_WORKER_PYTHON) to one "
+                     "that does, e.g. a virtual environment with the packages of requirements.txt.")
+
+
+def _cannot_serve(python: str) -> str | None:
+    """Why ``python`` cannot run a worker (a missing module), or None."""
+    code = f"import {', '.join(WORKER_MODULES)}; import wit_plugin.tiles.worker"
+    try:
+        result = subprocess.run([python, "-c", code], env=_worker_env(), capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return str(exc)
+    return None if result.returncode == 0 else (result.stderr.strip().splitlines() or ["fails"])[-1]
+
+
+def _worker_env() -> dict:
+    """The environment of worker processes: this one, with the core importable as ``wit_plugin``."""
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(CORE_ROOT), os.environ.get("PYTHONPATH")) if p))
 
 
 def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
@@ -155,25 +184,41 @@ def dask_client(scheduler: str | None, workers: int, python: str) -> Iterator:
     with LocalCluster(n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None,
                       silence_logs=logging.ERROR) as cluster, \
             Client(cluster) as client:
-        processes = [start_worker(python, cluster.scheduler_address) for _ in range(workers)]
+        logs = [Path(tempfile.mkdtemp(prefix="wit-dask-")) / "worker.log" for _ in range(workers)]
+        processes = [start_worker(python, cluster.scheduler_address, log) for log in logs]
         try:
-            client.wait_for_workers(workers, timeout=120)
+            _wait_for(client, processes, logs)
             yield client
         finally:
             stop_workers(processes)
+            for log in logs:
+                shutil.rmtree(log.parent, ignore_errors=True)
 
 
-def start_worker(python: str, address: str) -> subprocess.Popen:
+def start_worker(python: str, address: str, log: Path) -> subprocess.Popen:
     """One ``dask worker`` (with its nanny, which restarts it if it dies) of ``python``, importing the core
-    from this checkout; in its own process group so that stopping it stops its children too."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(CORE_ROOT), os.environ.get("PYTHONPATH")) if p))
+    from this checkout, logging to ``log``; in its own process group so that stopping it stops its children."""
     command = [python, "-m", "distributed.cli.dask_worker", address, "--nworkers", "1", "--nthreads", "1",
                "--memory-limit", "0", "--no-dashboard", "--name", f"wit-{os.getpid()}-{time.time_ns()}"]
     try:
-        return subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                start_new_session=True)
+        with open(log, "ab") as sink:
+            return subprocess.Popen(command, env=_worker_env(), stdout=sink, stderr=subprocess.STDOUT,
+                                    start_new_session=True)
     except OSError as exc:
         raise InputError(f"Cannot start a Dask worker with {python}: {exc}") from exc
+
+
+def _wait_for(client, processes: list[subprocess.Popen], logs: list[Path], timeout: float = 120.0) -> None:
+    """Until every worker has joined; a worker that exits first is an error with the end of its log."""
+    deadline = time.monotonic() + timeout
+    while len(client.scheduler_info(n_workers=-1)["workers"]) < len(processes):
+        for process, log in zip(processes, logs):
+            if process.poll() is not None:
+                tail = log.read_text(errors="replace").strip().splitlines()[-5:]
+                raise InputError(f"A Dask worker stopped at start (exit {process.returncode}): " + " | ".join(tail))
+        if time.monotonic() > deadline:
+            raise InputError(f"The Dask workers did not start within {timeout:.0f} s; see {logs[0].parent}.")
+        time.sleep(POLL_SECONDS)
 
 
 def stop_workers(processes: list[subprocess.Popen], grace: float = 10.0) -> None:
