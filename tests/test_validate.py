@@ -12,9 +12,12 @@ import xml.etree.ElementTree as ET
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from wit_plugin.citygml import schemas, validate
+from wit_plugin.citygml.validation import ids as id_store
+from wit_plugin.citygml.validation import stream as streaming
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
@@ -44,6 +47,12 @@ def _one(path: Path, schema_dir: Path, **kw) -> validate.FileReport:
     return validate.validate_files([str(path)], schema_dir, **kw)[0]
 
 
+def _small_parts(monkeypatch, chunk: int = 256, min_part: int = 1) -> None:
+    """Feed the parser ``chunk`` bytes at a time and hand out any finished child: many tiny parts."""
+    monkeypatch.setattr(streaming, "CHUNK_BYTES", chunk)
+    monkeypatch.setattr(streaming, "MIN_PART", min_part)
+
+
 @pytest.mark.parametrize("name", VALID_EXAMPLES)
 def test_valid_examples_have_no_errors(name, schema_dir, tmp_path):
     path = _with_texture(schema_dir / "examples" / name, tmp_path)
@@ -62,10 +71,11 @@ def test_only_warning_on_valid_examples_is_2d_address_point(schema_dir, tmp_path
 
 
 @pytest.mark.skipif(shutil.which("xmllint") is None, reason="xmllint not installed")
-@pytest.mark.parametrize("batch", [validate.BATCH_ELEMENTS, 1])  # 1: every container of 2+ children is streamed
+@pytest.mark.parametrize("small", [False, True])  # True: every finished element is handed out on its own
 @pytest.mark.parametrize("name", VALID_EXAMPLES + ["INVALID_handmade_LOD1_4_errors.gml"])
-def test_xsd_verdict_agrees_with_xmllint(name, batch, schema_dir, tmp_path, monkeypatch):
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+def test_xsd_verdict_agrees_with_xmllint(name, small, schema_dir, tmp_path, monkeypatch):
+    if small:
+        _small_parts(monkeypatch)
     path = schema_dir / "examples" / name
     run = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"), str(path)],
                          capture_output=True, text=True, timeout=60)
@@ -186,8 +196,9 @@ def test_entity_bomb_is_rejected_quickly(schema_dir):
 def test_not_well_formed_file(schema_dir, tmp_path):
     path = tmp_path / "broken.gml"
     path.write_text('<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0">\n<a>\n</core:CityModel>\n')
-    [issue] = _one(path, schema_dir).issues
+    issue, *schema_errors = _one(path, schema_dir).issues
     assert issue.check == "xml" and issue.line == 3 and "Not well-formed" in issue.message
+    assert [(i.check, i.line) for i in schema_errors] == [("xsd", 2)]  # <a> is met before the break
 
 
 def test_many_issues_are_capped(schema_dir, tmp_path):
@@ -342,26 +353,6 @@ def test_schema_compiled_once(schema_dir):
     assert schemas.load_schema(schema_dir) is schemas.load_schema(Path(str(schema_dir) + "/"))
 
 
-def test_big_member_move_keeps_content_and_lines():
-    """A huge member (a TIN's texture associations) leaves the parsed tree whole and in order.
-
-    The move is piecewise because lxml 4.9's plain append re-links namespaces in quadratic time
-    (~30 s for this member); its speed is measured by benchmarks/bench_validate.py, not here.
-    """
-    from lxml import etree
-
-    def parsed(n):
-        body = '<a:t a:i="x"><a:c>1 2</a:c><b:x b:h="#x">#x</b:x></a:t>\n' * n
-        root = etree.fromstring(f'<r xmlns:a="urn:a" xmlns:b="urn:b"><a:m>\n<a:p>{body}</a:p>\n</a:m>t</r>'.encode())
-        return root, root[0], etree.Element(root.tag, nsmap=root.nsmap)
-
-    root, member, mini = parsed(70_000)
-    before, lines = etree.tostring(member), [n.sourceline for n in member.iter()]
-    validate._move_into(member, mini)
-    assert etree.tostring(mini[0]) == before and len(mini) == 1 and len(root) == 0
-    assert [n.sourceline for n in mini[0].iter()] == lines and max(lines) > 65_535
-
-
 # -- streaming: long runs of triangles and texture entries, ids as hashes -------------------------
 _NS = ('xmlns:core="http://www.opengis.net/citygml/3.0" xmlns:gml="http://www.opengis.net/gml/3.2" '
        'xmlns:dem="http://www.opengis.net/citygml/relief/3.0" xmlns:app="http://www.opengis.net/citygml/appearance/3.0" '
@@ -390,6 +381,8 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
     faulty = {0, n // 2, n - 1}
     put('<?xml version="1.0" encoding="UTF-8"?>')
     put(f'<core:CityModel {_NS}>')
+    put('<gml:boundedBy><gml:Envelope srsName="EPSG:25832" srsDimension="3"><gml:lowerCorner>0 0 0</gml:lowerCorner>'
+        '<gml:upperCorner>100 1 10</gml:upperCorner></gml:Envelope></gml:boundedBy>')
     put('<core:cityObjectMember><grp:CityObjectGroup gml:id="grp">')
     put('<grp:groupMember><grp:Role><grp:role>member</grp:role><grp:groupMember xlink:href="#relief"/></grp:Role>'
         '</grp:groupMember>')  # refers forward: resolved at the end
@@ -452,11 +445,10 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
     return expected
 
 
-@pytest.mark.parametrize("buffer", [1, 8, 65536])
-@pytest.mark.parametrize("batch", [1, 3, 10000])
-def test_faults_in_long_runs_are_found_on_their_lines(batch, buffer, schema_dir, tmp_path, monkeypatch):
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
-    monkeypatch.setattr(validate, "ID_BUFFER", buffer)
+@pytest.mark.parametrize(("chunk", "min_part"), [(97, 2), (1000, 3), (4096, 64), (None, None)])
+def test_faults_in_long_runs_are_found_on_their_lines(chunk, min_part, schema_dir, tmp_path, monkeypatch):
+    if chunk:
+        _small_parts(monkeypatch, chunk, min_part)
     expected = _long_runs(tmp_path / "runs.gml", 40, pad=70_000)
     report = _one(tmp_path / "runs.gml", schema_dir)
     assert sorted((i.check, i.line) for i in report.issues) == sorted((check, line) for check, line, _, _ in expected)
@@ -466,45 +458,27 @@ def test_faults_in_long_runs_are_found_on_their_lines(batch, buffer, schema_dir,
     assert all(i.severity == "error" for i in report.issues) and report.status == "Fail"
 
 
-class _CountingSchema:
-    """The compiled schema, recording how many real (parsed, not copied) streamed children each call gets."""
-
-    def __init__(self, schema):
-        self.schema, self.calls = schema, []
-
-    @property
-    def error_log(self):
-        return self.schema.error_log
-
-    def validate(self, tree) -> bool:
-        self.calls.append(Counter(node.tag for node in tree.iter(*validate.STREAMED)
-                                  if node.sourceline and validate.STREAMED[node.tag] == node.getparent().tag))
-        return self.schema.validate(tree)
-
-
-@pytest.mark.parametrize("batch", [1, 3, 7])
-def test_each_xsd_call_holds_at_most_one_batch_and_every_element_once(batch, schema_dir, tmp_path, monkeypatch):
-    counting = _CountingSchema(schemas.load_schema(schema_dir))
-    monkeypatch.setattr(validate, "load_schema", lambda _: counting)
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+@pytest.mark.parametrize(("chunk", "min_part"), [(97, 1), (1000, 3), (4096, 7)])
+def test_each_element_is_handed_out_once_and_the_tree_stays_small(chunk, min_part, tmp_path, monkeypatch):
+    """Parts cover the file exactly once, and the parsed tree never holds much more than a chunk."""
+    _small_parts(monkeypatch, chunk, min_part)
     n = 40
     _long_runs(tmp_path / "runs.gml", n, pad=0)
-    _one(tmp_path / "runs.gml", schema_dir)
     g, a = "{http://www.opengis.net/gml/3.2}", "{http://www.opengis.net/citygml/appearance/3.0}"
-    total = sum(counting.calls, Counter())
-    assert total == {g + "Triangle": n, a + "textureParameterization": n + 1, a + "textureCoordinates": 2 * n + 1,
-                     a + "ring": 2 * n}
-    assert max(max(call.values(), default=0) for call in counting.calls) == batch
-    triangle_calls = [call[g + "Triangle"] for call in counting.calls if call[g + "Triangle"]]
-    runs = [min(batch, n - k) for k in range(0, n, batch)]  # the triangles are taken out a batch at a time ...
-    runs[0] -= 1  # ... but the first stays in the TIN as its stand-in, validated with its member
-    assert sorted(triangle_calls) == sorted([r for r in runs if r] + [1])
+    stream = streaming.Stream(tmp_path / "runs.gml", "{http://www.opengis.net/citygml/3.0}CityModel", lambda _: None)
+    seen, largest = Counter(), 0
+    for parent, k in stream.parts():
+        largest = max(largest, sum(1 for _ in stream.root.iter()))
+        seen.update(node.tag for child in parent[:k] for node in child.iter() if isinstance(node.tag, str))
+    assert seen[g + "Triangle"] == n and seen[a + "textureParameterization"] == 2 * n + 2
+    assert seen[a + "textureCoordinates"] == 2 * n + 1 and seen[a + "ring"] == 2 * n
+    assert largest < 12 + chunk / 8  # elements of one chunk (> 8 bytes each) plus the open path
 
 
 def test_streamed_xsd_lines_agree_with_xmllint(schema_dir, tmp_path, monkeypatch):
     if shutil.which("xmllint") is None:
         pytest.skip("xmllint not installed")
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", 3)
+    _small_parts(monkeypatch, 500, 3)
     expected = _long_runs(tmp_path / "runs.gml", 40, pad=0)
     run = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"),
                           str(tmp_path / "runs.gml")], capture_output=True, text=True, timeout=60)
@@ -516,27 +490,25 @@ def test_streamed_xsd_lines_agree_with_xmllint(schema_dir, tmp_path, monkeypatch
 
 
 def test_id_store_keeps_hashes_and_reports_later_duplicates():
-    store = validate._IdStore()
-    for k in range(1000):
-        store.add(f"id{k}", k + 1, k % 7)
-        if k % 8 == 7:
-            assert store.merge() == []
-    store.add("id500", 2001, 0)
-    store.add("new", 2002, 3)
-    store.add("new", 2003, 0)
-    assert store.merge() == [("id500", 2001), ("new", 2003)]
+    store = id_store.IdStore()
+    for start in range(0, 1000, 8):
+        names = [f"id{k}" for k in range(start, start + 8)]
+        assert not store.add(id_store.hashes(names), np.array([k % 7 for k in range(start, start + 8)])).any()
+    dup = store.add(id_store.hashes(["id500", "new", "new"]), np.array([0, 3, 0]))
+    assert dup.tolist() == [True, False, True]  # met before; first time; second time in the same call
     assert len(store) == 1001
     assert len(store._runs) <= 10  # merged like a log-structured merge: O(log n) runs
     assert sum(keys.nbytes + points.nbytes for keys, points in store._runs) == 12 * 1001
-    found, points = store.find(["id6", "id500", "new", "missing"])
+    found, points = store.find(id_store.hashes(["id6", "id500", "new", "missing"]))
     assert found.tolist() == [True, True, True, False]
     assert points.tolist()[:3] == [6, 500 % 7, 3]
 
 
-@pytest.mark.parametrize("batch", [1, 2, 10000])
-def test_order_error_between_streamed_runs_is_on_its_line(batch, schema_dir, tmp_path, monkeypatch):
-    """Coordinates after a ring in a streamed TexCoordList: the run's stand-in shows it to the schema."""
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+@pytest.mark.parametrize("small", [False, True])
+def test_order_error_in_a_list_handed_out_in_parts_is_on_its_line(small, schema_dir, tmp_path, monkeypatch):
+    """Coordinates after a ring in a TexCoordList (the schema's order broken) whose entries come in several parts."""
+    if small:
+        _small_parts(monkeypatch, 200, 1)
     path = _with_texture(schema_dir / "examples" / "handmade_LOD1_textured_building_TIN_group.gml", tmp_path)
     coords = "<app:textureCoordinates>0.0 0.0 1.0 1.0 0.0 1.0 0.0 0.0</app:textureCoordinates>"
     ring = "<app:ring>#tin_1_t0</app:ring>"
