@@ -15,6 +15,7 @@ import re
 from array import array
 from itertools import repeat
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from lxml import etree
@@ -166,8 +167,8 @@ class FileCheck:
         self._dimensions(part, elements, counts)
         self._triangles(part, elements, poslists, counts)
         self._solids(elements[G["Solid"]])
-        self._textures(part, elements)
-        self._references(part, elements)
+        rings = self._references(part, elements)
+        self._textures(part, elements, rings)
 
     def _model_properties(self, root: etree._Element, n: int) -> None:
         """The model's CRS (its envelope) and the CRSs it defines inline (``srsName="#id"``)."""
@@ -407,7 +408,7 @@ class FileCheck:
                     self._collect_faces(surface, reverse, feature, out)
 
     # -- textures ------------------------------------------------------------------------------
-    def _textures(self, part: _Part, elements: _Elements) -> None:
+    def _textures(self, part: _Part, elements: _Elements, rings: _RingRefs) -> None:
         for node in elements[A["imageURI"]]:
             uri = (node.text or "").strip()
             if uri in self.images:
@@ -425,29 +426,36 @@ class FileCheck:
                 pairs = self.tex_lists[part.parent] = _TexCoordPairs(self, part.parent)
             pairs.add(elements[A["textureCoordinates"]], elements[A["ring"]])
         elif elements[A["TexCoordList"]]:
-            self._texcoord_lists(part, elements)
+            self._texcoord_lists(part, elements, rings)
         self._compare_tex(self.tex_rings, self.forward_tex_rings)
         self.tex_rings = []
 
-    def _texcoord_lists(self, part: _Part, elements: _Elements) -> None:
+    def _texcoord_lists(self, part: _Part, elements: _Elements, refs: _RingRefs) -> None:
         """Pair the k-th coordinates with the k-th ring of all lists at once when each list pairs up evenly."""
         lists, coords, rings = elements[A["TexCoordList"]], elements[A["textureCoordinates"]], elements[A["ring"]]
-        texts = [node.text or "" for node in coords]
-        regular = (len(coords) == len(rings) and not (self.tex_lists and any(tcl in self.tex_lists for tcl in lists))
-                   and not _UNEVEN_LISTS(part) and not _NON_NUMBER.search(" ".join(texts)))
-        if not regular:
+        if self.tex_lists and any(tcl in self.tex_lists for tcl in lists):  # the end of lists handed out in parts
             for tcl in lists:
-                pairs = self.tex_lists.pop(tcl, None) or _TexCoordPairs(self, tcl)
+                pairs = self.tex_lists.pop(tcl, None)
+                if pairs is not None:
+                    pairs.add([c for c in tcl if c.tag == A["textureCoordinates"]], [c for c in tcl if c.tag == A["ring"]])
+                    pairs.close()
+                    del tcl[:]
+            coords = [node for node in coords if node.getparent() is not None]
+            kept = np.fromiter((node.getparent() is not None for node in rings), dtype=bool, count=len(rings))
+            rings, refs = [r for r, k in zip(rings, kept) if k], refs.subset(kept)
+        texts = [node.text or "" for node in coords]
+        if len(coords) != len(rings) or _UNEVEN_LISTS(part) or _NON_NUMBER.search(" ".join(texts)):
+            for tcl in lists:
+                pairs = _TexCoordPairs(self, tcl)
                 pairs.add([c for c in tcl if c.tag == A["textureCoordinates"]], [c for c in tcl if c.tag == A["ring"]])
                 pairs.close()
             return
         counts = _token_counts(texts)
-        ring_ids = [(node.text or "").strip().lstrip("#") for node in rings]
+        ring_ids, found, points = refs.ids, refs.found, refs.points
         for k in np.flatnonzero(counts % 2):
             self.issues.add("texture-coordinates", coords[k].sourceline, owner_id(coords[k]), f"Texture coordinates for "
                             f"ring #{ring_ids[k]} have an odd number of values ({counts[k]}); they are (s t) pairs.")
         even = counts % 2 == 0
-        found, points = self.ids.find(hashes(ring_ids))
         pairs = counts // 2
         for k in np.flatnonzero(even & found & (points > 0) & (pairs != points)):
             self._wrong_pairs(ring_ids[k], int(pairs[k]), int(points[k]), coords[k].sourceline, owner_id(coords[k]))
@@ -471,24 +479,45 @@ class FileCheck:
                         f"which has {points} points; there must be one pair per point (closing point included).")
 
     # -- references ----------------------------------------------------------------------------
-    def _references(self, part: _Part, elements: _Elements) -> None:
-        """``#id`` references resolved against the ids seen so far; the others wait, with their line, for the end."""
+    def _references(self, part: _Part, elements: _Elements) -> _RingRefs:
+        """``#id`` references resolved against the ids seen so far; the others wait, with their line, for the end.
+
+        Returns the part's app:ring references looked up, for the texture check.
+        """
         hrefs = [h[1:] for h in _HREFS(part) if h.startswith("#")] if self.raw.hrefs else []
-        by_text = [node for tag in (A["target"], A["ring"]) for node in elements[tag]]
-        texts = [(node.text or "").strip() for node in by_text]
-        refs = hrefs + [t[1:] for t in texts if t.startswith("#")]
-        if not refs:
-            return
-        missing = {refs[i] for i in np.flatnonzero(~self.ids.find(hashes(refs))[0])}
-        if not missing:
-            return
+        targets = [(node.text or "").strip() for node in elements[A["target"]]]
+        rings = [(node.text or "").strip() for node in elements[A["ring"]]]
+        target_refs = [t[1:] for t in targets if t.startswith("#")]
+        ring_refs = [t[1:] for t in rings if t.startswith("#")]
+        refs = hrefs + target_refs + ring_refs
+        found, points = self.ids.find(hashes(refs))
+        ring_ids = [t.lstrip("#") for t in rings]
+        if len(ring_refs) == len(rings):
+            ring_lookup = _RingRefs(ring_ids, found[len(refs) - len(rings):], points[len(refs) - len(rings):])
+        else:
+            ring_lookup = _RingRefs(ring_ids, *self.ids.find(hashes(ring_ids)))
+        if found.all():
+            return ring_lookup
+        missing = {refs[i] for i in np.flatnonzero(~found)}
         located = [(node.sourceline or 0, node.get(HREF)[1:], f"xlink:href of {qname(node.tag)}")
                    for node in (_WITH_HREF(part) if hrefs else []) if node.get(HREF).startswith("#")]
-        located += [(node.sourceline or 0, text[1:], qname(node.tag)) for node, text in zip(by_text, texts)
+        located += [(node.sourceline or 0, text[1:], qname(node.tag)) for kind, texts in
+                    ((A["target"], targets), (A["ring"], rings)) for node, text in zip(elements[kind], texts)
                     if text.startswith("#")]
         for line, ref, how in sorted(located, key=lambda item: item[0]):
             if ref in missing:
                 self.forward_refs.setdefault(ref, (line or None, how))
+        return ring_lookup
+
+
+class _RingRefs(NamedTuple):
+    """The app:ring references of a part (without '#') and whether and with how many points each ring exists."""
+    ids: list[str]
+    found: np.ndarray
+    points: np.ndarray
+
+    def subset(self, keep: np.ndarray) -> _RingRefs:
+        return _RingRefs([r for r, k in zip(self.ids, keep) if k], self.found[keep], self.points[keep])
 
 
 class _FaceLookup:

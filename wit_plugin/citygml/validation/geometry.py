@@ -6,10 +6,12 @@ whether the CRS is projected or geographic (see ``crs``).
 """
 from __future__ import annotations
 
+import operator
 import re
 from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import repeat
 from typing import NamedTuple
 
 import numpy as np
@@ -42,6 +44,14 @@ class SolidBatch:
 
 def local_frames(frames: list[Frame], origins: np.ndarray) -> tuple[list[Frame], np.ndarray, list[Frame]]:
     """Per origin: its frame (axis order fixed when the latitude is impossible), metres per unit, swapped frames."""
+    if frames and all(map(operator.is_, frames, repeat(frames[0]))):  # one frame: vectorised
+        frame = frames[0]
+        if not frame.geographic:
+            return frames, frame.metres_per_unit(origins), []
+        lat = np.abs(origins[:, frame.lat_axis])
+        flip = (lat > 90) & (np.abs(origins[:, 1 - frame.lat_axis]) <= 90)
+        if not flip.any():
+            return frames, frame.metres_per_unit(origins), []
     fixed, swapped = [], []
     for frame, origin in zip(frames, origins):
         if frame.geographic and abs(origin[frame.lat_axis]) > 90 >= abs(origin[1 - frame.lat_axis]):

@@ -48,6 +48,8 @@ class IdStore:
 
     def find(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(found, points) for each hash (searched in sorted order: several times faster in big runs)."""
+        if not len(keys) or not self._runs:
+            return np.zeros(len(keys), dtype=bool), np.zeros(len(keys), dtype=np.uint32)
         order = np.argsort(keys)
         needles = keys[order]
         found = np.zeros(len(keys), dtype=bool)
