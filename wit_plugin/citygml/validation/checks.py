@@ -55,9 +55,11 @@ class _Part:
 class _Query:
     """An XPath below a part's elements (``path`` follows ``descendant::``), minus the unfinished last child."""
 
-    def __init__(self, path: str):
-        self._all = etree.XPath(f"descendant::{path}", namespaces=NAMESPACES, smart_strings=False)
-        self._count_rest = etree.XPath(f"count(descendant-or-self::{path})", namespaces=NAMESPACES)
+    def __init__(self, *paths: str):
+        self._all = etree.XPath(" | ".join(f"descendant::{p}" for p in paths), namespaces=NAMESPACES,
+                                smart_strings=False)
+        self._count_rest = etree.XPath("count(" + " | ".join(f"descendant-or-self::{p}" for p in paths) + ")",
+                                       namespaces=NAMESPACES)
 
     def __call__(self, part: _Part) -> list:
         found = self._all(part.parent)
@@ -106,11 +108,14 @@ _HREFS = _Query("*/@xlink:href")
 _TRIANGLE_TEXTS = _Query("gml:Triangle/gml:exterior/gml:LinearRing/gml:posList/text()")
 _UNEVEN_LISTS = _Query("app:TexCoordList[count(app:textureCoordinates) != count(app:ring)]")
 _WITH_HREF = _Query("*[@xlink:href]")
-_FACE_TEXTS = etree.XPath("gml:exterior/gml:Shell/gml:surfaceMember/gml:Polygon/gml:exterior/gml:LinearRing/"
-                          "gml:posList/text()", namespaces=NAMESPACES, smart_strings=False)
-_FACE_POLYGONS = etree.XPath("gml:exterior/gml:Shell/gml:surfaceMember/gml:Polygon", namespaces=NAMESPACES)
-_SURFACE_PARTS = etree.XPath("count(.//gml:surfaceMember | .//gml:interior | .//gml:baseSurface | .//gml:patches)",
-                             namespaces=NAMESPACES)
+_FACES = "gml:exterior/gml:Shell/gml:surfaceMember/gml:Polygon"
+_SHELLS = _Query("gml:Solid/gml:exterior/gml:Shell")
+_FACE_TEXTS = _Query(f"gml:Solid/{_FACES}/gml:exterior/gml:LinearRing/gml:posList/text()")
+_HOLES = _Query(f"gml:Solid/{_FACES}/gml:interior", "gml:Solid/gml:interior")
+_SOLID_FACE_TEXTS = etree.XPath(f"{_FACES}/gml:exterior/gml:LinearRing/gml:posList/text()", namespaces=NAMESPACES,
+                                smart_strings=False)
+_SOLID_HOLES = etree.XPath(f"count({_FACES}/gml:interior | gml:interior)", namespaces=NAMESPACES)
+_FACE_POLYGONS = etree.XPath(_FACES, namespaces=NAMESPACES)
 _BY_ID = etree.XPath("descendant-or-self::*[@gml:id=$v]", namespaces=NAMESPACES)
 
 
@@ -166,7 +171,7 @@ class FileCheck:
         self._add_ids(part, elements, counts)
         self._dimensions(part, elements, counts)
         self._triangles(part, elements, poslists, counts)
-        self._solids(elements[G["Solid"]])
+        self._solids(part, elements)
         rings = self._references(part, elements)
         self._textures(part, elements, rings)
 
@@ -288,7 +293,7 @@ class FileCheck:
         if values is None:
             self._triangles_one_by_one(triangles)
             return
-        if self.raw.srs_names > (self.model_crs is not None):  # some geometry has its own CRS
+        if self._own_crs_possible():
             frames = [self._frame(t) for t in triangles]
         else:
             frames = [self._frame(part.parent)] * n
@@ -330,19 +335,32 @@ class FileCheck:
                                 "collinear.")
 
     # -- solids --------------------------------------------------------------------------------
-    def _solids(self, all_solids: list[etree._Element]) -> None:
-        """Every solid of the part: plain shells of polygons in bulk, others face by face; then checked together."""
-        if not all_solids:
+    def _solids(self, part: _Part, elements: _Elements) -> None:
+        """Every solid of the part: plain shells of polygons in bulk, others face by face; then checked together.
+
+        A shell is plain when each of its members is a polygon whose exterior ring has a posList, and
+        no polygon has a hole: then the part's face texts, in file order, fall to the solids by their
+        number of members. When the counts do not add up, each solid is looked at on its own.
+        """
+        solids = elements[G["Solid"]]
+        if not solids:
             return
-        bulk, texts, bulk_faces, general = [], [], [], []
-        for solid in all_solids:
-            face_texts = _FACE_TEXTS(solid)
-            if face_texts and _SURFACE_PARTS(solid) == len(face_texts):
-                bulk.append(solid)
-                texts += face_texts
-                bulk_faces.append(len(face_texts))
-            else:
-                general.append(solid)
+        shells = _SHELLS(part)
+        members = [len(shell) for shell in shells]
+        texts = _FACE_TEXTS(part)
+        if len(shells) == len(solids) and sum(members) == len(texts) and not _HOLES(part):
+            bulk, bulk_faces, general = solids, members, []
+        else:
+            bulk, texts, bulk_faces, general = [], [], [], []
+            for solid in solids:
+                face_texts = _SOLID_FACE_TEXTS(solid)
+                shell = solid.find(f"{G['exterior']}/{G['Shell']}")
+                if face_texts and shell is not None and len(shell) == len(face_texts) and not _SOLID_HOLES(solid):
+                    bulk.append(solid)
+                    texts += face_texts
+                    bulk_faces.append(len(face_texts))
+                else:
+                    general.append(solid)
         counts = _token_counts(texts)
         values = _numbers(texts, int(counts.sum())) if texts and not (counts % 3).any() else None
         if values is None:  # some face is not 3D numbers: sort them out solid by solid
@@ -354,9 +372,13 @@ class FileCheck:
         faces = [face for _, solid_faces in faced for face in solid_faces]
         rings = [ring for _, face_rings in faces for ring in face_rings]
         rings_per_face = np.r_[np.ones(sum(bulk_faces), dtype=np.int64), [len(r) for _, r in faces]].astype(np.int64)
+        if self._own_crs_possible():
+            frames = [self._frame(solid) for solid in solids]
+        else:
+            frames = [self._frame(part.parent)] * len(solids)
         batch = SolidBatch(
             solids=[Where(solid.sourceline, solid.get(GML_ID), label(solid)) for solid in solids],
-            frames=[self._frame(solid) for solid in solids],
+            frames=frames,
             points=np.concatenate(([values.reshape(-1, 3)] if bulk else []) + rings),
             ring_len=np.r_[counts // 3, [len(r) for r in rings]].astype(np.int64),
             ring_face=np.repeat(np.arange(len(rings_per_face)), rings_per_face),
@@ -365,6 +387,10 @@ class FileCheck:
         check = SolidCheck(batch, self.issues, self.vertex_tol, self.planarity_tol)
         check.run()
         self._warn_swapped(check.swapped)
+
+    def _own_crs_possible(self) -> bool:
+        """Whether some geometry may carry its own srsName (an srsName in the bytes read besides the model's)."""
+        return self.raw.srs_names > (self.model_crs is not None)
 
     def _general_faces(self, solid: etree._Element) -> list[tuple[Where, list[np.ndarray]]]:
         """(face, rings) of any shell: orientable, composite, referenced surfaces; [] when it cannot be checked."""

@@ -215,9 +215,7 @@ class SolidCheck:
         """Every edge in exactly two faces, once in each direction; then outward by signed volume."""
         v = self.v
         vs = self.face_solid[self.vert_face]
-        key = np.column_stack([vs, np.round(v / self.tol).astype(np.int64)])
-        _, vid = np.unique(key, axis=0, return_inverse=True)
-        vid = vid.ravel()
+        vid = _vertex_ids(vs, np.round(v / self.tol).astype(np.int64))
         suspicious = self._suspicious(vid)
         for s, solid in enumerate(self.batch.solids):
             if s in self.broken:
@@ -297,6 +295,20 @@ class SolidCheck:
                             f"inwards (signed volume {vol:.3f} m³); reverse the vertex order of every face.")
         elif vol <= self.tol ** 3:
             self.issues.add("solid-closed", solid.line, sid, f"Solid {sid or ''} encloses no volume.")
+
+
+def _vertex_ids(solid: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """One id per distinct (solid, grid cell): cells packed into one int64 when they fit, then sorted by both."""
+    if len(cells) and np.abs(cells).max() < 1 << 20:
+        packed = ((cells[:, 0] + (1 << 20)) << 42) | ((cells[:, 1] + (1 << 20)) << 21) | (cells[:, 2] + (1 << 20))
+        order = np.lexsort((packed, solid))
+        s, p = solid[order], packed[order]
+        new = np.r_[True, (s[1:] != s[:-1]) | (p[1:] != p[:-1])]
+        ids = np.empty(len(order), dtype=np.int64)
+        ids[order] = np.cumsum(new) - 1
+        return ids
+    _, ids = np.unique(np.column_stack([solid, cells]), axis=0, return_inverse=True)
+    return ids.ravel()
 
 
 def _tolerant_ids(points: np.ndarray, tol: float) -> list[int]:
