@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import functools
 import http.server
+import re
 import shutil
 import subprocess
 import threading
@@ -13,6 +14,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+import pyproj
 import pytest
 
 from wit_plugin.citygml import schemas, validate
@@ -137,6 +139,86 @@ def test_each_fault_is_detected(name, schema_dir, tmp_path):
     others = {i.check for i in _errors(report)} - {check}
     expected_side_effects = {"bowtie_face": {"solid-closed"}}
     assert others == expected_side_effects.get(name, set())
+
+
+# -- geographic CRSs: tolerances in metres whatever the CRS's units --------------------------------------
+GEOGRAPHIC = {  # srsName -> the axis order the file is written in
+    "EPSG:4326": "lon lat",  # the short form: longitude first, as GIS software writes it
+    "urn:ogc:def:crs:EPSG::4326": "lat lon",  # the EPSG axis order
+    "http://www.opengis.net/def/crs/EPSG/0/4979": "lat lon",  # WGS 84 with ellipsoidal heights
+    "http://www.opengis.net/def/crs/EPSG/0/6697": "lat lon",  # JGD2011 + JGD2011 height, as Japan's PLATEAU
+}
+_POSITION_TEXT = re.compile(r"(<gml:(posList|pos|lowerCorner|upperCorner)\b[^>]*>)([^<]*)(</gml:\2>)")
+
+
+def _geographic(src: Path, dest: Path, srs_name: str, order: str, lon_shift: float = 0.0) -> Path:
+    """``src`` (ETRS89 / UTM 32N) with every position in degrees, heights kept, in ``order``; lines unchanged.
+
+    ``lon_shift`` moves the model east by that many degrees (same shapes, other longitudes).
+    """
+    to_degrees = pyproj.Transformer.from_crs(25832, 4258, always_xy=True)
+
+    def convert(match: re.Match) -> str:
+        values = np.array(match.group(3).split(), dtype=float).reshape(-1, 3)
+        lon, lat = to_degrees.transform(values[:, 0], values[:, 1])
+        first, second = (lon + lon_shift, lat) if order == "lon lat" else (lat, lon + lon_shift)
+        text = " ".join(f"{a:.10f} {b:.10f} {h:.3f}" for a, b, h in zip(first, second, values[:, 2]))
+        return match.group(1) + text + "\n" * match.group(3).count("\n") + match.group(4)
+
+    text = _POSITION_TEXT.sub(convert, src.read_text(encoding="utf-8"))
+    dest.parent.mkdir(exist_ok=True)
+    dest.write_text(re.sub(r'srsName="[^"]*"', f'srsName="{srs_name}"', text), encoding="utf-8")
+    return dest
+
+
+@pytest.mark.parametrize("srs_name", sorted(GEOGRAPHIC))
+@pytest.mark.parametrize("name", ["Building_LOD1-EPSG25832.gml", "Building_LOD2-EPSG25832.gml",
+                                  "handmade_LOD1_textured_building_TIN_group.gml"])
+def test_examples_in_degrees_are_valid(name, srs_name, schema_dir, tmp_path):
+    """A closed solid is closed and a 10 m triangle not degenerate in degrees too (0.001 was 100 m there)."""
+    path = _with_texture(_geographic(schema_dir / "examples" / name, tmp_path / "degrees" / name, srs_name, GEOGRAPHIC[srs_name]),
+                         tmp_path)
+    report = _one(path, schema_dir)
+    assert report.issues == [] and report.valid
+
+
+GEOGRAPHIC_FAULTS = ["open_solid", "inverted_solid", "flipped_face", "nonplanar_face", "bowtie_face",
+                     "degenerate_triangle"]
+
+
+@pytest.mark.parametrize("srs_name", ["EPSG:4326", "http://www.opengis.net/def/crs/EPSG/0/6697"])
+@pytest.mark.parametrize("name", GEOGRAPHIC_FAULTS)
+def test_faults_in_degrees_are_found(name, srs_name, schema_dir, tmp_path):
+    path = _with_texture(_geographic(DATA / f"{name}.gml", tmp_path / "degrees" / f"{name}.gml", srs_name,
+                                     GEOGRAPHIC[srs_name]), tmp_path)
+    if name == "degenerate_triangle":  # collinear in metres is not quite collinear in degrees: make it so there
+        text = path.read_text(encoding="utf-8")
+        ring = re.search(r'gml:id="tin_1_t1">\s*<gml:posList[^>]*>([^<]*)<', text).group(1)
+        corners = np.array(ring.split(), dtype=float).reshape(-1, 3)
+        corners[1] = (corners[0] + corners[2]) / 2
+        path.write_text(text.replace(ring, " ".join(map(repr, corners.ravel().tolist()))), encoding="utf-8")
+    check, line, gml_id, words = FAULTS[name]
+    report = _one(path, schema_dir)
+    assert [(i.line, i.gml_id) for i in _errors(report) if i.check == check] == [(line, gml_id)]
+    assert words.lower() in next(i for i in report.issues if i.check == check).message.lower()  # "0.125 m" too
+
+
+def test_longitude_first_despite_the_crs_axis_order_is_read_as_written(schema_dir, tmp_path):
+    """Korea's longitudes (127°) cannot be latitudes: such a file is read longitude first, with a warning."""
+    path = _geographic(schema_dir / "examples" / "Building_LOD1-EPSG25832.gml", tmp_path / "b.gml",
+                       "urn:ogc:def:crs:EPSG::4326", "lon lat", lon_shift=118.0)
+    [warning] = _one(path, schema_dir).issues
+    assert (warning.check, warning.severity) == ("crs", "warning") and "longitude before latitude" in warning.message
+
+
+def test_unknown_crs_is_read_as_metres_with_a_warning(schema_dir, tmp_path):
+    path = tmp_path / "b.gml"
+    path.write_text(re.sub(r'srsName="[^"]*"', 'srsName="urn:x-example:crs:site-grid"',
+                           (schema_dir / "examples" / "Building_LOD1-EPSG25832.gml").read_text(encoding="utf-8")),
+                    encoding="utf-8")
+    [warning] = _one(path, schema_dir).issues
+    assert (warning.check, warning.severity, warning.line) == ("crs", "warning", None)
+    assert "urn:x-example:crs:site-grid" in warning.message and "metres" in warning.message
 
 
 def test_gml_id_syntax_is_checked(schema_dir, tmp_path):

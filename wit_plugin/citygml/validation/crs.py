@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+_SHORT_FORM = re.compile(r"^\s*EPSG:\d+\s*$", re.IGNORECASE)
 _EPSG_CODE = re.compile(r"EPSG(?:/[\d.]+/|:[\d.]*:|:)(\d+)", re.IGNORECASE)
 _METRE_UOMS = {"m", "metre", "meter", "urn:ogc:def:uom:EPSG::9001", "http://www.opengis.net/def/uom/EPSG/0/9001",
                "EPSG:9001"}
@@ -97,7 +98,8 @@ def _frame_of_name(srs_name: str) -> Frame:
         return Frame(srs_name, assumed=f"EPSG:{codes[0]} is not in the PROJ database")
     axes = list(horizontal.axis_info) + (list(vertical.axis_info) if vertical is not None else [])
     if horizontal.is_geographic:
-        lat_axis = 0 if axes[0].direction == "north" else 1
+        # "EPSG:4326" is longitude first by GIS custom (as WFS servers read it); URNs and URLs follow EPSG's order
+        lat_axis = 1 if _SHORT_FORM.match(srs_name) or axes[0].direction != "north" else 0
         ellipsoid = horizontal.ellipsoid
         height = axes[2].unit_conversion_factor if len(axes) > 2 else 1.0
         return Frame(srs_name, True, (1.0, 1.0, height), lat_axis, ellipsoid.semi_major_metre,
