@@ -130,7 +130,7 @@ class _FileValidation:
         checks = FileCheck(self.path, other, stream.raw, *self.tolerances)
         if xsd.available:
             xsd.start()
-        collecting = gc.isenabled()
+        collecting, cut = gc.isenabled(), None
         gc.disable()  # the pass makes millions of short-lived objects and no cycles: collections would only cost time
         try:
             for parent, n in stream.parts():
@@ -140,8 +140,9 @@ class _FileValidation:
             checks.finish()
         except streaming.SyntaxProblem as exc:
             if exc.at_end:
-                syntax.add("xml", exc.line, None, f"The file is truncated: it ends at line {exc.line} before the XML "
-                           f"is complete ({exc.message}). Everything before was checked.")
+                cut = exc.line
+                syntax.add("xml", exc.line, None, f"The file is truncated: it ends at line {exc.line} inside "
+                           f"{_open_element(stream.root)}, before the XML is complete. Everything before was checked.")
             else:
                 syntax.add("xml", exc.line, None, f"Not well-formed XML: {exc.message}. Nothing after this point "
                            "was checked.")
@@ -154,6 +155,8 @@ class _FileValidation:
                 gc.enable()
         if xsd.available and xsd.code is not None and xsd.code < 0 and not syntax.issues:
             schema_issues.add("xsd", None, None, f"XSD validation could not finish this file (libxml2 error {xsd.code}).")
+        if cut is not None:  # what the schema says about the cut-off end only repeats that it is cut off
+            errors = [e for e in errors if e.line is None or e.line < cut]
         if errors:
             describe(errors, schema_issues, self.path, root_tag, self.schema_dir, self.known_ns)
             if not xsd.available and not has_doctype:
@@ -181,15 +184,26 @@ def _not_xml(path: Path) -> str | None:
 
 def _not_citygml3(root_tag: str) -> str | None:
     """Why a well-formed file is not a CityGML 3.0 document (its root element), or None."""
-    ns = root_tag[1:].split("}")[0] if root_tag.startswith("{") else ""
+    ns, _, local = root_tag[1:].partition("}") if root_tag.startswith("{") else ("", "", root_tag)
     if ns in CITYGML3_NAMESPACES:
         return None
     if ns in _OTHER_CITYGML:
-        return (f"The file is CityGML {_OTHER_CITYGML[ns]} (root element {qname(root_tag)} in {ns}), not CityGML 3.0: "
+        return (f"The file is CityGML {_OTHER_CITYGML[ns]} (root element {local} in {ns}), not CityGML 3.0: "
                 "convert it to CityGML 3.0 first (e.g. citygml-tools upgrade).")
-    return (f"The file is XML but not CityGML 3.0: its root element is {qname(root_tag)}"
+    return (f"The file is XML but not CityGML 3.0: its root element is {local}"
             + (f" in namespace {ns}" if ns else " (no namespace)") + "; a CityGML 3.0 file starts with "
             "core:CityModel (http://www.opengis.net/citygml/3.0).")
+
+
+def _open_element(root) -> str:
+    """The innermost element still open where a truncated file ends, as ``prefix:name (line n)``."""
+    node = root
+    while node is not None and len(node):
+        node = node[-1]
+    while node is not None and node.getparent() is not None and node.getnext() is None and not len(node) \
+            and node.tail is not None:
+        node = node.getparent()  # a finished last child: its parent is the open one
+    return f"{qname(node.tag)} (opened at line {node.sourceline})" if node is not None else "the root element"
 
 
 # -- reports --------------------------------------------------------------------------------------
