@@ -600,3 +600,39 @@ def test_order_error_in_a_list_handed_out_in_parts_is_on_its_line(small, schema_
     [issue] = _one(path, schema_dir).issues  # xmllint says the same (line 180)
     assert (issue.check, issue.line) == ("xsd", 180)
     assert issue.message == "Element 'app:textureCoordinates': This element is not expected. Expected is ( app:ring )."
+
+
+# -- the paths taken when the fast ones are not available or do not apply ---------------------------------
+def test_without_libxml2_for_ctypes_lxml_reports_the_same_schema_errors_without_lines(schema_dir, monkeypatch):
+    from wit_plugin.citygml.validation import xsd
+
+    monkeypatch.setattr(xsd, "_compiled", lambda folder: None)
+    report = _one(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml", schema_dir)
+    schema_errors = [i for i in report.issues if i.check == "xsd" and i.severity == "error"]
+    assert len(schema_errors) == 4 and {i.line for i in schema_errors} == {None}
+    assert any("posLst" in i.message for i in schema_errors) and any("'one'" in i.message for i in schema_errors)
+    [note] = [i for i in report.issues if i.severity == "warning"]
+    assert "Line numbers of schema errors are not available" in note.message
+    assert _one(schema_dir / "examples" / "Building_LOD2-EPSG25832.gml", schema_dir).valid
+
+
+def _one_by_one(monkeypatch) -> None:
+    """Make every check take its element-by-element path."""
+    from wit_plugin.citygml.validation import checks, stream
+
+    monkeypatch.setattr(checks, "_numbers", lambda texts, expected: None)  # triangles and solids one by one
+    monkeypatch.setattr(checks, "_UNEVEN_LISTS", lambda part: [True])  # texture lists one by one
+    monkeypatch.setattr(stream.RawCounts, "any_dimension_not_3", property(lambda self: True))
+    monkeypatch.setattr(checks.FileCheck, "_own_crs_possible", lambda self: True)
+
+
+@pytest.mark.parametrize("name", sorted(FAULTS) + ["long_runs"])
+def test_bulk_and_element_by_element_paths_agree(name, schema_dir, tmp_path, monkeypatch):
+    if name == "long_runs":
+        _long_runs(tmp_path / "runs.gml", 40, pad=0)
+        path = tmp_path / "runs.gml"
+    else:
+        path = _with_texture(DATA / f"{name}.gml", tmp_path)
+    bulk = sorted((i.check, i.line, i.gml_id, i.message) for i in _one(path, schema_dir).issues)
+    _one_by_one(monkeypatch)
+    assert sorted((i.check, i.line, i.gml_id, i.message) for i in _one(path, schema_dir).issues) == bulk

@@ -84,7 +84,7 @@ class Stream:
         try:
             self.parser.close()
         except etree.XMLSyntaxError as exc:
-            log = exc.error_log.filter_from_errors()
+            log = self.parser.feed_error_log.filter_from_errors()  # this parse only (the exception's may hold older)
             schema = [e for e in log if e.domain == etree.ErrorDomains.SCHEMASV]
             if not schema or len(schema) < len(log):
                 raise _problem(exc, at_end=True) from None

@@ -189,11 +189,13 @@ def describe(errors: list[SchemaError], issues: IssueList, path: Path, root_tag:
     """Turn schema errors into issues: readable messages, the gml:id they concern, ADEs once."""
     wanted: list[tuple[SchemaError, str]] = []
     ades: set[str] = set()
-    listed_lines: set[int | None] = set()
+    previous: SchemaError | None = None
     for err in errors:
-        if "list type" in err.message and err.line in listed_lines and err.line is not None:
+        repeated = (previous is not None and "list type" in err.message and previous.line == err.line
+                    and _tag_of(previous.message) == _tag_of(err.message))
+        previous = err
+        if repeated:
             continue  # libxml2 repeats a bad list item as a bad list: report it once
-        listed_lines.add(err.line)
         tag = _tag_of(err.message)
         ns = tag[1:].split("}")[0] if tag.startswith("{") else ""
         if ns and ns not in known_ns:
