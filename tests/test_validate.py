@@ -636,3 +636,21 @@ def test_bulk_and_element_by_element_paths_agree(name, schema_dir, tmp_path, mon
     bulk = sorted((i.check, i.line, i.gml_id, i.message) for i in _one(path, schema_dir).issues)
     _one_by_one(monkeypatch)
     assert sorted((i.check, i.line, i.gml_id, i.message) for i in _one(path, schema_dir).issues) == bulk
+
+
+def test_a_star_that_turns_one_way_twice_around_is_not_taken_for_convex():
+    """Convex faces skip GEOS: a pentagram turns one way at every corner, but twice around, and crosses itself."""
+    from wit_plugin.citygml.validation.crs import Frame
+    from wit_plugin.citygml.validation.geometry import SolidBatch, SolidCheck, Where
+    from wit_plugin.citygml.validation.names import IssueList
+
+    angles = np.radians(90 + 144 * np.arange(5))
+    star = np.column_stack([10 * np.cos(angles), 10 * np.sin(angles), np.zeros(5)])
+    square = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0.0]])
+    issues = IssueList("f", 10)
+    faces = [np.vstack([ring, ring[:1]]) for ring in (star, square)]
+    SolidCheck(SolidBatch([Where(1, "s", "s")], [Frame("EPSG:25832")], np.concatenate(faces),
+                          np.array([6, 5]), np.array([0, 1]), np.array([0, 0]),
+                          lambda f: Where(f + 2, None, ("star", "square")[f])), issues, 0.001, 0.01).run()
+    crossing = [i for i in issues.issues if i.check == "self-intersection"]
+    assert [(i.line, i.message.split(" intersects")[0]) for i in crossing] == [(2, "Face star")]

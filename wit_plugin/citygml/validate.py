@@ -146,13 +146,13 @@ class _FileValidation:
             else:
                 syntax.add("xml", exc.line, None, f"Not well-formed XML: {exc.message}. Nothing after this point "
                            "was checked.")
-        finally:
-            if has_doctype:
-                errors = whole_document_errors(self.path, self.schema)
-            else:
-                errors = xsd.errors() if xsd.available else fallback_errors(stream)
+        finally:  # on cancel the schema thread is left to finish alone (libxml2 cannot be interrupted)
             if collecting:
                 gc.enable()
+        if has_doctype:
+            errors = whole_document_errors(self.path, self.schema)
+        else:
+            errors = xsd.errors() if xsd.available else fallback_errors(stream)
         if xsd.available and xsd.code is not None and xsd.code < 0 and not syntax.issues:
             schema_issues.add("xsd", None, None, f"XSD validation could not finish this file (libxml2 error {xsd.code}).")
         if cut is not None:  # what the schema says about the cut-off end only repeats that it is cut off

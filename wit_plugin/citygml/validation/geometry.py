@@ -179,15 +179,20 @@ class SolidCheck:
         self._self_intersections(flat, normal, unit, centroid)
 
     def _self_intersections(self, flat: np.ndarray, normal: np.ndarray, unit: np.ndarray, centroid: np.ndarray) -> None:
-        """Each face projected on the coordinate plane its normal is closest to, tested by GEOS."""
+        """Each face projected on the coordinate plane its normal is closest to, tested by GEOS.
+
+        A face with one ring that turns one way, once around (convex: most walls and roofs), cannot
+        cross itself; only the others go to GEOS.
+        """
         v, vf = self.v, self.vert_face
-        keep = ~flat[vf]
         axis = np.argmax(np.abs(normal), axis=1)
         a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+        plane = np.column_stack([v[np.arange(len(v)), a1[vf]], v[np.arange(len(v)), a2[vf]]])
+        keep = ~flat[vf] & ~self._convex(plane)[vf]
         idx = np.flatnonzero(keep)
         if not len(idx):
             return
-        xy = np.column_stack([v[idx, a1[vf[idx]]], v[idx, a2[vf[idx]]]])
+        xy = plane[idx]
         ring_ids = self.vert_ring[idx]
         _, ring_seq = np.unique(ring_ids, return_inverse=True)
         linear = shapely.linearrings(xy, indices=ring_seq)
@@ -210,6 +215,21 @@ class SolidCheck:
                 where = " near " + self._xyz(p, self.face_solid[f])
             self.issues.add("self-intersection", node.line, node.gml_id, f"Face {node.label} intersects itself"
                             f"{where} ({reason.split('[')[0].strip()}).")
+
+    def _convex(self, xy: np.ndarray) -> np.ndarray:
+        """Per face: one ring whose turns all go one way and add up to one full turn."""
+        nfaces = len(self.good_faces)
+        prev = np.empty_like(self.nxt)
+        prev[self.nxt] = np.arange(len(self.nxt))
+        e1, e2 = xy - xy[prev], xy[self.nxt] - xy
+        cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        turn = np.arctan2(cross, (e1 * e2).sum(axis=1))
+        vf = self.vert_face
+        left = np.bincount(vf, cross > 0, nfaces) > 0
+        right = np.bincount(vf, cross < 0, nfaces) > 0
+        total = np.abs(np.bincount(vf, turn, nfaces))
+        one_ring = np.bincount(self.ring_face, minlength=nfaces) == 1
+        return one_ring & (left != right) & (np.abs(total - 2 * np.pi) < 1e-6)
 
     def _topology(self) -> None:
         """Every edge in exactly two faces, once in each direction; then outward by signed volume."""
