@@ -654,3 +654,21 @@ def test_a_star_that_turns_one_way_twice_around_is_not_taken_for_convex():
                           lambda f: Where(f + 2, None, ("star", "square")[f])), issues, 0.001, 0.01).run()
     crossing = [i for i in issues.issues if i.check == "self-intersection"]
     assert [(i.line, i.message.split(" intersects")[0]) for i in crossing] == [(2, "Face star")]
+
+
+def test_an_error_met_at_the_end_tag_is_reported_on_the_start_tag_as_xmllint_does(schema_dir, tmp_path):
+    """libxml2's streaming validator meets a missing child at the end tag (line 14); the element starts on 13."""
+    path = tmp_path / "missing.gml"
+    path.write_text('<?xml version="1.0" encoding="UTF-8"?>\n<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0" '
+                    'xmlns:gml="http://www.opengis.net/gml/3.2"\n xmlns:bldg="http://www.opengis.net/citygml/building/3.0">\n'
+                    '<core:cityObjectMember>\n<bldg:Building gml:id="b1">\n<core:lod1Solid>\n<gml:Solid gml:id="s1">\n'
+                    '<gml:exterior>\n<gml:Shell>\n<gml:surfaceMember>\n<gml:Polygon>\n<gml:exterior>\n'
+                    '<gml:LinearRing gml:id="r1">\n</gml:LinearRing>\n</gml:exterior>\n</gml:Polygon>\n</gml:surfaceMember>\n'
+                    '</gml:Shell>\n</gml:exterior>\n</gml:Solid>\n</core:lod1Solid>\n</bldg:Building>\n'
+                    '</core:cityObjectMember>\n</core:CityModel>\n', encoding="utf-8")
+    [issue] = [i for i in _one(path, schema_dir).issues if i.check == "xsd"]
+    assert (issue.line, issue.gml_id) == (13, "r1") and "Missing child element(s)" in issue.message
+    if shutil.which("xmllint"):
+        run = subprocess.run(["xmllint", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"), str(path)],
+                             capture_output=True, text=True, timeout=60)
+        assert f"{path}:13:" in run.stderr

@@ -106,31 +106,54 @@ class _FileValidation:
         self.path, self.schema_dir, self.schema, self.known_ns = path, schema_dir, schema, known_ns
         self.tolerances = (planarity_tol, vertex_tol, min_triangle_area)
         self.max_issues, self.on_chunk = max_issues, on_chunk
+        self.syntax, self.schema_issues, self.other = (IssueList(str(path), max_issues) for _ in range(3))
 
     def run(self) -> list[Issue]:
+        root = self._first_look()
+        if isinstance(root, Issue):
+            return [root]
+        docinfo = root.getroottree().docinfo
+        has_doctype = bool(docinfo.internalDTD is not None or docinfo.doctype)
+        xsd = StreamingValidation(self.path, self.schema_dir, enabled=not has_doctype)
+        stream = streaming.Stream(self.path, root.tag, self.on_chunk,
+                                  schema=None if xsd.available or has_doctype else self.schema)
+        if xsd.available:
+            xsd.start()
+        cut = self._checks(stream)
+        if has_doctype:
+            errors = whole_document_errors(self.path, self.schema)
+        else:
+            errors = xsd.errors() if xsd.available else fallback_errors(stream)
+        if xsd.available and xsd.code is not None and xsd.code < 0 and not self.syntax.issues:
+            self.schema_issues.add("xsd", None, None, f"XSD validation could not finish this file (libxml2 error "
+                                   f"{xsd.code}).")
+        if cut is not None:  # what the schema says about the cut-off end only repeats that it is cut off
+            errors = [e for e in errors if e.line is None or e.line < cut]
+        if errors:
+            describe(errors, self.schema_issues, self.path, root.tag, self.schema_dir, self.known_ns)
+            if not xsd.available and not has_doctype:
+                self.schema_issues.add("xsd", None, None, "Line numbers of schema errors are not available: libxml2 "
+                                       "could not be loaded for its streaming validator.", "warning")
+        return self.syntax.closed() + self.schema_issues.closed() + self.other.closed()
+
+    def _first_look(self):
+        """The root element, or the one issue saying why the file is no CityGML 3.0 document at all."""
         name = str(self.path)
         problem = _not_xml(self.path)
         if problem:
-            return [Issue(name, "xml", "error", None, None, problem)]
+            return Issue(name, "xml", "error", None, None, problem)
         try:
             root = streaming.first_element(self.path)
         except streaming.SyntaxProblem as exc:
-            return [Issue(name, "xml", "error", exc.line, None, f"The file is not well-formed XML at its start "
-                          f"({exc.message}); nothing could be checked.")]
-        root_tag, docinfo = root.tag, root.getroottree().docinfo
-        problem = _not_citygml3(root_tag)
-        if problem:
-            return [Issue(name, "xml", "error", root.sourceline, None, problem)]
-        has_doctype = bool(docinfo.internalDTD is not None or docinfo.doctype)
-        xsd = StreamingValidation(self.path, self.schema_dir, enabled=not has_doctype)
-        syntax, schema_issues, other = IssueList(name, self.max_issues), IssueList(name, self.max_issues), \
-            IssueList(name, self.max_issues)
-        stream = streaming.Stream(self.path, root_tag, self.on_chunk,
-                                  schema=None if xsd.available or has_doctype else self.schema)
-        checks = FileCheck(self.path, other, stream.raw, *self.tolerances)
-        if xsd.available:
-            xsd.start()
-        collecting, cut = gc.isenabled(), None
+            return Issue(name, "xml", "error", exc.line, None, f"The file is not well-formed XML at its start "
+                         f"({exc.message}); nothing could be checked.")
+        problem = _not_citygml3(root.tag)
+        return Issue(name, "xml", "error", root.sourceline, None, problem) if problem else root
+
+    def _checks(self, stream: streaming.Stream) -> int | None:
+        """Every check but the XSD, part by part; the line where a truncated file ends, if it is."""
+        checks = FileCheck(self.path, self.other, stream.raw, *self.tolerances)
+        collecting = gc.isenabled()
         gc.disable()  # the pass makes millions of short-lived objects and no cycles: collections would only cost time
         try:
             for parent, n in stream.parts():
@@ -140,29 +163,16 @@ class _FileValidation:
             checks.finish()
         except streaming.SyntaxProblem as exc:
             if exc.at_end:
-                cut = exc.line
-                syntax.add("xml", exc.line, None, f"The file is truncated: it ends at line {exc.line} inside "
-                           f"{_open_element(stream.root)}, before the XML is complete. Everything before was checked.")
-            else:
-                syntax.add("xml", exc.line, None, f"Not well-formed XML: {exc.message}. Nothing after this point "
-                           "was checked.")
+                self.syntax.add("xml", exc.line, None, f"The file is truncated: it ends at line {exc.line} inside "
+                                f"{_open_element(stream.root)}, before the XML is complete. Everything before was "
+                                "checked.")
+                return exc.line
+            self.syntax.add("xml", exc.line, None, f"Not well-formed XML: {exc.message}. Nothing after this point was "
+                            "checked.")
         finally:  # on cancel the schema thread is left to finish alone (libxml2 cannot be interrupted)
             if collecting:
                 gc.enable()
-        if has_doctype:
-            errors = whole_document_errors(self.path, self.schema)
-        else:
-            errors = xsd.errors() if xsd.available else fallback_errors(stream)
-        if xsd.available and xsd.code is not None and xsd.code < 0 and not syntax.issues:
-            schema_issues.add("xsd", None, None, f"XSD validation could not finish this file (libxml2 error {xsd.code}).")
-        if cut is not None:  # what the schema says about the cut-off end only repeats that it is cut off
-            errors = [e for e in errors if e.line is None or e.line < cut]
-        if errors:
-            describe(errors, schema_issues, self.path, root_tag, self.schema_dir, self.known_ns)
-            if not xsd.available and not has_doctype:
-                schema_issues.add("xsd", None, None, "Line numbers of schema errors are not available: libxml2 could "
-                                  "not be loaded for its streaming validator.", "warning")
-        return syntax.closed() + schema_issues.closed() + other.closed()
+        return None
 
 
 def _not_xml(path: Path) -> str | None:
