@@ -2,7 +2,7 @@
 
 Why hashes: a 1.6 GB model has tens of millions of ids; as Python strings in a set they took
 ~100 bytes each. Here an id costs 12 bytes (int64 hash + uint32 points) in sorted runs, merged
-like a log-structured merge, so n ids cost O(n log n) and a lookup searches O(log n) runs.
+like a log-structured merge, so n ids cost O(n log n) and a lookup searches a few runs.
 
 The hash is Python's own string hash (64-bit SipHash, ~50 ns per id where a cryptographic hash
 took ~600 ns): two distinct ids share one with probability about n²/2⁶⁵ for n ids, i.e. 1 in 2
@@ -15,6 +15,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+
+
+_TIER = 8
+"""A run is merged into the one before once it reaches 1/_TIER of its size: few runs to search, each id copied
+a few times."""
 
 
 class IdStore:
@@ -42,7 +47,7 @@ class IdStore:
         if not dup_sorted.all():
             fresh = ~dup_sorted
             self._runs.append((sorted_keys[fresh], points.astype(np.uint32)[order][fresh]))
-        while len(self._runs) > 1 and len(self._runs[-2][0]) <= 2 * len(self._runs[-1][0]):
+        while len(self._runs) > 1 and len(self._runs[-2][0]) <= _TIER * len(self._runs[-1][0]):
             self._runs.append(_merge_runs(self._runs.pop(), self._runs.pop()))
         return duplicate
 

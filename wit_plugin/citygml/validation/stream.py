@@ -120,6 +120,8 @@ class RawCounts:
     def count(self, chunk: bytes) -> None:
         seam = self._tail + chunk[:32]  # words split by the chunk boundary
         for word in self._WORDS:
+            if word == b"href" and self.counts[word]:
+                continue  # only whether there are any matters
             self.counts[word] += chunk.count(word) + seam.count(word) - self._tail.count(word) - chunk[:32].count(word)
         self._tail = chunk[-32:]
 
