@@ -1,11 +1,12 @@
 """Every check an XSD cannot express, on the finished parts of one streaming parse.
 
-A part is thousands of elements (see ``stream``). Its values are pulled out in bulk by XPath —
-one list of all gml:ids, of all posList texts, of all texture coordinates … — and checked in numpy:
-one Python call per part and kind instead of one per element. Elements are looked up one by one
-only to name a problem (its line, its gml:id) or when a part does not have the regular layout the
-bulk path relies on (a ring without a posList, a face that is an OrientableSurface, …); that
-general path checks the same rules element by element.
+A part is thousands of elements (see ``stream``). Its values are pulled out in bulk — one list of
+all gml:ids (an XPath), of all posList elements and texts (an lxml ``iter``), of all texture
+coordinates … — and checked in numpy: a few Python calls per part and kind instead of several per
+element. Elements are looked at one by one only to name a problem (its line, its gml:id) or when a
+part does not have the regular layout the bulk path relies on (a ring without a posList, a face
+that is an OrientableSurface, …); that general path checks the same rules element by element
+(``tests/test_validate.py`` runs both on every fixture).
 """
 from __future__ import annotations
 
@@ -136,7 +137,7 @@ class FileCheck:
         self.root: etree._Element | None = None
         self.model_crs: str | None = None
         self.inline_metres: dict[str, bool] = {}  # CRSs defined in the file: all axes in metres?
-        self.warned: set[str] = set()
+        self.warned: set = set()  # CRS names (and ("swapped", name)) already warned about
 
     # -- document ------------------------------------------------------------------------------
     def start(self, root: etree._Element) -> None:
@@ -178,10 +179,12 @@ class FileCheck:
     def _model_properties(self, root: etree._Element, n: int) -> None:
         """The model's CRS (its envelope) and the CRSs it defines inline (``srsName="#id"``)."""
         for child in root[:n]:
+            if not isinstance(child.tag, str):
+                continue  # an entity reference between members
             if self.model_crs is None and child.tag == G["boundedBy"]:
                 envelope = child.find(G["Envelope"])
                 self.model_crs = envelope.get("srsName") if envelope is not None else None
-            if len(child) and child.tag.endswith("CRS") or child.tag.endswith("engineeringCRS"):
+            if child.tag.endswith("CRS"):  # core:engineeringCRS
                 for crs in child.iter():
                     if crs.get(GML_ID) and isinstance(crs.tag, str) and crs.tag.endswith("CRS"):
                         uoms = [axis.get("uom", "") for axis in crs.iter(G["CoordinateSystemAxis"])]

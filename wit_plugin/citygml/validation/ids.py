@@ -16,7 +16,6 @@ from collections.abc import Sequence
 
 import numpy as np
 
-
 _TIER = 8
 """A run is merged into the one before once it reaches 1/_TIER of its size: few runs to search, each id copied
 a few times."""
