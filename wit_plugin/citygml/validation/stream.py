@@ -46,7 +46,7 @@ def first_element(path: Path) -> etree._Element:
     try:
         return next(events)[1]
     except etree.XMLSyntaxError as exc:
-        raise _problem(exc, at_end=False) from None
+        raise _problem(exc, events.error_log, at_end=False) from None
     except StopIteration:
         raise SyntaxProblem(None, "no element found", at_end=True) from None
 
@@ -74,7 +74,7 @@ class Stream:
                 try:
                     self.parser.feed(chunk)
                 except etree.XMLSyntaxError as exc:
-                    raise _problem(exc, at_end=False) from None
+                    raise _problem(exc, self.parser.feed_error_log, at_end=False) from None
                 for _, element in self.parser.read_events():
                     if self.root is None:
                         self.root = element
@@ -87,7 +87,7 @@ class Stream:
             log = self.parser.feed_error_log.filter_from_errors()  # this parse only (the exception's may hold older)
             schema = [e for e in log if e.domain == etree.ErrorDomains.SCHEMASV]
             if not schema or len(schema) < len(log):
-                raise _problem(exc, at_end=True) from None
+                raise _problem(exc, self.parser.feed_error_log, at_end=True) from None
             self.schema_errors = schema
         if self.root is not None and len(self.root):
             yield self.root, len(self.root)
@@ -138,7 +138,13 @@ class RawCounts:
         return self.counts[b"srsDimension"] != self.counts[b'srsDimension="3"']
 
 
-def _problem(exc: etree.XMLSyntaxError, at_end: bool) -> SyntaxProblem:
-    """The error that stopped the parser (its error log may still hold older errors of this thread)."""
-    message = _POSITION.sub("", exc.msg or str(exc)).strip()
-    return SyntaxProblem(exc.lineno or None, message, at_end)
+def _problem(exc: etree.XMLSyntaxError, log: etree._ListErrorLog, at_end: bool) -> SyntaxProblem:
+    """The error that stopped the parser, from this parse's own log (the exception's may hold older errors).
+
+    The last entry is the one placed in the document: inside an entity's text libxml2 counts lines
+    from the entity's start (an entity loop is "line 1" there, then the line that used it).
+    """
+    errors = log.filter_from_errors() if log is not None else []
+    if errors:
+        return SyntaxProblem(errors[-1].line or None, errors[-1].message.strip(), at_end)
+    return SyntaxProblem(exc.lineno or None, _POSITION.sub("", exc.msg or str(exc)).strip(), at_end)
