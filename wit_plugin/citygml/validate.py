@@ -34,6 +34,7 @@ from .validation.xsd import (
     StreamingValidation,
     describe,
     fallback_errors,
+    streaming_schema,
     whole_document_errors,
 )
 
@@ -61,7 +62,8 @@ def validate_files(paths: Sequence[str], schema_dir: Path, feedback: Feedback = 
     files = [Path(p) for p in paths]
     for path in files:
         _check_readable(path)
-    schema = load_schema(schema_dir)
+    if streaming_schema(schema_dir) is None:
+        load_schema(schema_dir)  # lxml's compile names what is wrong with the folder (or serves the fallback)
     known = schema_namespaces(schema_dir)
     total = sum(p.stat().st_size for p in files) or 1
     done = 0
@@ -76,7 +78,7 @@ def validate_files(paths: Sequence[str], schema_dir: Path, feedback: Feedback = 
             feedback.progress(100.0 * (before + position) / total)
 
         start = time.perf_counter()
-        issues = _FileValidation(path, Path(schema_dir), schema, known, planarity_tol, vertex_tol, min_triangle_area,
+        issues = _FileValidation(path, Path(schema_dir), known, planarity_tol, vertex_tol, min_triangle_area,
                                  max_issues_per_check, on_chunk).run()
         report = FileReport(str(path), not any(i.severity == "error" for i in issues), issues, size,
                             time.perf_counter() - start)
@@ -101,9 +103,9 @@ def _check_readable(path: Path) -> None:
 class _FileValidation:
     """One file: its kind first (empty, not XML, not CityGML 3.0), then the XSD and all other checks."""
 
-    def __init__(self, path: Path, schema_dir: Path, schema, known_ns: frozenset[str], planarity_tol: float,
+    def __init__(self, path: Path, schema_dir: Path, known_ns: frozenset[str], planarity_tol: float,
                  vertex_tol: float, min_triangle_area: float, max_issues: int, on_chunk):
-        self.path, self.schema_dir, self.schema, self.known_ns = path, schema_dir, schema, known_ns
+        self.path, self.schema_dir, self.known_ns = path, schema_dir, known_ns
         self.tolerances = (planarity_tol, vertex_tol, min_triangle_area)
         self.max_issues, self.on_chunk = max_issues, on_chunk
         self.syntax, self.schema_issues, self.other = (IssueList(str(path), max_issues) for _ in range(3))
@@ -116,12 +118,12 @@ class _FileValidation:
         has_doctype = bool(docinfo.internalDTD is not None or docinfo.doctype)
         xsd = StreamingValidation(self.path, self.schema_dir, enabled=not has_doctype)
         stream = streaming.Stream(self.path, root.tag, self.on_chunk,
-                                  schema=None if xsd.available or has_doctype else self.schema)
+                                  schema=None if xsd.available or has_doctype else load_schema(self.schema_dir))
         if xsd.available:
             xsd.start()
         cut = self._checks(stream)
         if has_doctype:
-            errors = whole_document_errors(self.path, self.schema)
+            errors = whole_document_errors(self.path, load_schema(self.schema_dir))
         else:
             errors = xsd.errors() if xsd.available else fallback_errors(stream)
         if xsd.available and xsd.code is not None and xsd.code < 0 and not self.syntax.issues:

@@ -101,11 +101,16 @@ def _candidates():
             yield found
 
 
+def streaming_schema(schema_dir: Path) -> int | None:
+    """libxml2's compiled schema of ``schema_dir`` for the streaming validator, or None (no libxml2, no schema)."""
+    return _compiled(str(Path(schema_dir).resolve()))
+
+
 @functools.lru_cache(maxsize=4)
 def _compiled(folder: str) -> int | None:
     """libxml2's compiled schema of ``folder`` (kept for the process, like lxml's), or None."""
     lib = _libxml2()
-    if lib is None:
+    if lib is None or not (Path(folder) / ENTRY_POINT).is_file():
         return None
     parser = lib.xmlSchemaNewParserCtxt(os.fsencode(Path(folder) / ENTRY_POINT))
     if not parser:
@@ -121,7 +126,7 @@ class StreamingValidation:
 
     def __init__(self, path: Path, schema_dir: Path, enabled: bool = True):
         self.path = path
-        self.schema = _compiled(str(Path(schema_dir).resolve())) if enabled else None
+        self.schema = streaming_schema(schema_dir) if enabled else None
         self.found: list[SchemaError] = []
         self.more = 0  # errors beyond _MAX_KEPT
         self.code: int | None = None
