@@ -16,6 +16,7 @@ from qgis.core import (
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterMultipleLayers,
+    QgsProcessingUtils,
     QgsSettings,
     QgsWkbTypes,
 )
@@ -37,11 +38,15 @@ class ValidateCityGML(WitAlgorithm):
         "is reported as such), unique gml:id, every #id / xlink:href reference resolves, building "
         "solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, "
         "TIN triangles non-degenerate, all positions 3D, texture images present and texture "
-        "coordinates matching their rings. Large files are streamed. External entities and network "
+        "coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in "
+        "degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a "
+        "warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. "
+        "Large files are streamed. External entities and network "
         "access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an "
         "ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin "
         "ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a "
-        "per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports."
+        "per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML "
+        "report goes to a temporary file when none is chosen)."
     )
     requirements = ("lxml", "shapely")
 
@@ -62,7 +67,7 @@ class ValidateCityGML(WitAlgorithm):
             self.SCHEMA_DIR, self.tr("Schema folder (with citygml3-all.xsd)"),
             behavior=QgsProcessingParameterFile.Folder, optional=True))
         self.addParameter(QgsProcessingParameterFileDestination(
-            self.OUTPUT, self.tr("HTML report"), self.tr("HTML files (*.html)")))
+            self.OUTPUT, self.tr("HTML report"), self.tr("HTML files (*.html)"), optional=True, createByDefault=True))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT_CSV, self.tr("CSV report (one row per problem)"), self.tr("CSV files (*.csv)"),
             optional=True, createByDefault=False))
@@ -84,7 +89,9 @@ class ValidateCityGML(WitAlgorithm):
         feedback.info(self.tr("Schemas: {source} ({folder})").format(source=source, folder=schema_dir))
         reports = validate_files(self.parameterAsFileList(parameters, self.INPUT, context), schema_dir,
                                  feedback=feedback)
-        html = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
+        # optional (batch users only want VALID): a temporary file then, as QGIS does for temporary outputs
+        html = (self.parameterAsFileOutput(parameters, self.OUTPUT, context)
+                or QgsProcessingUtils.generateTempFilename("validation_report.html"))
         write_report_html(reports, html)
         results = {self.OUTPUT: html}
         csv = self.parameterAsFileOutput(parameters, self.OUTPUT_CSV, context)

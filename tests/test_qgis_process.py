@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import os
 import subprocess
+from pathlib import Path
 
 import pytest
 from osgeo import gdal, ogr, osr
@@ -126,3 +127,15 @@ def test_sample_drawn_from_real_roads_then_the_whole_chain_headless(tmp_path, pr
     assert model["VALID"] is True and model["ERROR_COUNT"] == 0 and model["UNTEXTURED"] == 0
     assert model["BUILDINGS_WRITTEN"] > 400
     assert snapshot(roads, suseo_buildings) == before
+
+
+def test_validate_without_an_html_report_writes_a_temporary_one(tmp_path, profile, shared_dir):
+    """OUTPUT is optional: batch users only want VALID; the report then goes to a temporary file, never beside the input."""
+    source = tmp_path / "in" / "LocalCRS_CityGML3.gml"
+    source.parent.mkdir()
+    source.write_bytes((shared_dir / "schemas" / "examples" / source.name).read_bytes())
+    results = qgis_process("run", "wit:validatecitygml", f"--INPUT={source}", profile=profile)["results"]
+    assert results["VALID"] is True and results["ERROR_COUNT"] == 0
+    report = Path(results["OUTPUT"])  # in QGIS's temporary folder, which qgis_process empties when it ends
+    assert report.name == "validation_report.html" and "processing" in report.parent.parent.name
+    assert os.listdir(source.parent) == [source.name]

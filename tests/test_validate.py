@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import functools
 import http.server
+import re
 import shutil
 import subprocess
 import threading
@@ -12,9 +13,13 @@ import xml.etree.ElementTree as ET
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
+import pyproj
 import pytest
 
 from wit_plugin.citygml import schemas, validate
+from wit_plugin.citygml.validation import ids as id_store
+from wit_plugin.citygml.validation import stream as streaming
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
@@ -44,6 +49,12 @@ def _one(path: Path, schema_dir: Path, **kw) -> validate.FileReport:
     return validate.validate_files([str(path)], schema_dir, **kw)[0]
 
 
+def _small_parts(monkeypatch, chunk: int = 256, min_part: int = 1) -> None:
+    """Feed the parser ``chunk`` bytes at a time and hand out any finished child: many tiny parts."""
+    monkeypatch.setattr(streaming, "CHUNK_BYTES", chunk)
+    monkeypatch.setattr(streaming, "MIN_PART", min_part)
+
+
 @pytest.mark.parametrize("name", VALID_EXAMPLES)
 def test_valid_examples_have_no_errors(name, schema_dir, tmp_path):
     path = _with_texture(schema_dir / "examples" / name, tmp_path)
@@ -62,10 +73,11 @@ def test_only_warning_on_valid_examples_is_2d_address_point(schema_dir, tmp_path
 
 
 @pytest.mark.skipif(shutil.which("xmllint") is None, reason="xmllint not installed")
-@pytest.mark.parametrize("batch", [validate.BATCH_ELEMENTS, 1])  # 1: every container of 2+ children is streamed
+@pytest.mark.parametrize("small", [False, True])  # True: every finished element is handed out on its own
 @pytest.mark.parametrize("name", VALID_EXAMPLES + ["INVALID_handmade_LOD1_4_errors.gml"])
-def test_xsd_verdict_agrees_with_xmllint(name, batch, schema_dir, tmp_path, monkeypatch):
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+def test_xsd_verdict_agrees_with_xmllint(name, small, schema_dir, tmp_path, monkeypatch):
+    if small:
+        _small_parts(monkeypatch)
     path = schema_dir / "examples" / name
     run = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"), str(path)],
                          capture_output=True, text=True, timeout=60)
@@ -129,6 +141,86 @@ def test_each_fault_is_detected(name, schema_dir, tmp_path):
     assert others == expected_side_effects.get(name, set())
 
 
+# -- geographic CRSs: tolerances in metres whatever the CRS's units --------------------------------------
+GEOGRAPHIC = {  # srsName -> the axis order the file is written in
+    "EPSG:4326": "lon lat",  # the short form: longitude first, as GIS software writes it
+    "urn:ogc:def:crs:EPSG::4326": "lat lon",  # the EPSG axis order
+    "http://www.opengis.net/def/crs/EPSG/0/4979": "lat lon",  # WGS 84 with ellipsoidal heights
+    "http://www.opengis.net/def/crs/EPSG/0/6697": "lat lon",  # JGD2011 + JGD2011 height, as Japan's PLATEAU
+}
+_POSITION_TEXT = re.compile(r"(<gml:(posList|pos|lowerCorner|upperCorner)\b[^>]*>)([^<]*)(</gml:\2>)")
+
+
+def _geographic(src: Path, dest: Path, srs_name: str, order: str, lon_shift: float = 0.0) -> Path:
+    """``src`` (ETRS89 / UTM 32N) with every position in degrees, heights kept, in ``order``; lines unchanged.
+
+    ``lon_shift`` moves the model east by that many degrees (same shapes, other longitudes).
+    """
+    to_degrees = pyproj.Transformer.from_crs(25832, 4258, always_xy=True)
+
+    def convert(match: re.Match) -> str:
+        values = np.array(match.group(3).split(), dtype=float).reshape(-1, 3)
+        lon, lat = to_degrees.transform(values[:, 0], values[:, 1])
+        first, second = (lon + lon_shift, lat) if order == "lon lat" else (lat, lon + lon_shift)
+        text = " ".join(f"{a:.10f} {b:.10f} {h:.3f}" for a, b, h in zip(first, second, values[:, 2]))
+        return match.group(1) + text + "\n" * match.group(3).count("\n") + match.group(4)
+
+    text = _POSITION_TEXT.sub(convert, src.read_text(encoding="utf-8"))
+    dest.parent.mkdir(exist_ok=True)
+    dest.write_text(re.sub(r'srsName="[^"]*"', f'srsName="{srs_name}"', text), encoding="utf-8")
+    return dest
+
+
+@pytest.mark.parametrize("srs_name", sorted(GEOGRAPHIC))
+@pytest.mark.parametrize("name", ["Building_LOD1-EPSG25832.gml", "Building_LOD2-EPSG25832.gml",
+                                  "handmade_LOD1_textured_building_TIN_group.gml"])
+def test_examples_in_degrees_are_valid(name, srs_name, schema_dir, tmp_path):
+    """A closed solid is closed and a 10 m triangle not degenerate in degrees too (0.001 was 100 m there)."""
+    path = _with_texture(_geographic(schema_dir / "examples" / name, tmp_path / "degrees" / name, srs_name, GEOGRAPHIC[srs_name]),
+                         tmp_path)
+    report = _one(path, schema_dir)
+    assert report.issues == [] and report.valid
+
+
+GEOGRAPHIC_FAULTS = ["open_solid", "inverted_solid", "flipped_face", "nonplanar_face", "bowtie_face",
+                     "degenerate_triangle"]
+
+
+@pytest.mark.parametrize("srs_name", ["EPSG:4326", "http://www.opengis.net/def/crs/EPSG/0/6697"])
+@pytest.mark.parametrize("name", GEOGRAPHIC_FAULTS)
+def test_faults_in_degrees_are_found(name, srs_name, schema_dir, tmp_path):
+    path = _with_texture(_geographic(DATA / f"{name}.gml", tmp_path / "degrees" / f"{name}.gml", srs_name,
+                                     GEOGRAPHIC[srs_name]), tmp_path)
+    if name == "degenerate_triangle":  # collinear in metres is not quite collinear in degrees: make it so there
+        text = path.read_text(encoding="utf-8")
+        ring = re.search(r'gml:id="tin_1_t1">\s*<gml:posList[^>]*>([^<]*)<', text).group(1)
+        corners = np.array(ring.split(), dtype=float).reshape(-1, 3)
+        corners[1] = (corners[0] + corners[2]) / 2
+        path.write_text(text.replace(ring, " ".join(map(repr, corners.ravel().tolist()))), encoding="utf-8")
+    check, line, gml_id, words = FAULTS[name]
+    report = _one(path, schema_dir)
+    assert [(i.line, i.gml_id) for i in _errors(report) if i.check == check] == [(line, gml_id)]
+    assert words.lower() in next(i for i in report.issues if i.check == check).message.lower()  # "0.125 m" too
+
+
+def test_longitude_first_despite_the_crs_axis_order_is_read_as_written(schema_dir, tmp_path):
+    """Korea's longitudes (127°) cannot be latitudes: such a file is read longitude first, with a warning."""
+    path = _geographic(schema_dir / "examples" / "Building_LOD1-EPSG25832.gml", tmp_path / "b.gml",
+                       "urn:ogc:def:crs:EPSG::4326", "lon lat", lon_shift=118.0)
+    [warning] = _one(path, schema_dir).issues
+    assert (warning.check, warning.severity) == ("crs", "warning") and "longitude before latitude" in warning.message
+
+
+def test_unknown_crs_is_read_as_metres_with_a_warning(schema_dir, tmp_path):
+    path = tmp_path / "b.gml"
+    path.write_text(re.sub(r'srsName="[^"]*"', 'srsName="urn:x-example:crs:site-grid"',
+                           (schema_dir / "examples" / "Building_LOD1-EPSG25832.gml").read_text(encoding="utf-8")),
+                    encoding="utf-8")
+    [warning] = _one(path, schema_dir).issues
+    assert (warning.check, warning.severity, warning.line) == ("crs", "warning", None)
+    assert "urn:x-example:crs:site-grid" in warning.message and "metres" in warning.message
+
+
 def test_gml_id_syntax_is_checked(schema_dir, tmp_path):
     path = tmp_path / "badid.gml"
     path.write_text((DATA / "pos_2d.gml").read_text(encoding="utf-8").replace('gml:id="bldg_1_wall_n"', 'gml:id="1wall"'),
@@ -180,14 +272,15 @@ def test_entity_bomb_is_rejected_quickly(schema_dir):
     report = _one(DATA / "entity_bomb.gml", schema_dir)
     assert time.perf_counter() - start < 5
     [issue] = report.issues
-    assert issue.check == "xml" and "entity reference loop" in issue.message
+    assert (issue.check, issue.line) == ("xml", 16) and "entity reference loop" in issue.message  # where &g; is used
 
 
 def test_not_well_formed_file(schema_dir, tmp_path):
     path = tmp_path / "broken.gml"
     path.write_text('<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0">\n<a>\n</core:CityModel>\n')
-    [issue] = _one(path, schema_dir).issues
+    issue, *schema_errors = _one(path, schema_dir).issues
     assert issue.check == "xml" and issue.line == 3 and "Not well-formed" in issue.message
+    assert [(i.check, i.line) for i in schema_errors] == [("xsd", 2)]  # <a> is met before the break
 
 
 def test_many_issues_are_capped(schema_dir, tmp_path):
@@ -342,26 +435,6 @@ def test_schema_compiled_once(schema_dir):
     assert schemas.load_schema(schema_dir) is schemas.load_schema(Path(str(schema_dir) + "/"))
 
 
-def test_big_member_move_keeps_content_and_lines():
-    """A huge member (a TIN's texture associations) leaves the parsed tree whole and in order.
-
-    The move is piecewise because lxml 4.9's plain append re-links namespaces in quadratic time
-    (~30 s for this member); its speed is measured by benchmarks/bench_validate.py, not here.
-    """
-    from lxml import etree
-
-    def parsed(n):
-        body = '<a:t a:i="x"><a:c>1 2</a:c><b:x b:h="#x">#x</b:x></a:t>\n' * n
-        root = etree.fromstring(f'<r xmlns:a="urn:a" xmlns:b="urn:b"><a:m>\n<a:p>{body}</a:p>\n</a:m>t</r>'.encode())
-        return root, root[0], etree.Element(root.tag, nsmap=root.nsmap)
-
-    root, member, mini = parsed(70_000)
-    before, lines = etree.tostring(member), [n.sourceline for n in member.iter()]
-    validate._move_into(member, mini)
-    assert etree.tostring(mini[0]) == before and len(mini) == 1 and len(root) == 0
-    assert [n.sourceline for n in mini[0].iter()] == lines and max(lines) > 65_535
-
-
 # -- streaming: long runs of triangles and texture entries, ids as hashes -------------------------
 _NS = ('xmlns:core="http://www.opengis.net/citygml/3.0" xmlns:gml="http://www.opengis.net/gml/3.2" '
        'xmlns:dem="http://www.opengis.net/citygml/relief/3.0" xmlns:app="http://www.opengis.net/citygml/appearance/3.0" '
@@ -390,6 +463,8 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
     faulty = {0, n // 2, n - 1}
     put('<?xml version="1.0" encoding="UTF-8"?>')
     put(f'<core:CityModel {_NS}>')
+    put('<gml:boundedBy><gml:Envelope srsName="EPSG:25832" srsDimension="3"><gml:lowerCorner>0 0 0</gml:lowerCorner>'
+        '<gml:upperCorner>100 1 10</gml:upperCorner></gml:Envelope></gml:boundedBy>')
     put('<core:cityObjectMember><grp:CityObjectGroup gml:id="grp">')
     put('<grp:groupMember><grp:Role><grp:role>member</grp:role><grp:groupMember xlink:href="#relief"/></grp:Role>'
         '</grp:groupMember>')  # refers forward: resolved at the end
@@ -452,11 +527,10 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
     return expected
 
 
-@pytest.mark.parametrize("buffer", [1, 8, 65536])
-@pytest.mark.parametrize("batch", [1, 3, 10000])
-def test_faults_in_long_runs_are_found_on_their_lines(batch, buffer, schema_dir, tmp_path, monkeypatch):
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
-    monkeypatch.setattr(validate, "ID_BUFFER", buffer)
+@pytest.mark.parametrize(("chunk", "min_part"), [(97, 2), (1000, 3), (4096, 64), (None, None)])
+def test_faults_in_long_runs_are_found_on_their_lines(chunk, min_part, schema_dir, tmp_path, monkeypatch):
+    if chunk:
+        _small_parts(monkeypatch, chunk, min_part)
     expected = _long_runs(tmp_path / "runs.gml", 40, pad=70_000)
     report = _one(tmp_path / "runs.gml", schema_dir)
     assert sorted((i.check, i.line) for i in report.issues) == sorted((check, line) for check, line, _, _ in expected)
@@ -466,45 +540,27 @@ def test_faults_in_long_runs_are_found_on_their_lines(batch, buffer, schema_dir,
     assert all(i.severity == "error" for i in report.issues) and report.status == "Fail"
 
 
-class _CountingSchema:
-    """The compiled schema, recording how many real (parsed, not copied) streamed children each call gets."""
-
-    def __init__(self, schema):
-        self.schema, self.calls = schema, []
-
-    @property
-    def error_log(self):
-        return self.schema.error_log
-
-    def validate(self, tree) -> bool:
-        self.calls.append(Counter(node.tag for node in tree.iter(*validate.STREAMED)
-                                  if node.sourceline and validate.STREAMED[node.tag] == node.getparent().tag))
-        return self.schema.validate(tree)
-
-
-@pytest.mark.parametrize("batch", [1, 3, 7])
-def test_each_xsd_call_holds_at_most_one_batch_and_every_element_once(batch, schema_dir, tmp_path, monkeypatch):
-    counting = _CountingSchema(schemas.load_schema(schema_dir))
-    monkeypatch.setattr(validate, "load_schema", lambda _: counting)
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+@pytest.mark.parametrize(("chunk", "min_part"), [(97, 1), (1000, 3), (4096, 7)])
+def test_each_element_is_handed_out_once_and_the_tree_stays_small(chunk, min_part, tmp_path, monkeypatch):
+    """Parts cover the file exactly once, and the parsed tree never holds much more than a chunk."""
+    _small_parts(monkeypatch, chunk, min_part)
     n = 40
     _long_runs(tmp_path / "runs.gml", n, pad=0)
-    _one(tmp_path / "runs.gml", schema_dir)
     g, a = "{http://www.opengis.net/gml/3.2}", "{http://www.opengis.net/citygml/appearance/3.0}"
-    total = sum(counting.calls, Counter())
-    assert total == {g + "Triangle": n, a + "textureParameterization": n + 1, a + "textureCoordinates": 2 * n + 1,
-                     a + "ring": 2 * n}
-    assert max(max(call.values(), default=0) for call in counting.calls) == batch
-    triangle_calls = [call[g + "Triangle"] for call in counting.calls if call[g + "Triangle"]]
-    runs = [min(batch, n - k) for k in range(0, n, batch)]  # the triangles are taken out a batch at a time ...
-    runs[0] -= 1  # ... but the first stays in the TIN as its stand-in, validated with its member
-    assert sorted(triangle_calls) == sorted([r for r in runs if r] + [1])
+    stream = streaming.Stream(tmp_path / "runs.gml", "{http://www.opengis.net/citygml/3.0}CityModel", lambda _: None)
+    seen, largest = Counter(), 0
+    for parent, k in stream.parts():
+        largest = max(largest, sum(1 for _ in stream.root.iter()))
+        seen.update(node.tag for child in parent[:k] for node in child.iter() if isinstance(node.tag, str))
+    assert seen[g + "Triangle"] == n and seen[a + "textureParameterization"] == 2 * n + 2
+    assert seen[a + "textureCoordinates"] == 2 * n + 1 and seen[a + "ring"] == 2 * n
+    assert largest < 12 + chunk / 8  # elements of one chunk (> 8 bytes each) plus the open path
 
 
 def test_streamed_xsd_lines_agree_with_xmllint(schema_dir, tmp_path, monkeypatch):
     if shutil.which("xmllint") is None:
         pytest.skip("xmllint not installed")
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", 3)
+    _small_parts(monkeypatch, 500, 3)
     expected = _long_runs(tmp_path / "runs.gml", 40, pad=0)
     run = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"),
                           str(tmp_path / "runs.gml")], capture_output=True, text=True, timeout=60)
@@ -516,27 +572,25 @@ def test_streamed_xsd_lines_agree_with_xmllint(schema_dir, tmp_path, monkeypatch
 
 
 def test_id_store_keeps_hashes_and_reports_later_duplicates():
-    store = validate._IdStore()
-    for k in range(1000):
-        store.add(f"id{k}", k + 1, k % 7)
-        if k % 8 == 7:
-            assert store.merge() == []
-    store.add("id500", 2001, 0)
-    store.add("new", 2002, 3)
-    store.add("new", 2003, 0)
-    assert store.merge() == [("id500", 2001), ("new", 2003)]
+    store = id_store.IdStore()
+    for start in range(0, 1000, 8):
+        names = [f"id{k}" for k in range(start, start + 8)]
+        assert not store.add(id_store.hashes(names), np.array([k % 7 for k in range(start, start + 8)])).any()
+    dup = store.add(id_store.hashes(["id500", "new", "new"]), np.array([0, 3, 0]))
+    assert dup.tolist() == [True, False, True]  # met before; first time; second time in the same call
     assert len(store) == 1001
     assert len(store._runs) <= 10  # merged like a log-structured merge: O(log n) runs
     assert sum(keys.nbytes + points.nbytes for keys, points in store._runs) == 12 * 1001
-    found, points = store.find(["id6", "id500", "new", "missing"])
+    found, points = store.find(id_store.hashes(["id6", "id500", "new", "missing"]))
     assert found.tolist() == [True, True, True, False]
     assert points.tolist()[:3] == [6, 500 % 7, 3]
 
 
-@pytest.mark.parametrize("batch", [1, 2, 10000])
-def test_order_error_between_streamed_runs_is_on_its_line(batch, schema_dir, tmp_path, monkeypatch):
-    """Coordinates after a ring in a streamed TexCoordList: the run's stand-in shows it to the schema."""
-    monkeypatch.setattr(validate, "BATCH_ELEMENTS", batch)
+@pytest.mark.parametrize("small", [False, True])
+def test_order_error_in_a_list_handed_out_in_parts_is_on_its_line(small, schema_dir, tmp_path, monkeypatch):
+    """Coordinates after a ring in a TexCoordList (the schema's order broken) whose entries come in several parts."""
+    if small:
+        _small_parts(monkeypatch, 200, 1)
     path = _with_texture(schema_dir / "examples" / "handmade_LOD1_textured_building_TIN_group.gml", tmp_path)
     coords = "<app:textureCoordinates>0.0 0.0 1.0 1.0 0.0 1.0 0.0 0.0</app:textureCoordinates>"
     ring = "<app:ring>#tin_1_t0</app:ring>"
@@ -546,3 +600,75 @@ def test_order_error_between_streamed_runs_is_on_its_line(batch, schema_dir, tmp
     [issue] = _one(path, schema_dir).issues  # xmllint says the same (line 180)
     assert (issue.check, issue.line) == ("xsd", 180)
     assert issue.message == "Element 'app:textureCoordinates': This element is not expected. Expected is ( app:ring )."
+
+
+# -- the paths taken when the fast ones are not available or do not apply ---------------------------------
+def test_without_libxml2_for_ctypes_lxml_reports_the_same_schema_errors_without_lines(schema_dir, monkeypatch):
+    from wit_plugin.citygml.validation import xsd
+
+    monkeypatch.setattr(xsd, "_compiled", lambda folder: None)
+    report = _one(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml", schema_dir)
+    schema_errors = [i for i in report.issues if i.check == "xsd" and i.severity == "error"]
+    assert len(schema_errors) == 4 and {i.line for i in schema_errors} == {None}
+    assert any("posLst" in i.message for i in schema_errors) and any("'one'" in i.message for i in schema_errors)
+    [note] = [i for i in report.issues if i.severity == "warning"]
+    assert "Line numbers of schema errors are not available" in note.message
+    assert _one(schema_dir / "examples" / "Building_LOD2-EPSG25832.gml", schema_dir).valid
+
+
+def _one_by_one(monkeypatch) -> None:
+    """Make every check take its element-by-element path."""
+    from wit_plugin.citygml.validation import checks, stream
+
+    monkeypatch.setattr(checks, "_numbers", lambda texts, expected: None)  # triangles and solids one by one
+    monkeypatch.setattr(checks, "_UNEVEN_LISTS", lambda part: [True])  # texture lists one by one
+    monkeypatch.setattr(stream.RawCounts, "any_dimension_not_3", property(lambda self: True))
+    monkeypatch.setattr(checks.FileCheck, "_own_crs_possible", lambda self: True)
+
+
+@pytest.mark.parametrize("name", sorted(FAULTS) + ["long_runs"])
+def test_bulk_and_element_by_element_paths_agree(name, schema_dir, tmp_path, monkeypatch):
+    if name == "long_runs":
+        _long_runs(tmp_path / "runs.gml", 40, pad=0)
+        path = tmp_path / "runs.gml"
+    else:
+        path = _with_texture(DATA / f"{name}.gml", tmp_path)
+    bulk = sorted((i.check, i.line, i.gml_id, i.message) for i in _one(path, schema_dir).issues)
+    _one_by_one(monkeypatch)
+    assert sorted((i.check, i.line, i.gml_id, i.message) for i in _one(path, schema_dir).issues) == bulk
+
+
+def test_a_star_that_turns_one_way_twice_around_is_not_taken_for_convex():
+    """Convex faces skip GEOS: a pentagram turns one way at every corner, but twice around, and crosses itself."""
+    from wit_plugin.citygml.validation.crs import Frame
+    from wit_plugin.citygml.validation.geometry import SolidBatch, SolidCheck, Where
+    from wit_plugin.citygml.validation.names import IssueList
+
+    angles = np.radians(90 + 144 * np.arange(5))
+    star = np.column_stack([10 * np.cos(angles), 10 * np.sin(angles), np.zeros(5)])
+    square = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0.0]])
+    issues = IssueList("f", 10)
+    faces = [np.vstack([ring, ring[:1]]) for ring in (star, square)]
+    SolidCheck(SolidBatch([Where(1, "s", "s")], [Frame("EPSG:25832")], np.concatenate(faces),
+                          np.array([6, 5]), np.array([0, 1]), np.array([0, 0]),
+                          lambda f: Where(f + 2, None, ("star", "square")[f])), issues, 0.001, 0.01).run()
+    crossing = [i for i in issues.issues if i.check == "self-intersection"]
+    assert [(i.line, i.message.split(" intersects")[0]) for i in crossing] == [(2, "Face star")]
+
+
+def test_an_error_met_at_the_end_tag_is_reported_on_the_start_tag_as_xmllint_does(schema_dir, tmp_path):
+    """libxml2's streaming validator meets a missing child at the end tag (line 14); the element starts on 13."""
+    path = tmp_path / "missing.gml"
+    path.write_text('<?xml version="1.0" encoding="UTF-8"?>\n<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0" '
+                    'xmlns:gml="http://www.opengis.net/gml/3.2"\n xmlns:bldg="http://www.opengis.net/citygml/building/3.0">\n'
+                    '<core:cityObjectMember>\n<bldg:Building gml:id="b1">\n<core:lod1Solid>\n<gml:Solid gml:id="s1">\n'
+                    '<gml:exterior>\n<gml:Shell>\n<gml:surfaceMember>\n<gml:Polygon>\n<gml:exterior>\n'
+                    '<gml:LinearRing gml:id="r1">\n</gml:LinearRing>\n</gml:exterior>\n</gml:Polygon>\n</gml:surfaceMember>\n'
+                    '</gml:Shell>\n</gml:exterior>\n</gml:Solid>\n</core:lod1Solid>\n</bldg:Building>\n'
+                    '</core:cityObjectMember>\n</core:CityModel>\n', encoding="utf-8")
+    [issue] = [i for i in _one(path, schema_dir).issues if i.check == "xsd"]
+    assert (issue.line, issue.gml_id) == (13, "r1") and "Missing child element(s)" in issue.message
+    if shutil.which("xmllint"):
+        run = subprocess.run(["xmllint", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"), str(path)],
+                             capture_output=True, text=True, timeout=60)
+        assert f"{path}:13:" in run.stderr
