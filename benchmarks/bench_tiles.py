@@ -1,0 +1,113 @@
+"""Tiled runs (wit:citymodeltiles' core) on generated data of 1, 4 and 16 tiles of the 1:1,000 sheet grid,
+with 1 and 2 Dask workers: wall time, buildings per second, peak memory per worker, and the
+single-process chain on the same 1-tile area beside it (the reference measured in the same run).
+
+    .venv/bin/python benchmarks/bench_tiles.py [--tiles 1 4 16] [--workers 1 2] [--max-edge 5]
+
+Data: the generated sample around Suseo (cached in out/bench/tiles/sample); the areas are blocks of
+whole 1:1,000 sheets (1×1, 2×2, 4×4) so every tile is full. Results: a table, and
+out/bench/tiles/results.json. Goals (issue 14): 16 tiles ≤ 17 × one tile; 2 workers ≥ 1.8 × faster
+than 1; peak memory per worker flat (≤ 1.5 GB) whatever the area.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "out" / "bench" / "tiles"
+sys.path.insert(0, str(ROOT))
+
+
+def blocks(n: int) -> list[str]:
+    """n sheets forming a square block (n = 1, 4, 16) of 1:1,000 sheets around Suseo station."""
+    import pyproj
+
+    from wit_plugin.mapsheet import sheet_at
+
+    side = int(round(n ** 0.5))
+    west, south = 127.0975, 37.4825  # a corner of the 1:1,000 grid south-west of the station
+    cell = 0.005
+    to_4737 = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:4737", always_xy=True)  # (the datums agree here)
+    numbers = []
+    for row in range(side):
+        for col in range(side):
+            lon, lat = to_4737.transform(west + (col + 0.5) * cell, south + (row + 0.5) * cell)
+            numbers.append(sheet_at(lon, lat, 1000).number)
+    return numbers
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tiles", type=int, nargs="+", default=[1, 4, 16])
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--max-edge", type=float, default=5.0)
+    args = parser.parse_args()
+
+    import shapely
+
+    from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+    from wit_plugin.sample import SampleConfig, generate_sample
+    from wit_plugin.tiles.plan import tile_of
+    from wit_plugin.tiles.runner import run_tiles
+    from wit_plugin.tiles.worker import peak_mb
+    from wit_plugin.vectors import StudyArea
+
+    sample_dir = OUT / "sample"
+    if not (sample_dir / "sample_manifest.json").is_file():
+        print("generating the sample (not timed)", flush=True)
+        shutil.rmtree(sample_dir, ignore_errors=True)
+        generate_sample(sample_dir, SampleConfig(radius_m=1400.0, seed=42, ortho_pixel_size=0.5))
+    manifest = json.loads((sample_dir / "sample_manifest.json").read_text(encoding="utf-8"))
+    inputs = ChainInputs([str(sample_dir / "ortho")], str(sample_dir / manifest["files"]["dem"]),
+                         str(sample_dir / manifest["files"]["buildings"]), str(sample_dir / manifest["files"]["roads"]),
+                         str(sample_dir / manifest["files"]["districts"]))
+    options = ChainOptions(area=None, max_edge=args.max_edge, metrics=False, tiles3d=False)
+    rows = []
+    one_tile = shapely.union_all([tile_of(s, "EPSG:5186").polygon for s in blocks(1)])
+    start = time.perf_counter()
+    single = run_city_model(inputs, ChainOptions(area=StudyArea.polygon(one_tile, "EPSG:5186"),
+                                                 max_edge=args.max_edge, metrics=False, tiles3d=False),
+                            OUT / "single", )
+    reference = {"seconds": round(time.perf_counter() - start, 2), "buildings": single.buildings,
+                 "peak_mb": round(peak_mb(), 0)}
+    print(f"reference: the chain in this process on the 1-tile area: {reference}", flush=True)
+    for n in args.tiles:
+        area = shapely.union_all([tile_of(s, "EPSG:5186").polygon for s in blocks(n)]).buffer(-0.01)
+        for workers in args.workers:
+            out = OUT / f"t{n}-w{workers}"
+            shutil.rmtree(out, ignore_errors=True)
+            start = time.perf_counter()
+            report = run_tiles(inputs, options, out, StudyArea.polygon(area, "EPSG:5186"), scale=1000, workers=workers)
+            seconds = time.perf_counter() - start
+            done = [r for r in report.rows if r["status"] == "done"]
+            row = {"tiles": n, "workers": workers, "seconds": round(seconds, 1), "done": len(done),
+                   "buildings": report.buildings, "buildings_per_s": round(report.buildings / seconds, 1),
+                   "triangles": sum(r["triangles"] for r in done),
+                   "tile_seconds_mean": round(sum(r["seconds"] for r in done) / max(len(done), 1), 1),
+                   "peak_mb_per_worker": max((r["peak_mb"] for r in done), default=0)}
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    by = {(r["tiles"], r["workers"]): r for r in rows}
+    print("\n| tiles | workers | wall s | buildings | buildings/s | triangles | s per tile (mean) | peak MB/worker |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        print(f"| {r['tiles']} | {r['workers']} | {r['seconds']} | {r['buildings']} | {r['buildings_per_s']} | "
+              f"{r['triangles']:,} | {r['tile_seconds_mean']} | {r['peak_mb_per_worker']:.0f} |")
+    print(f"\nreference (one process, 1-tile area): {reference['seconds']} s, {reference['buildings']} buildings")
+    if (1, 1) in by and (16, 1) in by:
+        print(f"16 tiles / 1 tile (1 worker): {by[(16, 1)]['seconds'] / by[(1, 1)]['seconds']:.1f} (goal ≤ 17)")
+    for n in args.tiles:
+        if (n, 1) in by and (n, 2) in by:
+            print(f"{n} tiles: 2 workers {by[(n, 1)]['seconds'] / by[(n, 2)]['seconds']:.2f}× faster than 1 "
+                  "(goal ≥ 1.8)")
+    (OUT / "results.json").write_text(json.dumps({"reference": reference, "runs": rows}, indent=1), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
