@@ -75,10 +75,11 @@ import shapely
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from . import model
+from . import bulk_read, model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .dem import ragged_indices
 from .gdal_env import open_raster, read_window
 from .vector_io import FieldDef, OutputLayer, gdal_quiet, write_gpkg
 
@@ -274,16 +275,37 @@ def _list_images(images: Sequence[str] | str) -> tuple[list[Path], Path | None]:
     return [Path(p) for p in images], None
 
 
-def _texcoord_rings(texcoords: Path) -> dict[str, list[np.ndarray]]:
-    """UV rings per image (relative path as stored) from the wit:wittexture table."""
+def _texcoord_rings(texcoords: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """UV rings per image (relative path as stored) from the wit:wittexture table: (points, points per ring),
+    read in bulk (the 1 km demo has ~600,000 rings)."""
     ds = _open_vector(texcoords)
     layer = None if ds is None else ds.GetLayerByName(model.TEXCOORD_TABLE)
     if layer is None:
         raise InputError(f"{texcoords} has no table '{model.TEXCOORD_TABLE}': re-run wit:wittexture.")
-    rings: dict[str, list[np.ndarray]] = defaultdict(list)
-    for feature in layer:
-        uv = np.array(feature.GetFieldAsString(model.TEX_COORDS).split(), dtype=np.float64).reshape(-1, 2)
-        rings[feature.GetFieldAsString(model.TEX_IMAGE)].append(uv)
+    images: list[str] = []
+    uvs: list[str] = []
+    for batch in bulk_read.batches(layer):
+        images += bulk_read.texts(batch[model.TEX_IMAGE])
+        uvs += bulk_read.texts(batch[model.TEX_COORDS])
+    if not uvs:
+        return {}
+    counts = np.fromiter((text.count(" ") + 1 for text in uvs), dtype=np.int64, count=len(uvs)) // 2
+    try:
+        points = np.array(" ".join(uvs).split(), dtype=np.float64).reshape(-1, 2)
+    except ValueError as exc:
+        raise InputError(f"{texcoords}: texture coordinates that are not numbers ({exc}): re-run wit:wittexture.") from exc
+    if len(points) != counts.sum():
+        raise InputError(f"{texcoords}: texture coordinates that are not u v pairs: re-run wit:wittexture.")
+    names, image_of = np.unique(np.array(images, dtype=object), return_inverse=True)
+    order = np.argsort(image_of, kind="stable")  # rings grouped by image, in table order within each
+    ring, within = ragged_indices(counts[order])
+    points = points[(np.cumsum(counts) - counts)[order][ring] + within]
+    ends = np.cumsum(np.bincount(image_of, minlength=len(names)))  # rings per image, cumulated
+    point_ends = np.concatenate([[0], np.cumsum(counts[order])])[ends]
+    rings, first, first_point = {}, 0, 0
+    for name, last, last_point in zip(names, ends, point_ends):
+        rings[name] = (points[first_point:last_point], counts[order][first:last])
+        first, first_point = last, last_point
     return rings
 
 
@@ -307,10 +329,20 @@ class _Burner:
         return read_window(target, 0, 0, width, height, "the rasterised polygons (in memory)").astype(bool)
 
 
-def _uv_mask(rings: list[np.ndarray], width: int, height: int) -> np.ndarray:
-    """Texels whose centres are inside any UV ring (U right, V up from the bottom edge)."""
-    scale = np.array([width, height], dtype=np.float64)
-    burner = _Burner([shapely.Polygon(uv * scale) for uv in rings if len(uv) >= 3])
+def _uv_mask(rings: tuple[np.ndarray, np.ndarray] | None, width: int, height: int) -> np.ndarray:
+    """Texels whose centres are inside any UV ring (U right, V up from the bottom edge).
+
+    All rings of an image go to GDAL as one multipolygon (one call, not one feature per ring): the
+    rings of an image never overlap (roof islands, TIN triangles), so its even-odd fill is their union.
+    """
+    if rings is None or not len(rings[1]):
+        return np.zeros((height, width), dtype=bool)
+    points, counts = rings
+    keep = counts >= 3
+    ring_of = np.repeat(np.arange(len(counts)), counts)
+    kept = np.repeat(keep, counts)
+    polygons = shapely.polygons(shapely.linearrings(points[kept] * [width, height], indices=ring_of[kept]))
+    burner = _Burner([shapely.multipolygons(polygons)])
     return burner.mask(width, height, (0.0, 1.0, 0.0, float(height), 0.0, -1.0))  # ground = (u·W, v·H)
 
 
@@ -383,7 +415,7 @@ def texture_metrics(images: Sequence[str] | str | None, ortho: str | None = None
         ds = open_raster(str(path), "texture image")
         gray, valid = _read_gray(ds, 0, 0, ds.RasterXSize, ds.RasterYSize)
         if rings is not None:
-            valid &= _uv_mask(rings.get(path.relative_to(folder).as_posix(), []), ds.RasterXSize, ds.RasterYSize)
+            valid &= _uv_mask(rings.get(path.relative_to(folder).as_posix()), ds.RasterXSize, ds.RasterYSize)
         stats = _image_stats(gray, valid)
         pooled.merge(stats)
         result.images.append(stats.result(str(path.relative_to(folder) if folder else path)))

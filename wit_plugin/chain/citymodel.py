@@ -19,10 +19,11 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import subprocess
 import tempfile
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -41,7 +42,8 @@ from ..heights import HeightOptions
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
-from ..tiles3d import export_tileset
+from ..interpreter import core_env, core_python
+from ..tiles3d import TILESET_FILE
 from ..vector_io import read_prepared
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
 from ..tiles.job import TileJob
@@ -51,10 +53,11 @@ from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
 DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
 TILESET_DIR = "3dtiles"
+TILES3D_MODULES = ("numpy", "shapely", "pyproj", "pygltflib", "osgeo")
 
-#: (label, share of the progress bar) of each step, in order
+#: (label, share of the progress bar) of each step, in order (3dtiles runs beside validate and metrics)
 STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("terrain", 10), ("extrude", 4),
-         ("texture", 12), ("citygml", 12), ("3dtiles", 12), ("validate", 22), ("metrics", 10))
+         ("texture", 14), ("citygml", 14), ("3dtiles", 0), ("validate", 26), ("metrics", 12))
 
 
 @dataclass
@@ -105,6 +108,7 @@ class ChainReport:
     untextured_outside: int
     triangles: int
     seconds: dict[str, float]
+    wall_seconds: float = 0.0
     work: str | None = None
     lod1: str | None = None
     tin: str | None = None
@@ -133,12 +137,46 @@ class _Clock:
         yield self.feedback.scaled(*self.spans[label])
         self.seconds[label] = round(time.perf_counter() - start, 3)
 
+    @contextmanager
+    def beside(self, label: str, command: list[str]) -> Iterator[Callable[[], None]]:
+        """Run ``command`` (a core module in its own Python process, so that the second core works: threads
+        would share the GIL) while the block runs the next steps; the block gets the function that waits
+        for it. Cancel stops it; a failure is an ``InputError`` with the end of its messages."""
+        self.feedback.check_canceled()
+        number = [name for name, _ in STEPS].index(label) + 1
+        self.feedback.info(f"Step {number}/{len(STEPS)}: {label} (in a second process, beside the next steps)")
+        start = time.perf_counter()
+        process = subprocess.Popen(command, env=core_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                   text=True)
+
+        def wait() -> None:
+            while process.poll() is None:
+                if self.feedback.is_canceled():
+                    process.kill()
+                    process.wait()
+                    self.feedback.check_canceled()
+                time.sleep(0.1)
+            out, err = process.communicate()
+            self.seconds[label] = round(time.perf_counter() - start, 3)
+            if process.returncode != 0:
+                raise InputError(f"The {label} step failed: " + " | ".join(err.strip().splitlines()[-5:]))
+            for line in err.strip().splitlines():  # its warnings (logging's last-resort handler)
+                self.feedback.warning(f"{label}: {line}")
+
+        try:
+            yield wait
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+
 
 def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
                    feedback: Feedback = SILENT) -> ChainReport:
     """Run the whole chain into ``output_dir`` (model.gml + textures, validation.html, metrics, steps.json)."""
     if options.outside_ortho not in OUTSIDE_ORTHO_CHOICES:
         raise InputError(f"Surfaces outside the orthoimage: choose one of {', '.join(OUTSIDE_ORTHO_CHOICES)}.")
+    started = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     clock = _Clock(feedback)
     staging = Path(tempfile.mkdtemp(prefix=".wit-run-", dir=output))
@@ -147,9 +185,11 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
         _publish(staging, output)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    report.seconds = dict(clock.seconds)
-    (output / "steps.json").write_text(json.dumps({"seconds": report.seconds}, indent=1), encoding="utf-8")
-    feedback.info("Seconds per step: " + ", ".join(f"{k} {v:.1f}" for k, v in report.seconds.items()))
+    report.seconds = {label: clock.seconds[label] for label, _ in STEPS if label in clock.seconds}
+    report.wall_seconds = round(time.perf_counter() - started, 3)
+    (output / "steps.json").write_text(json.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1), encoding="utf-8")
+    feedback.info("Seconds per step: " + ", ".join(f"{k} {v:.1f}" for k, v in report.seconds.items())
+                  + f"; {report.wall_seconds:.1f} s in all (3D Tiles beside validation and metrics)")
     feedback.progress(100.0)
     return report
 
@@ -217,27 +257,31 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
                                               districts=layers.districts and layers.districts.split("|")[0]),
                                 str(gml), srs_name=options.target_crs, feedback=fb)
 
-    tileset = None
-    if options.tiles3d:
-        with clock.step("3dtiles") as fb:
-            tileset = export_tileset(lod1, tin, textures, str(staging / TILESET_DIR), options.target_crs, fb).tileset
+    tileset = str(staging / TILESET_DIR / TILESET_FILE) if options.tiles3d else None
+    beside = clock.beside("3dtiles", [core_python(None, TILES3D_MODULES, "wit_plugin.tiles3d"), "-m",
+                                      "wit_plugin.tiles3d", lod1, tin, textures, str(staging / TILESET_DIR),
+                                      "--crs", options.target_crs]) \
+        if options.tiles3d else nullcontext(lambda: None)
+    with beside as tileset_done:  # the tileset is written beside validation and metrics
+        with clock.step("validate") as fb:
+            schema_dir, source = schemas.find_schema_dir(options.schema_dir,
+                                                         str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
+                                                         allow_download=True, feedback=fb)
+            fb.info(f"Schemas: {source} ({schema_dir})")
+            validation = validate_files([str(gml)], schema_dir, feedback=fb)
+            for report in validation:  # name the file where it will be, not where it was validated
+                report.file = str(output / Path(report.file).name)
+            write_report_html(validation, str(staging / "validation.html"))
 
-    with clock.step("validate") as fb:
-        schema_dir, source = schemas.find_schema_dir(options.schema_dir, str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
-                                                     allow_download=True, feedback=fb)
-        fb.info(f"Schemas: {source} ({schema_dir})")
-        validation = validate_files([str(gml)], schema_dir, feedback=fb)
-        for report in validation:  # name the file where it will be, not where it was validated
-            report.file = str(output / Path(report.file).name)
-        write_report_html(validation, str(staging / "validation.html"))
+        metrics_csv = None
+        if options.metrics:
+            with clock.step("metrics") as fb:
+                metrics_csv = staging / "metrics.csv"
+                quality_report(str(metrics_csv), model_source=lod1, source_buildings=layers.buildings,
+                               textures=textures, ortho=mosaic, mosaic=mosaic, footprints=str(work / "sheets.gpkg"),
+                               output_html=str(staging / "metrics.html"), feedback=fb)
+        tileset_done()
 
-    metrics_csv = None
-    if options.metrics:
-        with clock.step("metrics") as fb:
-            metrics_csv = staging / "metrics.csv"
-            quality_report(str(metrics_csv), model_source=lod1, source_buildings=layers.buildings,
-                           textures=textures, ortho=mosaic, mosaic=mosaic, footprints=str(work / "sheets.gpkg"),
-                           output_html=str(staging / "metrics.html"), feedback=fb)
     for layer in (lod1, tin):  # the model's GIS layers, for QGIS's 3D view
         os.replace(layer, staging / Path(layer).name)
     if not options.keep_work:

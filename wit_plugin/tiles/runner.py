@@ -36,6 +36,7 @@ from ..errors import CanceledError, InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
+from ..interpreter import CORE_ROOT, core_env, core_python
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
@@ -43,7 +44,6 @@ from .plan import plan_tiles
 from .worker import TILES_DIR
 from .prepare import area_of_layer, prepare_context
 
-CORE_ROOT = Path(__file__).resolve().parents[2]  # the folder holding the package wit_plugin
 CONTEXT_FILE = "context.gpkg"
 POLL_SECONDS = 0.2
 
@@ -70,45 +70,8 @@ WORKER_MODULES = ("distributed", "numpy", "shapely", "triangle", "pyproj", "lxml
 
 
 def worker_python(configured: str | None = None) -> str:
-    """The interpreter for worker processes: ``configured``, else ``$WIT_WORKER_PYTHON``, else the first Python
-    that imports the core's dependencies among ``sys.executable`` (when it is a Python, not QGIS embedding
-    one), the Python of QGIS's own prefix, and ``python3`` / ``python`` on the PATH."""
-    for candidate in (configured, os.environ.get("WIT_WORKER_PYTHON")):
-        if candidate:
-            if not (Path(candidate).is_file() and os.access(candidate, os.X_OK)):
-                raise InputError(f"The worker Python {candidate} is not an executable file.")
-            problem = _cannot_serve(candidate)
-            if problem:
-                raise InputError(f"The worker Python {candidate} cannot run the tiles: {problem}")
-            return candidate
-    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
-    prefix = Path(sys.exec_prefix)
-    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
-                   shutil.which("python")]
-    tried = []
-    for candidate in dict.fromkeys(c for c in candidates if c and Path(c).is_file()):
-        problem = _cannot_serve(candidate)
-        if not problem:
-            return candidate
-        tried.append(f"{candidate}: {problem}")
-    raise InputError("No Python for the Dask workers imports the plugin's dependencies ("
-                     + "; ".join(tried or ["none found"]) + "). Set WORKER_PYTHON (or $WIT_WORKER_PYTHON) to one "
-                     "that does, e.g. a virtual environment with the packages of requirements.txt.")
-
-
-def _cannot_serve(python: str) -> str | None:
-    """Why ``python`` cannot run a worker (a missing module), or None."""
-    code = f"import {', '.join(WORKER_MODULES)}; import wit_plugin.tiles.worker"
-    try:
-        result = subprocess.run([python, "-c", code], env=_worker_env(), capture_output=True, text=True, timeout=120)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        return str(exc)
-    return None if result.returncode == 0 else (result.stderr.strip().splitlines() or ["fails"])[-1]
-
-
-def _worker_env() -> dict:
-    """The environment of worker processes: this one, with the core importable as ``wit_plugin``."""
-    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(CORE_ROOT), os.environ.get("PYTHONPATH")) if p))
+    """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask)."""
+    return core_python(configured, WORKER_MODULES, "wit_plugin.tiles.worker")
 
 
 def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
@@ -202,7 +165,7 @@ def start_worker(python: str, address: str, log: Path) -> subprocess.Popen:
                "--memory-limit", "0", "--no-dashboard", "--name", f"wit-{os.getpid()}-{time.time_ns()}"]
     try:
         with open(log, "ab") as sink:
-            return subprocess.Popen(command, env=_worker_env(), stdout=sink, stderr=subprocess.STDOUT,
+            return subprocess.Popen(command, env=core_env(), stdout=sink, stderr=subprocess.STDOUT,
                                     start_new_session=True)
     except OSError as exc:
         raise InputError(f"Cannot start a Dask worker with {python}: {exc}") from exc

@@ -1,0 +1,61 @@
+"""Which Python runs the core in another process (Dask workers, the 3D Tiles export beside validation).
+
+Inside QGIS on Windows and macOS ``sys.executable`` is QGIS itself: starting it would open QGIS again.
+So a separate process always gets an explicit interpreter: the one configured, else the first Python
+that imports what the work needs among ``sys.executable`` (only when it is a Python), the Python of
+QGIS's own prefix, and ``python3`` / ``python`` on the PATH; the core comes from this checkout.
+"""
+from __future__ import annotations
+
+import functools
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from .errors import InputError
+
+CORE_ROOT = Path(__file__).resolve().parents[1]  # the folder holding the package wit_plugin
+
+
+def core_env() -> dict:
+    """This process's environment with the core importable as ``wit_plugin``."""
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(CORE_ROOT), os.environ.get("PYTHONPATH")) if p))
+
+
+def core_python(configured: str | None, modules: tuple[str, ...], module: str) -> str:
+    """An interpreter that imports ``modules`` and the core's ``module`` (see the module docstring);
+    ``configured`` (else ``$WIT_WORKER_PYTHON``) wins and must work."""
+    for candidate in (configured, os.environ.get("WIT_WORKER_PYTHON")):
+        if candidate:
+            if not (Path(candidate).is_file() and os.access(candidate, os.X_OK)):
+                raise InputError(f"The worker Python {candidate} is not an executable file.")
+            problem = _cannot_run(candidate, modules, module)
+            if problem:
+                raise InputError(f"The worker Python {candidate} cannot run the core: {problem}")
+            return candidate
+    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
+    prefix = Path(sys.exec_prefix)
+    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
+                   shutil.which("python")]
+    tried = []
+    for candidate in dict.fromkeys(c for c in candidates if c and Path(c).is_file()):
+        problem = _cannot_run(candidate, modules, module)
+        if not problem:
+            return candidate
+        tried.append(f"{candidate}: {problem}")
+    raise InputError("No Python imports the plugin's dependencies for a separate process ("
+                     + "; ".join(tried or ["none found"]) + "). Set WORKER_PYTHON (or $WIT_WORKER_PYTHON) to one "
+                     "that does, e.g. a virtual environment with the packages of requirements.txt.")
+
+
+@functools.lru_cache(maxsize=16)
+def _cannot_run(python: str, modules: tuple[str, ...], module: str) -> str | None:
+    """Why ``python`` cannot run ``module`` (a missing import), or None; asked once per process."""
+    code = f"import {', '.join(modules)}; import {module}"
+    try:
+        result = subprocess.run([python, "-c", code], env=core_env(), capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return str(exc)
+    return None if result.returncode == 0 else (result.stderr.strip().splitlines() or ["fails"])[-1]

@@ -1,0 +1,34 @@
+"""``python -m wit_plugin.tiles3d LOD1 TIN TEXTURES OUTPUT [--crs EPSG:5186]``: the export in its own process
+(the chain runs it beside validation on the second core); prints the report as JSON."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import asdict
+
+from ..errors import WitError
+from ..feedback import LoggingFeedback
+from .tileset import export_tileset
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m wit_plugin.tiles3d", description=__doc__.splitlines()[0])
+    parser.add_argument("lod1")
+    parser.add_argument("tin")
+    parser.add_argument("textures")
+    parser.add_argument("output")
+    parser.add_argument("--crs", default="EPSG:5186")
+    args = parser.parse_args(argv)
+    try:
+        report = export_tileset(args.lod1 or None, args.tin or None, args.textures or None, args.output, args.crs,
+                                LoggingFeedback())
+    except WitError as exc:
+        print(str(exc), file=sys.stderr)
+        return 2
+    print(json.dumps(asdict(report)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
