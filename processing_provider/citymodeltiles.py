@@ -6,6 +6,7 @@ from qgis.core import (
     QgsField,
     QgsFields,
     QgsProcessingException,
+    QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterBoolean,
@@ -24,7 +25,7 @@ from qgis.PyQt.QtCore import QVariant
 
 from .base import crs_string
 from .citymodel import CityModel
-from .load_results import load_index
+from .load_results import load_index, load_results
 
 TILE_SCALES = (5000, 1000)
 EXPRESSION_COLUMN = "wit_expr_height"
@@ -49,7 +50,9 @@ class CityModelTiles(CityModel):
         "textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / "
         "empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the "
         "others go on; a run started again on the same folder skips the tiles already done; Cancel stops "
-        "every tile."
+        "every tile. A tile that owns no building (a park, a hill) still gets its terrain and roads (status "
+        "empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output "
+        "folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later)."
     )
 
     TILE_SCALE = "TILE_SCALE"
@@ -80,8 +83,12 @@ class CityModelTiles(CityModel):
             optional=True)
         python.setFlags(python.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
         self.addParameter(python)
+        self.addParameter(QgsProcessingParameterBoolean(
+            self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset over all tiles (tileset.json) for viewers"),
+            defaultValue=True))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputVectorLayer("INDEX", self.tr("Tile index")))
+        self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset over all tiles (tileset.json)")))
         for name, label in (("TILES_DONE", self.tr("Tiles done")), ("TILES_FAILED", self.tr("Tiles failed")),
                             ("TILES_EMPTY", self.tr("Tiles without buildings")),
                             ("TILES_RESUMED", self.tr("Tiles already done before this run")),
@@ -93,6 +100,7 @@ class CityModelTiles(CityModel):
         from ..wit_plugin.vectors import StudyArea
 
         inputs, options, expression = self.chain_settings(parameters, context)
+        options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         output = self.parameterAsString(parameters, self.OUTPUT, context)
         area = options.area
         code = self.parameterAsString(parameters, "DISTRICT_CODE", context).strip()
@@ -111,7 +119,9 @@ class CityModelTiles(CityModel):
             or None, self.parameterAsInt(parameters, self.WORKERS, context),
             self.parameterAsFile(parameters, self.WORKER_PYTHON, context) or None, feedback)
         load_index(context, report.index)
-        return {self.OUTPUT: output, "INDEX": report.index, "TILES_DONE": report.count("done"),
+        load_results(context, tileset=report.tileset)
+        return {self.OUTPUT: output, "INDEX": report.index, "TILESET": report.tileset,
+                "TILES_DONE": report.count("done"),
                 "TILES_FAILED": report.count("failed"), "TILES_EMPTY": report.count("empty"),
                 "TILES_RESUMED": report.resumed, "BUILDINGS_WRITTEN": report.buildings}
 

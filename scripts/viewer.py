@@ -1,6 +1,7 @@
 """The offline web viewer of a tileset: assemble its folder, serve it on 127.0.0.1 (make view).
 
     python scripts/viewer.py build TILESET_DIR VIEWER_DIR   # page + CesiumJS + the tileset, self-contained
+                                                             # (TILESET_DIR: a chain's 3dtiles/ or a tiled run's output)
     python scripts/viewer.py serve VIEWER_DIR [--port N]     # prints the URL, serves until Ctrl-C
 
 The page is viewer/page/; CesiumJS is the npm package pinned in viewer/package.json, installed by
@@ -26,14 +27,18 @@ TYPES = {".glb": "model/gltf-binary", ".wasm": "application/wasm", ".js": "text/
          ".mjs": "text/javascript", ".json": "application/json", ".ktx2": "image/ktx2"}
 
 
-def _link_tree(source: Path, target: Path) -> None:
+#: what a tiled run's output folder holds beside its tilesets (the viewer needs none of it)
+NOT_3DTILES = shutil.ignore_patterns("*.gml", "*.gpkg", "*.html", "*.csv", "*_textures", "work", "steps.json")
+
+
+def _link_tree(source: Path, target: Path, ignore=None) -> None:
     def link(src: str, dst: str) -> None:
         try:
             os.link(src, dst)
         except OSError:
             shutil.copy2(src, dst)
 
-    shutil.copytree(source, target, copy_function=link)
+    shutil.copytree(source, target, copy_function=link, ignore=ignore)
 
 
 def build(tileset: Path, output: Path) -> Path:
@@ -49,7 +54,7 @@ def build(tileset: Path, output: Path) -> Path:
         for page in PAGE.iterdir():
             shutil.copy2(page, tmp / page.name)
         _link_tree(CESIUM_BUILD, tmp / "cesium")
-        _link_tree(tileset, tmp / "3dtiles")
+        _link_tree(tileset, tmp / "3dtiles", NOT_3DTILES)  # a tiled run's folder: its tilesets only
         if output.exists():
             shutil.rmtree(output)
         os.replace(tmp, output)

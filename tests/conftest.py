@@ -187,3 +187,34 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     del layer, ds
     shutil.rmtree(folder / "synthetic")
     return path
+
+
+def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False):
+    """Build the offline viewer of ``tileset_folder``, serve it and load it in headless Chromium
+    (viewer/browse.mjs); (the browser's report, the screenshot's (n, 3) RGB pixels)."""
+    import json
+    import subprocess
+
+    import numpy as np
+    from osgeo import gdal
+
+    viewer = tmp_path / "viewer"
+    script = str(ROOT / "scripts" / "viewer.py")
+    subprocess.run([sys.executable, script, "build", str(tileset_folder), str(viewer)], check=True,
+                   capture_output=True, timeout=120)
+    server = subprocess.Popen([sys.executable, script, "serve", str(viewer), "--port", "0"], stdout=subprocess.PIPE,
+                              text=True)
+    try:
+        url = server.stdout.readline().strip()
+        assert url.startswith("http://127.0.0.1:")
+        shot = tmp_path / "view.png"
+        result = subprocess.run(["node", str(ROOT / "viewer" / "browse.mjs"), url, str(shot), "--timeout", "240"]
+                                + (["--click"] if click else []), capture_output=True, text=True, timeout=400)
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
+    report = json.loads(result.stdout)
+    assert report["loaded"], report
+    assert not (report["consoleErrors"] or report["pageErrors"] or report["httpErrors"] or report["failedRequests"]), report
+    assert report["externalRequests"] == []  # offline: nothing but the local server
+    return report, np.moveaxis(gdal.Open(str(shot)).ReadAsArray()[:3], 0, -1).reshape(-1, 3).astype(int)

@@ -14,10 +14,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pyproj
 import pytest
 import shapely
 from lxml import etree
 
+from conftest import view_in_chromium
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
@@ -60,7 +62,6 @@ def test_ownership_is_one_sheet_per_point_and_follows_the_grid():
                                                          "EPSG:5186", 1000)}
     inside = [tiles[o].distance(shapely.Point(p)) < 0.01 for o, p in zip(owners, points)]  # straight vs curved edges
     assert all(inside)
-    import pyproj
     lon, lat = pyproj.Transformer.from_crs("EPSG:5186", "EPSG:4737", always_xy=True).transform(*points[:10].T)
     assert owners[:10] == [sheet_at(x, y, 1000).number for x, y in zip(lon, lat)]
     owner = plan.TileOwner(owners[0], 1000, "EPSG:5186")
@@ -78,8 +79,33 @@ def test_tile_scale_must_be_a_sheet_grid():
 
 @pytest.fixture(scope="module")
 def sample(tmp_path_factory):
-    return generate_sample(tmp_path_factory.mktemp("tiles-sample"), SampleConfig(radius_m=320.0, seed=8,
+    """The generated sample without the buildings of one tile (a park): that tile owns none."""
+    import shutil
+
+    from osgeo import ogr
+
+    base = generate_sample(tmp_path_factory.mktemp("tiles-sample"), SampleConfig(radius_m=320.0, seed=8,
                                                                                    ortho_pixel_size=1.0))
+    holed = base.buildings.with_name("buildings_with_a_park.shp")
+    for part in base.buildings.parent.glob(base.buildings.stem + ".*"):  # byte copies: the CP949 text stays
+        shutil.copy(part, holed.with_suffix(part.suffix))
+    ds = ogr.Open(str(holed), 1)
+    layer = ds.GetLayer(0)
+    area = AREA.geometry(pyproj.CRS("EPSG:5186"))
+    park = min(plan.plan_tiles(area, "EPSG:5186", 1000), key=lambda t: t.polygon.intersection(area).area)
+    to_layer = pyproj.Transformer.from_crs("EPSG:5186", layer.GetSpatialRef().ExportToWkt(), always_xy=True)
+    polygon = shapely.transform(shapely.segmentize(park.polygon, 5.0),
+                                lambda xy: np.column_stack(to_layer.transform(xy[:, 0], xy[:, 1])))
+    near = polygon.buffer(2.0)
+    boxes = [(f.GetFID(), f.GetGeometryRef().GetEnvelope()) for f in layer if f.GetGeometryRef() is not None]
+    for fid, (xmin, xmax, ymin, ymax) in boxes:  # every building near the tile, defective ones too
+        if near.intersects(shapely.box(xmin, ymin, xmax, ymax)):
+            layer.DeleteFeature(fid)
+    ds.ExecuteSQL(f"REPACK {layer.GetName()}")
+    ds = None
+    base.buildings = holed
+    base.park = park.sheet
+    return base
 
 
 def _inputs(sample, **kw) -> ChainInputs:
@@ -111,38 +137,63 @@ def _building_ids(gml: Path) -> list[str]:
 
 
 def _ground_triangles(gml: Path) -> np.ndarray:
-    """(n, 3, 3) terrain and road triangles of a model."""
-    triangles = [np.array(p.text.split(), dtype=float).reshape(-1, 3)[:3]
-                 for p in etree.parse(str(gml)).iterfind(".//gml:Triangle//gml:posList", NS)]
-    return np.array(triangles)
+    """(n, 3, 3) terrain (gml:Triangle) and road (TrafficArea polygons "tri_…") triangles of a model."""
+    tree = etree.parse(str(gml))
+    lists = list(tree.iterfind(".//gml:Triangle//gml:posList", NS)) + [
+        p for p in tree.iterfind(".//tran:TrafficArea//gml:Polygon//gml:posList", NS)]
+    triangles = [np.array(p.text.split(), dtype=float).reshape(-1, 3)[:3] for p in lists]
+    return np.array(triangles).reshape(-1, 3, 3)
+
+
+def _modelled(report) -> list[dict]:
+    return [row for row in report.rows if row["status"] in ("done", "empty")]
 
 
 def test_every_building_in_exactly_one_tile_same_as_the_single_area(local_run, single):
     out, report = local_run
     assert report.count("done") >= 3 and report.count("failed") == 0
-    ids = [i for row in report.rows if row["status"] == "done" for i in _building_ids(out / row["gml"])]
+    ids = [i for row in _modelled(report) for i in _building_ids(out / row["gml"])]
     assert len(ids) == len(set(ids)) == report.buildings
     assert set(ids) == set(_building_ids(Path(single.gml)))
     index = read_index(out)
     assert {r["status"] for r in index.values()} <= {"done", "empty"}
     assert all(index[r["sheet"]]["buildings"] == r["buildings"] for r in report.rows)
-    assert all(r["peak_mb"] > 50 and r["seconds"] > 0 for r in report.rows if r["status"] == "done")
+    assert all(r["peak_mb"] > 50 and r["seconds"] > 0 for r in _modelled(report))
+
+
+def test_a_tile_without_buildings_still_has_its_ground(local_run, sample):
+    """The park's tile owns no building: status empty, a valid model of terrain and roads, no hole."""
+    out, report = local_run
+    park = next(r for r in report.rows if r["sheet"] == sample.park)
+    assert park["status"] == "empty" and park["buildings"] == 0 and park["triangles"] > 20
+    assert _building_ids(out / park["gml"]) == [] and len(_ground_triangles(out / park["gml"])) > 20
+    triangles = np.concatenate([_ground_triangles(out / r["gml"]) for r in _modelled(report)])
+    tree = shapely.STRtree(shapely.polygons(triangles[:, :, :2]))
+    area = AREA.geometry(pyproj.CRS("EPSG:5186"))
+    roofs = [np.array(p.text.split(), dtype=float).reshape(-1, 3)[:, :2] for r in _modelled(report)
+             for p in etree.parse(str(out / r["gml"])).iterfind(".//bldg:Building//gml:posList", NS)]
+    footprints = shapely.union_all(shapely.make_valid(np.array([shapely.Polygon(r) for r in roofs], dtype=object)))
+    xmin, ymin, xmax, ymax = area.bounds
+    grid = shapely.points(np.stack(np.meshgrid(np.linspace(xmin, xmax, 80), np.linspace(ymin, ymax, 80)), -1)
+                          .reshape(-1, 2))
+    ground = grid[shapely.contains(area, grid) & ~shapely.dwithin(footprints, grid, 1.0)]
+    covered = np.unique(tree.query(ground, predicate="intersects")[0])
+    assert len(ground) > 3000 and len(covered) == len(ground)  # every ground point lies on a triangle
 
 
 def test_every_tile_is_a_valid_citygml_file(local_run):
     out, report = local_run
-    for row in report.rows:
-        if row["status"] == "done":
-            result = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
-                                     str(ROOT / "wit_plugin/citygml/xsd/citygml3-all.xsd"), str(out / row["gml"])],
-                                    capture_output=True, text=True)
-            assert result.returncode == 0, result.stderr[-2000:]
+    for row in _modelled(report):
+        result = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
+                                 str(ROOT / "wit_plugin/citygml/xsd/citygml3-all.xsd"), str(out / row["gml"])],
+                                capture_output=True, text=True)
+        assert result.returncode == 0, result.stderr[-2000:]
 
 
 def test_neighbouring_tiles_share_their_border_vertex_for_vertex(local_run):
     """On every shared border: the same vertices (x, y and z, to the millimetre) on both sides."""
     out, report = local_run
-    done = [r["sheet"] for r in report.rows if r["status"] == "done"]
+    done = [r["sheet"] for r in _modelled(report)]
     polygons = {s: plan.tile_of(s, "EPSG:5186").polygon for s in done}
     checked = 0
     for k, a in enumerate(done):
@@ -179,11 +230,10 @@ def _t_junctions(triangles: np.ndarray) -> int:
 def test_no_t_junction_inside_a_tile_nor_across_its_borders(local_run):
     out, report = local_run
     every = []
-    for row in report.rows:
-        if row["status"] == "done":
-            triangles = _ground_triangles(out / row["gml"])
-            assert _t_junctions(triangles) == 0, row["sheet"]
-            every.append(triangles)
+    for row in _modelled(report):
+        triangles = _ground_triangles(out / row["gml"])
+        assert _t_junctions(triangles) == 0, row["sheet"]
+        every.append(triangles)
     assert _t_junctions(np.concatenate(every)) == 0  # the tiles together: no crack along the borders
 
 
@@ -346,6 +396,27 @@ def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_pat
     log = json.dumps(report.get("log", "")) + result.stdout + result.stderr
     python = log.split(", Python ")[1].split(".")[0] if ", Python " in log else ""
     assert "python" in Path(python).name.lower(), log[-2000:]
+    _check_run_tileset(Path(report["results"]["TILESET"]), local_run[1])
+    _check_in_the_viewer(tmp_path / "out", tmp_path)
+
+
+def _check_run_tileset(path: Path, local) -> None:
+    """One tileset over the tiles: a child per modelled tile, its tileset on disk, regions nested."""
+    import json
+
+    document = json.loads(path.read_text(encoding="utf-8"))
+    assert document["asset"]["version"] == "1.1" and path == path.parent / "tileset.json"
+    root = document["root"]
+    assert sorted(c["content"]["uri"] for c in root["children"]) == sorted(
+        f"tiles/{r['sheet']}/3dtiles/tileset.json" for r in _modelled(local))
+    assert document["geometricError"] > root["geometricError"] >= max(c["geometricError"] for c in root["children"])
+    w, s, e, n, low, high = root["boundingVolume"]["region"]
+    for child in root["children"]:
+        tile = json.loads((path.parent / child["content"]["uri"]).read_text(encoding="utf-8"))
+        assert child["boundingVolume"]["region"] == tile["root"]["boundingVolume"]["region"]
+        cw, cs, ce, cn, clow, chigh = child["boundingVolume"]["region"]
+        assert w <= cw < ce <= e and s <= cs < cn <= n and low <= clow < chigh <= high
+        assert list((path.parent / child["content"]["uri"]).parent.glob("tiles/*/*.glb"))
 
 
 def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
@@ -367,3 +438,10 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
                            env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
     assert probe.returncode == 0, probe.stderr[-2000:]
     assert probe.stdout.split() == [str(target / "wit_plugin" / "tiles" / "worker.py"), "True"]
+
+
+def _check_in_the_viewer(output: Path, tmp_path: Path) -> None:
+    """The run's tileset in the offline viewer, in headless Chromium: loaded, no error, the model drawn."""
+    _, picture = view_in_chromium(output, tmp_path)
+    assert not list((tmp_path / "viewer" / "3dtiles").rglob("*.gml"))  # the tilesets alone
+    assert (np.abs(picture - picture[0]).sum(axis=1) > 30).mean() > 0.2  # the tiles fill the view

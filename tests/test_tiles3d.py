@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +14,7 @@ import pytest
 import shapely
 from osgeo import gdal, ogr
 
-from conftest import ensure_wit_provider
+from conftest import ensure_wit_provider, view_in_chromium
 from wit_plugin import model
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
@@ -213,25 +212,7 @@ def test_upper_tiles_reuse_smaller_mip_levels_of_the_same_atlases(chain):
 
 
 def test_viewer_in_headless_chromium_shows_the_model_and_a_buildings_attributes(chain, tmp_path):
-    viewer = tmp_path / "viewer"
-    subprocess.run([sys.executable, str(ROOT / "scripts" / "viewer.py"), "build", str(chain["folder"]), str(viewer)],
-                   check=True, capture_output=True, timeout=120)
-    server = subprocess.Popen([sys.executable, str(ROOT / "scripts" / "viewer.py"), "serve", str(viewer), "--port", "0"],
-                              stdout=subprocess.PIPE, text=True)
-    try:
-        url = server.stdout.readline().strip()
-        assert url.startswith("http://127.0.0.1:")
-        shot = tmp_path / "view.png"
-        result = subprocess.run(["node", str(VIEWER / "browse.mjs"), url, str(shot), "--click", "--timeout", "240"],
-                                capture_output=True, text=True, timeout=400)
-    finally:
-        server.terminate()
-        server.wait(timeout=10)
-    report = json.loads(result.stdout)
-    assert report["loaded"], report
-    assert not (report["consoleErrors"] or report["pageErrors"] or report["httpErrors"] or report["failedRequests"]), report
-    assert report["externalRequests"] == []  # offline: nothing but the local server
-    picture = np.moveaxis(gdal.Open(str(shot)).ReadAsArray()[:3], 0, -1).reshape(-1, 3).astype(int)
+    report, picture = view_in_chromium(chain["folder"], tmp_path, click=True)
     background = picture[0]  # the top-left corner is sky
     drawn = np.abs(picture - background).sum(axis=1) > 30
     assert drawn.mean() > 0.3  # the model fills a good part of the view

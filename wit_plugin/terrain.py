@@ -173,6 +173,24 @@ class Seam:
     tile: BaseGeometry  # the tile's polygon
     points: np.ndarray  # (k, 2) canonical points on its border, on the 1 mm grid
 
+    def insert(self, geoms):
+        """``geoms`` (a geometry or a sequence, None kept) with the canonical points within half a snap distance
+        of an edge inserted as vertices: an edge along the border (a road's, cut by the tile) and the border
+        itself then hold the same vertices, instead of crossing each other at a grazing angle somewhere
+        between them (a node the neighbour would not have)."""
+        if not len(self.points):
+            return geoms
+        points = shapely.multipoints(self.points)
+        if isinstance(geoms, BaseGeometry):
+            return shapely.snap(geoms, points, SEAM_SNAP / 2)
+        out = np.array(list(geoms), dtype=object)
+        present = np.array([g is not None for g in out], dtype=bool)
+        if present.any():
+            near = present.copy()
+            near[present] = shapely.dwithin(out[present].astype(object), self.tile.exterior, SEAM_SNAP)
+            out[near] = shapely.snap(out[near].astype(object), points, SEAM_SNAP / 2)
+        return list(out)
+
     def snap(self, coords: np.ndarray) -> np.ndarray:
         """``coords`` within SEAM_SNAP of the border moved onto the nearest canonical point (within SEAM_REACH:
         where a wall crosses the border at a shallow angle a sub-millimetre shift moves the crossing along it by
@@ -266,6 +284,8 @@ def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: S
         raise InputError("The study area is empty or has no area; give a polygon (or a point and a radius).")
     fps = clean_polygons([g for _, g in buildings], clean_area, grid)
     rds = clean_polygons([g for _, g in roads], clean_area, grid)
+    if seam is not None:  # the border runs through its canonical points on every polygon along it
+        clean_area, fps, rds = seam.insert(clean_area), seam.insert(fps), seam.insert(rds)
     footprints = [(fid, g) for (fid, _), g in zip(buildings, fps) if g is not None]
     road_list = [(rid, g) for (rid, _), g in zip(roads, rds) if g is not None]
     dropped = len(buildings) + len(roads) - len(footprints) - len(road_list)

@@ -47,7 +47,7 @@ import math
 import os
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Protocol, Sequence
 
 import numpy as np
 import pyproj
@@ -197,6 +197,16 @@ class StudyArea:
         return shapely.union_all(districts.geoms[hits])
 
 
+class Owner(Protocol):
+    """Which tile keeps a building, from its point on surface ((n, 2) target-CRS points → n booleans)."""
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Owned by this tile."""
+
+    def in_run(self, points: np.ndarray) -> np.ndarray:
+        """Owned by some tile of the run (in its area): a building owned by none is not in the model at all."""
+
+
 @dataclass
 class PrepareConfig:
     """Parameters of wit:preparevectors (lengths and areas in target-CRS metres)."""
@@ -213,10 +223,11 @@ class PrepareConfig:
     source_crs: str | None = None  # CRS of inputs that declare none (no .prj); declared ones win
     stats_csv: str | None = None  # default: <output stem>_stats.csv beside the GeoPackage
     # Tiles (wit_plugin.tiles): keep the buildings whose point on surface ``owner`` accepts (an (n, 2)
-    # array → n booleans; it replaces the area test), read and simplify them together with their neighbours within ``context_margin``
-    # (so walls shared across the tile's edge are simplified alike on both sides), and write the
-    # neighbours that cross into the area as ``model.FOREIGN_BUILDINGS`` (holes in the tile's terrain).
-    owner: Callable[[np.ndarray], np.ndarray] | None = None
+    # array → n booleans; it replaces the area test), read and simplify them together with their neighbours
+    # within ``context_margin`` (so walls shared across the tile's edge are simplified alike on both sides),
+    # and write the neighbours that cross into the area and another tile of the run owns
+    # (``owner.in_run``) as ``model.FOREIGN_BUILDINGS`` (holes in the tile's terrain).
+    owner: Owner | None = None
     context_margin: float = 0.0
 
 
@@ -806,6 +817,7 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
         simplified, stats.arcs_kept = simplify_shared(geoms[context], tolerance, feedback=feedback)
         ours = inside[context]
         crossing = ~ours & shapely.intersects(area, simplified)
+        crossing[crossing] = config.owner.in_run(shapely.get_coordinates(points[context][crossing]))
         foreign = layer.take(keep[context][crossing])
         foreign.geoms = simplified[crossing]
         others = _Prepared(model.FOREIGN_BUILDINGS, foreign, [ids[i] for i in keep[context][crossing]])
@@ -946,11 +958,11 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
         raise InputError("No feature could be kept: " + "; ".join(
             f"{s.layer}: {s.features_in} read, {s.outside_area} outside the study area, dropped {_reasons(s)}"
             for s in stats) + ". Nothing was written.")
-    if not any(s.features_out for s in stats):
+    if not any(s.features_out for s in stats) and config.owner is None:  # a tile may own nothing: its ground
         raise InputError(f"The study area (bounds {tuple(round(v, 1) for v in polygon.bounds)} in "
                          f"{config.target_crs}) does not overlap any feature of the input layers.")
     for s in stats:
-        if s.features_out == 0:
+        if s.features_out == 0 and config.owner is None:
             feedback.warning(f"{s.layer}: no feature lies in the study area.")
     rows = [s.row() for s in stats]
     stat_fields = [FieldDef(c, ogr.OFTString if c == "layer" else ogr.OFTInteger64) for c in rows[0]]

@@ -213,7 +213,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("prepare") as fb:
         layers = _prepare(inputs, options, work, fb)
-        area = terrain.covering_area(layers.study, read_prepared(layers.buildings, model.PREPARED_BUILDINGS).geoms)
+        area = terrain.covering_area(layers.study, read_prepared(layers.buildings, model.PREPARED_BUILDINGS).geoms) \
+            if layers.buildings else layers.study
 
     with clock.step("coverage") as fb:
         require_dem(inputs.dem, area, options.target_crs, fb)
@@ -239,10 +240,10 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
                                 options.tolerance, spatial_index=options.keep_work, feedback=fb,
                                 foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam)
 
-    with clock.step("extrude") as fb:
-        lod1 = str(work / "lod1.gpkg")
+    with clock.step("extrude") as fb:  # a tile that owns no building: terrain and roads only
+        lod1 = str(work / "lod1.gpkg") if layers.buildings else None
         lod1_stats = extrude.run(layers.buildings, inputs.dem, lod1, options.heights,
-                                 spatial_index=options.keep_work, feedback=fb)
+                                 spatial_index=options.keep_work, feedback=fb) if lod1 else None
 
     with clock.step("texture") as fb:
         textures = str(work / "textures")
@@ -259,7 +260,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     tileset = str(staging / TILESET_DIR / TILESET_FILE) if options.tiles3d else None
     beside = clock.beside("3dtiles", [core_python(None, TILES3D_MODULES, "wit_plugin.tiles3d"), "-m",
-                                      "wit_plugin.tiles3d", lod1, tin, textures, str(staging / TILESET_DIR),
+                                      "wit_plugin.tiles3d", lod1 or "", tin, textures, str(staging / TILESET_DIR),
                                       "--crs", options.target_crs]) \
         if options.tiles3d else nullcontext(lambda: None)
     with beside as tileset_done:  # the tileset is written beside validation and metrics
@@ -274,7 +275,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
             write_report_html(validation, str(staging / "validation.html"))
 
         metrics_csv = None
-        if options.metrics:
+        if options.metrics and lod1:
             with clock.step("metrics") as fb:
                 metrics_csv = staging / "metrics.csv"
                 quality_report(str(metrics_csv), model_source=lod1, source_buildings=layers.buildings,
@@ -282,7 +283,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
                                output_html=str(staging / "metrics.html"), feedback=fb)
         tileset_done()
 
-    for layer in (lod1, tin):  # the model's GIS layers, for QGIS's 3D view
+    for layer in filter(None, (lod1, tin)):  # the model's GIS layers, for QGIS's 3D view
         os.replace(layer, staging / Path(layer).name)
     if not options.keep_work:
         shutil.rmtree(work)
@@ -291,10 +292,11 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     return ChainReport(
         output=str(output), gml=str(output / "model.gml"), validation_report=str(output / "validation.html"),
         metrics=str(output / "metrics.csv") if metrics_csv else None, valid=all(r.valid for r in validation),
-        errors=errors, buildings=written.buildings, default_heights=lod1_stats.height_sources.get("default", 0),
+        errors=errors, buildings=written.buildings,
+        default_heights=lod1_stats.height_sources.get("default", 0) if lod1_stats else 0,
         untextured_outside=texture_report.untextured.get(OUTSIDE_ORTHO, 0), triangles=tin_stats.triangles,
         seconds={}, work=str(output / "work") if options.keep_work else None,
-        lod1=str(output / Path(lod1).name), tin=str(output / Path(tin).name),
+        lod1=str(output / Path(lod1).name) if lod1 else None, tin=str(output / Path(tin).name),
         tileset=str(output / TILESET_DIR / Path(tileset).name) if tileset else None)
 
 
@@ -302,7 +304,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 class _Layers:
     """The prepared sources the later steps read (``file|layername=…``), and the study area itself."""
 
-    buildings: str
+    buildings: str | None  # None: a tile that owns no building
     study: BaseGeometry
     roads: str | None = None
     districts: str | None = None
@@ -333,7 +335,7 @@ def _prepare(inputs: ChainInputs, options: ChainOptions, work: Path, feedback: F
         context_names = clip_context(job.context, job.context_layers, tile_area, context) if job.context else []
         seam = job.seam(options.target_crs, [f"{prepared}|layername={n}" for n in names
                                              if n in (model.PREPARED_BUILDINGS, model.FOREIGN_BUILDINGS)])
-    if model.PREPARED_BUILDINGS not in names:
+    if model.PREPARED_BUILDINGS not in names and options.tile is None:
         raise InputError("No building of the building layer lies in the study area.")
     study = read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
     return _Layers(source(prepared, names, model.PREPARED_BUILDINGS), study,

@@ -85,9 +85,9 @@ _BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB a
 
 @dataclass(frozen=True)
 class CityGMLInputs:
-    """Paths of the step outputs to combine; only the LoD1 faces are required."""
+    """Paths of the step outputs to combine: the LoD1 faces, or (a tile that owns no building) the TIN alone."""
 
-    lod1: str
+    lod1: str | None
     tin: str | None = None
     roads: str | None = None
     districts: str | None = None
@@ -132,7 +132,7 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         texcoords = layer(inputs.textures and str(Path(inputs.textures) / model.TEXCOORD_FILE), model.TEXCOORD_TABLE,
                           "texture table (wit:wittexture)",
                           (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS))
-        if lod1 is None or lod1.count() == 0:
+        if (lod1 is None or lod1.count() == 0) and (tin is None or inputs.lod1):
             raise InputError(f"{inputs.lod1} has no building faces: run wit:extrudebuildings on a non-empty area.")
         for source in (lod1, tin):
             if source:
@@ -140,7 +140,7 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         images = _texture_images(texcoords, Path(inputs.textures)) if texcoords else {}
         report.envelope = _envelope([source for source in (lod1, tin) if source])
         if report.envelope is None:
-            raise InputError(f"{inputs.lod1} has no face geometries: re-run wit:extrudebuildings.")
+            raise InputError(f"{inputs.lod1 or inputs.tin} has no geometries: re-run the step that wrote it.")
         tex_dir = out.parent / f"{out.stem}_textures"
         uris = {image: _image_uri(src, image, out.parent, tex_dir if copy_textures else None)
                 for image, src in images.items()}
@@ -148,7 +148,8 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         total = sum(source.count() for source in (lod1, tin, texcoords) if source) or 1
         tmp = stack.enter_context(atomic_file(out))
         with open(tmp, "wb") as fh, _Writer.document(fh, srs_uri, report, _Progress(feedback, total)) as writer:
-            writer.buildings(lod1, members)
+            if lod1:
+                writer.buildings(lod1, members)
             if roads or tin:
                 writer.roads(roads, tin)
             if tin:

@@ -1,6 +1,7 @@
 """``index.gpkg``: the map of a tiled run, one row per tile, updated as tiles finish (so a run resumes).
 
-Layer ``tiles``: the tile polygon and ``sheet``, ``status`` (pending, done, failed, empty),
+Layer ``tiles``: the tile polygon and ``sheet``, ``status`` (pending, done, failed, or empty: the tile owns
+no building and its model holds the ground alone, terrain and roads, so the tiles' terrain has no hole),
 ``buildings``, ``triangles``, ``seconds``, ``peak_mb``, ``gml`` (relative to the output folder)
 and ``error``. Written by OGR, read with SQLite.
 """

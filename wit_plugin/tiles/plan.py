@@ -97,6 +97,13 @@ class TileOwner:
     def __call__(self, points: np.ndarray) -> np.ndarray:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         inside = np.array(owners(points, self.target_crs, self.scale, self.sheet_crs), dtype=object) == self.sheet
-        if self.area_wkt is not None and inside.any():
-            inside &= shapely.contains_xy(shapely.from_wkt(self.area_wkt), points[:, 0], points[:, 1])
+        if inside.any():
+            inside &= self.in_run(points)
         return inside
+
+    def in_run(self, points: np.ndarray) -> np.ndarray:
+        """The points some tile of the run owns: those in the run's area."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        if self.area_wkt is None:
+            return np.ones(len(points), dtype=bool)
+        return shapely.contains_xy(shapely.from_wkt(self.area_wkt), points[:, 0], points[:, 1])

@@ -70,21 +70,14 @@ def clip_context(context: str, layers: list[str], area: BaseGeometry, output: st
 
 def prepare_tile_buildings(buildings: str, tile_area: BaseGeometry, owner: TileOwner, output: str,
                            encoding: str | None = None, feedback: Feedback = SILENT) -> list[str]:
-    """The buildings ``owner`` accepts (and the foreign ones crossing in) into ``output``; layers written.
-
-    Raises ``InputError`` when the tile owns no building (the caller records the tile as empty).
-    """
+    """The buildings ``owner`` accepts (and the foreign ones crossing in) into ``output``; layers written
+    (without ``PREPARED_BUILDINGS`` when the tile owns no building: its model is then the ground alone)."""
     config = PrepareConfig(target_crs=owner.target_crs, encoding=encoding, owner=owner,
                            context_margin=CONTEXT_MARGIN, stats_csv=str(Path(output).with_suffix(".csv")))
     report = prepare_vectors(buildings, None, None, StudyArea.polygon(tile_area, owner.target_crs), output, config,
                              feedback)
-    if not any(s.layer == model.PREPARED_BUILDINGS and s.features_out for s in report.stats):
-        raise EmptyTile(f"Sheet {owner.sheet} owns no building.")
-    return report.layers
-
-
-class EmptyTile(InputError):
-    """A tile with nothing of its own to model."""
+    owned = any(s.layer == model.PREPARED_BUILDINGS and s.features_out for s in report.stats)
+    return [name for name in report.layers if owned or name != model.PREPARED_BUILDINGS]
 
 
 def area_of_layer(path: str, target_crs: str) -> BaseGeometry:

@@ -37,6 +37,7 @@ from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import CORE_ROOT, core_env, core_python
+from ..tiles3d.combine import write_run_tileset
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
@@ -57,6 +58,7 @@ class TilesReport:
     rows: list[dict] = field(default_factory=list)
     resumed: int = 0
     seconds: float = 0.0
+    tileset: str | None = None  # one 3D Tiles tileset over the tiles' tilesets
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
@@ -103,7 +105,7 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
         "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
-        "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir,
+        "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir, "tiles3d": options.tiles3d,
         "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
@@ -112,12 +114,10 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
 
 
 def _finished(output: Path, row: dict | None) -> bool:
-    """A tile a previous run finished: done with its model on disk, or empty."""
+    """A tile a previous run finished: done or empty (ground only), with its model on disk."""
     if not row:
         return False
-    if row.get("status") == EMPTY:
-        return True
-    return row.get("status") == DONE and bool(row.get("gml")) and (output / row["gml"]).is_file()
+    return row.get("status") in (DONE, EMPTY) and bool(row.get("gml")) and (output / row["gml"]).is_file()
 
 
 def _task():
@@ -239,8 +239,15 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     if tiles and report.count(DONE) == 0:
         reasons = "; ".join(f"{r['sheet']}: {r.get('error')}" for r in report.rows[:5])
         raise InputError(f"No tile could be built ({len(failed)} failed, {report.count(EMPTY)} empty): {reasons}")
+    if options.tiles3d:
+        modelled = [Path(r["gml"]).parent.as_posix() for r in report.rows if r["status"] in (DONE, EMPTY)]
+        report.tileset, combined = write_run_tileset(output, modelled)
+        if combined < len(modelled):
+            feedback.warning(f"{len(modelled) - combined} tile(s) done by an earlier run without 3D Tiles are not "
+                             f"in {report.tileset}: run them again (remove their folder) to add them.")
     feedback.info(f"Tiles: {report.count(DONE)} done, {len(failed)} failed, {report.count(EMPTY)} empty, "
-                  f"{report.buildings} buildings, {report.seconds:.1f} s.")
+                  f"{report.buildings} buildings, {report.seconds:.1f} s."
+                  + (f" 3D Tiles: {report.tileset}" if report.tileset else ""))
     return report
 
 

@@ -23,7 +23,6 @@ from ..vectors import StudyArea
 from .index import DONE, EMPTY, FAILED
 from .job import TileJob
 from .plan import TileOwner
-from .prepare import EmptyTile
 
 TILES_DIR = "tiles"
 MODEL_FILE = "model.gml"
@@ -51,17 +50,16 @@ def run_tile(spec: dict) -> dict:
         target_crs=spec["target_crs"], sheet_crs=spec["sheet_crs"], margin=spec["margin"],
         max_edge=spec["max_edge"], tolerance=spec["tolerance"], texture_scale=spec["texture_scale"],
         heights=HeightOptions(**spec["heights"]), outside_ortho=spec["outside_ortho"],
-        schema_dir=spec["schema_dir"], schema_cache=spec["schema_cache"], metrics=False, tiles3d=False, encoding=spec["encoding"],
-        tile=job)
+        schema_dir=spec["schema_dir"], schema_cache=spec["schema_cache"], metrics=False,
+        tiles3d=spec.get("tiles3d", False), encoding=spec["encoding"], tile=job)
     row = {"sheet": sheet, "buildings": 0, "triangles": 0, "gml": None, "error": None}
     try:
         report = run_city_model(ChainInputs(**spec["inputs"]), options, folder,
                                 LoggingFeedback(logging.getLogger(f"wit_plugin.tiles.{sheet}")))
-        row.update(status=DONE if report.valid else FAILED, buildings=report.buildings,
-                   triangles=report.triangles, gml=f"{TILES_DIR}/{sheet}/{MODEL_FILE}",
+        status = (DONE if report.buildings else EMPTY) if report.valid else FAILED
+        row.update(status=status, buildings=report.buildings, triangles=report.triangles,
+                   gml=f"{TILES_DIR}/{sheet}/{MODEL_FILE}",
                    error=None if report.valid else f"{report.errors} validation error(s): see validation.html")
-    except EmptyTile as exc:
-        row.update(status=EMPTY, error=str(exc))
     except CanceledError:
         raise
     except WitError as exc:
@@ -69,6 +67,6 @@ def run_tile(spec: dict) -> dict:
     except Exception as exc:  # noqa: BLE001 — a tile's bug must not stop the run: it is recorded
         row.update(status=FAILED, error=f"{type(exc).__name__}: {exc} ({traceback.format_exc(limit=3)})")
     if row["status"] != DONE and folder.is_dir() and not any(folder.glob(MODEL_FILE)):
-        shutil.rmtree(folder, ignore_errors=True)  # nothing of a failed or empty tile stays
+        shutil.rmtree(folder, ignore_errors=True)  # nothing of a failed tile stays
     row.update(seconds=round(time.perf_counter() - start, 3), peak_mb=round(peak_mb(), 1))
     return row
