@@ -30,7 +30,7 @@ def blocks(n: int) -> list[str]:
     from wit_plugin.mapsheet import sheet_at
 
     side = int(round(n ** 0.5))
-    west, south = 127.0975, 37.4825  # a corner of the 1:1,000 grid south-west of the station
+    west, south = 127.0975, 37.4775  # south-west of the station: the 4 × 4 block lies inside the sample's DEM
     cell = 0.005
     to_4737 = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:4737", always_xy=True)  # (the datums agree here)
     numbers = []

@@ -588,6 +588,22 @@ def markdown(report: dict) -> str:
     return "\n".join(md)
 
 
+def run_script(script: str, extra: list[str]) -> str:
+    """Run another benchmark of this folder, its output shown as it comes; its printed summary (the
+    lines from its table on)."""
+    log(f"== {script} {' '.join(extra)}")
+    lines = []
+    with subprocess.Popen([sys.executable, str(Path(__file__).with_name(script)), *extra], stdout=subprocess.PIPE,
+                          text=True) as proc:
+        for line in proc.stdout:
+            print(line, end="", flush=True)
+            lines.append(line.rstrip("\n"))
+    if proc.returncode:
+        return f"{script} failed (exit {proc.returncode}): " + " | ".join(lines[-3:])
+    start = next((k for k, line in enumerate(lines) if line.startswith("|")), len(lines))
+    return "\n".join(lines[start:])
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="radius 300 m, one run (smoke test)")
@@ -602,6 +618,9 @@ def main() -> int:
                         help="also query a PostGIS colour store (default DSN: start scripts/postgis.sh)")
     parser.add_argument("--skip-colorstore", action="store_true", help="leave out Tables 15 and 16")
     parser.add_argument("--skip-metrics", action="store_true", help="leave out Table 19")
+    parser.add_argument("--skip-chain", action="store_true",
+                        help="leave out the whole wit:citymodel through qgis_process beside xmllint (bench_chain.py)")
+    parser.add_argument("--skip-tiles", action="store_true", help="leave out the tiled runs on Dask (bench_tiles.py)")
     args = parser.parse_args()
     sizes = (args.sizes or ("quick" if args.quick else "default,4x")).split(",")
     runs = max(1, args.runs)
@@ -647,6 +666,14 @@ def main() -> int:
     report["machine"]["load_average_end"] = os.getloadavg()
     (OUT / "results.json").write_text(json.dumps(report, indent=1, ensure_ascii=False), encoding="utf-8")
     md = markdown(report)
+    quick = args.quick
+    for skip, title, script, extra in (
+            (args.skip_chain, "The whole chain as users run it (qgis_process) beside xmllint --stream", "bench_chain.py",
+             ["--radius", "300", "--no-core"] if quick else []),
+            (args.skip_tiles, "Tiled runs on Dask (1:1,000 sheets)", "bench_tiles.py",
+             ["--tiles", "1", "4"] if quick else [])):
+        if not skip:
+            md += f"\n\n## {title} (benchmarks/{script})\n\n" + run_script(script, extra)
     (OUT / "results.md").write_text(md + "\n", encoding="utf-8")
     print(md)
     log(f"wrote {OUT / 'results.json'} and {OUT / 'results.md'} in {report['elapsed_s'] / 60:.1f} min")

@@ -65,7 +65,7 @@ def run_tile(spec: dict) -> dict:
     except WitError as exc:
         row.update(status=FAILED, error=str(exc))
     except Exception as exc:  # noqa: BLE001 — a tile's bug must not stop the run: it is recorded
-        row.update(status=FAILED, error=f"{type(exc).__name__}: {exc} ({traceback.format_exc(limit=3)})")
+        row.update(status=FAILED, error=f"{type(exc).__name__}: {exc} ({traceback.format_exc(limit=-4)})")
     if row["status"] != DONE and folder.is_dir() and not any(folder.glob(MODEL_FILE)):
         shutil.rmtree(folder, ignore_errors=True)  # nothing of a failed tile stays
     row.update(seconds=round(time.perf_counter() - start, 3), peak_mb=round(peak_mb(), 1))
