@@ -3,6 +3,7 @@ with 1 and 2 Dask workers: wall time, buildings per second, peak memory per work
 single-process chain on the same 1-tile area beside it (the reference measured in the same run).
 
     .venv/bin/python benchmarks/bench_tiles.py [--tiles 1 4 16] [--workers 1 2] [--max-edge 5] [--tiles3d]
+    .venv/bin/python benchmarks/bench_tiles.py --district     # one run over a generated 40 km² district
 
 Data: the generated sample around Suseo (cached in out/bench/tiles/sample); the areas are blocks of
 whole 1:1,000 sheets (1×1, 2×2, 4×4) so every tile is full. Results: a table, and
@@ -46,6 +47,8 @@ def main() -> int:
     parser.add_argument("--tiles", type=int, nargs="+", default=[1, 4, 16])
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--max-edge", type=float, default=5.0)
+    parser.add_argument("--district", action="store_true", help="instead: one run over a generated district "
+                        "of Gangnam-gu's size (40 km², all its buildings) on the largest --workers")
     parser.add_argument("--tiles3d", action="store_true", help="each tile also writes its 3D Tiles (as the "
                         "algorithm does by default); off: the CityGML chain alone")
     args = parser.parse_args()
@@ -59,16 +62,37 @@ def main() -> int:
     from wit_plugin.tiles.worker import peak_mb
     from wit_plugin.vectors import StudyArea
 
-    sample_dir = OUT / "sample"
-    if not (sample_dir / "sample_manifest.json").is_file():
-        print("generating the sample (not timed)", flush=True)
-        shutil.rmtree(sample_dir, ignore_errors=True)
-        generate_sample(sample_dir, SampleConfig(radius_m=1400.0, seed=42, ortho_pixel_size=0.5))
-    manifest = json.loads((sample_dir / "sample_manifest.json").read_text(encoding="utf-8"))
-    inputs = ChainInputs([str(sample_dir / "ortho")], str(sample_dir / manifest["files"]["dem"]),
-                         str(sample_dir / manifest["files"]["buildings"]), str(sample_dir / manifest["files"]["roads"]),
-                         str(sample_dir / manifest["files"]["districts"]))
+    def sample(name: str, config: SampleConfig) -> ChainInputs:
+        folder = OUT / name
+        if not (folder / "sample_manifest.json").is_file():
+            print(f"generating the sample {folder} (not timed)", flush=True)
+            shutil.rmtree(folder, ignore_errors=True)
+            generate_sample(folder, config)
+        files = json.loads((folder / "sample_manifest.json").read_text(encoding="utf-8"))["files"]
+        return ChainInputs([str(folder / "ortho")], str(folder / files["dem"]), str(folder / files["buildings"]),
+                           str(folder / files["roads"]), str(folder / files["districts"]))
+
     options = ChainOptions(area=None, max_edge=args.max_edge, metrics=False, tiles3d=args.tiles3d)
+    if args.district:  # a square of 6.32 km a side: Gangnam-gu's 40 km², at the generator's building density
+        inputs = sample("district", SampleConfig(radius_m=3162.0, seed=7, ortho_pixel_size=1.0))
+        workers = max(args.workers)
+        start = time.perf_counter()
+        report = run_tiles(inputs, options, OUT / "district-run", None, scale=1000, workers=workers)
+        seconds = time.perf_counter() - start
+        done = [r for r in report.rows if r["status"] in ("done", "empty")]
+        result = {"workers": workers, "seconds": round(seconds, 1), "tiles": len(report.rows), "modelled": len(done),
+                  "failed": report.count("failed"), "buildings": report.buildings,
+                  "triangles": sum(r["triangles"] for r in done),
+                  "peak_mb_per_worker": max((r["peak_mb"] for r in done), default=0)}
+        print(json.dumps(result), flush=True)
+        print(f"\n| district (40 km²) | workers | wall | tiles (failed) | buildings | TIN triangles | peak MB/worker |\n"
+              f"|---|---:|---:|---:|---:|---:|---:|\n| generated, 1:1,000 sheets | {workers} | "
+              f"{seconds / 60:.1f} min | {result['tiles']} ({result['failed']}) | {result['buildings']:,} | "
+              f"{result['triangles']:,} | {result['peak_mb_per_worker']:.0f} |\n(goal: a Gangnam-size area in "
+              "≤ 10 minutes)")
+        (OUT / "district.json").write_text(json.dumps(result, indent=1), encoding="utf-8")
+        return 0
+    inputs = sample("sample", SampleConfig(radius_m=1400.0, seed=42, ortho_pixel_size=0.5))
     rows = []
     one_tile = shapely.union_all([tile_of(s, "EPSG:5186").polygon for s in blocks(1)])
     start = time.perf_counter()
