@@ -147,6 +147,25 @@ def test_feather_and_gain_remove_the_seam(tmp_path):
     np.testing.assert_allclose(report.offsets, 0.0, atol=1.5)  # a pure gain: (almost) no offset
 
 
+@pytest.mark.parametrize("block_size", [1024, 32])
+def test_an_extent_writes_the_same_pixels_as_the_whole_mosaic_there(tmp_path, block_size):
+    """Tone, feathering and values of the clipped mosaic are the whole mosaic's, pixel for pixel, on its grid."""
+    inputs, _ = seam_tiles(tmp_path)
+    whole = mosaic.merge_tiles(inputs, str(tmp_path / "whole.tif"), block_size=block_size)
+    extent = (ORIGIN[0] + 101.0, ORIGIN[1] - 151.0, ORIGIN[0] + 433.0, ORIGIN[1] - 21.0)  # inside the overlap band
+    clipped = mosaic.merge_tiles(inputs, str(tmp_path / "clip.tif"), block_size=block_size, extent=extent)
+    a, _ = read(whole.output)
+    b, ds = read(clipped.output)
+    assert clipped.window == (50, 10, 167, 66) and (clipped.width, clipped.height) == (167, 66)
+    assert ds.GetGeoTransform() == pytest.approx((ORIGIN[0] + 100.0, 2.0, 0.0, ORIGIN[1] - 20.0, 0.0, -2.0))
+    np.testing.assert_array_equal(b, a[:, 10:76, 50:217])
+    assert clipped.gains == whole.gains and clipped.offsets == whole.offsets
+    assert clipped.blended_pixels == 60 * 66 and clipped.tile_windows[0] == (-50, -10, 200, 80)
+    with pytest.raises(InputError, match="do not meet the extent"):
+        mosaic.merge_tiles(inputs, str(tmp_path / "none.tif"), extent=(0.0, 0.0, 10.0, 10.0))
+    assert not (tmp_path / "none.tif").exists()
+
+
 def test_heights_are_offset_along_a_chain_never_scaled_and_an_isolated_tile_is_left_alone(tmp_path):
     """Three flat float32 DEM tiles in a row at 100, 110 and 121 m, and one far away: one least-squares
     solve over both overlaps levels the chain at its mean (110.33 m) with gains exactly 1; the lone

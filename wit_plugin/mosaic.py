@@ -70,13 +70,16 @@ class MergeReport:
     inputs: list[str]
     """The inputs that landed on the grid, in input order (one covering no pixel is skipped)."""
     tile_windows: list[tuple[int, int, int, int]]
-    """Each of ``inputs``' (xoff, yoff, width, height) in output pixels."""
+    """Each of ``inputs``' (xoff, yoff, width, height) in output pixels (may start before or end after
+    the output when ``extent`` clips it)."""
     gains: list[list[float]]
     """Each of ``inputs``' multiplicative gain per band (all 1.0 with gain off, and for heights)."""
     offsets: list[list[float]]
     """Each of ``inputs``' offset per band, added after the gain (all 0.0 with gain off)."""
     resampled: list[str] = field(default_factory=list)
     """Inputs warped onto the output grid because their CRS or pixel size differed."""
+    window: tuple[int, int, int, int] = (0, 0, 0, 0)
+    """The written pixels (xoff, yoff, width, height) in the whole mosaic's grid (all of it without ``extent``)."""
     covered_pixels: int = 0
     """Output pixels that got a value from at least one input."""
     blended_pixels: int = 0
@@ -132,6 +135,7 @@ def merge_tiles(
     feedback: Feedback = SILENT,
     block_size: int = 1024,
     max_empty: float = DEFAULT_MAX_EMPTY,
+    extent: tuple[float, float, float, float] | None = None,
 ) -> MergeReport:
     """Mosaic ``inputs`` into the GeoTIFF ``output``; see the module docstring for the rules.
 
@@ -139,8 +143,11 @@ def merge_tiles(
     ``overwrite``. ``nodata`` overrides the
     inputs' declared NoData. A mosaic more than half empty (tiles far apart) is a warning; one whose
     empty share exceeds ``max_empty`` (0–1; 1 never refuses) is refused before anything is read or
-    written. Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel (no output is
-    left behind in either case).
+    written. ``extent`` (xmin, ymin, xmax, ymax in the inputs' CRS) writes only the pixels of the
+    mosaic's grid that meet it (a study area needs a few hundred metres of sheets that are
+    kilometres wide): tone, feathering and every written pixel are those of the whole mosaic.
+    Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel (no output is left behind
+    in either case).
     """
     if mode not in MODES:
         raise InputError(f"Unknown overlap mode {mode!r}: use one of {', '.join(MODES)}.")
@@ -173,6 +180,10 @@ def merge_tiles(
                 tiles.append(tile)
         np_dtype = np.dtype(gdal_array.GDALTypeCodeToNumericTypeCode(dtype))
         out_nodata = _output_nodata(sources, nodata, np_dtype)
+        window = _clip_window(gt, width, height, extent) if extent is not None else (0, 0, width, height)
+        if window[2:] != (width, height):
+            feedback.info(f"Writing the {window[2]} × {window[3]} px window of the {width} × {height} px mosaic "
+                          f"that meets the extent {tuple(round(v, 1) for v in extent)}.")
         feedback.info(f"Output grid {width} × {height} px, {bands} band(s) {gdal.GetDataTypeName(dtype)}, "
                       f"pixel size {gt[1]:g} × {-gt[5]:g}, mode {mode}, gain {'on' if use_gain else 'off'}.")
         _check_coverage(tiles, width, height, bands, np_dtype, max_empty, feedback)
@@ -184,10 +195,13 @@ def merge_tiles(
                               + "; offset " + ", ".join(f"{v:+.2f}" for v in o))
         else:
             gains, offsets = np.ones((len(tiles), bands)), np.zeros((len(tiles), bands))
+        x0, y0, width, height = window
         report = MergeReport(
-            output=str(output), mode=mode, gain=use_gain, geotransform=tuple(gt), width=width,
+            output=str(output), mode=mode, gain=use_gain,
+            geotransform=(gt[0] + x0 * gt[1], gt[1], 0.0, gt[3] + y0 * gt[5], 0.0, gt[5]), width=width,
             height=height, bands=bands, data_type=gdal.GetDataTypeName(dtype), crs_wkt=crs,
-            nodata=out_nodata, inputs=[t.path for t in tiles], tile_windows=[t.window for t in tiles],
+            nodata=out_nodata, inputs=[t.path for t in tiles],
+            tile_windows=[(t.x0 - x0, t.y0 - y0, t.w, t.h) for t in tiles], window=window,
             gains=gains.tolist(), offsets=offsets.tolist(),
             resampled=[p for p, why in zip(inputs, warp_reasons) if why])
         with atomic_file(output) as tmp:
@@ -289,6 +303,20 @@ def _grid(first: gdal.Dataset, bounds: list[tuple[float, float, float, float]]) 
     ref = first.GetGeoTransform()
     gt = [ulx, ref[1], 0.0, uly, 0.0, ref[5]]
     return gt, int((lrx - ulx) / gt[1] + 0.5), int((lry - uly) / gt[5] + 0.5)
+
+
+def _clip_window(gt: list[float], width: int, height: int,
+                 extent: tuple[float, float, float, float]) -> tuple[int, int, int, int]:
+    """The pixels (x0, y0, w, h) of the grid that meet ``extent`` (xmin, ymin, xmax, ymax)."""
+    xmin, ymin, xmax, ymax = extent
+    x0 = max(0, math.floor((xmin - gt[0]) / gt[1]))
+    x1 = min(width, math.ceil((xmax - gt[0]) / gt[1]))
+    y0 = max(0, math.floor((ymax - gt[3]) / gt[5]))
+    y1 = min(height, math.ceil((ymin - gt[3]) / gt[5]))
+    if x1 <= x0 or y1 <= y0:
+        raise InputError(f"The tiles (x {gt[0]:.1f}–{gt[0] + width * gt[1]:.1f}, y {gt[3] + height * gt[5]:.1f}–"
+                         f"{gt[3]:.1f}) do not meet the extent x {xmin:.1f}–{xmax:.1f}, y {ymin:.1f}–{ymax:.1f}.")
+    return x0, y0, x1 - x0, y1 - y0
 
 
 def _direct_tile(path: str, ds: gdal.Dataset, gt: list[float], width: int, height: int, bands: int,
@@ -523,16 +551,17 @@ def _write(path: os.PathLike, first: gdal.Dataset, index: _BlockIndex, report: M
 
 def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, report: MergeReport, np_dtype: np.dtype,
                   feedback: Feedback) -> None:
-    """Compute and write the mosaic one ``block_size`` window at a time."""
+    """Compute and write the mosaic's ``report.window`` (whole-mosaic pixels) one block at a time."""
     fill = report.nodata if report.nodata is not None else 0
     appliers = [_Tone(np.array(g), np.array(o), np_dtype) if any(v != 1.0 for v in g) or any(o) else None
                 for g, o in zip(report.gains, report.offsets)]
     block_size = index.block_size
     gdal_type = gdal_array.NumericTypeCodeToGDALTypeCode(np_dtype)
-    for by in range(0, report.height, block_size):
-        for bx in range(0, report.width, block_size):
+    x0, y0, width, height = report.window
+    for by in range(y0 - y0 % block_size, y0 + height, block_size):
+        for bx in range(x0 - x0 % block_size, x0 + width, block_size):
             feedback.check_canceled()
-            block = (bx, by, min(block_size, report.width - bx), min(block_size, report.height - by))
+            block = _intersect((bx, by, block_size, block_size), report.window)
             out = np.full((report.bands, block[3], block[2]), fill, np_dtype)
             covered = np.zeros((block[3], block[2]), bool)
             pieces = []
@@ -542,7 +571,8 @@ def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, report: MergeReport, np_
                 if win is None:
                     continue
                 data, valid = _read(tile, win, report.bands, np_dtype)
-                here = (slice(win[1] - by, win[1] - by + win[3]), slice(win[0] - bx, win[0] - bx + win[2]))
+                here = (slice(win[1] - block[1], win[1] - block[1] + win[3]),
+                        slice(win[0] - block[0], win[0] - block[0] + win[2]))
                 if appliers[k]:
                     data = appliers[k](data)
                 if valid is None:
@@ -555,8 +585,8 @@ def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, report: MergeReport, np_
             if report.mode == "feather" and len(pieces) > 1:
                 report.blended_pixels += _blend(out, block, pieces)
             report.covered_pixels += int(np.count_nonzero(covered))
-            ds.WriteRaster(bx, by, block[2], block[3], out, buf_type=gdal_type)
-        feedback.progress(100.0 * min(by + block_size, report.height) / report.height)
+            ds.WriteRaster(block[0] - x0, block[1] - y0, block[2], block[3], out, buf_type=gdal_type)
+        feedback.progress(100.0 * min(by + block_size - y0, height) / height)
 
 
 def _blend(out: np.ndarray, block: tuple[int, int, int, int], pieces: list) -> int:

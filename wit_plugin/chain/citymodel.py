@@ -54,6 +54,7 @@ OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
 DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
 TILESET_DIR = "3dtiles"
 TILES3D_MODULES = ("numpy", "shapely", "pyproj", "pygltflib", "osgeo")
+MOSAIC_MARGIN = 10.0  # m of orthoimage kept around the area's box
 
 #: (label, share of the progress bar) of each step, in order (3dtiles runs beside validate and metrics)
 STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("terrain", 10), ("extrude", 4),
@@ -232,7 +233,9 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("merge") as fb:
         mosaic = str(work / "ortho.tif")
-        merge_tiles(rasters, mosaic, mode="feather", gain=True, feedback=fb)
+        xmin, ymin, xmax, ymax = area.bounds  # the sheets' pixels the area needs (tone and seams: all of them)
+        merge_tiles(rasters, mosaic, mode="feather", gain=True, feedback=fb,
+                    extent=(xmin - MOSAIC_MARGIN, ymin - MOSAIC_MARGIN, xmax + MOSAIC_MARGIN, ymax + MOSAIC_MARGIN))
 
     with clock.step("terrain") as fb:
         tin = str(work / "tin.gpkg")
