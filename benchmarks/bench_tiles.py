@@ -76,6 +76,7 @@ def main() -> int:
     if args.district:  # a square of 6.32 km a side: Gangnam-gu's 40 km², at the generator's building density
         inputs = sample("district", SampleConfig(radius_m=3162.0, seed=7, ortho_pixel_size=1.0))
         workers = max(args.workers)
+        shutil.rmtree(OUT / "district-run", ignore_errors=True)  # a fresh run, not a resumed one
         start = time.perf_counter()
         report = run_tiles(inputs, options, OUT / "district-run", None, scale=1000, workers=workers)
         seconds = time.perf_counter() - start
