@@ -411,6 +411,8 @@ def _check_run_tileset(path: Path, local) -> None:
         f"tiles/{r['sheet']}/3dtiles/tileset.json" for r in _modelled(local))
     assert document["geometricError"] > root["geometricError"] >= max(c["geometricError"] for c in root["children"])
     w, s, e, n, low, high = root["boundingVolume"]["region"]
+    diagonal = np.hypot((e - w) * 6_371_000 * np.cos((s + n) / 2), (n - s) * 6_371_000)
+    assert root["geometricError"] >= diagonal * (1 - 1e-9) and diagonal > 500  # opened from any distance the run is seen from
     for child in root["children"]:
         tile = json.loads((path.parent / child["content"]["uri"]).read_text(encoding="utf-8"))
         assert child["boundingVolume"]["region"] == tile["root"]["boundingVolume"]["region"]

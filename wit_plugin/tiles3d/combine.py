@@ -10,6 +10,7 @@ by the tiles' transforms, so they are taken from the tiles' roots as written.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -20,6 +21,14 @@ from .tileset import TILESET_FILE
 
 #: where each tile's tileset lies in its tile folder (the chain's ``3dtiles`` output)
 TILE_TILESET = f"3dtiles/{TILESET_FILE}"
+EARTH_RADIUS = 6_371_000.0  # m
+
+
+def region_diagonal(region: list[float]) -> float:
+    """The ground diagonal of a 3D Tiles region (radians) in metres, on a sphere of the Earth's mean radius."""
+    west, south, east, north = region[:4]
+    width = (east - west) * EARTH_RADIUS * math.cos((south + north) / 2)
+    return math.hypot(width, (north - south) * EARTH_RADIUS)
 
 
 def write_run_tileset(output: str | Path, tile_folders: Iterable[str]) -> tuple[str, int]:
@@ -38,7 +47,9 @@ def write_run_tileset(output: str | Path, tile_folders: Iterable[str]) -> tuple[
     if not children:
         raise InputError(f"No tile of {out} has a 3D Tiles tileset to combine.")
     region = union_region([c["boundingVolume"]["region"] for c in children])
-    error = max(c["geometricError"] for c in children)
+    # the root has no content of its own: its error must make a viewer open it at any distance the
+    # run is seen from (its diagonal), or the whole run would vanish when seen from afar
+    error = max(max(c["geometricError"] for c in children), region_diagonal(region))
     root = {"boundingVolume": {"region": region}, "geometricError": error, "refine": "ADD", "children": children}
     document = {"asset": {"version": "1.1", "generator": "WIT City Model (wit:citymodeltiles)"},
                 "geometricError": 2.0 * error, "root": root}
