@@ -548,8 +548,8 @@
       <translation>타일 병합 (WIT 경계 보간)</translation>
     </message>
     <message>
-      <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused beyond the maximum empty share (advanced).</source>
-      <translation>좌표가 부여된 타일들을 블록 단위로 처리해(모자이크 크기와 무관한 메모리) 내부 피라미드가 있는 하나의 타일·압축 GeoTIFF로 병합합니다. 출력 격자는 gdal_merge.py와 같습니다(전체 범위, 첫 입력의 픽셀 크기). 겹침 '덮어쓰기'는 나중 타일이 앞 타일을 덮어씁니다(논문의 방법). '페더링'(WIT)은 겹침 픽셀을 각 타일 가장자리까지의 거리로 가중 평균합니다. 톤 보정(GAIN)은 겹침 영역으로부터 타일들의 톤을 맞춥니다. 타일의 모든 픽셀은 밴드별로 게인 × 값 + 오프셋이 되며, 모든 겹침을 한꺼번에 풀어 구합니다. 높이 자료(부동소수점 또는 부호 있는 정수의 단일 밴드, 즉 DEM)는 게인 없이 오프셋만 보정합니다. NoData 픽셀은 섞지 않습니다. 좌표계나 픽셀 크기가 다른 입력은 경고와 함께 첫 입력의 격자로 재배열합니다. 대부분이 빈 모자이크(서로 멀리 떨어진 타일)는 최대 빈 영역 비율(고급)을 넘으면 거부합니다.</translation>
+      <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused beyond the maximum empty share (advanced). With an extent, only the mosaic's pixels that meet it are written, with the tone and feathering of the whole mosaic.</source>
+      <translation>좌표가 부여된 타일들을 블록 단위로 처리해(모자이크 크기와 무관한 메모리) 내부 피라미드가 있는 하나의 타일·압축 GeoTIFF로 병합합니다. 출력 격자는 gdal_merge.py와 같습니다(전체 범위, 첫 입력의 픽셀 크기). 겹침 '덮어쓰기'는 나중 타일이 앞 타일을 덮어씁니다(논문의 방법). '페더링'(WIT)은 겹침 픽셀을 각 타일 가장자리까지의 거리로 가중 평균합니다. 톤 보정(GAIN)은 겹침 영역으로부터 타일들의 톤을 맞춥니다. 타일의 모든 픽셀은 밴드별로 게인 × 값 + 오프셋이 되며, 모든 겹침을 한꺼번에 풀어 구합니다. 높이 자료(부동소수점 또는 부호 있는 정수의 단일 밴드, 즉 DEM)는 게인 없이 오프셋만 보정합니다. NoData 픽셀은 섞지 않습니다. 좌표계나 픽셀 크기가 다른 입력은 경고와 함께 첫 입력의 격자로 재배열합니다. 대부분이 빈 모자이크(서로 멀리 떨어진 타일)는 최대 빈 영역 비율(고급)을 넘으면 거부합니다. 범위를 주면 모자이크 중 그 범위에 닿는 화소만 쓰며, 톤 보정과 페더링은 모자이크 전체의 것을 그대로 씁니다.</translation>
     </message>
     <message>
       <source>Maximum empty share of the mosaic (%)</source>
@@ -570,6 +570,10 @@
     <message>
       <source>NoData value of the inputs (empty = as declared)</source>
       <translation>입력의 NoData 값 (비우면 파일에 선언된 값)</translation>
+    </message>
+    <message>
+      <source>Write only this extent of the mosaic (empty = all of it)</source>
+      <translation>모자이크 중 이 범위만 쓰기(비우면 전체)</translation>
     </message>
     <message>
       <source>Mosaic</source>

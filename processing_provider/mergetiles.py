@@ -5,6 +5,7 @@ from qgis.core import (
     QgsProcessingParameterBoolean,
     QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
+    QgsProcessingParameterExtent,
     QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterNumber,
     QgsProcessingParameterRasterDestination,
@@ -31,7 +32,8 @@ class MergeTiles(WitAlgorithm):
         "of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are "
         "never blended. Inputs with another CRS or pixel size are resampled onto the first input's "
         "grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused "
-        "beyond the maximum empty share (advanced)."
+        "beyond the maximum empty share (advanced). With an extent, only the mosaic's pixels that meet it "
+        "are written, with the tone and feathering of the whole mosaic."
     )
 
     INPUT = "INPUT"
@@ -39,6 +41,7 @@ class MergeTiles(WitAlgorithm):
     GAIN = "GAIN"
     NODATA = "NODATA"
     MAX_EMPTY = "MAX_EMPTY"
+    EXTENT = "EXTENT"
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
@@ -57,6 +60,8 @@ class MergeTiles(WitAlgorithm):
             defaultValue=100 * DEFAULT_MAX_EMPTY, minValue=0.0, maxValue=100.0, optional=True)  # old models stay valid
         max_empty.setFlags(max_empty.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
         self.addParameter(max_empty)
+        self.addParameter(QgsProcessingParameterExtent(
+            self.EXTENT, self.tr("Write only this extent of the mosaic (empty = all of it)"), optional=True))
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, self.tr("Mosaic")))
         self.addOutput(QgsProcessingOutputNumber("BLENDED_PIXELS", self.tr("Blended pixels")))
 
@@ -75,5 +80,13 @@ class MergeTiles(WitAlgorithm):
             nodata=None if nodata in (None, "") else self.parameterAsDouble(parameters, self.NODATA, context),
             feedback=feedback,
             max_empty=self.parameterAsDouble(parameters, self.MAX_EMPTY, context) / 100.0,
+            extent=self._extent(parameters, context, layers),
         )
         return {self.OUTPUT: output, "BLENDED_PIXELS": report.blended_pixels}
+
+    def _extent(self, parameters, context, layers):
+        """The EXTENT parameter in the first input's CRS (the mosaic's), or None."""
+        if not parameters.get(self.EXTENT) or not layers:
+            return None
+        box = self.parameterAsExtent(parameters, self.EXTENT, context, layers[0].crs())
+        return box.xMinimum(), box.yMinimum(), box.xMaximum(), box.yMaximum()

@@ -2,6 +2,7 @@
 raster-reading algorithm writes beside its inputs."""
 from __future__ import annotations
 
+import math
 import shutil
 from pathlib import Path
 
@@ -54,6 +55,21 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
     assert mosaic.RasterCount == 3
     assert mosaic.GetGeoTransform()[0] == pytest.approx(x0 - (x0 - gdal.Open(str(tmp_path / "geo" / "37709004.tif")).GetGeoTransform()[0]))
     assert merged["BLENDED_PIXELS"] > 0
+
+    box = (x0 + 1000.0, y0 - 2000.0, x0 + 1600.0, y0 - 1000.0)  # in 37709005's part of the mosaic
+    clipped = run_algorithm("wit:mergetiles", {
+        "INPUT": result["OUTPUT_LAYERS"], "OVERLAP": 1, "GAIN": False,
+        "EXTENT": f"{box[0]},{box[2]},{box[1]},{box[3]} [EPSG:5186]", "OUTPUT": str(tmp_path / "clipped.tif")})
+    part = gdal.Open(clipped["OUTPUT"])
+    cx0, cdx, _, cy0, _, cdy = part.GetGeoTransform()
+    assert cx0 <= box[0] < cx0 + cdx and cy0 + cdy < box[3] <= cy0  # the extent, on the mosaic's grid
+    mx0, _, _, my0, _, _ = mosaic.GetGeoTransform()
+    assert (part.RasterXSize, part.RasterYSize) == (
+        math.ceil((box[2] - mx0) / cdx) - math.floor((box[0] - mx0) / cdx),
+        math.ceil((box[1] - my0) / cdy) - math.floor((box[3] - my0) / cdy))
+    col, row = round((cx0 - mosaic.GetGeoTransform()[0]) / cdx), round((cy0 - mosaic.GetGeoTransform()[3]) / cdy)
+    np.testing.assert_array_equal(part.ReadAsArray(), mosaic.ReadAsArray(col, row, part.RasterXSize,
+                                                                          part.RasterYSize))
 
 
 def test_georeference_rejects_unwritable_output_with_a_message(tmp_path, run_algorithm):
