@@ -245,6 +245,23 @@ def test_a_second_run_resumes(local_run, sample):
     assert {p: p.stat().st_mtime_ns for p in out.glob("tiles/*/model.gml")} == stamps
 
 
+def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_are_asked_for(local_run, sample,
+                                                                                           tmp_path):
+    import json
+    import shutil
+
+    out = tmp_path / "out"
+    shutil.copytree(local_run[0], out)
+    options = _options()
+    options.tiles3d = True
+    report = run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=2)
+    assert report.resumed == 0 and report.buildings == local_run[1].buildings
+    children = json.loads(Path(report.tileset).read_text(encoding="utf-8"))["root"]["children"]
+    assert len(children) == len(_modelled(report)) and all((out / c["content"]["uri"]).is_file() for c in children)
+    again = run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=1)  # now they are all there
+    assert again.resumed == len(report.rows) and again.tileset == report.tileset
+
+
 def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
     """A DEM that stops in the middle: the tiles beyond it fail with the reason, the others are built."""
     from osgeo import gdal

@@ -37,7 +37,7 @@ from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import CORE_ROOT, core_env, core_python
-from ..tiles3d.combine import write_run_tileset
+from ..tiles3d.combine import TILE_TILESET, write_run_tileset
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
@@ -113,11 +113,13 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
     }
 
 
-def _finished(output: Path, row: dict | None) -> bool:
-    """A tile a previous run finished: done or empty (ground only), with its model on disk."""
-    if not row:
+def _finished(output: Path, row: dict | None, tiles3d: bool = False) -> bool:
+    """A tile a previous run finished: done or empty (ground only), with its model on disk (and its
+    3D Tiles when they are asked for: a tile an earlier run made without them is built again)."""
+    if not row or row.get("status") not in (DONE, EMPTY) or not row.get("gml"):
         return False
-    return row.get("status") in (DONE, EMPTY) and bool(row.get("gml")) and (output / row["gml"]).is_file()
+    gml = output / row["gml"]
+    return gml.is_file() and (not tiles3d or (gml.parent / TILE_TILESET).is_file())
 
 
 def _task():
@@ -210,7 +212,7 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
     previous = read_index(output)
     write_index(output, tiles, options.target_crs, previous)
-    todo = [t for t in tiles if not _finished(output, previous.get(t.sheet))]
+    todo = [t for t in tiles if not _finished(output, previous.get(t.sheet), options.tiles3d)]
     report = TilesReport(str(output), str(output / INDEX_FILE), resumed=len(tiles) - len(todo))
     feedback.info(f"{len(tiles)} tile(s) of 1:{scale:,} over {polygon.area / 1e6:.2f} km²; "
                   f"{report.resumed} already done, {len(todo)} to build.")
@@ -243,8 +245,7 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         modelled = [Path(r["gml"]).parent.as_posix() for r in report.rows if r["status"] in (DONE, EMPTY)]
         report.tileset, combined = write_run_tileset(output, modelled)
         if combined < len(modelled):
-            feedback.warning(f"{len(modelled) - combined} tile(s) done by an earlier run without 3D Tiles are not "
-                             f"in {report.tileset}: run them again (remove their folder) to add them.")
+            feedback.warning(f"{len(modelled) - combined} tile(s) have no 3D Tiles and are not in {report.tileset}.")
     feedback.info(f"Tiles: {report.count(DONE)} done, {len(failed)} failed, {report.count(EMPTY)} empty, "
                   f"{report.buildings} buildings, {report.seconds:.1f} s."
                   + (f" 3D Tiles: {report.tileset}" if report.tileset else ""))
