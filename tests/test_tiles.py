@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pygltflib
 import pyproj
 import pytest
 import shapely
@@ -256,7 +257,7 @@ def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_ar
     options.tiles3d = True
     report = run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=2)
     assert report.resumed == 0 and report.buildings == local_run[1].buildings
-    children = json.loads(Path(report.tileset).read_text(encoding="utf-8"))["root"]["children"]
+    children = _tile_refs(json.loads(Path(report.tileset).read_text(encoding="utf-8"))["root"])
     assert len(children) == len(_modelled(report)) and all((out / c["content"]["uri"]).is_file() for c in children)
     again = run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=1)  # now they are all there
     assert again.resumed == len(report.rows) and again.tileset == report.tileset
@@ -417,46 +418,48 @@ def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_pat
     _check_in_the_viewer(tmp_path / "out", tmp_path)
 
 
+def _tile_refs(node: dict) -> list[dict]:
+    """The nodes below ``node`` that refer to a tile's tileset."""
+    here = [node] if node.get("content", {}).get("uri", "").endswith("tileset.json") else []
+    return here + [ref for child in node.get("children", []) for ref in _tile_refs(child)]
+
+
 def _check_run_tileset(path: Path, local) -> None:
-    """One tileset over the tiles: a child per modelled tile, its tileset on disk, regions nested."""
+    """One tileset over the tiles: the tiles below their group (1:5,000 sheet) with its coarse terrain,
+    every tile's tileset on disk, regions nested, errors falling, transforms cancelling out."""
     import json
 
     document = json.loads(path.read_text(encoding="utf-8"))
     assert document["asset"]["version"] == "1.1" and path == path.parent / "tileset.json"
     root = document["root"]
-    assert sorted(c["content"]["uri"] for c in root["children"]) == sorted(
+    refs = _tile_refs(root)
+    assert sorted(c["content"]["uri"] for c in refs) == sorted(
         f"tiles/{r['sheet']}/3dtiles/tileset.json" for r in _modelled(local))
-    assert document["geometricError"] > root["geometricError"] >= max(c["geometricError"] for c in root["children"])
+    assert document["geometricError"] > root["geometricError"]
     w, s, e, n, low, high = root["boundingVolume"]["region"]
     diagonal = np.hypot((e - w) * 6_371_000 * np.cos((s + n) / 2), (n - s) * 6_371_000)
-    assert root["geometricError"] >= diagonal * (1 - 1e-9) and diagonal > 500  # opened from any distance the run is seen from
-    for child in root["children"]:
-        tile = json.loads((path.parent / child["content"]["uri"]).read_text(encoding="utf-8"))
-        assert child["boundingVolume"]["region"] == tile["root"]["boundingVolume"]["region"]
-        cw, cs, ce, cn, clow, chigh = child["boundingVolume"]["region"]
-        assert w <= cw < ce <= e and s <= cs < cn <= n and low <= clow < chigh <= high
-        assert list((path.parent / child["content"]["uri"]).parent.glob("tiles/*/*.glb"))
-
-
-def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
-    """pyproject.toml: `pip install .` gives a worker the core as `wit_plugin`, schemas included."""
-    import shutil
-
-    source = tmp_path / "checkout"  # a copy, so that the build leaves nothing in this checkout
-    source.mkdir()
-    for name in ("pyproject.toml", "README.md"):
-        shutil.copy(ROOT / name, source / name)
-    shutil.copytree(ROOT / "wit_plugin", source / "wit_plugin", ignore=shutil.ignore_patterns("__pycache__"))
-    target = tmp_path / "site"
-    build = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
-                            "--target", str(target), str(source)], capture_output=True, text=True, cwd=tmp_path)
-    assert build.returncode == 0, build.stderr[-2000:]
-    probe = subprocess.run([sys.executable, "-c", "import wit_plugin.tiles.worker as w, wit_plugin.citygml.schemas as s; "
-                            "print(w.__file__); print((s.EMBEDDED_DIR / 'citygml3-all.xsd').is_file())"],
-                           capture_output=True, text=True, cwd=tmp_path,
-                           env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
-    assert probe.returncode == 0, probe.stderr[-2000:]
-    assert probe.stdout.split() == [str(target / "wit_plugin" / "tiles" / "worker.py"), "True"]
+    assert root["geometricError"] >= diagonal * (1 - 1e-9) and diagonal > 500  # opened from any distance
+    groups = root["children"]
+    assert groups and all(g["content"]["uri"].startswith("3dtiles-groups/") for g in groups)
+    for group in groups:
+        assert group["refine"] == "REPLACE" and root["geometricError"] > group["geometricError"]
+        frame = np.array(group["transform"]).reshape(4, 4).T
+        glb = pygltflib.GLTF2().load(str(path.parent / group["content"]["uri"]))
+        assert glb.meshes and glb.images  # the coarse terrain, draped
+        gw, gs, ge, gn, glow, ghigh = group["boundingVolume"]["region"]
+        assert w <= gw < ge <= e and s <= gs < gn <= n and low <= glow < ghigh <= high
+        for child in group["children"]:
+            assert group["geometricError"] >= 2 * child["geometricError"]
+            np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-9)
+            tile = json.loads((path.parent / child["content"]["uri"]).read_text(encoding="utf-8"))
+            assert child["boundingVolume"]["region"] == tile["root"]["boundingVolume"]["region"]
+            cw, cs, ce, cn, clow, chigh = child["boundingVolume"]["region"]
+            assert gw <= cw < ce <= ge and gs <= cs < cn <= gn and glow <= clow < chigh <= ghigh
+            assert list((path.parent / child["content"]["uri"]).parent.glob("tiles/*/*.glb"))
+    result = subprocess.run(["node", str(ROOT / "viewer" / "validate-gltf.mjs"), str(path.parent / "3dtiles-groups")],
+                            capture_output=True, text=True, timeout=300)
+    summary = json.loads(result.stdout)
+    assert summary["files"] == len(groups) and summary["errors"] == 0, summary
 
 
 def _check_in_the_viewer(output: Path, tmp_path: Path) -> None:

@@ -86,3 +86,8 @@ def gltf_to_model(georef: Georeference, frame: np.ndarray, positions: np.ndarray
     """glTF positions of a tile with world matrix ``frame`` → model coordinates (the inverse of ``local``)."""
     enu = positions @ ENU_TO_GLTF
     return georef.model_from_ecef(enu @ frame[:3, :3].T + frame[:3, 3])
+
+
+def column_major(matrix: np.ndarray) -> list[float]:
+    """A 4 × 4 matrix as 3D Tiles writes a ``transform``: 16 numbers, column after column."""
+    return [float(v) for v in np.asarray(matrix).T.ravel()]

@@ -45,7 +45,7 @@ from ..fileio import atomic_files, refuse_overlap
 from ..meshes import fan_triangles, planar_triangles
 from ..vector_io import open_step_layer
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
-from .geo import Georeference, union_region
+from .geo import Georeference, column_major, union_region
 from .glb import GlbBuilder
 from .metadata import BUILDING_CLASS, building_schema, property_columns
 from .store import FACE_KINDS, Grid, Store
@@ -149,7 +149,7 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
             root = writer.tile(0, 0, 0)
             if root is None:
                 raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
-            root.json["transform"] = _column_major(root.frame)
+            root.json["transform"] = column_major(root.frame)
             report.geometric_error = root.error
             side = grid.size * (1 << grid.depth)
             document = {"asset": {"version": "1.1", "generator": "WIT City Model (wit:export3dtiles)"},
@@ -206,10 +206,6 @@ def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, flo
         raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
     a = np.array(boxes)
     return float(a[:, 0].min()), float(a[:, 1].min()), float(a[:, 2].max()), float(a[:, 3].max())
-
-
-def _column_major(matrix: np.ndarray) -> list[float]:
-    return [float(v) for v in matrix.T.ravel()]
 
 
 def _face_up(xyz: np.ndarray, *others: np.ndarray) -> None:
@@ -368,7 +364,7 @@ class _Writer:
             inverse = np.linalg.inv(frame)
             tile["children"] = []
             for child in children:
-                child.json["transform"] = _column_major(inverse @ child.frame)
+                child.json["transform"] = column_major(inverse @ child.frame)
                 tile["children"].append(child.json)
         tile["boundingVolume"]["region"] = union_region(regions)
         return _Tile(tile, frame, tile["boundingVolume"]["region"], error, patch)
