@@ -462,6 +462,27 @@ def _check_run_tileset(path: Path, local) -> None:
     assert summary["files"] == len(groups) and summary["errors"] == 0, summary
 
 
+def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
+    """pyproject.toml: `pip install .` gives a worker the core as `wit_plugin`, schemas included."""
+    import shutil
+
+    source = tmp_path / "checkout"  # a copy, so that the build leaves nothing in this checkout
+    source.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, source / name)
+    shutil.copytree(ROOT / "wit_plugin", source / "wit_plugin", ignore=shutil.ignore_patterns("__pycache__"))
+    target = tmp_path / "site"
+    build = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
+                            "--target", str(target), str(source)], capture_output=True, text=True, cwd=tmp_path)
+    assert build.returncode == 0, build.stderr[-2000:]
+    probe = subprocess.run([sys.executable, "-c", "import wit_plugin.tiles.worker as w, wit_plugin.citygml.schemas as s; "
+                            "print(w.__file__); print((s.EMBEDDED_DIR / 'citygml3-all.xsd').is_file())"],
+                           capture_output=True, text=True, cwd=tmp_path,
+                           env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
+    assert probe.returncode == 0, probe.stderr[-2000:]
+    assert probe.stdout.split() == [str(target / "wit_plugin" / "tiles" / "worker.py"), "True"]
+
+
 def _check_in_the_viewer(output: Path, tmp_path: Path) -> None:
     """The run's tileset in the offline viewer, in headless Chromium: loaded, no error, the model drawn."""
     _, picture = view_in_chromium(output, tmp_path)
