@@ -1,6 +1,5 @@
 """wit:export3dtiles — the city model as a 3D Tiles 1.1 tileset (CesiumJS, QGIS ≥ 3.34, any 3D Tiles viewer)."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
     QgsProcessingParameterCrs,
@@ -8,11 +7,11 @@ from qgis.core import (
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
     QgsProcessingParameterNumber,
-    QgsProcessingParameterVectorLayer,
 )
 
 from .base import WitAlgorithm, crs_string, layer_file
 from .load_results import load_results
+from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 
 class Export3DTiles(WitAlgorithm):
@@ -33,20 +32,14 @@ class Export3DTiles(WitAlgorithm):
     )
     requirements = ("shapely", "pyproj", "pygltflib")
 
-    LOD1 = "LOD1"
-    TIN = "TIN"
+    LOD1, TIN = LOD1, TIN
     TEXTURES = "TEXTURES"
     TARGET_CRS = "TARGET_CRS"
     LEAF_SIZE = "LEAF_SIZE"
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.LOD1, self.tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon],
-            optional=True))
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.TIN, self.tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon],
-            optional=True))
+        add_model_layer_parameters(self)
         self.addParameter(QgsProcessingParameterFile(
             self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
             behavior=QgsProcessingParameterFile.Folder, optional=True))

@@ -1,5 +1,5 @@
-"""Parameters several algorithms share (study area, building heights): declared and read in one place,
-so wit:preparevectors, wit:extrudebuildings, wit:citymodel and wit:citymodeltiles take them alike."""
+"""Parameters several algorithms share (study area, building heights, the chain's step outputs): declared
+and read in one place, so the algorithms that take them take them alike."""
 from __future__ import annotations
 
 from qgis.core import (
@@ -23,6 +23,7 @@ CENTER, RADIUS, AREA_LAYER = "CENTER", "RADIUS", "AREA_LAYER"
 DISTRICT_CODE, DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD = "DISTRICT_CODE", "DISTRICT_CODE_FIELD", "DISTRICT_NAME_FIELD"
 STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
     "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
+LOD1, TIN = "LOD1", "TIN"
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
@@ -110,3 +111,11 @@ def schema_choice(algorithm, parameters: dict, name: str, context) -> tuple[str 
     configured = (algorithm.parameterAsFile(parameters, name, context)
                   or QgsSettings().value(SCHEMA_SETTING, "", type=str))
     return configured or None, str(Path(QgsApplication.qgisSettingsDirPath()) / "cache" / "wit_citymodel")
+
+
+def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
+    """The chain's step outputs an algorithm reads: the LoD1 buildings and the terrain TIN (optional)."""
+    algorithm.addParameter(QgsProcessingParameterVectorLayer(
+        LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon], optional=lod1_optional))
+    algorithm.addParameter(QgsProcessingParameterVectorLayer(
+        TIN, tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon], optional=True))

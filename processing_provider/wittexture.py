@@ -1,6 +1,5 @@
 """wit:wittexture — texture roofs, terrain and roads from the merged orthoimage (WIT)."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
@@ -8,10 +7,10 @@ from qgis.core import (
     QgsProcessingParameterFolderDestination,
     QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
-    QgsProcessingParameterVectorLayer,
 )
 
 from .base import WitAlgorithm, layer_file
+from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 IMAGE_FORMATS = ("JPEG", "PNG")
 
@@ -34,8 +33,7 @@ class WitTexture(WitAlgorithm):
     requirements = ("shapely",)
 
     ORTHO = "ORTHO"
-    LOD1 = "LOD1"
-    TIN = "TIN"
+    LOD1, TIN = LOD1, TIN
     SCALE = "SCALE"
     FORMAT = "FORMAT"
     JPEG_QUALITY = "JPEG_QUALITY"
@@ -46,12 +44,7 @@ class WitTexture(WitAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterRasterLayer(self.ORTHO, self.tr("Merged orthoimage")))
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.LOD1, self.tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon],
-            optional=True))
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.TIN, self.tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon],
-            optional=True))
+        add_model_layer_parameters(self)
         self.addParameter(QgsProcessingParameterNumber(
             self.SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), QgsProcessingParameterNumber.Double,
             defaultValue=1.0, minValue=0.01, maxValue=1.0))

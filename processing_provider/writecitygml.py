@@ -12,6 +12,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm, crs_string, layer_file
+from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 
 class WriteCityGML(WitAlgorithm):
@@ -30,8 +31,7 @@ class WriteCityGML(WitAlgorithm):
     )
     requirements = ("lxml", "shapely")
 
-    LOD1 = "LOD1"
-    TIN = "TIN"
+    LOD1, TIN = LOD1, TIN
     ROADS = "ROADS"
     DISTRICTS = "DISTRICTS"
     TEXTURES = "TEXTURES"
@@ -44,11 +44,7 @@ class WriteCityGML(WitAlgorithm):
         return super().flags() | QgsProcessingAlgorithm.FlagNoThreading
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.LOD1, self.tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon]))
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.TIN, self.tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon],
-            optional=True))
+        add_model_layer_parameters(self, lod1_optional=False)
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.ROADS, self.tr("Road polygons (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon],
             optional=True))

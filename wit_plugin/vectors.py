@@ -817,7 +817,8 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
         simplified, stats.arcs_kept = simplify_shared(geoms[context], tolerance, feedback=feedback)
         ours = inside[context]
         crossing = ~ours & shapely.intersects(area, simplified)
-        crossing[crossing] = config.owner.in_run(shapely.get_coordinates(points[context][crossing]))
+        if config.owner is not None:  # a neighbour no tile of the run owns is not in the model: ground here
+            crossing[crossing] = config.owner.in_run(shapely.get_coordinates(points[context][crossing]))
         foreign = layer.take(keep[context][crossing])
         foreign.geoms = simplified[crossing]
         others = _Prepared(model.FOREIGN_BUILDINGS, foreign, [ids[i] for i in keep[context][crossing]])

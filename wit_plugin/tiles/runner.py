@@ -247,8 +247,9 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         groups: dict[str, list[str]] = {}
         for sheet in modelled:
             groups.setdefault(group_of(sheet, scale, options.sheet_crs), []).append(sheet)
-        areas = {name: shapely.intersection(polygon, shapely.union_all(
-            [t.polygon for t in tiles if t.sheet in sheets])) for name, sheets in groups.items()}
+        tile_polygons = {t.sheet: t.polygon for t in tiles}
+        areas = {name: shapely.intersection(polygon, shapely.union_all([tile_polygons[s] for s in sheets]))
+                 for name, sheets in groups.items()}
         feedback.info(f"3D Tiles: the coarse terrain of {len(groups)} group(s) of tiles (1:{GROUP_SCALE[scale]:,} "
                       "sheets).")
         contents = write_group_contents(output, areas, inputs.dem, list_tifs(inputs.ortho), options.target_crs,

@@ -26,6 +26,7 @@ from shapely.geometry.base import BaseGeometry
 from ..dem import Dem
 from ..errors import WitError
 from ..feedback import SILENT, Feedback
+from ..gdal_env import open_raster
 from ..georef import OK, georeference_sheets
 from ..mapsheet import parse_sheet_number, sheet_at
 from .coarse import Patch, grid_triangles
@@ -111,11 +112,13 @@ def write_group_contents(output: Path, areas: dict[str, BaseGeometry], dem: str,
     try:
         sheets = georeference_sheets(ortho, staging / "ortho", target_crs, sheet_crs, margin, fmt="VRT")
         vrts = [r.output for r in sheets if r.status == OK]
+        extents = shapely.box(*np.array([_extent(v) for v in vrts]).T) if vrts else np.empty(0, dtype=object)
         folder = staging / GROUP_DIR
         contents = {}
         for name, area in areas.items():
             feedback.check_canceled()
-            contents[name] = group_content(name, area, georef, dem, vrts, folder) if vrts else None
+            near = [vrts[k] for k in np.flatnonzero(shapely.intersects(extents, area))]  # not all sheets each time
+            contents[name] = group_content(name, area, georef, dem, near, folder) if near else None
         target = output / GROUP_DIR
         if target.exists():
             shutil.rmtree(target)
@@ -124,3 +127,10 @@ def write_group_contents(output: Path, areas: dict[str, BaseGeometry], dem: str,
         return contents
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def _extent(path: str) -> tuple[float, float, float, float]:
+    """xmin, ymin, xmax, ymax of a north-up raster."""
+    ds = open_raster(path, "orthoimage sheet")
+    x0, dx, _, y0, _, dy = ds.GetGeoTransform()
+    return x0, y0 + dy * ds.RasterYSize, x0 + dx * ds.RasterXSize, y0
