@@ -131,6 +131,21 @@ def test_sparse_mosaic_is_refused_before_writing_unless_the_limit_is_raised(tmp_
     assert any("about 92% of it is empty" in w for w in feedback.warnings), feedback.warnings
 
 
+def test_an_extent_the_tiles_do_not_meet_is_refused_before_writing(tmp_path, wit_provider):
+    """EXTENT 10 km away from the tiles: one clear message naming both, no output, inputs untouched."""
+    import processing
+
+    tiles = [_tile(tmp_path / "a.tif", 200000.0, 550000.0), _tile(tmp_path / "b.tif", 200150.0, 550000.0)]
+    before = {t: Path(t).read_bytes() for t in tiles}
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(QgsProcessingException, match=r"do not meet the extent x 210000\.0–210500\.0") as error:
+        processing.run("wit:mergetiles", {"INPUT": tiles, "EXTENT": "210000,210500,560000,560500 [EPSG:5186]",
+                                          "OUTPUT": str(out / "m.tif")})
+    assert "Traceback" not in str(error.value)
+    assert list(out.iterdir()) == [] and {t: Path(t).read_bytes() for t in tiles} == before
+
+
 def _listing(folder):
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
 
