@@ -300,3 +300,16 @@ def test_gui_run_loads_the_results_as_a_group_with_3d_renderers(chain):
     assert extrusion.field() == model.HEIGHT
     terrain = project.mapLayersByName("Terrain (TIN)")[0]
     assert terrain.featureCount() == chain["triangles"] and terrain.renderer3D() is not None
+
+
+def test_a_leaf_without_triangles_gets_an_empty_patch():
+    """A leaf meeting no TIN triangle (found on real roads: a tile's sliver) samples NaN heights and the
+    neutral colour, instead of failing the export."""
+    from wit_plugin.tiles3d.coarse import NO_COLOUR, leaf_patch
+    from wit_plugin.tiles3d.store import TriangleRows
+
+    empty = TriangleRows(np.empty((0, 3, 3)), np.empty(0, dtype=object), np.empty(0, dtype=np.int64),
+                         np.empty((0, 3, 2)), np.empty(0, dtype=np.int64))
+    patch = leaf_patch(empty, (0.0, 0.0, 64.0, 64.0), 4, 8, None)
+    assert np.isnan(patch.heights).all() and patch.heights.shape == (5, 5)
+    assert patch.image.shape == (8, 8, 3) and (patch.image == NO_COLOUR).all()

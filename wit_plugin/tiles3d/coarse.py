@@ -89,7 +89,9 @@ def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: floa
              textures: TextureSet | None) -> np.ndarray:
     """Texel colours from the ground images at the mip level nearest ``step``; the mean elsewhere."""
     rgb = np.full((size * size, 3), NO_COLOUR, dtype=np.uint8)
-    image = np.where(tri >= 0, triangles.image[np.maximum(tri, 0)], -1)
+    image = np.full(len(tri), -1, dtype=np.int64)
+    hit = tri >= 0
+    image[hit] = triangles.image[tri[hit]]  # (a leaf may meet no triangle at all: only its buildings)
     if textures is None:
         return rgb.reshape(size, size, 3)
     for number in np.unique(image[image >= 0]).tolist():
