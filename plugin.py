@@ -1,6 +1,7 @@
 """QGIS plugin object: installs the translation and registers the Processing provider."""
 from pathlib import Path
 
+from osgeo import gdal
 from qgis.core import QgsApplication
 from qgis.PyQt.QtCore import QCoreApplication, QLocale, QSettings, QTranslator
 
@@ -31,6 +32,15 @@ def install_translator(locale: str) -> "QTranslator | None":
     return translator
 
 
+def batch_reads_write_nothing() -> None:
+    """In qgis_process, QGIS loads the input layers itself before any algorithm code runs, and computes
+    raster statistics then: with GDAL's PAM on they end up in an .aux.xml beside the input (the
+    algorithms' own reads turn PAM off, ``gdal_env.no_sidecars``, but cannot reach these). A batch run
+    keeps nothing in PAM that it needs, so PAM is off for the whole qgis_process process."""
+    if QgsApplication.platform() == "qgis_process":
+        gdal.SetConfigOption("GDAL_PAM_ENABLED", "NO")
+
+
 class WitCityModelPlugin:
     """Loaded by QGIS (classFactory); qgis_process calls initProcessing() only."""
 
@@ -40,6 +50,7 @@ class WitCityModelPlugin:
         self.translator = install_translator(user_locale())
 
     def initProcessing(self):  # noqa: N802 (QGIS API name)
+        batch_reads_write_nothing()
         if self.provider is None:
             self.provider = WitProvider()
             QgsApplication.processingRegistry().addProvider(self.provider)

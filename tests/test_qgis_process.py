@@ -62,6 +62,21 @@ def test_generate_sample_then_georeference_headless(tmp_path, profile):
     assert index.GetLayer().GetFeatureCount() == results["TILES_WRITTEN"]
 
 
+def test_raster_inputs_get_no_aux_xml_beside_them_headless(tmp_path, profile, shared_dir):
+    """qgis_process loads a raster parameter (and computes its statistics) before the algorithm runs:
+    the real Seoul DEM, merged headless, leaves its folder exactly as it was."""
+    import shutil
+
+    folder = tmp_path / "inputs"
+    folder.mkdir()
+    dem = folder / "seoul_dem.tif"
+    shutil.copy(shared_dir / "data" / "dem_seoul_90m_5186" / "seoul_dem.tif", dem)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    qgis_process("run", "wit:mergetiles", f"--INPUT={dem}", f"--OUTPUT={tmp_path / 'm.tif'}", profile=profile)
+    assert (tmp_path / "m.tif").is_file()
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # no seoul_dem.tif.aux.xml
+
+
 def test_bad_input_fails_with_a_message_and_exit_code(tmp_path, profile):
     env = dict(os.environ, WIT_QGIS_PROFILE=str(profile))
     result = subprocess.run([str(ROOT / "scripts" / "qgis-process"), "run", "wit:generatesample",
