@@ -279,6 +279,26 @@ def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
         r["sheet"]: r["status"] for r in report.rows}
 
 
+def test_an_unexpected_error_is_raised_for_dask_to_run_the_tile_again_and_leaves_nothing(sample, tmp_path,
+                                                                                         monkeypatch):
+    """Not a data problem (a bug, a transient fault): the task raises, so Dask's retry runs it again."""
+    from wit_plugin.tiles import runner, worker
+
+    polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
+    sheet = plan.plan_tiles(polygon, "EPSG:5186", 1000)[0].sheet
+    spec = runner._spec(_inputs(sample), _options(), tmp_path, sheet, 1000, polygon, (None, []))
+    folder = worker.tile_folder(tmp_path, sheet)
+
+    def fails_midway(*args, **kwargs):
+        (folder / ".wit-run-x").mkdir(parents=True)
+        raise TypeError("'NoneType' object is not subscriptable")
+
+    monkeypatch.setattr(worker, "run_city_model", fails_midway)
+    with pytest.raises(worker.UnexpectedTileError, match=r"^TypeError: 'NoneType' object is not subscriptable \("):
+        worker.run_tile(spec)
+    assert not folder.exists()
+
+
 class _CancelAfterFirstTile(Feedback):
     def __init__(self):
         self.finished = 0
@@ -359,7 +379,8 @@ def test_a_killed_worker_costs_only_its_tile(cluster, sample, local_run, tmp_pat
     killer.start()
     report = run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address)
     killer.join()
-    assert report.count("failed") == 0 and report.buildings == local_run[1].buildings
+    failed = [r for r in report.rows if r["status"] == "failed"]
+    assert not failed and report.buildings == local_run[1].buildings, failed
 
 
 def test_no_worker_is_started_with_qgis_as_interpreter(monkeypatch, tmp_path):

@@ -298,7 +298,7 @@ def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> di
                 sheet = futures[future]
                 try:
                     row = future.result()
-                except Exception as exc:  # noqa: BLE001 — e.g. a worker killed again and again
+                except Exception as exc:  # noqa: BLE001 — an unexpected error twice, a worker killed again and again
                     row = {"sheet": sheet, "status": FAILED, "error": f"{type(exc).__name__}: {exc}"}
                 update_row(output, sheet, row)
                 done[sheet] = row

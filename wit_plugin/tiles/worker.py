@@ -62,11 +62,22 @@ def run_tile(spec: dict) -> dict:
                    error=None if report.valid else f"{report.errors} validation error(s): see validation.html")
     except CanceledError:
         raise
-    except WitError as exc:
+    except WitError as exc:  # the tile's data: recorded, the run goes on
         row.update(status=FAILED, error=str(exc))
-    except Exception as exc:  # noqa: BLE001 — a tile's bug must not stop the run: it is recorded
-        row.update(status=FAILED, error=f"{type(exc).__name__}: {exc} ({traceback.format_exc(limit=-4)})")
-    if row["status"] != DONE and folder.is_dir() and not any(folder.glob(MODEL_FILE)):
-        shutil.rmtree(folder, ignore_errors=True)  # nothing of a failed tile stays
+    except Exception as exc:  # an unexpected error: raised, so Dask runs the tile once more (the runner's
+        _remove_unfinished_tile(folder)  # retries=1) and records it as failed if it happens again
+        raise UnexpectedTileError(f"{type(exc).__name__}: {exc} ({traceback.format_exc(limit=-4)})") from None
+    if row["status"] == FAILED:
+        _remove_unfinished_tile(folder)
     row.update(seconds=round(time.perf_counter() - start, 3), peak_mb=round(peak_mb(), 1))
     return row
+
+
+class UnexpectedTileError(RuntimeError):
+    """A tile ended in an error that is not about its data (a bug, or a transient fault of its worker)."""
+
+
+def _remove_unfinished_tile(folder: Path) -> None:
+    """Nothing of a failed tile stays (a model a previous run finished is kept)."""
+    if folder.is_dir() and not any(folder.glob(MODEL_FILE)):
+        shutil.rmtree(folder, ignore_errors=True)
