@@ -279,24 +279,49 @@ def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
         r["sheet"]: r["status"] for r in report.rows}
 
 
-def test_an_unexpected_error_is_raised_for_dask_to_run_the_tile_again_and_leaves_nothing(sample, tmp_path,
-                                                                                         monkeypatch):
-    """Not a data problem (a bug, a transient fault): the task raises, so Dask's retry runs it again."""
+def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, tmp_path, monkeypatch):
+    """Not a data problem (a bug): the tile is failed with its innermost frames, run once — Dask retries
+    nothing but a lost worker — and nothing of it stays."""
+    from distributed import Client, LocalCluster
+
+    from wit_plugin.feedback import SILENT
     from wit_plugin.tiles import runner, worker
+    from wit_plugin.tiles.index import write_index
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
-    sheet = plan.plan_tiles(polygon, "EPSG:5186", 1000)[0].sheet
-    spec = runner._spec(_inputs(sample), _options(), tmp_path, sheet, 1000, polygon, (None, []))
-    folder = worker.tile_folder(tmp_path, sheet)
+    tile = plan.plan_tiles(polygon, "EPSG:5186", 1000)[0]
+    spec = runner._spec(_inputs(sample), _options(), tmp_path, tile.sheet, 1000, polygon, (None, []))
+    folder = worker.tile_folder(tmp_path, tile.sheet)
+    write_index(tmp_path, [tile], "EPSG:5186", {})
+    calls = []
 
     def fails_midway(*args, **kwargs):
+        calls.append(args)
         (folder / ".wit-run-x").mkdir(parents=True)
         raise TypeError("'NoneType' object is not subscriptable")
 
-    monkeypatch.setattr(worker, "run_city_model", fails_midway)
-    with pytest.raises(worker.UnexpectedTileError, match=r"^TypeError: 'NoneType' object is not subscriptable \("):
-        worker.run_tile(spec)
-    assert not folder.exists()
+    monkeypatch.setattr(worker, "run_city_model", fails_midway)  # the in-process worker imports this module
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        rows = runner._map(client, {tile.sheet: spec}, tmp_path, SILENT)
+    row = rows[tile.sheet]
+    assert len(calls) == 1 and row["status"] == "failed"
+    assert row["error"].startswith("TypeError: 'NoneType' object is not subscriptable (Traceback")
+    assert "fails_midway" in row["error"] and not folder.exists()
+    assert read_index(tmp_path)[tile.sheet]["status"] == "failed"
+
+
+def test_a_tile_spec_and_its_row_are_plain_values(sample, local_run):
+    """What travels through the scheduler: JSON values only (nothing of the core to unpickle there)."""
+    import json
+
+    from wit_plugin.tiles import runner
+
+    polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
+    spec = runner._spec(_inputs(sample), _options(), Path("/out"), "376081", 1000, polygon, ("/out/c.gpkg", ["x"]))
+    assert json.loads(json.dumps(spec)) == spec
+    rows = local_run[1].rows
+    assert json.loads(json.dumps(rows)) == rows
 
 
 class _CancelAfterFirstTile(Feedback):
@@ -328,18 +353,31 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.fixture()
-def cluster():
-    """`dask scheduler` and two `dask worker` processes on 127.0.0.1, importing the core from this checkout."""
-    python, port = worker_python(), _free_port()
+def _stock_scheduler(tmp_path: Path, **config: str) -> tuple[str, subprocess.Popen]:
+    """A `dask scheduler` that cannot import the core (tests/stock_scheduler.py, isolated mode, started outside
+    the checkout), as managed clusters run it; ``config``: Dask settings (``DASK_…`` variables)."""
+    port = _free_port()
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(config)
+    scheduler = subprocess.Popen([worker_python(), "-I", str(ROOT / "tests" / "stock_scheduler.py"), "--host",
+                                  "127.0.0.1", "--port", str(port), "--no-dashboard"], env=env, cwd=tmp_path,
+                                 start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return f"tcp://127.0.0.1:{port}", scheduler
+
+
+def _workers(address: str, count: int = 2) -> list[subprocess.Popen]:
+    """`dask worker` processes (each with its nanny) importing the core from this checkout."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    scheduler = subprocess.Popen([python, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port",
-                                  str(port), "--no-dashboard"], env=env, start_new_session=True,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    address = f"tcp://127.0.0.1:{port}"
-    workers = [subprocess.Popen([python, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
-                                 "--no-dashboard", "--memory-limit", "0"], env=env, start_new_session=True,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for _ in range(2)]
+    return [subprocess.Popen([worker_python(), "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                              "--no-dashboard", "--memory-limit", "0"], env=env, start_new_session=True,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for _ in range(count)]
+
+
+@pytest.fixture()
+def cluster(tmp_path_factory):
+    """A stock scheduler (no core) and two `dask worker` processes with the core, on 127.0.0.1."""
+    address, scheduler = _stock_scheduler(tmp_path_factory.mktemp("scheduler"))
+    workers = _workers(address)
     from distributed import Client
 
     with Client(address, timeout=60) as client:
@@ -348,39 +386,87 @@ def cluster():
     stop_workers(workers + [scheduler])
 
 
-def test_a_distributed_scheduler_gives_the_same_result(cluster, sample, local_run, tmp_path):
+def _border_vertices(gml: Path, sheet: str) -> set[tuple]:
+    """The ground vertices (x, y, z to the mm) on a tile's border."""
+    v = _ground_triangles(gml).reshape(-1, 3)
+    on = shapely.dwithin(shapely.points(v[:, :2]), plan.tile_of(sheet, "EPSG:5186").polygon.exterior, 2e-3)
+    return {tuple(p) for p in np.round(v[on], 3)}
+
+
+def test_a_stock_scheduler_without_the_core_gives_the_local_result(cluster, sample, local_run, tmp_path):
+    """The scheduler refuses to import the core (proved by asking it), yet serves the run: same tiles,
+    statuses, buildings, ids and borders as the embedded run."""
+    import importlib
+
+    from distributed import Client
+
     address, _ = cluster
+    with Client(address, timeout=30) as client, pytest.raises(ModuleNotFoundError, match="wit_plugin"):
+        client.run_on_scheduler(importlib.import_module, "wit_plugin")
     report = run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address)
     out, local = local_run
-    assert [(r["sheet"], r["status"], r["buildings"]) for r in report.rows] == [
-        (r["sheet"], r["status"], r["buildings"]) for r in local.rows]
-    for row in report.rows:
-        if row["status"] == "done":
-            assert _building_ids(tmp_path / "out" / row["gml"]) == _building_ids(out / row["gml"])
+    assert [(r["sheet"], r["status"], r["buildings"], r["triangles"]) for r in report.rows] == [
+        (r["sheet"], r["status"], r["buildings"], r["triangles"]) for r in local.rows]
+    assert report.buildings == local.buildings and local.count("done") >= 3
+    for row in _modelled(report):
+        assert _building_ids(tmp_path / "out" / row["gml"]) == _building_ids(out / row["gml"])
+        borders = _border_vertices(tmp_path / "out" / row["gml"], row["sheet"])
+        assert len(borders) > 10 and borders == _border_vertices(out / row["gml"], row["sheet"])
+
+
+class _WorkerKiller(threading.Thread):
+    """Kills (SIGKILL, by pid) the first worker seen running a tile; ``killed``: the tiles it was given."""
+
+    def __init__(self, address: str):
+        super().__init__()
+        self.address, self.killed = address, []
+
+    def run(self) -> None:
+        from distributed import Client
+
+        with Client(self.address, timeout=30) as client:
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline:
+                busy = {w: [k for k in keys if str(k).startswith("wit-tile-")]
+                        for w, keys in client.processing().items()}
+                busy = {w: keys for w, keys in busy.items() if keys}
+                if busy:
+                    worker, keys = next(iter(busy.items()))
+                    pids = client.run(os.getpid, workers=[worker])
+                    os.kill(next(iter(pids.values())), signal.SIGKILL)
+                    self.killed = [str(k).split("-")[2] for k in keys]
+                    return
+                time.sleep(0.05)
 
 
 def test_a_killed_worker_costs_only_its_tile(cluster, sample, local_run, tmp_path):
     """Kill the process running a tile (by pid): Dask runs the tile again; the run ends complete."""
-    address, workers = cluster
-    from distributed import Client
-
-    def kill_a_busy_worker():
-        with Client(address, timeout=30) as client:
-            deadline = time.monotonic() + 120
-            while time.monotonic() < deadline:
-                busy = [w for w, tasks in client.processing().items() if tasks]
-                if busy:
-                    pids = client.run(os.getpid, workers=busy[:1])
-                    os.kill(next(iter(pids.values())), signal.SIGKILL)
-                    return
-                time.sleep(0.05)
-
-    killer = threading.Thread(target=kill_a_busy_worker)
+    address, _ = cluster
+    killer = _WorkerKiller(address)
     killer.start()
     report = run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address)
     killer.join()
     failed = [r for r in report.rows if r["status"] == "failed"]
-    assert not failed and report.buildings == local_run[1].buildings, failed
+    assert killer.killed and not failed and report.buildings == local_run[1].buildings, (killer.killed, failed)
+
+
+def test_a_tile_whose_worker_dies_too_often_is_failed_and_the_others_go_on(sample, local_run, tmp_path):
+    """A scheduler that allows no worker death per task (allowed-failures 0): the killed tile ends
+    KilledWorker, recorded as failed with the reason; every other tile is built."""
+    address, scheduler = _stock_scheduler(tmp_path, DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES="0")
+    workers = _workers(address)
+    try:
+        killer = _WorkerKiller(address)
+        killer.start()
+        report = run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address)
+        killer.join()
+    finally:
+        stop_workers(workers + [scheduler])
+    failed = {r["sheet"]: r["error"] for r in report.rows if r["status"] == "failed"}
+    assert killer.killed and failed, (killer.killed, failed)
+    assert all(e.startswith("its worker process died each time it ran the tile") for e in failed.values())
+    assert report.count("done") + report.count("empty") == len(report.rows) - len(failed)
+    assert not any((tmp_path / "out" / "tiles" / sheet / "model.gml").exists() for sheet in failed)
 
 
 def test_no_worker_is_started_with_qgis_as_interpreter(monkeypatch, tmp_path):

@@ -6,18 +6,17 @@ QGIS on Windows and macOS that is QGIS itself. Progress advances per finished ti
 (``as_completed``); Cancel stops submitting and cancels the running tiles; a tile that fails is
 recorded in the index with its message and the others go on; a worker killed mid-run costs only
 its tile's time (Dask runs the tile again elsewhere); a run started again on the same output
-folder skips the tiles that are done and valid.
+folder skips the tiles that are done and valid. The scheduler needs only dask and distributed
+(``submit_tile``): a stock ``dask scheduler`` serves a run, as on managed clusters.
 """
 from __future__ import annotations
 
 import contextlib
-import importlib
 import logging
 import os
 import shutil
 import signal
 import subprocess
-import sys
 import tempfile
 import time
 from collections.abc import Iterator
@@ -36,15 +35,24 @@ from ..errors import CanceledError, InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
-from ..interpreter import CORE_ROOT, core_env, core_python
+from ..interpreter import core_env, core_python
 from ..tiles3d.combine import TILE_TILESET, write_run_tileset
 from ..tiles3d.groups import GROUP_SCALE, group_of, write_group_contents
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
-from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
+from .index import (
+    DONE,
+    EMPTY,
+    FAILED,
+    INDEX_FILE,
+    PENDING,
+    read_index,
+    update_row,
+    write_index,
+)
 from .plan import plan_tiles
-from .worker import TILES_DIR
 from .prepare import area_of_layer, prepare_context
+from .worker import TASK, TILES_DIR
 
 CONTEXT_FILE = "context.gpkg"
 POLL_SECONDS = 0.2
@@ -121,13 +129,6 @@ def _finished(output: Path, row: dict | None, tiles3d: bool = False) -> bool:
         return False
     gml = output / row["gml"]
     return gml.is_file() and (not tiles3d or (gml.parent / TILE_TILESET).is_file())
-
-
-def _task():
-    """``run_tile`` under the name workers import (``wit_plugin.…``), whatever name QGIS loaded us by."""
-    if str(CORE_ROOT) not in sys.path:
-        sys.path.append(str(CORE_ROOT))
-    return importlib.import_module("wit_plugin.tiles.worker").run_tile
 
 
 @contextlib.contextmanager
@@ -277,13 +278,37 @@ def _remove_unfinished(output: Path) -> None:
             folder.rmdir()
 
 
+def submit_tile(client, sheet: str, spec: dict):
+    """Submit one tile so that the scheduler needs nothing of the core: the task graph holds Dask's own
+    functions (``import_term``, ``apply``), the import path ``TASK`` and the plain ``spec``; only the
+    worker that runs it imports the core. No ``retries``: Dask runs a tile again only when its worker
+    is lost (up to the scheduler's ``allowed-failures``), never after an error in the tile itself."""
+    from dask.utils import apply
+    from distributed.utils import import_term
+
+    stamp = time.time_ns()
+    task = client.submit(import_term, TASK, key=f"wit-task-{sheet}-{stamp}", pure=False)
+    return client.submit(apply, task, (spec,), key=f"wit-tile-{sheet}-{stamp}", pure=False)
+
+
+def lost_row(sheet: str, exc: BaseException) -> dict:
+    """The index row of a tile that returned no row: its worker died too often (``KilledWorker``), or it
+    could not start (a worker without the core)."""
+    from distributed import KilledWorker
+
+    if isinstance(exc, KilledWorker):
+        error = (f"its worker process died each time it ran the tile ({exc}): killed, out of memory or a crash in "
+                 "native code; see the Dask worker logs")
+    else:
+        error = f"{type(exc).__name__}: {exc}"
+    return {"sheet": sheet, "status": FAILED, "buildings": 0, "triangles": 0, "gml": None, "error": error}
+
+
 def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> dict[str, dict]:
     """Submit every tile, record each as it finishes; cancel everything on Cancel."""
     from distributed import as_completed
 
-    task = _task()
-    futures = {client.submit(task, spec, key=f"wit-tile-{sheet}-{time.time_ns()}", pure=False, retries=1): sheet
-               for sheet, spec in specs.items()}
+    futures = {submit_tile(client, sheet, spec): sheet for sheet, spec in specs.items()}
     done: dict[str, dict] = {}
     finished = as_completed(list(futures))
     try:
@@ -298,8 +323,8 @@ def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> di
                 sheet = futures[future]
                 try:
                     row = future.result()
-                except Exception as exc:  # noqa: BLE001 — an unexpected error twice, a worker killed again and again
-                    row = {"sheet": sheet, "status": FAILED, "error": f"{type(exc).__name__}: {exc}"}
+                except Exception as exc:  # noqa: BLE001 — the task never raises: its worker was lost
+                    row = lost_row(sheet, exc)
                 update_row(output, sheet, row)
                 done[sheet] = row
                 feedback.info(f"Tile {sheet}: {row['status']}, {row.get('buildings') or 0} buildings, "

@@ -1,9 +1,13 @@
 """What a Dask worker runs for one tile: the ordinary chain on the tile (no QGIS in the process).
 
-The task takes and returns plain dicts (paths, numbers, WKT), so it travels between processes and
-machines with nothing to unpickle but this module, importable as ``wit_plugin.tiles.worker``.
-The tile's files appear in ``<output>/tiles/<sheet>/`` only once written and validated (the chain
-stages them), so a killed worker never leaves a half-written tile.
+The task takes a plain dict (paths, numbers, WKT: JSON values) and returns one, whatever happens in
+the tile: the runner submits it by its import path (``TASK``), so the Dask scheduler, which may be a
+stock one without the core, unpickles nothing but strings, numbers and Dask's own functions; only
+workers import the core. An error is never raised to Dask (which would run the tile again, or need
+our exception class on the scheduler): a tile whose data cannot be made is ``failed`` with the
+reason, an unexpected error is ``failed`` with its innermost frames. The tile's files appear in
+``<output>/tiles/<sheet>/`` only once written and validated (the chain stages them), so a killed
+worker never leaves a half-written tile.
 """
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ import traceback
 from pathlib import Path
 
 from ..chain import ChainInputs, ChainOptions, run_city_model
-from ..errors import CanceledError, WitError
+from ..errors import WitError
 from ..feedback import LoggingFeedback
 from ..heights import HeightOptions
 from ..vectors import StudyArea
@@ -26,6 +30,7 @@ from .plan import TileOwner
 
 TILES_DIR = "tiles"
 MODEL_FILE = "model.gml"
+TASK = "wit_plugin.tiles.worker.run_tile"  # what a worker imports: the core's name on any machine
 
 
 def tile_folder(output: str | Path, sheet: str) -> Path:
@@ -57,24 +62,17 @@ def run_tile(spec: dict) -> dict:
         report = run_city_model(ChainInputs(**spec["inputs"]), options, folder,
                                 LoggingFeedback(logging.getLogger(f"wit_plugin.tiles.{sheet}")))
         status = (DONE if report.buildings else EMPTY) if report.valid else FAILED
-        row.update(status=status, buildings=report.buildings, triangles=report.triangles,
+        row.update(status=status, buildings=int(report.buildings), triangles=int(report.triangles),
                    gml=f"{TILES_DIR}/{sheet}/{MODEL_FILE}",
                    error=None if report.valid else f"{report.errors} validation error(s): see validation.html")
-    except CanceledError:
-        raise
     except WitError as exc:  # the tile's data: recorded, the run goes on
         row.update(status=FAILED, error=str(exc))
-    except Exception as exc:  # an unexpected error: raised, so Dask runs the tile once more (the runner's
-        _remove_unfinished_tile(folder)  # retries=1) and records it as failed if it happens again
-        raise UnexpectedTileError(f"{type(exc).__name__}: {exc} ({traceback.format_exc(limit=-4)})") from None
+    except Exception as exc:  # noqa: BLE001 — a bug: recorded with where it happened, never retried
+        row.update(status=FAILED, error=f"{type(exc).__name__}: {exc} ({traceback.format_exc(limit=-4).strip()})")
     if row["status"] == FAILED:
         _remove_unfinished_tile(folder)
     row.update(seconds=round(time.perf_counter() - start, 3), peak_mb=round(peak_mb(), 1))
     return row
-
-
-class UnexpectedTileError(RuntimeError):
-    """A tile ended in an error that is not about its data (a bug, or a transient fault of its worker)."""
 
 
 def _remove_unfinished_tile(folder: Path) -> None:
