@@ -132,8 +132,8 @@
       <translation>City model in map-sheet tiles (Dask)</translation>
     </message>
     <message>
-      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the others go on; a run started again on the same folder skips the tiles already done; Cancel stops every tile. A tile that owns no building (a park, a hill) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
-      <translation>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the others go on; a run started again on the same folder skips the tiles already done; Cancel stops every tile. A tile that owns no building (a park, a hill) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</translation>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
+      <translation>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</translation>
     </message>
     <message>
       <source>Python interpreter of the workers (empty = found automatically)</source>
@@ -194,6 +194,10 @@
     <message>
       <source>1:1,000 sheets (dense cities)</source>
       <translation>1:1,000 sheets (dense cities)</translation>
+    </message>
+    <message>
+      <source>{failed} of {tiles} tile(s) failed. First reasons: {reasons}. The tiles done are kept in {output} (map of the run: index.gpkg); run the algorithm again on this folder to build only the others.</source>
+      <translation>{failed} of {tiles} tile(s) failed. First reasons: {reasons}. The tiles done are kept in {output} (map of the run: index.gpkg); run the algorithm again on this folder to build only the others.</translation>
     </message>
     <message>
       <source>Cannot write {path}: {error}</source>
@@ -298,14 +302,6 @@
     <message>
       <source>Side of a full-detail tile (m)</source>
       <translation>Side of a full-detail tile (m)</translation>
-    </message>
-    <message>
-      <source>LoD1 buildings (wit:extrudebuildings)</source>
-      <translation>LoD1 buildings (wit:extrudebuildings)</translation>
-    </message>
-    <message>
-      <source>Terrain TIN (wit:triangulateterrain)</source>
-      <translation>Terrain TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Texture folder (wit:wittexture)</source>
@@ -802,6 +798,14 @@
     <message>
       <source>Default height (m)</source>
       <translation>Default height (m)</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 buildings (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>Terrain TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>

@@ -132,8 +132,8 @@
       <translation>도엽 타일 단위 도시 모델 (Dask)</translation>
     </message>
     <message>
-      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the others go on; a run started again on the same folder skips the tiles already done; Cancel stops every tile. A tile that owns no building (a park, a hill) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
-      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786; 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 실패한 타일은 기록되고 나머지는 계속되며, 같은 폴더에서 다시 실행하면 이미 끝난 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다. 건물이 하나도 없는 타일(공원, 산)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 하나로 묶습니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가).</translation>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
+      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786: 일반 dask 스케줄러이면 되고, 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 데이터를 만들 수 없는 타일은 이유와 함께 실패하고 나머지는 계속됩니다. 그러면 알고리즘은 실패한 타일 수와 처음 몇 가지 이유를 담은 오류로 끝나고, 끝난 타일은 남습니다: 같은 폴더에서 다시 실행하면 그 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다. 건물을 하나도 남기지 않는 타일(공원, 산, 건물이 모두 이웃 타일에 속하거나 너무 작은 경우)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 하나로 묶습니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가).</translation>
     </message>
     <message>
       <source>Python interpreter of the workers (empty = found automatically)</source>
@@ -194,6 +194,10 @@
     <message>
       <source>1:1,000 sheets (dense cities)</source>
       <translation>1:1,000 도엽 (밀집 도시)</translation>
+    </message>
+    <message>
+      <source>{failed} of {tiles} tile(s) failed. First reasons: {reasons}. The tiles done are kept in {output} (map of the run: index.gpkg); run the algorithm again on this folder to build only the others.</source>
+      <translation>타일 {tiles}개 중 {failed}개가 실패했습니다. 처음 몇 가지 이유: {reasons}. 끝난 타일은 {output}에 남아 있습니다(실행 지도: index.gpkg). 이 폴더로 알고리즘을 다시 실행하면 나머지 타일만 만듭니다.</translation>
     </message>
     <message>
       <source>Cannot write {path}: {error}</source>
@@ -298,14 +302,6 @@
     <message>
       <source>Side of a full-detail tile (m)</source>
       <translation>상세 타일 한 변의 길이(m)</translation>
-    </message>
-    <message>
-      <source>LoD1 buildings (wit:extrudebuildings)</source>
-      <translation>LoD1 건물 (wit:extrudebuildings)</translation>
-    </message>
-    <message>
-      <source>Terrain TIN (wit:triangulateterrain)</source>
-      <translation>지형 TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Texture folder (wit:wittexture)</source>
@@ -802,6 +798,14 @@
     <message>
       <source>Default height (m)</source>
       <translation>기본 높이 (m)</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 건물 (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>지형 TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>

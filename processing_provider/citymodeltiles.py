@@ -45,14 +45,16 @@ class CityModelTiles(CityModel):
         "heights, roads are cut along the same border, and a building crossing it lies on terrain in its "
         "own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker "
         "processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing "
-        "scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786, whose workers import the plugin's core "
-        "wit_plugin and see the same files). The output folder receives tiles/<sheet>/model.gml (with "
+        "scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the "
+        "plugin's core wit_plugin and see the same files). The output folder receives tiles/<sheet>/model.gml (with "
         "textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / "
-        "empty, buildings, triangles, seconds, peak memory, error). A failing tile is recorded and the "
-        "others go on; a run started again on the same folder skips the tiles already done; Cancel stops "
-        "every tile. A tile that owns no building (a park, a hill) still gets its terrain and roads (status "
-        "empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output "
-        "folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later)."
+        "empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails "
+        "with its reason and the others go on; the algorithm then ends with an error giving the count and "
+        "the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel "
+        "stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to "
+        "neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles "
+        "on, each tile writes its tileset and tileset.json at the top of the output folder joins them into "
+        "one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later)."
     )
 
     TILE_SCALE = "TILE_SCALE"
@@ -118,6 +120,13 @@ class CityModelTiles(CityModel):
             parameters, self.TILE_SCALE, context)], self.parameterAsString(parameters, self.SCHEDULER, context).strip()
             or None, self.parameterAsInt(parameters, self.WORKERS, context),
             self.parameterAsFile(parameters, self.WORKER_PYTHON, context) or None, feedback)
+        failed = [row for row in report.rows if row["status"] == "failed"]
+        if failed:
+            reasons = "; ".join(f"{row['sheet']}: {row['error'].splitlines()[0][:300]}" for row in failed[:3])
+            raise QgsProcessingException(self.tr(
+                "{failed} of {tiles} tile(s) failed. First reasons: {reasons}. The tiles done are kept in {output} "
+                "(map of the run: index.gpkg); run the algorithm again on this folder to build only the others."
+            ).format(failed=len(failed), tiles=len(report.rows), reasons=reasons, output=output))
         load_index(context, report.index)
         load_results(context, tileset=report.tileset)
         return {self.OUTPUT: output, "INDEX": report.index, "TILESET": report.tileset,

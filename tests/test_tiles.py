@@ -263,6 +263,39 @@ def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_ar
     assert again.resumed == len(report.rows) and again.tileset == report.tileset
 
 
+def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_with_its_ground(sample, tmp_path):
+    """The park's tile with one building of its own, too small to keep (0.36 m²), beside its neighbours'
+    buildings: nothing is kept, and the tile is empty — its terrain and roads — not failed."""
+    import shutil
+
+    from osgeo import ogr
+
+    from wit_plugin.tiles import runner, worker
+    from wit_plugin.tiles.prepare import prepare_context
+
+    buildings = tmp_path / "buildings_with_a_shed.shp"
+    for part in sample.buildings.parent.glob(sample.buildings.stem + ".*"):
+        shutil.copy(part, buildings.with_suffix(part.suffix))
+    ds = ogr.Open(str(buildings), 1)
+    layer = ds.GetLayer(0)
+    polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
+    inside = plan.tile_of(sample.park, "EPSG:5186").polygon.intersection(polygon).point_on_surface()
+    x, y = pyproj.Transformer.from_crs("EPSG:5186", layer.GetSpatialRef().ExportToWkt(), always_xy=True).transform(
+        inside.x - 0.3, inside.y - 0.3)
+    shed = ogr.Feature(layer.GetLayerDefn())
+    shed.SetGeometry(ogr.CreateGeometryFromWkt(shapely.box(x, y, x + 0.6, y + 0.6).wkt))
+    layer.CreateFeature(shed)
+    ds = None
+    context = prepare_context(str(sample.roads), str(sample.districts), polygon, "EPSG:5186",
+                              str(tmp_path / "context.gpkg"))
+    spec = runner._spec(_inputs(sample, buildings=str(buildings)), _options(), tmp_path / "out", sample.park, 1000,
+                        polygon, (str(tmp_path / "context.gpkg"), context))
+    row = worker.run_tile(spec)
+    assert (row["status"], row["buildings"], row["error"]) == ("empty", 0, None), row
+    gml = tmp_path / "out" / row["gml"]
+    assert _building_ids(gml) == [] and len(_ground_triangles(gml)) == row["triangles"] > 20
+
+
 def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
     """A DEM that stops in the middle: the tiles beyond it fail with the reason, the others are built."""
     from osgeo import gdal
@@ -503,6 +536,41 @@ def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, 
     assert result["TILES_DONE"] == local_run[1].count("done") and result["TILES_FAILED"] == 0
     assert result["BUILDINGS_WRITTEN"] == local_run[1].buildings
     assert Path(result["INDEX"]).is_file()
+
+
+def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_run(run_algorithm, sample, local_run,
+                                                                                    tmp_path):
+    """A DEM that covers half the area: qgis_process exits non-zero with the count and the first reasons, the
+    tiles done stay; through Processing on the same folder the same error (the tiles done are not built
+    again); with the whole DEM the run ends complete, building only the tiles that had failed."""
+    from osgeo import gdal
+    from qgis.core import QgsProcessingException
+
+    ds = gdal.Open(str(sample.dem))
+    half = tmp_path / "dem_west.tif"
+    gdal.Translate(str(half), ds, srcWin=[0, 0, ds.RasterXSize // 2 + 8, ds.RasterYSize])
+    out = tmp_path / "out"
+    parameters = dict(_parameters(sample, out), DEM=str(half))
+    args = [str(ROOT / "scripts" / "qgis-process"), "run", "wit:citymodeltiles"]
+    for name, value in parameters.items():
+        args += [f"--{name}={item}" for item in (value if isinstance(value, list) else [value])]
+    result = subprocess.run(args, capture_output=True, text=True, timeout=900,
+                            env=dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path / "profile")))
+    index = read_index(out)
+    failed = sorted(s for s, r in index.items() if r["status"] == "failed")
+    done = {s: (out / r["gml"]).stat().st_mtime_ns for s, r in index.items() if r["status"] in ("done", "empty")}
+    log = result.stdout + result.stderr
+    assert result.returncode != 0 and failed and done, log[-3000:]
+    assert f"{len(failed)} of {len(index)} tile(s) failed. First reasons: {failed[0]}: " in log, log[-3000:]
+    assert "does not cover the area" in log and "Traceback" not in log
+    assert not any((out / "tiles" / s).exists() for s in failed)
+    with pytest.raises(QgsProcessingException, match=rf"^{len(failed)} of {len(index)} tile\(s\) failed\. "):
+        run_algorithm("wit:citymodeltiles", parameters)
+    assert {s: (out / index[s]["gml"]).stat().st_mtime_ns for s in done} == done  # resumed, not built again
+    result = run_algorithm("wit:citymodeltiles", _parameters(sample, out))
+    assert (result["TILES_RESUMED"], result["TILES_FAILED"]) == (len(done), 0)
+    assert result["BUILDINGS_WRITTEN"] == local_run[1].buildings
+    assert {s: r["status"] for s, r in read_index(out).items()} == {r["sheet"]: r["status"] for r in local_run[1].rows}
 
 
 def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_path):

@@ -955,7 +955,8 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
                       f"vertices {s.vertices_in} → {s.vertices_out}")
         if s.dropped:
             feedback.warning(f"{s.layer}: dropped {_reasons(s)} (each listed in the '{DROPPED_TABLE}' table).")
-    if not any(s.features_out for s in stats) and any(s.dropped for s in stats):
+    # a tile may keep nothing (its buildings all its neighbours' or too small): its model is then its ground
+    if not any(s.features_out for s in stats) and any(s.dropped for s in stats) and config.owner is None:
         raise InputError("No feature could be kept: " + "; ".join(
             f"{s.layer}: {s.features_in} read, {s.outside_area} outside the study area, dropped {_reasons(s)}"
             for s in stats) + ". Nothing was written.")

@@ -229,11 +229,13 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         workers = workers or os.cpu_count() or 1
         feedback.info(f"Dask: {'scheduler ' + scheduler if scheduler else f'LocalCluster of {workers} worker(s)'}"
                       f"{'' if scheduler else ', Python ' + python}.")
+        completed = False
         try:
             with dask_client(scheduler, workers, python) as client:
                 rows.update(_map(client, specs, output, feedback))
-        finally:
-            if not scheduler:  # our workers are stopped: what a cancelled tile began is removed
+            completed = True
+        finally:  # once no tile of this run can be running (every tile finished, or our own workers
+            if completed or not scheduler:  # stopped): what a killed or cancelled attempt began is removed
                 _remove_unfinished(output)
     report.rows = [rows.get(t.sheet, {"sheet": t.sheet, "status": PENDING}) for t in tiles]
     report.seconds = round(time.perf_counter() - start, 3)
