@@ -1,6 +1,6 @@
 # The two commands a new user needs (README): `make demo` and `make test`.
 # Each does its own set-up (scripts/setup.sh is idempotent).
-.PHONY: setup demo view test bench package translations clean
+.PHONY: setup demo view test bench stress package translations clean
 
 setup:
 	bash scripts/setup.sh
@@ -17,6 +17,10 @@ test: setup
 
 bench: setup
 	bash scripts/bench.sh
+
+# not in CI: the 16-tile run and the killed-worker run repeated (benchmarks/stress_tiles.py; STRESS="--runs 3")
+stress: setup
+	bash -c 'source scripts/env.sh && .venv/bin/python benchmarks/stress_tiles.py $(STRESS)'
 
 package: setup
 	bash scripts/package.sh
