@@ -106,3 +106,54 @@ def test_triangle_corners_give_the_same_blobs_as_shapely(tmp_path):
         corners[:, [0, 1, 2, 0]].tolist()
     x0, y0, x1, y1 = shapely.total_bounds(polygons)
     assert lyr.GetExtent() == pytest.approx((x0, x1, y0, y1), abs=1e-6)
+
+
+_FULL_DISK_CHILD = r"""
+import json, os, resource, signal, sys, tempfile
+sys.path.insert(0, sys.argv[1])
+import numpy as np, pyproj
+from osgeo import ogr
+from wit_plugin.gpkg_bulk import write_layer
+from wit_plugin.vector_io import FieldDef
+
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG, as on a full disk
+corners = np.random.default_rng(3).uniform(0, 1000, (3000, 3, 3)) + [200000, 540000, 0]
+outcomes = []
+for limit in json.loads(sys.argv[2]):
+    folder = tempfile.mkdtemp(dir=sys.argv[3])
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.RLIM_INFINITY))
+    try:
+        write_layer(os.path.join(folder, "tin.gpkg"), "tin", pyproj.CRS.from_epsg(5186), [FieldDef("n", ogr.OFTInteger)],
+                    corners, [np.arange(len(corners))], spatial_index=sys.argv[4] == "index")
+        outcome = "ok"
+    except Exception as exc:
+        outcome = f"{type(exc).__name__}: {exc}"
+    resource.setrlimit(resource.RLIMIT_FSIZE, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
+    outcomes.append([limit, outcome, sorted(os.listdir(folder))])
+print(json.dumps(outcomes))
+"""
+
+
+@pytest.mark.parametrize("index", ["index", "no-index"])
+def test_a_full_disk_is_an_input_error_naming_the_file_and_leaves_nothing(tmp_path, index):
+    """Every point where a write can fail (the file, the layer's table that OGR creates late, the rows, the
+    feature count, the R-tree): a clear InputError, never SQLite's or a TypeError (OGR's late creation of the
+    table failed unreported when the dataset was destroyed, and the row lookup hit None — the
+    "'NoneType' object is not subscriptable" once seen in a tiled run's terrain step)."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    limits = [4096, 16384, 32768, 49152, 65536, 81920, 98304, 131072, 196608, 262144, 393216, 524288, 10 ** 8]
+    child = subprocess.run([sys.executable, "-c", _FULL_DISK_CHILD, str(Path(__file__).resolve().parents[1]),
+                            json.dumps(limits), str(tmp_path), index], capture_output=True, text=True, timeout=600)
+    assert child.returncode == 0, child.stderr[-2000:]
+    outcomes = json.loads(child.stdout)
+    failures = [(limit, outcome) for limit, outcome, _ in outcomes if outcome != "ok"]
+    assert outcomes[-1][1] == "ok" and len(failures) >= 5, outcomes
+    for limit, outcome in failures:
+        assert outcome.startswith("InputError: Cannot write the layer 'tin' into ") and outcome.endswith(
+            ". Is the disk full?"), (limit, outcome)
+    assert all(files == [] for _, outcome, files in outcomes if outcome != "ok")  # nothing half-written
+    assert all(files == ["tin.gpkg"] for _, outcome, files in outcomes if outcome == "ok")

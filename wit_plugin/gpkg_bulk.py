@@ -10,17 +10,23 @@ at the end in one go, so the result is what OGR would have written.
 The R-tree costs most of the time left (SQLite inserts ~10 µs a row whatever the order; GDAL
 3.6 has no bulk loader): worth it for a layer a user opens in QGIS, not for an intermediate
 file that the next step reads whole, so callers may leave it out.
+
+Every write is checked: a disk that is full (or any I/O error) is an ``InputError`` naming the file
+and SQLite's or GDAL's reason. OGR creates a new layer's table late, when the file is flushed, and a
+failure while a dataset is destroyed is never reported: so the table is made explicitly
+(``SyncToDisk``) while its errors can still be seen.
 """
 from __future__ import annotations
 
+import contextlib
 import sqlite3
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 import pyproj
 import shapely
-from osgeo import ogr, osr
+from osgeo import gdal, ogr, osr
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
@@ -67,6 +73,24 @@ def geometry_blobs(geoms: np.ndarray, srs_id: int) -> list[bytes]:
     return [raw[k * size:(k + 1) * size] + wkb for k, wkb in enumerate(wkbs)]
 
 
+def _spatial_index(path: Path, layer: str, column: str) -> None:
+    """OGR's R-tree of the layer, built in one go (checked like every write here)."""
+    with gdal_quiet():
+        gdal.ErrorReset()
+        try:
+            ds = ogr.Open(str(path), update=1)
+            if ds is not None:
+                ds.ExecuteSQL(f"SELECT CreateSpatialIndex('{layer}', '{column}')")
+                ds.FlushCache()
+            failed = ds is None or gdal.GetLastErrorType() >= gdal.CE_Failure
+            reason = gdal.GetLastErrorMsg() or "GDAL gave no reason"
+        except RuntimeError as exc:  # with ogr.UseExceptions()
+            failed, reason = True, str(exc)
+        ds = None
+    if failed:
+        raise _write_error(layer, path, f"its spatial index: {reason}")
+
+
 def _total_bounds(geoms: np.ndarray) -> tuple[float, float, float, float]:
     if geoms.dtype != object:
         (x0, y0), (x1, y1) = geoms[:, :, :2].min(axis=(0, 1)), geoms[:, :, :2].max(axis=(0, 1))
@@ -86,58 +110,108 @@ class BulkTable:
 
     def __init__(self, path: str | Path, layer: str, fields: Sequence[FieldDef], crs: pyproj.CRS | None = None,
                  geometry_type: int = ogr.wkbNone, threaded: bool = False):
-        srs = None
-        if crs is not None:
-            srs = osr.SpatialReference()
-            srs.ImportFromWkt(crs.to_wkt())
-            srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
-        with gdal_quiet():
-            ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
-        if ds is None:
-            raise InputError(f"Cannot create the GeoPackage {path}.")
-        lyr = ds.CreateLayer(layer, srs, geometry_type, options=["SPATIAL_INDEX=NO"] if srs else [])
-        for fd in fields:
-            defn = ogr.FieldDefn(fd.name, fd.type)
-            defn.SetSubType(fd.subtype)
-            defn.SetWidth(fd.width)
-            defn.SetPrecision(fd.precision)
-            lyr.CreateField(defn)
-        self.geometry_column = lyr.GetGeometryColumn() if srs else ""
-        lyr = ds = None
-        self.layer, self.count = layer, 0
-        self.db = sqlite3.connect(path, check_same_thread=not threaded)
-        self.db.execute("PRAGMA journal_mode = OFF")
-        self.db.execute("PRAGMA synchronous = OFF")
-        self._triggers = self.db.execute(
-            "SELECT name, sql FROM sqlite_master WHERE type = 'trigger' AND tbl_name = ? AND name LIKE ?",
-            (layer, "trigger_insert_feature_count_%")).fetchall()
-        for name, _ in self._triggers:
-            self.db.execute(f'DROP TRIGGER "{name}"')
-        names = [self.geometry_column] * bool(srs) + [fd.name for fd in fields]
-        quoted = ", ".join('"%s"' % name for name in names)
+        self.path, self.layer, self.count, self._failed = Path(path), layer, 0, False
+        self.geometry_column = _create_layer(self.path, layer, fields, crs, geometry_type)
+        try:
+            self.db = sqlite3.connect(path, check_same_thread=not threaded)
+        except sqlite3.Error as exc:
+            raise self._error(exc) from exc
+        try:
+            with self._checked():
+                self.db.execute("PRAGMA journal_mode = OFF")
+                self.db.execute("PRAGMA synchronous = OFF")
+                self._triggers = self.db.execute(
+                    "SELECT name, sql FROM sqlite_master WHERE type = 'trigger' AND tbl_name = ? AND name LIKE ?",
+                    (layer, "trigger_insert_feature_count_%")).fetchall()
+                for name, _ in self._triggers:
+                    self.db.execute(f'DROP TRIGGER "{name}"')
+                self.srs_id = None
+                if crs is not None:
+                    row = self.db.execute("SELECT srs_id FROM gpkg_geometry_columns WHERE table_name = ?",
+                                          (layer,)).fetchone()
+                    if row is None:
+                        raise self._error("OGR did not create the layer's table")
+                    self.srs_id = row[0]
+        except InputError:
+            self.db.close()
+            raise
+        names = [self.geometry_column] * (crs is not None) + [fd.name for fd in fields]
+        quoted = ", ".join(f'"{name}"' for name in names)
         self._insert = f'INSERT INTO "{layer}" ({quoted}) VALUES ({", ".join("?" * len(names))})'
-        self.srs_id = (self.db.execute("SELECT srs_id FROM gpkg_geometry_columns WHERE table_name = ?",
-                                       (layer,)).fetchone()[0] if srs else None)
+
+    def _error(self, reason: object) -> InputError:
+        return _write_error(self.layer, self.path, reason)
+
+    @contextlib.contextmanager
+    def _checked(self) -> Iterator[None]:
+        """SQLite's errors (a full disk, an I/O error) as ``InputError`` naming the file; after one, ``close``
+        only closes the file (the caller's staging file is then removed)."""
+        try:
+            yield
+        except sqlite3.Error as exc:
+            self._failed = True
+            raise self._error(exc) from exc
 
     def insert(self, rows: Sequence[Sequence]) -> None:
         """Append rows (values in the order of the geometry column, if any, then the fields)."""
-        self.db.executemany(self._insert, rows)
-        self.db.commit()
+        with self._checked():
+            self.db.executemany(self._insert, rows)
+            self.db.commit()
         self.count += len(rows)
 
     def close(self, bounds: tuple[float, float, float, float] | None = None) -> None:
         """Record the feature count GDAL keeps (and trusts) and the layer extent; close."""
         try:
-            if bounds is not None:
-                self.db.execute("UPDATE gpkg_contents SET min_x = ?, min_y = ?, max_x = ?, max_y = ? "
-                                "WHERE table_name = ?", (*bounds, self.layer))
-            self.db.execute("UPDATE gpkg_ogr_contents SET feature_count = ? WHERE table_name = ?",
-                            (self.count, self.layer))
-            for _, sql in self._triggers:
-                self.db.execute(sql)
-            self.db.commit()
+            if not self._failed:
+                with self._checked():
+                    if bounds is not None:
+                        self.db.execute("UPDATE gpkg_contents SET min_x = ?, min_y = ?, max_x = ?, max_y = ? "
+                                        "WHERE table_name = ?", (*bounds, self.layer))
+                    self.db.execute("UPDATE gpkg_ogr_contents SET feature_count = ? WHERE table_name = ?",
+                                    (self.count, self.layer))
+                    for _, sql in self._triggers:
+                        self.db.execute(sql)
+                    self.db.commit()
         finally:
             self.db.close()
+
+
+def _write_error(layer: str, path: Path, reason: object) -> InputError:
+    return InputError(f"Cannot write the layer '{layer}' into {path}: {str(reason).rstrip('. ')}. Is the disk full?")
+
+
+def _create_layer(path: Path, layer: str, fields: Sequence[FieldDef], crs: pyproj.CRS | None,
+                  geometry_type: int) -> str:
+    """OGR makes the file and the layer's table (written now, checked); the geometry column's name."""
+    srs = None
+    if crs is not None:
+        srs = osr.SpatialReference()
+        srs.ImportFromWkt(crs.to_wkt())
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    failed, reason, column = True, "GDAL gave no reason", ""
+    with gdal_quiet():
+        gdal.ErrorReset()
+        try:
+            ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+            lyr = None if ds is None else ds.CreateLayer(layer, srs, geometry_type,
+                                                         options=["SPATIAL_INDEX=NO"] if srs else [])
+            if lyr is not None:
+                for fd in fields:
+                    defn = ogr.FieldDefn(fd.name, fd.type)
+                    defn.SetSubType(fd.subtype)
+                    defn.SetWidth(fd.width)
+                    defn.SetPrecision(fd.precision)
+                    lyr.CreateField(defn)
+                column = lyr.GetGeometryColumn() if srs else ""
+                synced = lyr.SyncToDisk() == ogr.OGRERR_NONE  # the table now, not when ds is destroyed
+                failed = not synced or gdal.GetLastErrorType() >= gdal.CE_Failure
+            reason = gdal.GetLastErrorMsg() or reason
+        except RuntimeError as exc:  # with ogr.UseExceptions()
+            reason = str(exc)
+        lyr = ds = None
+    if failed:
+        raise _write_error(layer, path, reason)
+    return column
 
 
 def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[FieldDef], geoms: np.ndarray,
@@ -165,9 +239,6 @@ def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[
             table.close(_total_bounds(geoms) if len(geoms) else None)
         if spatial_index:
             feedback.check_canceled()
-            with gdal_quiet():
-                ds = ogr.Open(str(tmp), update=1)
-                ds.ExecuteSQL(f"SELECT CreateSpatialIndex('{layer}', '{table.geometry_column}')")
-                ds = None
+            _spatial_index(tmp, layer, table.geometry_column)
     feedback.progress(100)
     return len(geoms)
