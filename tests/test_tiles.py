@@ -504,6 +504,28 @@ def test_a_tile_whose_worker_dies_too_often_is_failed_and_the_others_go_on(sampl
     assert not any((tmp_path / "out" / "tiles" / sheet / "model.gml").exists() for sheet in failed)
 
 
+def test_workers_without_the_core_fail_every_tile_saying_so(sample, tmp_path):
+    """A cluster whose workers cannot import the core (not installed there): every tile failed with what to
+    install, and the run ends with that reason."""
+    from wit_plugin.errors import InputError
+
+    address, scheduler = _stock_scheduler(tmp_path)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    worker = subprocess.Popen([worker_python(), "-I", "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                               "--no-dashboard", "--memory-limit", "0"], env=env, cwd=tmp_path, start_new_session=True,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        with pytest.raises(InputError, match=r"^No tile could be built \((\d+) failed, 0 empty\): ") as error:
+            run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address)
+    finally:
+        stop_workers([worker, scheduler])
+    rows = read_index(tmp_path / "out")
+    assert rows and {r["status"] for r in rows.values()} == {"failed"}
+    assert all(r["error"].startswith("a Dask worker cannot import the core (No module named 'wit_plugin')")
+               for r in rows.values()), rows
+    assert "install it on every worker" in str(error.value)
+
+
 def test_no_worker_is_started_with_qgis_as_interpreter(monkeypatch, tmp_path):
     """Inside QGIS on Windows/macOS sys.executable is QGIS: workers then use a Python found on the PATH."""
     fake = tmp_path / "qgis-bin"
@@ -556,7 +578,7 @@ def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_ru
     args = [str(ROOT / "scripts" / "qgis-process"), "run", "wit:citymodeltiles"]
     for name, value in parameters.items():
         args += [f"--{name}={item}" for item in (value if isinstance(value, list) else [value])]
-    result = subprocess.run(args, capture_output=True, text=True, timeout=900,
+    result = subprocess.run(args, check=False, capture_output=True, text=True, timeout=900,
                             env=dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path / "profile")))
     index = read_index(out)
     failed = sorted(s for s, r in index.items() if r["status"] == "failed")

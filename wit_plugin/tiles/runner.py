@@ -301,6 +301,9 @@ def lost_row(sheet: str, exc: BaseException) -> dict:
     if isinstance(exc, KilledWorker):
         error = (f"its worker process died each time it ran the tile ({exc}): killed, out of memory or a crash in "
                  "native code; see the Dask worker logs")
+    elif isinstance(exc, ImportError):
+        error = (f"a Dask worker cannot import the core ({exc}): install it on every worker (python -m pip install "
+                 ". in a checkout of the plugin, or PYTHONPATH to it)")
     else:
         error = f"{type(exc).__name__}: {exc}"
     return {"sheet": sheet, "status": FAILED, "buildings": 0, "triangles": 0, "gml": None, "error": error}
