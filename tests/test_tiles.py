@@ -270,8 +270,7 @@ def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_wit
 
     from osgeo import ogr
 
-    from wit_plugin.tiles import runner, worker
-    from wit_plugin.tiles.prepare import prepare_context
+    from wit_plugin.tiles import worker
 
     buildings = tmp_path / "buildings_with_a_shed.shp"
     for part in sample.buildings.parent.glob(sample.buildings.stem + ".*"):
@@ -286,14 +285,47 @@ def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_wit
     shed.SetGeometry(ogr.CreateGeometryFromWkt(shapely.box(x, y, x + 0.6, y + 0.6).wkt))
     layer.CreateFeature(shed)
     ds = None
-    context = prepare_context(str(sample.roads), str(sample.districts), polygon, "EPSG:5186",
-                              str(tmp_path / "context.gpkg"))
-    spec = runner._spec(_inputs(sample, buildings=str(buildings)), _options(), tmp_path / "out", sample.park, 1000,
-                        polygon, (str(tmp_path / "context.gpkg"), context))
-    row = worker.run_tile(spec)
+    row = worker.run_tile(_one_tile_spec(sample, tmp_path, sample.park, buildings=str(buildings)))
     assert (row["status"], row["buildings"], row["error"]) == ("empty", 0, None), row
     gml = tmp_path / "out" / row["gml"]
     assert _building_ids(gml) == [] and len(_ground_triangles(gml)) == row["triangles"] > 20
+
+
+def _one_tile_spec(sample, tmp_path: Path, sheet: str, **inputs) -> dict:
+    """What the runner gives a worker for ``sheet`` of the run over AREA (its roads and dongs prepared)."""
+    from wit_plugin.tiles import runner
+    from wit_plugin.tiles.prepare import prepare_context
+
+    polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
+    context = prepare_context(str(sample.roads), str(sample.districts), polygon, "EPSG:5186",
+                              str(tmp_path / "context.gpkg"))
+    return runner._spec(_inputs(sample, **inputs), _options(), tmp_path / "out", sheet, 1000, polygon,
+                        (str(tmp_path / "context.gpkg"), context))
+
+
+def test_a_tile_is_built_when_every_arrow_stream_outlives_its_reading(sample, local_run, tmp_path, monkeypatch):
+    """Dask's worker profiler keeps the frames it samples (every 10 ms) for a moment, and with them the GDAL
+    Arrow stream a reader held; GDAL allows one stream per layer at a time, so a second read of the same layer
+    failed ("GetArrowStream() failed": 2 tiles in 720 of the stress test, benchmarks/stress_tiles.py). Here every
+    stream is kept alive, as a sampled frame would: the tile is still built, as in the run."""
+    from osgeo import ogr
+
+    from wit_plugin.tiles import worker
+
+    kept = []
+    opened = ogr.Layer.GetArrowStreamAsNumPy
+
+    def outliving(layer, options=[]):  # noqa: B006 — GDAL's own signature
+        stream = opened(layer, options)
+        kept.append(stream.stream)  # the GDAL stream, as the frame of this call would hold it
+        return stream
+
+    monkeypatch.setattr(ogr.Layer, "GetArrowStreamAsNumPy", outliving)
+    sheet = max(local_run[1].rows, key=lambda r: r["buildings"])
+    row = worker.run_tile(_one_tile_spec(sample, tmp_path, sheet["sheet"]))
+    assert (row["status"], row["buildings"], row["triangles"], row["error"]) == (
+        "done", sheet["buildings"], sheet["triangles"], None), row
+    assert len(kept) > 10
 
 
 def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):

@@ -391,12 +391,18 @@ class _Layer:
     def _read(self, columns: tuple[str, ...], wanted: np.ndarray | None = None
               ) -> Iterator[tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]]:
         """(2D points, points per ring, the batch's columns) of the layer's surfaces, batch by batch,
-        only the ``wanted`` ones (a mask over all of them, in order) if given."""
-        self.layer.SetAttributeFilter(self._where(self.kinds))
-        self.layer.SetIgnoredFields([f for f in self._fields if f not in columns])
+        only the ``wanted`` ones (a mask over all of them, in order) if given.
+
+        Each pass reads through a handle of its own: GDAL allows one Arrow stream per layer at a time, and
+        the previous pass's may outlive it (a profiler, e.g. Dask's, keeps the frames it samples for a moment).
+        """
+        ds = ogr.Open(str(self.path))
+        layer = ds.GetLayerByName(self.name)
+        layer.SetAttributeFilter(self._where(self.kinds))
+        layer.SetIgnoredFields([f for f in self._fields if f not in columns])
         start = 0
         try:
-            for batch in bulk_read.batches(self.layer, fid=True):
+            for batch in bulk_read.batches(layer, fid=True):
                 size = len(batch["geometry"])
                 if wanted is not None:
                     keep = wanted[start:start + size]
@@ -410,7 +416,7 @@ class _Layer:
                                      "the unmodified output of the previous step.")
                 yield np.ascontiguousarray(points[:, :2]), counts, batch
         finally:
-            self.layer.SetIgnoredFields([])
+            layer = ds = None
 
 
 @dataclass(frozen=True)

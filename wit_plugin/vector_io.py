@@ -378,9 +378,13 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
         columns, wkbs, fids = _read_rows(lyr, fields, feedback)
         if bbox is not None:  # the filter drops them unread: they would vanish uncounted
             read = set(fids)
-            for fid in _non_finite_fids(lyr, fields):
+            # on a handle of its own: GDAL allows one Arrow stream per layer at a time, and the first one may
+            # outlive its reading (a profiler, e.g. Dask's, keeps the frames it samples for a moment)
+            scan_ds, scan_lyr, _ = open_layer(path, layer, encoding, feedback)
+            for fid in _non_finite_fids(scan_lyr, fields):
                 if fid not in read:
                     _append_feature(lyr.GetFeature(fid), fields, columns, wkbs, fids)
+            del scan_lyr, scan_ds
     name = lyr.GetName()
     del lyr, ds
     geoms = shapely.from_wkb(np.array(wkbs, dtype=object), on_invalid="ignore")
