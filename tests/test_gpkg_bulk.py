@@ -158,3 +158,51 @@ def test_a_full_disk_is_an_input_error_naming_the_file_and_leaves_nothing(tmp_pa
             ". Is the disk full?"), (limit, outcome)
     assert all(files == [] for _, outcome, files in outcomes if outcome != "ok")  # nothing half-written
     assert all(files == ["tin.gpkg"] for _, outcome, files in outcomes if outcome == "ok")
+
+
+
+_OUTLIVING_DATASET_CHILD = r"""
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np, pyproj
+from osgeo import ogr
+from wit_plugin.gpkg_bulk import write_layer
+from wit_plugin.vector_io import FieldDef
+
+kept = []
+create_layer = ogr.DataSource.CreateLayer
+
+
+def outliving(ds, *args, **kwargs):
+    kept.append(ds)  # as the sampled frame of this call would hold it
+    return create_layer(ds, *args, **kwargs)
+
+
+ogr.DataSource.CreateLayer = outliving
+corners = np.random.default_rng(4).uniform(0, 100, (500, 3, 3)) + [200000, 540000, 0]
+try:
+    print(write_layer(sys.argv[2], "tin", pyproj.CRS.from_epsg(5186), [FieldDef("n", ogr.OFTInteger)], corners,
+                      [np.arange(500)], spatial_index=sys.argv[3] == "index"), len(kept))
+except Exception as exc:
+    print(f"{type(exc).__name__}: {exc}")
+kept.clear()  # the profiler lets go: the dataset is destroyed now, after the file was moved into place
+"""
+
+
+@pytest.mark.parametrize("index", ["index", "no-index"])
+def test_the_table_is_there_when_the_dataset_outlives_its_creation(tmp_path, index):
+    """OGR creates a new layer's table when the dataset is flushed or destroyed, and Dask's worker profiler can
+    keep the dataset alive for a moment (in the frames it samples). With the dataset kept alive the rows are
+    still written (the writer once failed with "'NoneType' object is not subscriptable" there, in a tile's
+    terrain step) and read back whole once it is let go. In a plain Python, as a Dask worker is."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    path = tmp_path / "tin.gpkg"
+    child = subprocess.run([sys.executable, "-c", _OUTLIVING_DATASET_CHILD, str(Path(__file__).resolve().parents[1]),
+                            str(path), index], check=False, capture_output=True, text=True, timeout=300)
+    assert child.returncode == 0 and child.stdout.split() == ["500", "1"], child.stdout + child.stderr[-2000:]
+    ds = ogr.Open(str(path))
+    lyr = ds.GetLayer("tin")
+    assert lyr.GetFeatureCount() == 500 and sorted(f.GetField("n") for f in lyr) == list(range(500))

@@ -303,24 +303,31 @@ def _one_tile_spec(sample, tmp_path: Path, sheet: str, **inputs) -> dict:
                         (str(tmp_path / "context.gpkg"), context))
 
 
-def test_a_tile_is_built_when_every_arrow_stream_outlives_its_reading(sample, local_run, tmp_path, monkeypatch):
-    """Dask's worker profiler keeps the frames it samples (every 10 ms) for a moment, and with them the GDAL
-    Arrow stream a reader held; GDAL allows one stream per layer at a time, so a second read of the same layer
-    failed ("GetArrowStream() failed": 2 tiles in 720 of the stress test, benchmarks/stress_tiles.py). Here every
-    stream is kept alive, as a sampled frame would: the tile is still built, as in the run."""
+def test_a_tile_is_built_when_gdal_objects_outlive_their_use(sample, local_run, tmp_path, monkeypatch):
+    """Dask's worker profiler keeps the frames it samples (every 10 ms) for a moment, and with them what they
+    held: a GDAL Arrow stream (GDAL allows one per layer at a time, so the next read of the layer failed,
+    "GetArrowStream() failed": the stress test's failed tiles, benchmarks/stress_tiles.py), a dataset whose new
+    layer OGR creates only when it is destroyed (the TIN writer then failed, "'NoneType' object is not
+    subscriptable", once in a tiled run's terrain step). Here every such object is kept alive: the tile is
+    built as in the run."""
     from osgeo import ogr
 
     from wit_plugin.tiles import worker
 
     kept = []
-    opened = ogr.Layer.GetArrowStreamAsNumPy
+    read, create = ogr.Layer.GetArrowStreamAsNumPy, ogr.DataSource.CreateLayer
 
-    def outliving(layer, options=[]):  # noqa: B006 — GDAL's own signature
-        stream = opened(layer, options)
-        kept.append(stream.stream)  # the GDAL stream, as the frame of this call would hold it
+    def outliving_stream(layer, options=[]):  # noqa: B006 — GDAL's own signature
+        stream = read(layer, options)
+        kept.append(stream.stream)  # the GDAL stream, as the sampled frame of this call would hold it
         return stream
 
-    monkeypatch.setattr(ogr.Layer, "GetArrowStreamAsNumPy", outliving)
+    def outliving_dataset(ds, *args, **kwargs):
+        kept.append(ds)
+        return create(ds, *args, **kwargs)
+
+    monkeypatch.setattr(ogr.Layer, "GetArrowStreamAsNumPy", outliving_stream)
+    monkeypatch.setattr(ogr.DataSource, "CreateLayer", outliving_dataset)
     sheet = max(local_run[1].rows, key=lambda r: r["buildings"])
     row = worker.run_tile(_one_tile_spec(sample, tmp_path, sheet["sheet"]))
     assert (row["status"], row["buildings"], row["triangles"], row["error"]) == (

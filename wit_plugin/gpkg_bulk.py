@@ -11,10 +11,11 @@ The R-tree costs most of the time left (SQLite inserts ~10 µs a row whatever th
 3.6 has no bulk loader): worth it for a layer a user opens in QGIS, not for an intermediate
 file that the next step reads whole, so callers may leave it out.
 
-Every write is checked: a disk that is full (or any I/O error) is an ``InputError`` naming the file
-and SQLite's or GDAL's reason. OGR creates a new layer's table late, when the file is flushed, and a
-failure while a dataset is destroyed is never reported: so the table is made explicitly
-(``SyncToDisk``) while its errors can still be seen.
+OGR creates a new layer's table late, when the dataset is flushed or destroyed, and the destruction
+itself may come late: a profiler (Dask's, in tiled runs) keeps the frames it samples, and the
+dataset in them, alive for a moment; a failure then is never reported. So the table is made
+explicitly (``SyncToDisk``) while the dataset is open and its errors can be seen, and every write
+is checked: a disk that is full (or any I/O error) is an ``InputError`` naming the file.
 """
 from __future__ import annotations
 
