@@ -206,3 +206,35 @@ def test_the_table_is_there_when_the_dataset_outlives_its_creation(tmp_path, ind
     ds = ogr.Open(str(path))
     lyr = ds.GetLayer("tin")
     assert lyr.GetFeatureCount() == 500 and sorted(f.GetField("n") for f in lyr) == list(range(500))
+
+
+_OUTLIVING_WRITE_GPKG_CHILD = r"""
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np, pyproj, shapely
+from osgeo import ogr
+from wit_plugin.vector_io import FieldDef, OutputLayer, write_gpkg
+
+kept = []
+create_layer = ogr.DataSource.CreateLayer
+ogr.DataSource.CreateLayer = lambda ds, *args, **kwargs: kept.append(ds) or create_layer(ds, *args, **kwargs)
+fields = [FieldDef("n", ogr.OFTInteger)]
+write_gpkg(sys.argv[2], [OutputLayer("full", fields, {"n": [1]}, np.array([shapely.box(0, 0, 1, 1)], dtype=object)),
+                         OutputLayer("empty", fields, {"n": []}, np.array([], dtype=object)),
+                         OutputLayer("table", fields, {"n": []})], pyproj.CRS.from_epsg(5186))
+ds = ogr.Open(sys.argv[2])
+print(len(kept), *sorted(ds.GetLayer(i).GetName() for i in range(ds.GetLayerCount())))
+"""
+
+
+def test_write_gpkg_writes_every_layer_while_the_dataset_outlives_it(tmp_path):
+    """vector_io.write_gpkg (prepared layers, the tile index): an empty layer OGR creates only when the dataset
+    is flushed or destroyed is in the file even while the dataset is kept alive (Dask's worker profiler)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    child = subprocess.run([sys.executable, "-c", _OUTLIVING_WRITE_GPKG_CHILD, str(Path(__file__).resolve().parents[1]),
+                            str(tmp_path / "x.gpkg")], check=False, capture_output=True, text=True, timeout=300)
+    assert child.returncode == 0 and child.stdout.split() == ["3", "empty", "full", "table"], (
+        child.stdout + child.stderr[-2000:])  # the dataset kept once per layer it made

@@ -560,5 +560,6 @@ def write_gpkg(path: str | os.PathLike, layers: Sequence[OutputLayer], crs: pypr
             lyr.CreateFeature(feat)
         lyr.CommitTransaction()
         done += n
-    ds = None
+    ds.FlushCache()  # every layer (an empty one too) in the file now, whenever ds is destroyed: a profiler
+    ds = None  # (Dask's) may keep it alive for a moment in the frames it samples
     feedback.progress(100.0)
