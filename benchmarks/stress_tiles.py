@@ -14,7 +14,12 @@ the bytes of its ``model.gml`` — and no failed tile; anything else is printed 
   tile is killed (SIGKILL) at a random moment. Dask must run its tile again: the run ends complete.
   Staging folders left in the tiles by the killed attempt are counted (a finished run removes them).
 
+Dask's worker profiler samples the running task's frames every 10 ms and holds them (and what their
+locals hold) while it digests them, longer on a loaded machine; ``--profile-interval 1ms`` samples ten
+times as often, so that faults of that kind show within fewer runs on an idle machine.
+
     .venv/bin/python benchmarks/stress_tiles.py [--runs 10] [--kills 10] [--threads 1] [--tiles 16] [--seed 1]
+                                                [--profile-interval 10ms]
 
 Prints one line per repetition and a summary; writes out/bench/tiles/stress.json; exit status 1 when
 any repetition failed or differed.
@@ -128,8 +133,15 @@ def main() -> int:
     parser.add_argument("--tiles", type=int, default=16, choices=[1, 4, 16])
     parser.add_argument("--max-edge", type=float, default=5.0)
     parser.add_argument("--seed", type=int, default=1, help="of the kill moments")
+    parser.add_argument("--profile-interval", default=None, help="Dask's worker profiler interval (default 10ms)")
     args = parser.parse_args()
+    if args.profile_interval:  # the workers of both scenarios inherit this process's environment
+        os.environ["DASK_DISTRIBUTED__WORKER__PROFILE__INTERVAL"] = args.profile_interval
+    return stress(args)
 
+
+def stress(args: argparse.Namespace) -> int:
+    """The repetitions of ``args``; 1 when any failed or differed."""
     import shapely
     from bench_tiles import blocks
 
@@ -161,20 +173,25 @@ def main() -> int:
         failed = {r["sheet"]: r["error"] for r in run.rows if r["status"] == "failed"}
         reference = reference or (prints if not failed else None)
         differ = sorted(s for s in prints if reference and prints[s] != reference.get(s))
-        leftovers = len(list(Path(run.output).glob("tiles/*/.wit-run-*")))
+        leftovers = sorted(str(p.relative_to(run.output)) for p in Path(run.output).glob("tiles/*/.wit-run-*"))
         result = {"scenario": scenario, "run": k, "seconds": round(seconds, 1), "done": run.count("done"),
                   "empty": run.count("empty"), "failed": failed, "differ": differ, "leftovers": leftovers,
                   "buildings": run.buildings, **extra}
         results.append(result)
         ok = not failed and not differ and not leftovers
         print(f"{scenario} {k + 1}: {'ok' if ok else 'FAILED'} {seconds:.1f} s, {result['done']} done, "
-              f"{result['empty']} empty, {len(failed)} failed, {len(differ)} differ, {leftovers} staging left, "
+              f"{result['empty']} empty, {len(failed)} failed, {len(differ)} differ, {len(leftovers)} staging left, "
               f"{run.buildings} buildings" + "".join(f" {k}={v}" for k, v in extra.items()), flush=True)
         for sheet, error in failed.items():
             print(f"  {sheet}: {error}", flush=True)
         for sheet in differ:
             print(f"  {sheet}: {prints[sheet]} != {reference[sheet]}", flush=True)
-        shutil.rmtree(run.output, ignore_errors=True)
+        for path in leftovers:
+            print(f"  left: {path}", flush=True)
+        if ok:
+            shutil.rmtree(run.output, ignore_errors=True)
+        else:
+            print(f"  kept for inspection: {run.output}", flush=True)
 
     for k in range(args.runs):
         start = time.perf_counter()
@@ -195,6 +212,7 @@ def main() -> int:
             cluster.stop()
     bad = [r for r in results if r["failed"] or r["differ"] or r["leftovers"]]
     summary = {"runs": args.runs, "kills": args.kills, "threads": args.threads, "tiles": args.tiles,
+               "profile_interval": args.profile_interval or "10ms",
                "tile_runs": sum(r["done"] + r["empty"] + len(r["failed"]) for r in results),
                "bad_repetitions": len(bad), "failed_tiles": sum(len(r["failed"]) for r in results),
                "kills_that_hit_a_tile": sum(bool(r.get("killed")) for r in results),

@@ -543,6 +543,46 @@ def test_a_tile_whose_worker_dies_too_often_is_failed_and_the_others_go_on(sampl
     assert not any((tmp_path / "out" / "tiles" / sheet / "model.gml").exists() for sheet in failed)
 
 
+def test_a_tile_recorded_is_not_built_again_when_its_worker_dies_later(sample, tmp_path):
+    """The worker that built the first tile dies once the tile is recorded: Dask computes again every result a
+    lost worker held that is still wanted (the tile was written into after the run had ended; the stress test
+    found its staging folder). The runner lets each row go once recorded: every tile is built once."""
+    from distributed import Client
+
+    address, scheduler = _stock_scheduler(tmp_path)
+    workers = _workers(address)
+    killed = []
+
+    class KillTheFirstBuilder(Feedback):
+        def __init__(self, client):
+            self.client = client
+
+        def info(self, message: str) -> None:
+            if killed or not message.startswith("Tile "):
+                return
+            prefix = f"wit-tile-{message.split()[1].rstrip(':')}-"
+            key, builder = next((t["key"], t["worker"]) for t in self.client.get_task_stream()
+                                if str(t["key"]).startswith(prefix))
+            deadline = time.monotonic() + 30  # until the scheduler has let the row go (at once when released)
+            while any(key in keys for keys in self.client.has_what().values()) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            os.kill(self.client.run(os.getpid, workers=[builder])[builder], signal.SIGKILL)
+            killed.append(key)
+
+    try:
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+            client.get_task_stream()  # the scheduler records the tasks run from now on
+            report = run_tiles(_inputs(sample), _options(), tmp_path / "out", AREA, scale=1000, scheduler=address,
+                               feedback=KillTheFirstBuilder(client))
+            built = [str(t["key"]) for t in client.get_task_stream()
+                     if str(t["key"]).startswith("wit-tile-") and t["status"] == "OK"]
+    finally:
+        stop_workers(workers + [scheduler])
+    assert killed and report.count("failed") == 0
+    assert sorted(built) == sorted(set(built)) and len(built) == len(report.rows), (killed, built)
+
+
 def test_workers_without_the_core_fail_every_tile_saying_so(sample, tmp_path):
     """A cluster whose workers cannot import the core (not installed there): every tile failed with what to
     install, and the run ends with that reason."""

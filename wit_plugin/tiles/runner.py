@@ -314,8 +314,8 @@ def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> di
     from distributed import as_completed
 
     futures = {submit_tile(client, sheet, spec): sheet for sheet, spec in specs.items()}
-    done: dict[str, dict] = {}
-    finished = as_completed(list(futures))
+    total, done = len(futures), {}
+    finished = as_completed(list(futures), loop=client.loop)  # not the default client's, which may be another
     try:
         while not finished.is_empty():
             if feedback.is_canceled():
@@ -325,17 +325,19 @@ def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> di
                 time.sleep(POLL_SECONDS)
                 continue
             for future in batch:
-                sheet = futures[future]
+                sheet = futures.pop(future)
                 try:
                     row = future.result()
                 except Exception as exc:  # noqa: BLE001 — the task never raises: its worker was lost
                     row = lost_row(sheet, exc)
+                future.release()  # recorded: were it still wanted, Dask would build the tile again (writing into
+                # it after the run) if the worker holding this row died later
                 update_row(output, sheet, row)
                 done[sheet] = row
                 feedback.info(f"Tile {sheet}: {row['status']}, {row.get('buildings') or 0} buildings, "
                               f"{row.get('seconds') or 0:.1f} s, peak {row.get('peak_mb') or 0:.0f} MB"
                               + (f" — {row['error']}" if row.get("error") else ""))
-                feedback.progress(2 + 98 * len(done) / len(futures))
+                feedback.progress(2 + 98 * len(done) / total)
     except BaseException:
         client.cancel(list(futures), force=True)
         raise
