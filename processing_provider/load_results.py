@@ -1,7 +1,7 @@
 """The chain's results into the QGIS project when a run from the GUI finishes: one layer group with
 the LoD1 buildings (a 3D renderer extruding the footprints by their height), the terrain TIN (3D
-polygons at their heights) and, on QGIS ≥ 3.34, the 3D Tiles tileset as a tiled-scene layer — so the
-3D map view shows the city without leaving QGIS.
+polygons at their heights) and, on QGIS ≥ 3.34, the 3D Tiles tileset as a tiled-scene layer with its
+3D renderer — so the 3D map view shows the city without leaving QGIS.
 
 Processing loads the layers queued with ``context.addLayerToLoadOnCompletion`` after the algorithm
 (Processing's own post-processing, in the GUI only); a post-processor per layer then moves it into
@@ -67,7 +67,7 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 
-        layers.append((QgsTiledSceneLayer(tileset, tr("3D Tiles"), "cesiumtiles"), None))
+        layers.append((QgsTiledSceneLayer(tileset, tr("3D Tiles"), "cesiumtiles"), _tileset_renderer))
     return _queue(context, layers, group_name)
 
 
@@ -124,6 +124,14 @@ def _building_renderer(layer: QgsVectorLayer) -> None:
 
 def _terrain_renderer(layer: QgsVectorLayer) -> None:
     _set_renderer(layer, _polygon_symbol(TERRAIN_RGB))
+
+
+def _tileset_renderer(layer) -> None:
+    """The tiled-scene layer's 3D renderer (QGIS ≥ 3.34): without it a 3D map view does not show the
+    tileset, only the 2D map does."""
+    from qgis._3d import QgsTiledSceneLayer3DRenderer
+
+    layer.setRenderer3D(QgsTiledSceneLayer3DRenderer())
 
 
 def load_index(context: QgsProcessingContext, index: str, group_name: str | None = None) -> None:

@@ -14,6 +14,8 @@ from qgis.core import QgsProcessingException
 
 from wit_plugin import model
 
+pytestmark = pytest.mark.qgis_facing
+
 ORIGIN = (209000.0, 543000.0)
 SQUARE = "POLYGON((209002 543002,209010 543002,209010 543010,209002 543010,209002 543002))"
 

@@ -15,7 +15,7 @@ from lxml import etree
 from conftest import ROOT, ensure_wit_provider
 from wit_plugin.sample import SampleConfig, generate_sample
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.qgis_facing]
 
 MODEL_FILE = ROOT / "processing_provider" / "models" / "wit_citymodel.model3"
 INPUTS = ["ORTHO", "DEM", "BUILDINGS", "ROADS", "DISTRICTS", "CENTER", "RADIUS", "STOREY_HEIGHT", "HEIGHT_FIELD",

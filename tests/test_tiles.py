@@ -404,6 +404,7 @@ def _parameters(sample, output: Path) -> dict:
             "RADIUS": 280.0, "MAX_EDGE": 15.0, "TILE_SCALE": 1, "WORKERS": 2, "OUTPUT": str(output)}
 
 
+@pytest.mark.qgis_facing
 def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, sample, local_run, tmp_path,
                                                                  monkeypatch):
     """In the QGIS process, with sys.executable pointing at a program that is not Python (QGIS on
@@ -419,6 +420,7 @@ def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, 
     assert Path(result["INDEX"]).is_file()
 
 
+@pytest.mark.qgis_facing
 def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_path):
     env = dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path / "profile"))
     args = [str(ROOT / "scripts" / "qgis-process"), "--json", "run", "wit:citymodeltiles"]
