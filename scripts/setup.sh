@@ -23,8 +23,12 @@ apt_install() {
 # The candidate version apt would install of a package, or nothing.
 apt_candidate() { apt-cache policy "$1" 2>/dev/null | awk '/Candidate:/ && $2 != "(none)" {print $2}'; }
 
+# QGIS's GEOS (the system's), or nothing when QGIS's Python bindings are missing
+qgis_geos() { "$SYS_PY" -c 'from qgis.core import Qgis; print(Qgis.geosVersion().split("-")[0])' 2>/dev/null || true; }
+
 need_apt=()
-"$SYS_PY" -c 'import qgis.core' 2>/dev/null || need_apt+=(qgis python3-qgis qgis-providers)
+QGIS_GEOS="$(qgis_geos)"
+[ -n "$QGIS_GEOS" ] || need_apt+=(qgis python3-qgis qgis-providers)
 "$SYS_PY" -c 'from osgeo import gdal' 2>/dev/null || need_apt+=(python3-gdal)
 command -v gdal_translate >/dev/null || need_apt+=(gdal-bin)
 command -v qgis_process.bin >/dev/null || need_apt+=(qgis-providers)
@@ -44,7 +48,7 @@ command -v git >/dev/null || need_apt+=(git)  # the tests copy the checkout's fi
 # shapely wheel's bundled GEOS then resolves to them and crashes QGIS (segfault). The platform's
 # python3-shapely is used when it is shapely 2 on the same GEOS (Debian trixie/sid); else shapely is
 # built from source against the system GEOS. Checked by feature: Debian's says "0+unknown".
-QGIS_GEOS="$("$SYS_PY" -c 'from qgis.core import Qgis; print(Qgis.geosVersion().split("-")[0])')"
+[ -n "$QGIS_GEOS" ] || QGIS_GEOS="$(qgis_geos)"
 platform_shapely_fits() {
     "$SYS_PY" - "$QGIS_GEOS" <<'EOF' 2>/dev/null
 import sys
@@ -54,15 +58,22 @@ same_geos = ".".join(map(str, shapely.geos_version)) == sys.argv[1]
 sys.exit(0 if api and same_geos and shapely.__file__.startswith("/usr/lib/") else 1)
 EOF
 }
-candidate="$(apt_candidate python3-shapely)"
-if ! platform_shapely_fits && [ "${candidate%%.*}" -ge 2 ] 2>/dev/null \
-    && ! dpkg-query -W -f '${Status}' python3-shapely 2>/dev/null | grep -q 'ok installed'; then
-    apt_install python3-shapely  # shapely 2 from the platform (checked against QGIS's GEOS below)
-fi
-if platform_shapely_fits; then
+# The choice is kept in the venv (asking apt takes seconds); "platform" is checked again each time.
+CHOICE="$VENV/.wit-shapely"
+SHAPELY="$(cat "$CHOICE" 2>/dev/null || true)"
+if [ "$SHAPELY" = "platform $QGIS_GEOS" ] && platform_shapely_fits; then
     SHAPELY=platform
-else
+elif [ "$SHAPELY" = "source $QGIS_GEOS" ]; then
     SHAPELY=source
+else
+    candidate="$(apt_candidate python3-shapely)"
+    if ! platform_shapely_fits && [ "${candidate%%.*}" -ge 2 ] 2>/dev/null \
+        && ! dpkg-query -W -f '${Status}' python3-shapely 2>/dev/null | grep -q 'ok installed'; then
+        apt_install python3-shapely  # shapely 2 from the platform (checked against QGIS's GEOS next)
+    fi
+    if platform_shapely_fits; then SHAPELY=platform; else SHAPELY=source; fi
+fi
+if [ "$SHAPELY" = source ]; then
     build_apt=()
     command -v geos-config >/dev/null || build_apt+=(libgeos-dev)
     command -v pkg-config >/dev/null || build_apt+=(pkg-config)  # shapely's build finds GEOS with it
@@ -94,6 +105,9 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
         > "$VENV/requirements-setup.txt"
     "$VENV/bin/python" -m pip install -q --disable-pip-version-check -c "$VENV/constraints.txt" \
         -r "$VENV/requirements-setup.txt"
+    if [ "$SHAPELY" = platform ] && [ -n "$(compgen -G "$VENV/lib/python3*/site-packages/shapely")" ]; then
+        "$VENV/bin/python" -m pip uninstall -q -y shapely  # an earlier build would hide the platform's
+    fi
     # triangle: J. R. Shewchuk's Triangle as the module `triangle`, from the `triangle` wheels (none
     # for Python 3.14 yet) or `triangle3` (the same module, wheels for 3.11-3.14), else built
     if ! "$VENV/bin/python" -c 'import triangle' 2>/dev/null; then
@@ -106,6 +120,7 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
     fi
     printf '%s' "$WANT" > "$STAMP"
 fi
+printf '%s %s' "$SHAPELY" "$QGIS_GEOS" > "$CHOICE"
 
 # Translations: .ts (source, committed) -> .qm (compiled, ignored by git).
 shopt -s nullglob
