@@ -115,9 +115,17 @@ def test_the_generator_reproduces_the_shipped_model(qgis_processing, tmp_path):
     make_model = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(make_model)
     assert make_model.build_model().toFile(str(tmp_path / "built.model3"))
-    # compared as loaded (a file does not keep null and empty strings apart)
-    assert load_model(tmp_path / "built.model3").toVariant() == load_model().toVariant(), \
+    # both as this QGIS writes and reads them back: a file does not keep null and empty strings apart,
+    # and QGIS versions serialise a model differently (3.40 writes keys that 3.22 does not), so the
+    # shipped file (written by 3.22) and the generator's model are compared in this QGIS's terms
+    assert rewritten(load_model(tmp_path / "built.model3"), tmp_path / "a") == rewritten(load_model(), tmp_path / "b"), \
         "the shipped .model3 is stale: run scripts/make_model.py"
+
+
+def rewritten(model, path) -> dict:
+    """``model`` written to ``path`` and read back, as a variant."""
+    assert model.toFile(str(path))
+    return load_model(path).toVariant()
 
 
 def test_model_is_valid_with_the_documented_inputs_and_outputs(qgis_processing):
