@@ -481,6 +481,7 @@ def _check_run_tileset(path: Path, local) -> None:
             assert list((path.parent / child["content"]["uri"]).parent.glob("tiles/*/*.glb"))
     result = subprocess.run(["node", str(ROOT / "viewer" / "validate-gltf.mjs"), str(path.parent / "3dtiles-groups")],
                             capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]  # e.g. the viewer packages missing (scripts/setup-viewer.sh)
     summary = json.loads(result.stdout)
     assert summary["files"] == len(groups) and summary["errors"] == 0, summary
 
