@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
 os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
 
-from osgeo import gdal  # noqa: E402
+from osgeo import gdal
 
 _SESSION_GDAL_EXCEPTIONS = bool(gdal.GetUseExceptions())
 

@@ -473,7 +473,8 @@ def _check_run_tileset(path: Path, local) -> None:
         assert w <= gw < ge <= e and s <= gs < gn <= n and low <= glow < ghigh <= high
         for child in group["children"]:
             assert group["geometricError"] >= 2 * child["geometricError"]
-            np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-9)
+            # translations in metres of ECEF (~6e6 m): float64 round-off there is ~1e-9 m (numpy 2.4 on QGIS 3.44)
+            np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-6)
             tile = json.loads((path.parent / child["content"]["uri"]).read_text(encoding="utf-8"))
             assert child["boundingVolume"]["region"] == tile["root"]["boundingVolume"]["region"]
             cw, cs, ce, cn, clow, chigh = child["boundingVolume"]["region"]
