@@ -30,11 +30,13 @@ _processors: list = []  # post-processors must outlive the run that queued them
 
 
 class _IntoGroup(QgsProcessingLayerPostProcessorInterface):
-    """Moves the loaded layer into the results group (created on top if missing), then styles it."""
+    """Moves the loaded layer into the results group (created on top if missing) at its place in
+    ``order`` (the layer names, top first: QGIS versions post-process the layers in different orders),
+    then styles it."""
 
-    def __init__(self, group_name: str, style=None):
+    def __init__(self, group_name: str, order: list[str], style=None):
         super().__init__()
-        self.group_name, self.style = group_name, style
+        self.group_name, self.order, self.style = group_name, order, style
 
     def postProcessLayer(self, layer, context, feedback):  # noqa: N802 - QGIS API
         project = context.project()
@@ -43,7 +45,10 @@ class _IntoGroup(QgsProcessingLayerPostProcessorInterface):
         node = root.findLayer(layer.id())
         if node is not None and node.parent() is not group:
             parent = node.parent()
-            group.addLayer(layer)
+            after = self.order[self.order.index(layer.name()) + 1:] if layer.name() in self.order else []
+            children = group.children()
+            place = next((i for i, child in enumerate(children) if child.name() in after), len(children))
+            group.insertLayer(place, layer)
             parent.removeChildNode(node)
         if self.style is not None:
             self.style(layer)
@@ -72,18 +77,17 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
 
 
 def _queue(context: QgsProcessingContext, layers: list[tuple[QgsMapLayer, object]], group_name: str) -> list[str]:
-    """Queue valid layers for loading at the end of the run, each moved into the group and styled."""
-    names = []
-    for layer, style in layers:
-        if not layer.isValid():
-            continue
+    """Queue valid layers for loading at the end of the run, each moved into the group (in this
+    order, top first) and styled."""
+    valid = [(layer, style) for layer, style in layers if layer.isValid()]
+    names = [layer.name() for layer, _ in valid]
+    for layer, style in valid:
         context.temporaryLayerStore().addMapLayer(layer)
         details = QgsProcessingContext.LayerDetails(layer.name(), context.project(), layer.name())
-        processor = _IntoGroup(group_name, style)
+        processor = _IntoGroup(group_name, names, style)
         _processors.append(processor)
         details.setPostProcessor(processor)
         context.addLayerToLoadOnCompletion(layer.id(), details)
-        names.append(layer.name())
     return names
 
 
@@ -102,7 +106,9 @@ def _polygon_symbol(rgb: tuple[int, int, int], extrusion_field: str | None = Non
     material = QgsPhongMaterialSettings()
     material.setDiffuse(QColor(*rgb))
     material.setAmbient(QColor(*rgb).darker(150))
-    symbol.setMaterial(material)
+    # QGIS 3.22's Python bindings have setMaterial only; 3.44's setMaterialSettings only
+    set_material = getattr(symbol, "setMaterialSettings", None) or symbol.setMaterial
+    set_material(material)
     if extrusion_field:
         properties = symbol.dataDefinedProperties()
         properties.setProperty(QgsAbstract3DSymbol.PropertyExtrusionHeight, QgsProperty.fromField(extrusion_field))
