@@ -17,7 +17,6 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingFeedback,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterDefinition,
 )
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
@@ -26,6 +25,7 @@ from ..wit_plugin import deps, fileio
 from ..wit_plugin.errors import CanceledError, WitError
 from ..wit_plugin.feedback import Feedback
 from ..wit_plugin.gdal_env import no_sidecars
+from .qgis_compat import ParameterFlag
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1]
 HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
@@ -171,5 +171,5 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         param = QgsProcessingParameterBoolean(
             self.SPATIAL_INDEX, self.tr("Build a spatial index (slower to write, faster to display)"),
             defaultValue=True)
-        param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        param.setFlags(param.flags() | ParameterFlag.Advanced)
         self.addParameter(param)
