@@ -1,4 +1,5 @@
-"""Which Python runs the core in another process (Dask workers, the 3D Tiles export beside validation).
+"""Which Python runs the core in another process (Dask workers, the 3D Tiles export beside validation),
+and which runs pip for QGIS's Python (``this_python``).
 
 Inside QGIS on Windows and macOS ``sys.executable`` is QGIS itself: starting it would open QGIS again.
 So a separate process always gets an explicit interpreter: the one configured, else the first Python
@@ -35,12 +36,8 @@ def core_python(configured: str | None, modules: tuple[str, ...], module: str) -
             if problem:
                 raise InputError(f"The worker Python {candidate} cannot run the core: {problem}")
             return candidate
-    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
-    prefix = Path(sys.exec_prefix)
-    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
-                   shutil.which("python")]
     tried = []
-    for candidate in dict.fromkeys(c for c in candidates if c and Path(c).is_file()):
+    for candidate in _candidates():
         problem = _cannot_run(candidate, modules, module)
         if not problem:
             return candidate
@@ -48,6 +45,43 @@ def core_python(configured: str | None, modules: tuple[str, ...], module: str) -
     raise InputError("No Python imports the plugin's dependencies for a separate process ("
                      + "; ".join(tried or ["none found"]) + "). Set WORKER_PYTHON (or $WIT_WORKER_PYTHON) to one "
                      "that does, e.g. a virtual environment with the packages of requirements.txt.")
+
+
+def _candidates() -> list[str]:
+    """Pythons to try, in order: ``sys.executable`` when it is a Python, the one of QGIS's own prefix
+    (``bin/python3``, or ``python.exe`` on Windows), then ``python3`` / ``python`` on the PATH."""
+    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
+    prefix = Path(sys.exec_prefix)
+    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
+                   shutil.which("python")]
+    return list(dict.fromkeys(c for c in candidates if c and Path(c).is_file()))
+
+
+def this_python(configured: str | None = None) -> str:
+    """An interpreter of the Python this process runs (same version), to run pip for it: QGIS's own
+    Python inside QGIS, never QGIS itself. ``configured`` wins and must be one."""
+    wanted = f"{sys.version_info[0]}.{sys.version_info[1]}"
+    if configured and not (Path(configured).is_file() and os.access(configured, os.X_OK)):
+        raise InputError(f"The Python {configured} is not an executable file.")
+    tried = []
+    for candidate in [configured] if configured else _candidates():
+        version = _version(candidate)
+        if version == wanted:
+            return candidate
+        tried.append(f"{candidate}: {version}")
+    raise InputError(f"No Python {wanted} interpreter (the version QGIS runs) was found ("
+                     + "; ".join(tried or ["none found"]) + "). Give its path as the Python interpreter.")
+
+
+@functools.lru_cache(maxsize=16)
+def _version(python: str) -> str:
+    """``python``'s "major.minor", or why it does not run."""
+    try:
+        result = subprocess.run([python, "-c", "import sys; print('%d.%d' % sys.version_info[:2])"],
+                                capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return str(exc)
+    return result.stdout.strip() if result.returncode == 0 else (result.stderr.strip() or "fails")
 
 
 @functools.lru_cache(maxsize=16)
