@@ -115,3 +115,18 @@ def test_no_rule_but_pip_on_windows_and_macos(monkeypatch):
     monkeypatch.setattr(sys, "platform", "win32")
     monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: (None, []))
     assert installer._check_safety(list(installer.PACKAGES), sys.executable, "3.11.1", str) == []
+
+
+def test_pip_runs_in_this_very_python_not_another_of_the_same_version(tmp_path, monkeypatch):
+    """Inside qgis_process sys.executable was a pyenv shim of another Python 3.11: it must not be taken."""
+    from wit_plugin import interpreter
+
+    other = tmp_path / "python3"
+    other.write_text(f"#!/bin/sh\nprintf '{sys.version_info[0]}.{sys.version_info[1]}\\n/opt/elsewhere\\n'\n")
+    other.chmod(0o755)
+    monkeypatch.setattr(interpreter, "_candidates", lambda: [str(other), sys.executable])
+    assert interpreter.this_python() == sys.executable
+    monkeypatch.setattr(interpreter, "_candidates", lambda: [str(other)])
+    with pytest.raises(WitError, match=f"No interpreter of QGIS's Python .*{other}: Python "):
+        interpreter.this_python()
+    assert interpreter.this_python(str(other)) == str(other)  # given explicitly: the version must match only

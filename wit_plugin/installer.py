@@ -146,7 +146,7 @@ def install(selected: Sequence[Package], folder: Path, *, python: str | None = N
     for package in absent:
         if package.licence:
             feedback.warning(tr(package.licence))
-    loaded = {p.module for p in absent if p.module in sys.modules}
+    loaded = {p.module for p in absent if sys.modules.get(p.module) is not None}
     with _workspace(folder) as work:
         pip = _Pip(interpreter, folder, work, from_source, feedback, tr)
         pins = pip.resolve(absent, reinstall=clashing)
@@ -361,22 +361,23 @@ class _Pip:
             output.put(None)
 
         threading.Thread(target=read, daemon=True).start()
-        while True:
-            if feedback.is_canceled():
-                _kill(process)
-                raise CanceledError("Cancelled: pip was stopped.")
-            try:
-                line = output.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            if line is None:
-                break
-            line = line.rstrip()
-            if line and not _noise(line):
-                lines.append(line)
-                feedback.info(line)
-                if progress:
-                    progress(line)
+        with process.stdout:
+            while True:
+                if feedback.is_canceled():
+                    _kill(process)
+                    raise CanceledError("Cancelled: pip was stopped.")
+                try:
+                    line = output.get(timeout=0.2)
+                except queue.Empty:
+                    continue
+                if line is None:
+                    break
+                line = line.rstrip()
+                if line and not _noise(line):
+                    lines.append(line)
+                    feedback.info(line)
+                    if progress:
+                        progress(line)
         return process.wait(), lines
 
 

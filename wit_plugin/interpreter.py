@@ -58,30 +58,39 @@ def _candidates() -> list[str]:
 
 
 def this_python(configured: str | None = None) -> str:
-    """An interpreter of the Python this process runs (same version), to run pip for it: QGIS's own
-    Python inside QGIS, never QGIS itself. ``configured`` wins and must be one."""
-    wanted = f"{sys.version_info[0]}.{sys.version_info[1]}"
+    """An interpreter of the very Python this process runs (same version, same installation), to run pip
+    for it: QGIS's own Python inside QGIS, never QGIS itself, nor another Python 3.X that happens to be
+    on the PATH (inside qgis_process ``sys.executable`` can be such a one, e.g. a pyenv shim). A
+    ``configured`` one wins and must be of the same version."""
+    ours = (f"{sys.version_info[0]}.{sys.version_info[1]}", _same_path(sys.base_prefix))
     if configured and not (Path(configured).is_file() and os.access(configured, os.X_OK)):
         raise InputError(f"The Python {configured} is not an executable file.")
     tried = []
     for candidate in [configured] if configured else _candidates():
-        version = _version(candidate)
-        if version == wanted:
+        found = _identity(candidate)
+        if found == ours or (configured and found[0] == ours[0]):
             return candidate
-        tried.append(f"{candidate}: {version}")
-    raise InputError(f"No Python {wanted} interpreter (the version QGIS runs) was found ("
+        tried.append(f"{candidate}: Python {found[0]} in {found[1]}")
+    raise InputError(f"No interpreter of QGIS's Python (Python {ours[0]} in {sys.base_prefix}) was found ("
                      + "; ".join(tried or ["none found"]) + "). Give its path as the Python interpreter.")
 
 
+def _same_path(path: str) -> str:
+    return os.path.normcase(os.path.realpath(path))
+
+
 @functools.lru_cache(maxsize=16)
-def _version(python: str) -> str:
-    """``python``'s "major.minor", or why it does not run."""
+def _identity(python: str) -> tuple[str, str]:
+    """``python``'s ("major.minor", installation prefix), or (why it does not run, "")."""
+    code = "import sys; print('%d.%d' % sys.version_info[:2]); print(sys.base_prefix)"
     try:
-        result = subprocess.run([python, "-c", "import sys; print('%d.%d' % sys.version_info[:2])"],
-                                capture_output=True, text=True, timeout=60)
+        result = subprocess.run([python, "-c", code], capture_output=True, text=True, timeout=60)
     except (OSError, subprocess.TimeoutExpired) as exc:
-        return str(exc)
-    return result.stdout.strip() if result.returncode == 0 else (result.stderr.strip() or "fails")
+        return str(exc), ""
+    lines = result.stdout.splitlines()
+    if result.returncode != 0 or len(lines) < 2:
+        return result.stderr.strip() or "fails", ""
+    return lines[0], _same_path(lines[1])
 
 
 @functools.lru_cache(maxsize=16)
