@@ -1,4 +1,5 @@
-"""QGIS plugin object: installs the translation and registers the Processing provider."""
+"""QGIS plugin object: installs the translation, registers the Processing provider and, in the QGIS window,
+offers the dependency installer when an algorithm lacks a package."""
 from pathlib import Path
 
 from osgeo import gdal

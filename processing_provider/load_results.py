@@ -105,7 +105,8 @@ def _polygon_symbol(rgb: tuple[int, int, int], extrusion_field: str | None = Non
     symbol.setMaterial(material)
     if extrusion_field:
         properties = symbol.dataDefinedProperties()
-        properties.setProperty(QgsAbstract3DSymbol.Property.PropertyExtrusionHeight, QgsProperty.fromField(extrusion_field))
+        properties.setProperty(QgsAbstract3DSymbol.Property.PropertyExtrusionHeight,
+                               QgsProperty.fromField(extrusion_field))
         symbol.setDataDefinedProperties(properties)
     return symbol
 

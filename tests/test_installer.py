@@ -2,6 +2,7 @@
 merge of a finished install, and the Linux rules that keep a bundled C library out of QGIS."""
 from __future__ import annotations
 
+import os
 import sys
 
 import pytest
@@ -29,12 +30,19 @@ def test_the_folder_is_per_python_version_inside_the_profile(tmp_path):
     assert folder == tmp_path / "python" / "wit_citymodel_deps" / f"py{sys.version_info[0]}.{sys.version_info[1]}"
 
 
-def test_activate_puts_the_folder_before_site_packages_once(tmp_path, monkeypatch):
+def test_activate_puts_the_folder_before_site_packages_once_and_on_the_core_processes_path(tmp_path, monkeypatch):
+    from wit_plugin import interpreter
+
     monkeypatch.setattr(sys, "path", ["/usr/lib/python3.11", "/usr/lib/python3/dist-packages", "/x/site-packages"])
+    monkeypatch.setattr(interpreter, "PACKAGE_FOLDERS", [])
+    monkeypatch.setattr(installer, "PACKAGE_FOLDERS", interpreter.PACKAGE_FOLDERS)
+    monkeypatch.setenv("PYTHONPATH", "/y")
     installer.activate(tmp_path / "deps")
     installer.activate(tmp_path / "deps")
     assert sys.path == ["/usr/lib/python3.11", str(tmp_path / "deps"), "/usr/lib/python3/dist-packages",
                         "/x/site-packages"]
+    assert interpreter.core_env()["PYTHONPATH"].split(os.pathsep) == [str(interpreter.CORE_ROOT),
+                                                                       str(tmp_path / "deps"), "/y"]
 
 
 def test_merge_replaces_a_package_and_its_old_metadata_and_merges_plain_folders(tmp_path):
@@ -43,7 +51,8 @@ def test_merge_replaces_a_package_and_its_old_metadata_and_merges_plain_folders(
                        "bin/dask": "old", "keep/__init__.py": "kept"}.items():
         (folder / path).parent.mkdir(parents=True, exist_ok=True)
         (folder / path).write_text(text)
-    for path, text in {"shapely/__init__.py": "new", "Shapely-2.1.2.dist-info/METADATA": "", "bin/dask-worker": "new"}.items():
+    new = {"shapely/__init__.py": "new", "Shapely-2.1.2.dist-info/METADATA": "", "bin/dask-worker": "new"}
+    for path, text in new.items():
         (staging / path).parent.mkdir(parents=True, exist_ok=True)
         (staging / path).write_text(text)
     installer._merge(staging, folder, replaced)

@@ -40,7 +40,7 @@ from pathlib import Path
 from . import deps
 from .errors import CanceledError, WitError
 from .feedback import SILENT, Feedback
-from .interpreter import this_python
+from .interpreter import PACKAGE_FOLDERS, this_python
 
 #: the profile folder's name, below ``<profile>/python``
 FOLDER_NAME = "wit_citymodel_deps"
@@ -112,11 +112,14 @@ def packages_folder(profile_dir: str | Path) -> Path:
 
 def activate(folder: Path) -> None:
     """Put ``folder`` on ``sys.path`` before the site-packages, so that what was installed there wins over
-    an older copy of the system (Debian 12's shapely 1.8), and make imports see what was added since."""
+    an older copy of the system (Debian 12's shapely 1.8), and on the path of the processes the core starts;
+    make imports see what was added since."""
     entry = str(folder)
     if entry not in sys.path:
         site = [i for i, path in enumerate(sys.path) if Path(path).name in ("site-packages", "dist-packages")]
         sys.path.insert(site[0] if site else len(sys.path), entry)
+    if entry not in PACKAGE_FOLDERS:
+        PACKAGE_FOLDERS.append(entry)  # the core's own processes (workers, the 3D Tiles export) get it too
     sys.path_importer_cache.pop(entry, None)
     importlib.invalidate_caches()
 

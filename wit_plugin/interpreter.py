@@ -20,9 +20,15 @@ from .errors import InputError
 CORE_ROOT = Path(__file__).resolve().parents[1]  # the folder holding the package wit_plugin
 
 
+#: folders of packages the plugin put on ``sys.path`` (``installer.activate``): its processes need them too
+PACKAGE_FOLDERS: list[str] = []
+
+
 def core_env() -> dict:
-    """This process's environment with the core importable as ``wit_plugin``."""
-    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(CORE_ROOT), os.environ.get("PYTHONPATH")) if p))
+    """This process's environment with the core importable as ``wit_plugin``, and the packages the plugin
+    installed into the QGIS profile."""
+    paths = (str(CORE_ROOT), *PACKAGE_FOLDERS, os.environ.get("PYTHONPATH"))
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
 
 
 def core_python(configured: str | None, modules: tuple[str, ...], module: str) -> str:
