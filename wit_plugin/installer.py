@@ -295,7 +295,8 @@ class _Pip:
         where there are some (a source build, which shapely's metadata needs, would run twice), from the
         sources otherwise."""
         report = self.work / "report.json"
-        for from_source in (False, True) if self.from_source else (False,):
+        built = any(_normalise(r).startswith(tuple(self.from_source)) for r in requirements)
+        for from_source in (False, True) if built else (False,):
             report.unlink(missing_ok=True)
             command = self._base(from_source) + [
                 "--dry-run", "--quiet", "--report", str(report), "-c", str(self.constraints),
@@ -363,11 +364,13 @@ class _Pip:
                 output.put(line)
             output.put(None)
 
-        threading.Thread(target=read, daemon=True).start()
+        reader = threading.Thread(target=read, daemon=True)
+        reader.start()
         with process.stdout:
             while True:
                 if feedback.is_canceled():
                     _kill(process)
+                    reader.join(timeout=10)  # the pipe ends with pip: nothing reads a closed pipe
                     raise CanceledError("Cancelled: pip was stopped.")
                 try:
                     line = output.get(timeout=0.2)
