@@ -404,6 +404,7 @@ def _parameters(sample, output: Path) -> dict:
             "RADIUS": 280.0, "MAX_EDGE": 15.0, "TILE_SCALE": 1, "WORKERS": 2, "OUTPUT": str(output)}
 
 
+@pytest.mark.qgis_facing
 def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, sample, local_run, tmp_path,
                                                                  monkeypatch):
     """In the QGIS process, with sys.executable pointing at a program that is not Python (QGIS on
@@ -419,6 +420,7 @@ def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, 
     assert Path(result["INDEX"]).is_file()
 
 
+@pytest.mark.qgis_facing
 def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_path):
     env = dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path / "profile"))
     args = [str(ROOT / "scripts" / "qgis-process"), "--json", "run", "wit:citymodeltiles"]
@@ -471,7 +473,8 @@ def _check_run_tileset(path: Path, local) -> None:
         assert w <= gw < ge <= e and s <= gs < gn <= n and low <= glow < ghigh <= high
         for child in group["children"]:
             assert group["geometricError"] >= 2 * child["geometricError"]
-            np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-9)
+            # translations in metres of ECEF (~6e6 m): float64 round-off there is ~1e-9 m (numpy 2.4 on QGIS 3.44)
+            np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-6)
             tile = json.loads((path.parent / child["content"]["uri"]).read_text(encoding="utf-8"))
             assert child["boundingVolume"]["region"] == tile["root"]["boundingVolume"]["region"]
             cw, cs, ce, cn, clow, chigh = child["boundingVolume"]["region"]
@@ -479,6 +482,7 @@ def _check_run_tileset(path: Path, local) -> None:
             assert list((path.parent / child["content"]["uri"]).parent.glob("tiles/*/*.glb"))
     result = subprocess.run(["node", str(ROOT / "viewer" / "validate-gltf.mjs"), str(path.parent / "3dtiles-groups")],
                             capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]  # e.g. the viewer packages missing (scripts/setup-viewer.sh)
     summary = json.loads(result.stdout)
     assert summary["files"] == len(groups) and summary["errors"] == 0, summary
 

@@ -431,8 +431,23 @@ def test_failed_download_leaves_no_cache(tmp_path):
     assert not (tmp_path / schemas.CACHE_SUBDIR).exists() and not list(tmp_path.glob(".wit-schemas-*"))
 
 
-def test_schema_compiled_once(schema_dir):
-    assert schemas.load_schema(schema_dir) is schemas.load_schema(Path(str(schema_dir) + "/"))
+@pytest.mark.qgis_facing  # what SpatiaLite does inside QGIS; crashed QGIS 3.44 (libxml2 2.15)
+@pytest.mark.parametrize("streaming", [True, False], ids=["libxml2-streaming", "lxml-fallback"])
+def test_validation_survives_libxml2_cleanup_between_runs(schema_dir, monkeypatch, streaming):
+    """SpatiaLite calls libxml2's xmlCleanupParser when a connection closes (GDAL and QGIS open them):
+    that frees the schema built-in types, so no compiled schema may be kept from one validation to the
+    next (a kept one reported "Internal error" for every element, or segfaulted QGIS)."""
+    from wit_plugin.citygml.validation import xsd
+
+    if not streaming:
+        monkeypatch.setattr(xsd, "_compiled", lambda folder: None)
+    example = schema_dir / "examples" / "Building_LOD2-EPSG25832.gml"
+    assert _one(example, schema_dir).valid
+    xsd._libxml2().xmlCleanupParser()
+    report = _one(example, schema_dir)
+    assert report.valid, [i.message for i in report.issues][:5]
+    invalid = _one(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml", schema_dir)
+    assert len([i for i in invalid.issues if i.check == "xsd" and i.severity == "error"]) == 4
 
 
 # -- streaming: long runs of triangles and texture entries, ids as hashes -------------------------
