@@ -11,8 +11,9 @@ import numpy as np
 import pyproj
 import pytest
 import shapely
-from osgeo import gdal
+from osgeo import gdal, ogr
 
+from wit_plugin import model
 from wit_plugin.chain.coverage import ortho_coverage, require_dem
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
@@ -333,3 +334,107 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
                               lambda xy: np.column_stack(TO_5187.transform(xy[:, 0], xy[:, 1])))
     used = next(s for s in coverage.used if s.sheet.number == "37709005")
     assert used.footprint.symmetric_difference(moved).area < 1.0  # its real footprint, not its 5187 envelope
+
+
+# -- the chain with the model in EPSG:5187, the DEM and the orthoimage sheets in EPSG:5186 --------
+
+@pytest.fixture(scope="module")
+def east_belt_run(tmp_path_factory):
+    """The sample (DEM and sheets in EPSG:5186, the sheets georeferenced as GeoTIFFs) modelled in EPSG:5187."""
+    from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+    from wit_plugin.sample import SampleConfig, generate_sample
+    from wit_plugin.vectors import StudyArea
+
+    folder = tmp_path_factory.mktemp("east-belt")
+    sample = generate_sample(folder / "sample", SampleConfig(radius_m=180.0, seed=4, ortho_pixel_size=1.0))
+    sheets = georeference_sheets([str(p) for p in sample.ortho_tiles], folder / "sheets_5186", "EPSG:5186")
+    inputs = sorted(p.name for p in folder.rglob("*") if p.is_file() and "out" not in p.parts)
+    log = Log()
+    report = run_city_model(
+        ChainInputs(ortho=[r.output for r in sheets], dem=str(sample.dem), buildings=str(sample.buildings),
+                    roads=str(sample.roads), districts=str(sample.districts)),
+        ChainOptions(area=StudyArea.circle(127.1020, 37.4876, 150.0), target_crs="EPSG:5187", max_edge=10.0,
+                     tiles3d=False, keep_work=True), folder / "out", log)
+    return {"sample": sample, "sheets": [r.output for r in sheets], "report": report, "log": log,
+            "folder": folder, "inputs": inputs}
+
+
+def _tin_vertices(path: str) -> np.ndarray:
+    ds = ogr.Open(path)
+    points = [g.GetPoints() for f in ds.GetLayer(model.TIN_LAYER) for g in [f.GetGeometryRef().GetGeometryRef(0)]]
+    return np.unique(np.round(np.array([p for ring in points for p in ring[:3]]), 6), axis=0)
+
+
+def test_the_chain_models_a_5186_dem_and_sheets_in_5187(east_belt_run):
+    report, log, sample = east_belt_run["report"], east_belt_run["log"], east_belt_run["sample"]
+    assert report.valid and report.errors == 0 and report.buildings > 30
+    assert any("dem_5186.tif is in Korea 2000 / Central Belt 2010 (EPSG:5186): it is reprojected on the fly to "
+               "Korea 2000 / East Belt 2010 (EPSG:5187) (bilinear, cells of 5 m)" in m for m in log.infos)
+    assert not any("CRS" in w for w in log.warnings), log.warnings
+    # every TIN vertex lies on the reprojected DEM (to the mm), itself within the resampling's bound of the source
+    xyz = _tin_vertices(report.tin)
+    box = (*xyz[:, :2].min(axis=0), *xyz[:, :2].max(axis=0))
+    dem = Dem.open(str(sample.dem), box, crs="EPSG:5187")
+    np.testing.assert_allclose(xyz[:, 2], dem.sample(xyz[:, 0], xyz[:, 1]), rtol=0, atol=1e-3)
+    ds = gdal.Open(str(sample.dem))
+    gt, values = ds.GetGeoTransform(), ds.ReadAsArray().astype(float)
+    filled = Dem(values, gt).values  # the sample's few -9999 cells filled as the core does
+    sx, sy = pyproj.Transformer.from_crs("EPSG:5187", "EPSG:5186", always_xy=True).transform(xyz[:, 0], xyz[:, 1])
+    error = np.abs(xyz[:, 2] - _bilinear(filled, gt, sx, sy))
+    assert (error <= _bound(filled, gt, sx, sy, dem.geotransform[1], (gt[1], -gt[5])) + 1e-3).all()
+    # the merged orthoimage in 5187 shows at each roof what the 5186 sheet shows there
+    mosaic = gdal.Open(str(Path(report.work) / "ortho.tif"))
+    lod1 = ogr.Open(report.lod1)  # kept while its layer is read
+    roofs = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb())) for f in lod1.GetLayer(model.LOD1_LAYER)
+             if f.GetField(model.FACE_TYPE) == "roof"]
+    inner = [r.buffer(-2.0) for r in shapely.force_2d(np.array(roofs, dtype=object))]
+    points = np.array([shapely.get_coordinates(p.representative_point())[0] for p in inner if not p.is_empty])
+    assert len(points) > 20
+    mgt = mosaic.GetGeoTransform()
+    seen = mosaic.ReadAsArray()[:, ((points[:, 1] - mgt[3]) / mgt[5]).astype(int),
+                                ((points[:, 0] - mgt[0]) / mgt[1]).astype(int)].astype(int)
+    px, py = pyproj.Transformer.from_crs("EPSG:5187", "EPSG:5186", always_xy=True).transform(*points.T)
+
+    def sheets_at(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        colours = np.zeros_like(seen)
+        for path in east_belt_run["sheets"]:
+            sheet = gdal.Open(path)
+            sg = sheet.GetGeoTransform()
+            c, r = ((x - sg[0]) / sg[1]).astype(int), ((y - sg[3]) / sg[5]).astype(int)
+            on = (c >= 0) & (r >= 0) & (c < sheet.RasterXSize) & (r < sheet.RasterYSize)
+            colours[:, on] = sheet.ReadAsArray()[:, r[on], c[on]]
+        return colours
+
+    def misfit(colours: np.ndarray) -> float:
+        """Median residual of the mosaic's colours against a per-band gain and offset of ``colours`` (the
+        mosaic's tone correction)."""
+        residuals = [seen[b] - np.polyval(np.polyfit(colours[b], seen[b], 1), colours[b]) for b in range(3)]
+        return float(np.median(np.abs(residuals)))
+
+    assert misfit(sheets_at(px, py)) <= 3  # the same roof, its tone corrected
+    assert misfit(sheets_at(px + 25.0, py)) > 10  # 25 m off: another roof, or the ground
+
+
+def test_the_inputs_of_a_reprojecting_run_are_untouched(east_belt_run):
+    folder = east_belt_run["folder"]
+    assert sorted(p.name for p in folder.rglob("*") if p.is_file() and "out" not in p.parts) == east_belt_run["inputs"]
+
+
+def test_a_mosaic_in_another_crs_is_reprojected_by_the_texture_step(east_belt_run, tmp_path):
+    """wit:wittexture with the layers in 5187 and the merged orthoimage in 5186: its pixels over the layers
+    are warped as they are read; the roof atlas matches the one cut from the chain's 5187 mosaic."""
+    from wit_plugin.mosaic import merge_tiles
+    from wit_plugin.texture import texture_model
+
+    report = east_belt_run["report"]
+    mosaic = tmp_path / "mosaic_5186.tif"
+    merge_tiles(east_belt_run["sheets"], str(mosaic), mode="feather", gain=True)
+    log = Log()
+    texture_model(str(mosaic), report.lod1, report.tin, str(tmp_path / "textures"), feedback=log)
+    assert any("mosaic_5186.tif is in Korea 2000 / Central Belt 2010 (EPSG:5186): its pixels over the layers are "
+               "reprojected as they are read to Korea 2000 / East Belt 2010 (EPSG:5187) (bilinear, 1 m pixels)" in m
+               for m in log.infos), log.infos
+    ours = gdal.Open(str(tmp_path / "textures" / "roof_atlas_0000.jpg")).ReadAsArray().astype(int)
+    chain = gdal.Open(str(Path(report.work) / "textures" / "roof_atlas_0000.jpg")).ReadAsArray().astype(int)
+    assert ours.shape == chain.shape
+    assert np.median(np.abs(ours - chain)) <= 4

@@ -102,10 +102,11 @@ class Dem:
         c0, r0, c1, r1 = 0, 0, cols, rows
         if bounds is not None:
             ext = raster_extent(gt, cols, rows)
-            if _short_of(ext, bounds):
+            short = _short_of(ext, bounds)
+            if short:
                 raise InputError(
                     f"The DEM {Path(path).name} (extent {_fmt(ext)}) does not cover the area needed "
-                    f"({_fmt(bounds)}). Use a DEM that covers the study area.")
+                    f"({_fmt(bounds)}): it stops short by {shortfall(short)}. Use a DEM that covers the study area.")
             c0, r0, c1, r1 = _window(gt, cols, rows, bounds, margin_cells)
         data = read_window(band, c0, r0, c1 - c0, r1 - r0, f"the DEM {path}")
         window_gt = (gt[0] + c0 * gt[1], gt[1], gt[2], gt[3] + r0 * gt[5], gt[4], gt[5])
@@ -129,12 +130,13 @@ class Dem:
             bounds = transform_geometry(shapely.box(*extent), source, target).bounds
         else:
             needed = transform_geometry(shapely.box(*bounds), target, source).bounds
-            if _short_of(extent, needed):
+            short = _short_of(extent, needed)
+            if short:
+                degrees = source.is_geographic
                 raise InputError(
-                    f"The DEM {name} (extent {_fmt(extent, source.is_geographic)} in {crs_code(source)}) does not cover "
-                    f"the area needed ({_fmt(bounds)} in {crs_code(target)}, {_fmt(needed, source.is_geographic)} in "
-                    "the DEM's CRS). Use a DEM that "
-                    "covers the study area.")
+                    f"The DEM {name} (extent {_fmt(extent, degrees)} in {crs_code(source)}) does not cover the area "
+                    f"needed ({_fmt(bounds)} in {crs_code(target)}, {_fmt(needed, degrees)} in the DEM's CRS): it "
+                    f"stops short by {shortfall(short, degrees)}. Use a DEM that covers the study area.")
         grid = aligned(bounds, size, margin_cells)
         x0, y1 = grid[0], grid[3]
         reach = transform_geometry(shapely.box(*grid), target, source, size).bounds
@@ -353,6 +355,12 @@ def _short_of(extent: Bounds, needed: Bounds) -> dict[str, float]:
     beyond = {"west": extent[0] - needed[0], "south": extent[1] - needed[1], "east": needed[2] - extent[2],
               "north": needed[3] - extent[3]}
     return {side: amount for side, amount in beyond.items() if amount > 0}
+
+
+def shortfall(short: dict[str, float], degrees: bool = False) -> str:
+    """e.g. "12.5 m to the east" or "0.001234° to the north, 0.000500° to the west"."""
+    return ", ".join(f"{amount:,.6f}° to the {side}" if degrees else f"{amount:,.1f} m to the {side}"
+                     for side, amount in short.items())
 
 
 def _window(gt: tuple[float, ...], cols: int, rows: int, bounds: Bounds, margin_cells: int) -> tuple[int, int, int, int]:

@@ -79,6 +79,7 @@ from . import bulk_read, model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .citygml.validation.crs import frame_of
 from .dem import ragged_indices
 from .gdal_env import open_raster, read_window
 from .raster_crs import crs_name, foreign_crs, transform_geometry
@@ -689,11 +690,16 @@ def _gml_srs(path: str) -> str | None:
 
 
 def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding], str | None]:
-    """Buildings of a CityGML 3.0 file: per gml:id the solids' ground polygons and roof vertices (streamed)."""
+    """Buildings of a CityGML 3.0 file: per gml:id the solids' ground polygons and roof vertices (streamed).
+
+    Positions are turned easting (longitude) first when the srsName says they are written northing
+    (latitude) first: its URN or URL form for a CRS whose EPSG order is so (``validation.crs``).
+    """
     buildings: dict[str, _ModelBuilding] = {}
     size = max(os.path.getsize(path), 1)
     try:
         srs = _gml_srs(path)
+        order = [1, 0, 2] if srs and frame_of(srs).lat_axis == 0 else [0, 1, 2]
         with open(path, "rb") as fh:
             members = etree.iterparse(fh, events=("end",), huge_tree=True,
                                       tag=(_CORE + "cityObjectMember", _CORE + "appearanceMember"))
@@ -704,7 +710,7 @@ def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding],
                     faces = []
                     for solid in building.iter(_CORE + "lod1Solid"):
                         for polygon in solid.iter(_GML + "Polygon"):
-                            rings = [_poslist(r, gml_id) for r in polygon.iter(_GML + "LinearRing")]
+                            rings = [_poslist(r, gml_id)[:, order] for r in polygon.iter(_GML + "LinearRing")]
                             if rings:
                                 faces.append((*_polygon_3d(rings), None))
                     _add_solid(buildings.setdefault(gml_id, _ModelBuilding()), faces)

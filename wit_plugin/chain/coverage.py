@@ -18,7 +18,7 @@ import shapely
 from osgeo import gdal
 from shapely.geometry.base import BaseGeometry
 
-from ..dem import NODATA_THRESHOLD, reprojection
+from ..dem import NODATA_THRESHOLD, reprojection, shortfall
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..gdal_env import open_raster, read_window
@@ -149,7 +149,6 @@ def require_dem(dem_path: str, area: BaseGeometry, target_crs: str, feedback: Fe
     ds = open_raster(dem_path, "DEM")
     source = reprojection(dem_path, ds, target_crs, feedback)
     degrees = bool(source is not None and source.is_geographic)
-    unit = "°" if degrees else " m"
     region = area if source is None else transform_geometry(area, target_crs, source)
     where = "" if source is None else f" in its CRS, {crs_code(source)}"
     gt = ds.GetGeoTransform()
@@ -159,7 +158,7 @@ def require_dem(dem_path: str, area: BaseGeometry, target_crs: str, feedback: Fe
     short = {side: amount for side, amount in beyond.items() if amount > 0}
     if short:
         d = 6 if degrees else 1
-        sides = ", ".join(f"{amount:,.{d}f}{unit} to the {side}" for side, amount in short.items())
+        sides = shortfall(short, degrees)
         also = "" if source is None else f" (the area reprojected from {crs_code(pyproj.CRS(target_crs))})"
         raise InputError(f"The DEM {name} (x {extent[0]:.{d}f}–{extent[2]:.{d}f}, y {extent[1]:.{d}f}–{extent[3]:.{d}f}"
                          f"{where}) does not cover the area (x {xmin:.{d}f}–{xmax:.{d}f}, y {ymin:.{d}f}–{ymax:.{d}f}"
