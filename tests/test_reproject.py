@@ -438,3 +438,25 @@ def test_a_mosaic_in_another_crs_is_reprojected_by_the_texture_step(east_belt_ru
     chain = gdal.Open(str(Path(report.work) / "textures" / "roof_atlas_0000.jpg")).ReadAsArray().astype(int)
     assert ours.shape == chain.shape
     assert np.median(np.abs(ours - chain)) <= 4
+
+
+def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east_belt_run, dem_4326, tmp_path,
+                                                                              monkeypatch):
+    from wit_plugin.chain import ChainInputs, ChainOptions
+    from wit_plugin.tiles import runner
+    from wit_plugin.vectors import StudyArea
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a Dask cluster was started")
+
+    monkeypatch.setattr(runner, "dask_client", no_cluster)
+    sample = east_belt_run["sample"]
+    inputs = ChainInputs(ortho=east_belt_run["sheets"], dem=dem_4326[0], buildings=str(sample.buildings),
+                         roads=str(sample.roads), districts=str(sample.districts))
+    area = StudyArea.circle(127.118, 37.4876, 500.0)  # reaches 127.1237°E: the DEM stops at 127.1217°E
+    message = _refusal(runner.run_tiles, inputs, ChainOptions(area=None, target_crs="EPSG:5187", tiles3d=False),
+                       tmp_path / "out", area, 1000)
+    assert message.startswith("The DEM dem_4326.tif (x 127.080000–127.121667, y 37.468333–37.510000 in its CRS, "
+                              "EPSG:4326) does not cover the area"), message
+    assert "° to the east. Use a DEM that covers the area, or a smaller area." in message
+    assert not (tmp_path / "out" / "index.gpkg").exists()
