@@ -254,7 +254,7 @@ def test_the_coverage_check_judges_a_dem_in_its_own_crs(dem_4326, tmp_path):
     message = _refusal(require_dem, path, east, "EPSG:5187")
     assert message.startswith("The DEM dem_4326.tif (x 127.080000–127.121667, y 37.468333–37.510000 in its CRS, "
                               "EPSG:4326) does not cover the area (x 127.")
-    assert "(the area reprojected from EPSG:5187)): it stops short by 0.00" in message and "° to the east" in message
+    assert "(the area's box in EPSG:5187, reprojected)): it stops short by 0.00" in message and "° to the east" in message
     assert sorted(p.name for p in folder.iterdir()) == before  # nothing written beside the DEM (no .aux.xml)
 
 
@@ -326,6 +326,14 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
         assert plain.sum() > 1500
         np.testing.assert_array_equal(rgb[:, rows[plain], cols[plain]],
                                       src[:, v[plain].astype(int), u[plain].astype(int)])
+    tifs = georeference_sheets(paths[1:], tmp_path / "geo_tif", "EPSG:5187", fmt="GTiff")  # a GeoTIFF, masked
+    assert [p.name for p in (tmp_path / "geo_tif").iterdir()] == ["37709005.tif"]
+    tif, vrt = gdal.Open(tifs[0].output), gdal.Open(results[1].output)
+    assert tif.GetGeoTransform() == vrt.GetGeoTransform() and tif.GetRasterBand(1).GetMaskFlags() == gdal.GMF_PER_DATASET
+    np.testing.assert_array_equal(tif.ReadAsArray(), vrt.ReadAsArray())
+    np.testing.assert_array_equal(tif.GetRasterBand(1).GetMaskBand().ReadAsArray(),
+                                  vrt.GetRasterBand(1).GetMaskBand().ReadAsArray())
+    del tif, vrt
     coverage = ortho_coverage(paths, shapely.Point(SUSEO_5187).buffer(300), "EPSG:5187")
     ds = gdal.Open(paths[1])
     x0, dx, _, y0, _, dy = ds.GetGeoTransform()
@@ -459,4 +467,24 @@ def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east
     assert message.startswith("The DEM dem_4326.tif (x 127.080000–127.121667, y 37.468333–37.510000 in its CRS, "
                               "EPSG:4326) does not cover the area"), message
     assert "° to the east. Use a DEM that covers the area, or a smaller area." in message
+    assert not (tmp_path / "out" / "index.gpkg").exists()
+
+
+def test_a_tiled_run_checks_the_orthoimage_sheets_before_any_worker_starts(east_belt_run, tmp_path, monkeypatch):
+    """One of the two sheets missing (surfaces outside the orthoimage: fail): refused in seconds, naming it."""
+    from wit_plugin.chain import ChainInputs, ChainOptions
+    from wit_plugin.tiles import runner
+    from wit_plugin.vectors import StudyArea
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a Dask cluster was started")
+
+    monkeypatch.setattr(runner, "dask_client", no_cluster)
+    sample = east_belt_run["sample"]
+    sheets = [s for s in east_belt_run["sheets"] if "37709004" not in s]
+    inputs = ChainInputs(ortho=sheets, dem=str(sample.dem), buildings=str(sample.buildings), roads=str(sample.roads),
+                         districts=str(sample.districts))
+    message = _refusal(runner.run_tiles, inputs, ChainOptions(area=None, target_crs="EPSG:5187", tiles3d=False),
+                       tmp_path / "out", StudyArea.circle(127.1020, 37.4876, 150.0), 1000)
+    assert "the sheets that would cover it: 37709004. Add those TIFs" in message, message
     assert not (tmp_path / "out" / "index.gpkg").exists()

@@ -264,19 +264,24 @@ def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_ar
 
 
 def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
-    """An orthoimage sheet missing: the tile that needs it fails with the reason, the others are built.
-    (A DEM that stops midway is refused before the cluster starts: test_reproject.)"""
-    import shutil
+    """A DEM with a hole (-9999) under the eastern sliver tile: 1 % of the run's area, which the check
+    before the cluster lets through with a warning (a DEM or orthoimage that misses the area is refused
+    there: test_reproject), but all of that tile's: it fails with the reason, the others are built."""
+    from osgeo import gdal
 
-    kept = tmp_path / "ortho"
-    kept.mkdir()
-    for tif in sample.ortho_tiles:
-        if "37709004" not in tif.name:  # the sheet under the south-west tile
-            shutil.copy(tif, kept / tif.name)
-    report = run_tiles(_inputs(sample, ortho=[str(kept)]), _options(), tmp_path / "out", AREA, scale=1000, workers=2)
+    holed = tmp_path / "dem_holed.tif"
+    gdal.Translate(str(holed), str(sample.dem))
+    ds = gdal.Open(str(holed), gdal.GA_Update)
+    x0, dx, _, y0, _, dy = ds.GetGeoTransform()
+    c0, c1 = int((209280 - x0) / dx), int((209320 - x0) / dx)
+    r0, r1 = int((543240 - y0) / dy), int((543030 - y0) / dy)
+    band = ds.GetRasterBand(1)
+    band.WriteArray(np.full((r1 - r0, c1 - c0), -9999.0, dtype=np.float32), c0, r0)
+    ds = band = None
+    report = run_tiles(_inputs(sample, dem=str(holed)), _options(), tmp_path / "out", AREA, scale=1000, workers=2)
     failed = [r for r in report.rows if r["status"] == "failed"]
-    assert [r["sheet"] for r in failed] == ["377090229"] and report.count("done") >= 1
-    assert "the sheets that would cover it: 37709004" in failed[0]["error"]
+    assert [r["sheet"] for r in failed] == ["377090321"] and report.count("done") >= 1
+    assert "dem_holed.tif has NoData under 100% of the area" in failed[0]["error"]
     assert not any((tmp_path / "out" / "tiles" / r["sheet"]).exists() for r in failed)
     assert {s: r["status"] for s, r in read_index(tmp_path / "out").items()} == {
         r["sheet"]: r["status"] for r in report.rows}

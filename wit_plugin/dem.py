@@ -158,7 +158,9 @@ class Dem:
             raise InputError(f"The DEM {name} does not meet the area needed ({_fmt(bounds)} in {crs_code(target)}).")
         if beyond.any():
             values = _fill_from_neighbours(values, beyond)
-        return cls(values, (x0, size, 0.0, y1, 0.0, -size), math.nan, open_edges=(True, True, True, True))
+        dem = cls(values, (x0, size, 0.0, y1, 0.0, -size), math.nan, open_edges=(True, True, True, True))
+        dem.nodata_cells = filled.nodata_cells  # the source's cells, as counted in its CRS
+        return dem
 
     @property
     def extent(self) -> Bounds:

@@ -36,6 +36,9 @@ from ..raster_crs import (
 MAX_DEM_NODATA_SHARE = 0.05
 #: uncovered slivers below this area (m²) are rounding, not a missing sheet
 MIN_GAP_AREA = 0.01
+#: sheets farther than this (m) from the area are judged by their number alone (a sheet georeferenced in
+#: another CRS lies within tens of metres of its number's envelope)
+NEAR_SHEET = 1000.0
 
 
 @dataclass
@@ -82,15 +85,23 @@ def require_sheet_names(files: list[str]) -> None:
 
 def ortho_coverage(files: list[str], area: BaseGeometry, target_crs: str, source_crs: str = "EPSG:4737",
                    margin: float = 50.0) -> OrthoCoverage:
-    """Split ``files`` into the sheets that meet ``area`` and the rest; find what none covers."""
+    """Split ``files`` into the sheets that meet ``area`` and the rest; find what none covers.
+
+    Only the files whose sheet lies near the area are opened (to see whether they carry their own
+    georeference in another CRS): a folder of a whole city's sheets is judged in seconds.
+    """
     used, unused, unnamed = [], [], []
+    xmin, ymin, xmax, ymax = area.bounds
+    near = shapely.box(xmin - NEAR_SHEET, ymin - NEAR_SHEET, xmax + NEAR_SHEET, ymax + NEAR_SHEET)
     for path in files:
         try:
             sheet = find_sheet_in_name(Path(path).name)
         except InputError as exc:
             unnamed.append((path, str(exc)))
             continue
-        footprint = sheet_footprint(path, projected_envelope(sheet, target_crs, source_crs, margin), target_crs)
+        envelope = projected_envelope(sheet, target_crs, source_crs, margin)
+        footprint = sheet_footprint(path, envelope, target_crs) if near.intersects(shapely.box(*envelope)) \
+            else shapely.box(*envelope)
         (used if footprint.intersects(area) and footprint.intersection(area).area > 0 else unused).append(
             SheetFile(path, sheet, footprint))
     report = OrthoCoverage(used, unused, unnamed)
@@ -153,13 +164,15 @@ def require_dem(dem_path: str, area: BaseGeometry, target_crs: str, feedback: Fe
     where = "" if source is None else f" in its CRS, {crs_code(source)}"
     gt = ds.GetGeoTransform()
     extent = raster_extent(gt, ds.RasterXSize, ds.RasterYSize)
-    xmin, ymin, xmax, ymax = region.bounds
+    # the area's box, as the steps read the DEM (in the DEM's CRS: that box reprojected)
+    box = area.envelope if source is None else transform_geometry(area.envelope, target_crs, source)
+    xmin, ymin, xmax, ymax = box.bounds
     beyond = {"west": extent[0] - xmin, "south": extent[1] - ymin, "east": xmax - extent[2], "north": ymax - extent[3]}
     short = {side: amount for side, amount in beyond.items() if amount > 0}
     if short:
         d = 6 if degrees else 1
         sides = shortfall(short, degrees)
-        also = "" if source is None else f" (the area reprojected from {crs_code(pyproj.CRS(target_crs))})"
+        also = "" if source is None else f" (the area's box in {crs_code(pyproj.CRS(target_crs))}, reprojected)"
         raise InputError(f"The DEM {name} (x {extent[0]:.{d}f}–{extent[2]:.{d}f}, y {extent[1]:.{d}f}–{extent[3]:.{d}f}"
                          f"{where}) does not cover the area (x {xmin:.{d}f}–{xmax:.{d}f}, y {ymin:.{d}f}–{ymax:.{d}f}"
                          f"{also}): it stops short by {sides}. Use a DEM that covers the area, or a smaller area.")
