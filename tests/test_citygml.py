@@ -203,7 +203,7 @@ def test_counts_and_report(written):
 def test_gdal_reads_the_written_coordinates_as_written(written, tmp_path):
     """QGIS opens model.gml through GDAL's GML reader, which reads an EPSG URN or URL in EPSG's axis order
     (northing first for EPSG:5186) and the short form EPSG:n easting first: the model lands where it is."""
-    _, out, report, _ = written
+    _, out, _, _ = written
     copy = Path(shutil.copy(out, tmp_path / "city.gml"))  # GDAL writes a .gfs beside what it reads
     ds = gdal.OpenEx(str(copy), gdal.OF_VECTOR)
     xmin, xmax, ymin, ymax = ds.GetLayerByName("Road").GetExtent()
