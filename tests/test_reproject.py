@@ -5,6 +5,7 @@ sheets georeferenced in another CRS, and the chain run with the model in EPSG:51
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -254,7 +255,7 @@ def test_the_coverage_check_judges_a_dem_in_its_own_crs(dem_4326, tmp_path):
     message = _refusal(require_dem, path, east, "EPSG:5187")
     assert message.startswith("The DEM dem_4326.tif (x 127.080000–127.121667, y 37.468333–37.510000 in its CRS, "
                               "EPSG:4326) does not cover the area (x 127.")
-    assert "(the area's box in EPSG:5187, reprojected)): it stops short by 0.00" in message and "° to the east" in message
+    assert re.search(r"\(the area's box in EPSG:5187, reprojected\)\): it stops short by 0\.0\d{5}° to the east\. ", message)
     assert sorted(p.name for p in folder.iterdir()) == before  # nothing written beside the DEM (no .aux.xml)
 
 
@@ -471,7 +472,7 @@ def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east
 
 
 def test_a_tiled_run_checks_the_orthoimage_sheets_before_any_worker_starts(east_belt_run, tmp_path, monkeypatch):
-    """One of the two sheets missing (surfaces outside the orthoimage: fail): refused in seconds, naming it."""
+    """The sheet under the area missing (surfaces outside the orthoimage: fail): refused in seconds, naming it."""
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.tiles import runner
     from wit_plugin.vectors import StudyArea
@@ -481,10 +482,11 @@ def test_a_tiled_run_checks_the_orthoimage_sheets_before_any_worker_starts(east_
 
     monkeypatch.setattr(runner, "dask_client", no_cluster)
     sample = east_belt_run["sample"]
-    sheets = [s for s in east_belt_run["sheets"] if "37709004" not in s]
+    sheets = [s for s in east_belt_run["sheets"] if "37709005" not in s]
     inputs = ChainInputs(ortho=sheets, dem=str(sample.dem), buildings=str(sample.buildings), roads=str(sample.roads),
                          districts=str(sample.districts))
     message = _refusal(runner.run_tiles, inputs, ChainOptions(area=None, target_crs="EPSG:5187", tiles3d=False),
                        tmp_path / "out", StudyArea.circle(127.1020, 37.4876, 150.0), 1000)
-    assert "the sheets that would cover it: 37709004. Add those TIFs" in message, message
+    assert message.startswith("The orthoimage sheets leave 0.0") and "of the area uncovered" in message
+    assert "the sheets that would cover it: 37709005. Add those TIFs" in message, message
     assert not (tmp_path / "out" / "index.gpkg").exists()

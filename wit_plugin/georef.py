@@ -26,7 +26,7 @@ from shapely.geometry.base import BaseGeometry
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, atomic_files, ensure_writable_dir
-from .gdal_env import open_raster, quiet_gdal
+from .gdal_env import open_raster, quiet_gdal, thread_config
 from .mapsheet import find_sheet_in_name, projected_envelope
 from .raster_crs import (
     aligned,
@@ -305,7 +305,8 @@ def _reprojected(result: SheetResult, src: gdal.Dataset, own: pyproj.CRS, stagin
         if masked is None:
             raise InputError(reason or "GDAL could not build the VRT")
         if fmt == "GTiff":
-            error = _write_geotiff(masked, target, None, None, feedback)
+            with thread_config(GDAL_TIFF_INTERNAL_MASK="YES"):  # the mask inside the file, no .msk beside it
+                error = _write_geotiff(masked, target, None, None, feedback)
             masked = None
             warped_file.unlink()
             if error:
