@@ -170,9 +170,12 @@ def test_citymodeltiles_headless_in_5187_from_a_dem_in_5186(sample, tmp_path):
     for name, value in parameters.items():
         args += [f"--{name}={item}" for item in (value if isinstance(value, list) else [value])]
     env = dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path / "profile"))
+    inputs = sample["folder"]
+    before = {p: p.read_bytes() for p in inputs.rglob("*") if p.is_file()}
     run = subprocess.run(args, capture_output=True, text=True, env=env, timeout=900, check=False)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     results = json.loads(run.stdout[run.stdout.index("{"):])["results"]
+    assert {p: p.read_bytes() for p in inputs.rglob("*") if p.is_file()} == before  # no .aux.xml, nothing beside
     assert results["TILES_DONE"] >= 2 and results["TILES_FAILED"] == 0, results  # buildings on both sides
     gmls = sorted((tmp_path / "tiles" / "tiles").glob("*/model.gml"))
     assert len(gmls) == results["TILES_DONE"] + results["TILES_EMPTY"]
