@@ -67,7 +67,7 @@ def group_content(name: str, area: BaseGeometry, georef: Georeference, dem: str,
     i, j = np.meshgrid(np.arange(GROUP_CELLS + 1), np.arange(GROUP_CELLS + 1), indexing="ij")
     x, y = xmin + j * step, ymax - i * step
     try:
-        terrain = Dem.open(dem, area.bounds)
+        terrain = Dem.open(dem, area.bounds, crs=georef.crs)
     except WitError:
         return None
     west, south, east, north = terrain.extent
