@@ -300,14 +300,6 @@
       <translation>상세 타일 한 변의 길이(m)</translation>
     </message>
     <message>
-      <source>LoD1 buildings (wit:extrudebuildings)</source>
-      <translation>LoD1 건물 (wit:extrudebuildings)</translation>
-    </message>
-    <message>
-      <source>Terrain TIN (wit:triangulateterrain)</source>
-      <translation>지형 TIN (wit:triangulateterrain)</translation>
-    </message>
-    <message>
       <source>Texture folder (wit:wittexture)</source>
       <translation>텍스처 폴더 (wit:wittexture)</translation>
     </message>
@@ -772,6 +764,14 @@
       <translation> 또는 </translation>
     </message>
     <message>
+      <source>Triangle (non-commercial licence)</source>
+      <translation>Triangle (비상업적 이용 라이선스)</translation>
+    </message>
+    <message>
+      <source>CDT (MPL-2.0)</source>
+      <translation>CDT (MPL-2.0)</translation>
+    </message>
+    <message>
       <source>Centre of the study area</source>
       <translation>연구 지역 중심</translation>
     </message>
@@ -786,6 +786,14 @@
     <message>
       <source>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</source>
       <translation>법정동: 코드(EMD_CD) 또는 이름, 예: 11680101 또는 역삼동 (중심점과 반경 대신)</translation>
+    </message>
+    <message>
+      <source>Triangulator (licence: Triangle is free for non-commercial use only)</source>
+      <translation>삼각분할 라이브러리 (라이선스: Triangle은 비상업적 이용에만 무료)</translation>
+    </message>
+    <message>
+      <source>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</source>
+      <translation>Triangle('triangle' 패키지)이 설치되어 있지 않습니다: 지형은 CDT(MPL-2.0)로 삼각분할합니다.</translation>
     </message>
     <message>
       <source>Storey height (m)</source>
@@ -804,6 +812,14 @@
       <translation>기본 높이 (m)</translation>
     </message>
     <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 건물 (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>지형 TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
       <translation>법정동 레이어의 코드 필드 (비우면 EMD_CD)</translation>
     </message>
@@ -816,8 +832,8 @@
       <translation>지형 삼각분할 (제약 들로네)</translation>
     </message>
     <message>
-      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
-      <translation>연구 지역을 제약 들로네 삼각분할(라이브러리 'triangle')로 메시화합니다: 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(엄밀한 상한으로 대부분의 삼각형을 확인하고, 나머지는 모든 변과 내부의 DEM 셀 중심에서 정확히 측정하며, 보고하는 최대값도 정확한 값입니다). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간. DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
+      <source>Meshes the study area with a constrained Delaunay triangulation (library: Triangle, free for non-commercial use only, or CDT, MPL-2.0, free for commercial use too; the same checks whichever): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
+      <translation>연구 지역을 제약 들로네 삼각분할로 메시화합니다(라이브러리: 비상업적 이용에만 무료인 Triangle, 또는 상업적 이용도 무료인 CDT(MPL-2.0); 어느 쪽이든 같은 검사): 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(엄밀한 상한으로 대부분의 삼각형을 확인하고, 나머지는 모든 변과 내부의 DEM 셀 중심에서 정확히 측정하며, 보고하는 최대값도 정확한 값입니다). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간. DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
     </message>
     <message>
       <source>Study area (polygon layer, e.g. study_area of wit:preparevectors)</source>

@@ -321,9 +321,15 @@ def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: S
         unique_keys = np.rint((world - origin) / grid).astype(np.int64)
     # a sliver keeps its seed (snap rounding can leave it cut off from its host after all) with its host's labels
     surface, feature = surface[host], feature[host]
+    # a hole seed outside the segments' convex hull marks nothing (the outside is not meshed anyway) and
+    # crashes Triangle: a face beyond the area's rim bounded by unmeshed faces only, found by the fuzz test
+    holes = seed_xy[~meshed] - origin
+    if len(holes):
+        hull = shapely.convex_hull(shapely.multipoints(unique_keys * grid))
+        holes = holes[shapely.contains_xy(hull, holes[:, 0], holes[:, 1])]
     return Constraints(
         origin=origin, vertices=unique_keys * grid, segments=segments,
-        holes=seed_xy[~meshed] - origin, regions=seed_xy[meshed] - origin,
+        holes=holes, regions=seed_xy[meshed] - origin,
         region_surface=surface[meshed], region_feature=feature[meshed], faces=faces, meshed=meshed,
         area=clean_area, footprints=footprints, roads=road_list, dropped=dropped)
 
@@ -588,7 +594,9 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
     if not len(cons.regions):
         raise InputError("Nothing is left to triangulate: building footprints cover the whole study area.")
     origin = np.array(cons.origin, dtype=np.float64)
-    vertices, segments = _split_long_segments(cons.vertices, cons.segments, backend.piece_length * max_edge)
+    # tiles: the same pieces whichever backend meshes, so a resumed run's tiles meet those of an earlier one
+    piece = min(b.piece_length for b in triangulators.BACKENDS) if fixed_segments else backend.piece_length
+    vertices, segments = _split_long_segments(cons.vertices, cons.segments, piece * max_edge)
     fixed = fixed_segments or not backend.splits_segments
     if fixed:
         vertices, segments = _split_for_dem(vertices, segments, dem, origin, tolerance)
@@ -745,21 +753,86 @@ def _labels(region: np.ndarray, xyz: np.ndarray, tris: np.ndarray,
 # -- files -------------------------------------------------------------------------------------
 
 
+def snap_to_grid(tin: Tin, dem: Dem, max_passes: int = 8) -> Tin:
+    """The TIN with its vertices on the model's millimetre grid, as they are written, and still watertight.
+
+    The one place where coordinates are rounded: road and relief triangles (and neighbouring tiles)
+    then write a shared vertex with the same digits. Vertices that round to the same point become one
+    (the triangles between them vanish; no crack, both sides lose them); heights are the DEM's at the
+    rounded points. A triangle left without area (three points in a row to the millimetre) or turned
+    over by rounding is taken out by splitting the triangle across its longest edge at its third
+    corner, so the ground keeps no T-junction; at the rim or a footprint it is simply dropped.
+    Vertex indices are kept (a merged vertex points to the first of its group).
+    """
+    steps = np.rint(tin.vertices[:, :2] / ROUNDING).astype(np.int64)
+    low = steps.min(axis=0) if len(steps) else np.zeros(2, dtype=np.int64)
+    _, first, inverse = np.unique((steps[:, 0] - low[0]) * (1 << 32) + (steps[:, 1] - low[1]),
+                                  return_index=True, return_inverse=True)
+    xyz = _with_heights(dem, steps * ROUNDING)
+    tris = first[inverse.ravel()][tin.triangles]
+    surface, feature = tin.surface, tin.feature_id
+    alive = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 2] != tris[:, 0])
+    tris, surface, feature = tris[alive], surface[alive], feature[alive]
+    for _ in range(max_passes):
+        bad = np.flatnonzero((_areas_3d(xyz, tris) <= DEGENERATE_AREA) | (_triangle_areas(xyz, tris) <= 0))
+        if not len(bad):
+            break
+        tris, surface, feature = _split_across(xyz, tris, surface, feature, bad)
+    return Tin(xyz, tris, surface, feature, tin.constraints)
+
+
+def _split_across(xyz: np.ndarray, tris: np.ndarray, surface: np.ndarray, feature: np.ndarray,
+                  bad: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Remove the ``bad`` (flat or turned) triangles; each one's neighbour across its longest edge a–c is
+    split in two at the bad one's third corner b, which lies on (or a rounding beyond) a–c."""
+    keys = triangle_edge_keys(tris)
+    order = np.argsort(keys.ravel(), kind="stable")
+    sorted_keys = keys.ravel()[order]
+    removed = np.zeros(len(tris), dtype=bool)
+    touched = np.zeros(len(tris), dtype=bool)
+    extra: list[tuple[int, int, int, int]] = []  # new triangle (3 corners) and the row it takes labels from
+    for k in bad:
+        if touched[k]:
+            continue  # next pass
+        corners = tris[k]
+        lengths = [np.hypot(*(xyz[corners[(i + 1) % 3], :2] - xyz[corners[i], :2])) for i in range(3)]
+        i = int(np.argmax(lengths))
+        a, c, b = corners[i], corners[(i + 1) % 3], corners[(i + 2) % 3]
+        key = keys[k, i]
+        lo, hi = np.searchsorted(sorted_keys, key, "left"), np.searchsorted(sorted_keys, key, "right")
+        others = [int(r) // 3 for r in order[lo:hi] if int(r) // 3 != k and not removed[int(r) // 3]]
+        if others and touched[others[0]]:
+            continue
+        removed[k] = touched[k] = True
+        if others:  # the neighbour runs c → a; at b it becomes c → b → d and b → a → d
+            n = others[0]
+            d = next(v for v in tris[n] if v != a and v != c)
+            removed[n] = touched[n] = True
+            extra += [(c, b, d, n), (b, a, d, n)]
+    if extra:
+        new = np.array(extra, dtype=tris.dtype)
+        keep = ~removed
+        tris = np.vstack([tris[keep], new[:, :3]])
+        surface = np.concatenate([surface[keep], surface[new[:, 3]]])
+        feature = np.concatenate([feature[keep], feature[new[:, 3]]])
+        return tris, surface, feature
+    return tris[~removed], surface[~removed], feature[~removed]
+
+
 def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, spatial_index: bool = True,
               feedback: Feedback = SILENT) -> int:
     """Write the TIN as PolygonZ triangles (layer ``model.TIN_LAYER``), one feature per triangle.
 
-    Slivers that could lose their area once rounded to the model's precision (mm; CityGML is
-    written in mm) are left out: rounding moves each corner by up to 0.5 mm, which changes the area
-    by up to about 1 mm × the longest edge, so a triangle is kept only when its area exceeds that
-    margin. The dropped ones cover no visible ground, and written out they could be degenerate
-    (a validator rejects them). ``tri_id`` keeps the mesh's numbering. Returns the number written.
+    Give it a TIN on the millimetre grid (``snap_to_grid``): it is written as it is, and only a triangle
+    that would be degenerate at that precision (none after ``snap_to_grid``) is left out, with a count.
+    ``tri_id`` keeps the mesh's numbering. Returns the number written.
     """
-    corners = tin.vertices[tin.triangles]
-    longest = np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=2).max(axis=1)
-    kept = np.flatnonzero(_areas_3d(tin.vertices, tin.triangles) > DEGENERATE_AREA + ROUNDING * longest)
+    grid = np.round(tin.vertices / ROUNDING) * ROUNDING
+    kept = np.flatnonzero((_areas_3d(grid, tin.triangles) > DEGENERATE_AREA)
+                          & (_triangle_areas(grid, tin.triangles) > 0))
     if len(kept) < len(tin.triangles):
-        feedback.info(f"{len(tin.triangles) - len(kept)} sliver triangle(s) narrower than about 2 mm not written.")
+        feedback.warning(f"{len(tin.triangles) - len(kept)} triangle(s) without area at millimetre precision "
+                         "not written.")
     triangles = tin.vertices[tin.triangles[kept]]
     fields = [FieldDef(TIN_TRIANGLE_ID, ogr.OFTInteger), FieldDef(TIN_SURFACE, ogr.OFTString),
               FieldDef(TIN_FEATURE_ID, ogr.OFTString)]
@@ -798,7 +871,8 @@ def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
 def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
         area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
         footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT,
-        foreign: str | Path | None = None, fixed_segments: bool = False, seam: Seam | None = None) -> TinStats:
+        foreign: str | Path | None = None, fixed_segments: bool = False, seam: Seam | None = None,
+        triangulator: int | None = None) -> TinStats:
     """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
@@ -806,6 +880,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     grown to hold the footprints that cross its edge (``covering_area``). Tiles: ``foreign`` are the
     neighbouring tiles' buildings that cross into this one (footprints here, but they do not grow the
     area), and ``fixed_segments`` makes the border match the neighbours' (see ``triangulate``).
+    ``triangulator``: a ``triangulators.BACKENDS`` key (None: the default).
     """
     refuse_overlap([(output, False)], [dem_path, buildings, roads, foreign,
                                        None if isinstance(area, BaseGeometry) else area])
@@ -830,7 +905,10 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     footprints = [f for kind in ("buildings", "foreign") if kind in layers for f in features(layers[kind])]
     tin, stats = triangulate(area, footprints, features(layers["roads"]) if "roads" in layers else [], dem,
                              max_edge, tolerance, footprints_as_holes, fixed_segments=fixed_segments, seam=seam,
-                             feedback=feedback.scaled(0, 80))
+                             feedback=feedback.scaled(0, 80), triangulator=triangulator)
+    tin = snap_to_grid(tin, dem)
+    error = vertical_error(dem, tin.vertices, tin.triangles, tolerance)
+    stats.max_vertical_error = max_vertical_error(dem, tin.vertices, tin.triangles, error, tolerance)
     stats.triangles = write_tin(output, tin, crs, spatial_index, feedback.scaled(80, 100))
     feedback.info("TIN: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))
     feedback.progress(100)

@@ -348,6 +348,7 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 BACKENDS: tuple[Triangulator, ...] = (TriangleBackend(), CdtBackend())
+TRIANGLE, CDT = (backend.key for backend in BACKENDS)
 #: the TRIANGULATOR options, in order
 LABELS = tuple(backend.label for backend in BACKENDS)
 
