@@ -86,8 +86,8 @@ def triangulator(algorithm, parameters: dict, context, feedback) -> int:
 
     key = algorithm.parameterAsEnum(parameters, TRIANGULATOR, context)
     if key != triangulators.TRIANGLE and not triangulators.available(triangulators.BACKENDS[triangulators.TRIANGLE]):
-        feedback.pushInfo(tr("Triangle (package 'triangle') is not installed: the terrain is meshed with CDT "
-                             "(MPL-2.0)."))
+        feedback.info(tr("Triangle (package 'triangle') is not installed: the terrain is meshed with CDT "
+                         "(MPL-2.0)."))
     return key
 
 

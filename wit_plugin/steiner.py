@@ -6,9 +6,10 @@ small enough are placed here:
 * ``lattice_points``: a first mesh whose triangles meet an area bound is a lattice of equilateral
   triangles of that area over the meshed faces, kept clear of the constraint segments (near them the
   segments' own vertices and the lattice's edge make the triangles);
+* ``halve_long_edges``: the midpoint of each edge still longer than the maximum;
 * ``refine``: then, round after round, one point in each triangle still over its area limit — its
-  circumcentre when that lies in the triangle's own face (the Delaunay choice: no vertex is nearer
-  to it than the triangle's corners), else the midpoint of its longest edge that is not a constraint,
+  circumcentre when that lies inside the triangle (the Delaunay choice: no vertex is nearer to it
+  than the triangle's corners), else the midpoint of its longest edge that is not a constraint,
   else its centroid.
 
 No point is ever put on a constraint segment, so the segments stay exactly as the terrain split them
@@ -118,6 +119,29 @@ class _Lattice:
         return near
 
 
+def halve_long_edges(backend: Triangulator, mesh: Mesh, pslg: Pslg, max_edge: float, rounds: int = 1) -> Mesh:
+    """``mesh`` with the midpoint of every edge longer than ``max_edge`` added (not of a segment: segments are
+    split beforehand), where it keeps ``CLEARANCE`` × ``max_edge`` from the segments; a round or two."""
+    from .triangulators import edge_pairs, triangle_edge_keys
+
+    for _ in range(rounds):
+        xy, tris = mesh.vertices, mesh.triangles
+        keys = triangle_edge_keys(tris).ravel()
+        ends = edge_pairs(keys)
+        long = np.flatnonzero(((xy[ends[:, 1]] - xy[ends[:, 0]]) ** 2).sum(axis=1) > max_edge * max_edge)
+        long = long[~np.isin(keys[long], mesh.constrained)]
+        long = long[np.unique(keys[long], return_index=True)[1]]  # each edge once
+        if not len(long):
+            break
+        points = 0.5 * (xy[ends[long, 0]] + xy[ends[long, 1]])
+        clear = ~_near_segments(points, pslg, np.full(len(points), CLEARANCE * max_edge))
+        if not clear.any():
+            break
+        region = mesh.region[long[clear] // 3]
+        mesh = backend.insert(mesh, pslg, points[clear], np.where(region >= 0, region, -3))
+    return mesh
+
+
 def refine(backend: Triangulator, mesh: Mesh, pslg: Pslg, limits: np.ndarray) -> Mesh:
     """``mesh`` with points added until every triangle with a positive limit has at most that area.
 
@@ -129,7 +153,7 @@ def refine(backend: Triangulator, mesh: Mesh, pslg: Pslg, limits: np.ndarray) ->
     np.maximum.at(vertex_limit, mesh.triangles[limits > 0].ravel(), np.repeat(limits[limits > 0], 3))
     vertex_limit[vertex_limit == -np.inf] = np.inf  # no limit
     triangle_limit = limits
-    given = mesh.triangles
+    origin = np.arange(len(mesh.triangles))  # each triangle's row in the mesh given, −1 when new
     for _ in range(MAX_ROUNDS):
         xy, tris = mesh.vertices, mesh.triangles
         limited = np.flatnonzero(triangle_limit > 0)
@@ -144,32 +168,28 @@ def refine(backend: Triangulator, mesh: Mesh, pslg: Pslg, limits: np.ndarray) ->
             break
         region = mesh.region[bad[made]]
         mesh = backend.insert(mesh, pslg, points, np.where(region >= 0, region, -3))  # −3: not known
+        origin = np.where(mesh.origin >= 0, origin[mesh.origin], -1) if mesh.origin is not None \
+            else np.full(len(mesh.triangles), -1)
         vertex_limit = np.concatenate([vertex_limit, np.full(len(mesh.vertices) - len(vertex_limit), np.inf)])
         vertex_limit[len(xy):len(xy) + len(points)] = triangle_limit[bad[made]]
         near = np.isfinite(vertex_limit)
         triangle_limit = np.full(len(mesh.triangles), -1.0)
         zone = np.flatnonzero(near[mesh.triangles].all(axis=1))
         triangle_limit[zone] = vertex_limit[mesh.triangles[zone]].max(axis=1)
-    from .triangulators import unchanged
-
-    mesh.origin = unchanged(given, mesh.triangles)
+    mesh.origin = origin
     return mesh
 
 
 def split_points(mesh: Mesh, pslg: Pslg, bad: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """One new point for each of the ``bad`` triangles where one can go (see the module): (which of
-    ``bad`` got one, the points). A circumcentre is as far from every vertex it sees as the corners are
-    (Delaunay); a midpoint or a centroid is checked against the triangle's corners."""
+    ``bad`` got one, the points). A circumcentre inside its triangle is as far from every vertex as the
+    corners are (Delaunay); a midpoint or a centroid is checked against the triangle's corners."""
     xy, tris = mesh.vertices, mesh.triangles[bad]
     a, b, c = xy[tris[:, 0]], xy[tris[:, 1]], xy[tris[:, 2]]
     clearance = np.maximum(CLEARANCE * np.sqrt(limits), MIN_CLEARANCE)
 
     centre = circumcentres(a, b, c)
     own = inside(centre, a, b, c)
-    elsewhere = np.flatnonzero(~own & np.isfinite(centre).all(axis=1) & (mesh.region[bad] >= 0))
-    same_face = np.zeros(len(tris), dtype=bool)
-    if len(elsewhere):  # beyond an edge that is not a constraint, in the same face: acceptable
-        same_face[elsewhere] = pslg.locate(centre[elsewhere]) == mesh.region[bad][elsewhere]
 
     from .triangulators import edge_keys
 
@@ -181,9 +201,9 @@ def split_points(mesh: Mesh, pslg: Pslg, bad: np.ndarray, limits: np.ndarray) ->
     midpoint = np.where((lengths.max(axis=1) > 0)[:, None], 0.5 * (xy[ends[:, 0]] + xy[ends[:, 1]]), np.nan)
 
     # the circumcentre inside the triangle (an acute one); else the midpoint of its longest edge, as
-    # Ruppert's algorithm does for an obtuse one (its circumcentre lies beyond that edge)
-    candidates = np.stack([np.where(own[:, None], centre, np.nan), midpoint,
-                           np.where(same_face[:, None], centre, np.nan), (a + b + c) / 3.0])  # (4, k, 2)
+    # Ruppert's algorithm does for an obtuse one (its circumcentre lies beyond that edge); else the
+    # centroid. Each lies in the triangle or on its edge: never on a vertex of the mesh
+    candidates = np.stack([np.where(own[:, None], centre, np.nan), midpoint, (a + b + c) / 3.0])  # (3, k, 2)
     corners = np.stack([a, b, c], axis=1)
     chosen = np.full((len(tris), 2), np.nan)
     for rank, candidate in enumerate(candidates):  # the first acceptable one of each triangle
@@ -191,7 +211,7 @@ def split_points(mesh: Mesh, pslg: Pslg, bad: np.ndarray, limits: np.ndarray) ->
         if not len(todo):
             continue
         clear = ~_near_segments(candidate[todo], pslg, clearance[todo])
-        if rank in (1, 3):
+        if rank:
             gaps = np.linalg.norm(corners[todo] - candidate[todo][:, None, :], axis=2)
             clear &= (gaps >= clearance[todo, None]).all(axis=1)
         chosen[todo[clear]] = candidate[todo[clear]]
@@ -228,7 +248,7 @@ def _near_segments(points: np.ndarray, pslg: Pslg, distance: np.ndarray) -> np.n
     if not len(points) or not len(pslg.segments):
         return near
     p, q = pslg.vertices[pslg.segments[:, 0]], pslg.vertices[pslg.segments[:, 1]]
-    point, segment = pslg.segment_grid().near(points, distance)
+    point, segment = pslg.segment_grid(float(distance.max())).near(points, distance)
     d = q[segment] - p[segment]
     t = np.clip(((points[point] - p[segment]) * d).sum(axis=1) / np.maximum((d * d).sum(axis=1), 1e-300), 0.0, 1.0)
     gap = points[point] - (p[segment] + t[:, None] * d)
@@ -237,12 +257,13 @@ def _near_segments(points: np.ndarray, pslg: Pslg, distance: np.ndarray) -> np.n
 
 
 class SegmentGrid:
-    """The segments listed in the cells of a uniform grid that their boxes meet (cells about as big as a
-    segment), to find the segments near many points at once without building a tree each time."""
+    """The segments listed in the cells of a uniform grid that their boxes meet, to find the segments near
+    many points at once without building a tree each time. Cells about as big as a segment, and at least
+    ``reach``: a point's search box then meets a few cells only."""
 
-    def __init__(self, p: np.ndarray, q: np.ndarray):
+    def __init__(self, p: np.ndarray, q: np.ndarray, reach: float):
         lower, upper = np.minimum(p, q), np.maximum(p, q)
-        self.cell = max(float(np.median(upper - lower)) * 2.0, 1e-3)
+        self.cell = max(float(np.median(upper - lower)) * 2.0, reach, 1e-3)
         self.origin = lower.min(axis=0)
         segment, key = self._cells(lower, upper)
         order = np.argsort(key, kind="stable")

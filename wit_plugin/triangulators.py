@@ -17,6 +17,7 @@ vertical tolerance, constraints present) the same way whichever backend ran.
 from __future__ import annotations
 
 import importlib
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -57,10 +58,11 @@ class Pslg:
     locate: Callable[..., np.ndarray]
     _grid: steiner.SegmentGrid | None = field(default=None, repr=False)
 
-    def segment_grid(self) -> steiner.SegmentGrid:
-        """An index of the segments (built once)."""
-        if self._grid is None:
-            self._grid = steiner.SegmentGrid(self.vertices[self.segments[:, 0]], self.vertices[self.segments[:, 1]])
+    def segment_grid(self, reach: float) -> steiner.SegmentGrid:
+        """An index of the segments for searches within ``reach`` (built again only for a longer reach)."""
+        if self._grid is None or self._grid.cell < reach:
+            self._grid = steiner.SegmentGrid(self.vertices[self.segments[:, 0]], self.vertices[self.segments[:, 1]],
+                                             2.0 ** math.ceil(math.log2(max(reach, 1e-3))))
         return self._grid
 
 
@@ -118,9 +120,10 @@ class Triangulator:
         raise NotImplementedError
 
     def mesh(self, pslg: Pslg, max_edge: float, fixed: bool) -> Mesh:
-        """A first mesh aiming at edges of at most ``max_edge`` (ours: a lattice, see ``steiner``)."""
+        """A first mesh aiming at edges of at most ``max_edge`` (ours: a lattice, then the edges still too
+        long halved; see ``steiner``)."""
         points, regions = steiner.lattice_points(pslg, max_edge)
-        return self.triangulate(pslg, points, regions)
+        return steiner.halve_long_edges(self, self.triangulate(pslg, points, regions), pslg, max_edge)
 
     def refine(self, mesh: Mesh, pslg: Pslg, limits: np.ndarray, fixed: bool, whole: bool) -> Mesh:
         """``mesh`` refined until every triangle with a positive limit is at most that area (or no Steiner
@@ -247,13 +250,17 @@ class CdtBackend(Triangulator):
         return self._read(live, vertex_region, pslg)
 
     def insert(self, mesh: Mesh, pslg: Pslg, points: np.ndarray, regions: np.ndarray) -> Mesh:
-        live, vertex_region = mesh.state
+        live, vertex_region, before = mesh.state
         live.insert_vertices(np.ascontiguousarray(points, dtype=np.float64))
-        return self._read(live, np.concatenate([vertex_region, regions]), pslg)
+        return self._read(live, np.concatenate([vertex_region, regions]), pslg, before)
 
-    def _read(self, live, vertex_region: np.ndarray, pslg: Pslg) -> Mesh:
+    def _read(self, live, vertex_region: np.ndarray, pslg: Pslg, before: tuple | None = None) -> Mesh:
         """The live triangulation as a ``Mesh``: the super-triangle (vertices 0–2) and what lies outside the
-        area or in a hole left out, each triangle labelled with the region of its face."""
+        area or in a hole left out, each triangle labelled with the region of its face.
+
+        ``before``: (the library's triangles, their mesh rows) at the previous read. An insertion leaves most
+        triangles where they were in the library's array: those with the same corners at the same place
+        are the previous mesh's (``Mesh.origin``), found without sorting anything."""
         raw = live.vertices_array()
         xy = np.column_stack([raw["x"], raw["y"]])
         if len(vertex_region) < len(xy):  # vertices where segments met (none from clean constraints)
@@ -270,22 +277,21 @@ class CdtBackend(Triangulator):
         outer[np.fromiter(live.collect_outer_triangles(), dtype=np.int64)] = True
         outer |= (tris < 3).any(axis=1)
         region = face_regions(xy, tris, neighbours, constrained, vertex_region, outer, pslg.locate)
-        meshed = region != -1
+        meshed = np.flatnonzero(region != -1)
         final = region[meshed]
         final[final == -2] = -1
-        return Mesh(xy[3:], tris[meshed] - 3, final, constrained - (3 << 31) - 3, state=(live, vertex_region))
-
-
-def unchanged(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """For each triangle of ``after``, its row in ``before`` when the same corners are there, else −1."""
-    none = np.full(len(after), -1)
-    if not len(before) or not len(after) or max(int(before.max()), int(after.max())) >= 1 << 21:
-        return none  # three indices in one int64 only below 2²¹
-    old, new = ((k[:, 0] << 42) | (k[:, 1] << 21) | k[:, 2]
-                for k in (np.sort(t, axis=1).astype(np.int64) for t in (before, after)))
-    order = np.argsort(old, kind="stable")
-    at = np.minimum(np.searchsorted(old[order], new), len(old) - 1)
-    return np.where(old[order][at] == new, order[at], -1)
+        origin = None
+        if before is not None:
+            old, old_row = before
+            n = min(len(old), len(tris))
+            same = np.zeros(len(tris), dtype=bool)
+            same[:n] = (tris[:n] == old[:n]).all(axis=1)
+            origin = np.where(same[meshed], np.pad(old_row, (0, max(len(tris) - len(old), 0)),
+                                                   constant_values=-1)[meshed], -1)
+        row = np.full(len(tris), -1)
+        row[meshed] = np.arange(len(meshed))
+        return Mesh(xy[3:], tris[meshed] - 3, final, constrained - (3 << 31) - 3, origin=origin,
+                    state=(live, vertex_region, (tris, row)))
 
 
 def _steiner(points: np.ndarray | None, regions: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
