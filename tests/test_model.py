@@ -132,7 +132,11 @@ def test_model_is_valid_with_the_documented_inputs_and_outputs(qgis_processing):
     assert model.parameterDefinition("MAX_EDGE").defaultValue() == 5.0
     optional = {d.name() for d in model.parameterDefinitions()
                 if d.flags() & d.FlagOptional}
-    assert optional == {"ROADS", "DISTRICTS", "CENTER", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "SCHEMA_DIR"}
+    assert optional == {"ROADS", "DISTRICTS", "CENTER", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "TRIANGULATOR",
+                        "SCHEMA_DIR"}
+    # no default in the model: wit:triangulateterrain's own on the machine it runs on
+    assert model.parameterDefinition("TRIANGULATOR").defaultValue() is None
+    assert model.parameterDefinition("TRIANGULATOR").options() == ["Triangle (non-commercial licence)", "CDT (MPL-2.0)"]
     children = model.childAlgorithms()
     assert set(children) == set(CHAIN)
     # left to right in the modeler, in chain order, each with a description
