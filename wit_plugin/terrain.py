@@ -773,50 +773,86 @@ def snap_to_grid(tin: Tin, dem: Dem, max_passes: int = 8) -> Tin:
     surface, feature = tin.surface, tin.feature_id
     alive = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 2] != tris[:, 0])
     tris, surface, feature = tris[alive], surface[alive], feature[alive]
-    for _ in range(max_passes):
-        bad = np.flatnonzero((_areas_3d(xyz, tris) <= DEGENERATE_AREA) | (_triangle_areas(xyz, tris) <= 0))
-        if not len(bad):
-            break
-        tris, surface, feature = _split_across(xyz, tris, surface, feature, bad)
-    return Tin(xyz, tris, surface, feature, tin.constraints)
+    return _mend_flat(xyz, tris, surface, feature, tin.constraints, max_passes)
 
 
-def _split_across(xyz: np.ndarray, tris: np.ndarray, surface: np.ndarray, feature: np.ndarray,
-                  bad: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Remove the ``bad`` (flat or turned) triangles; each one's neighbour across its longest edge a–c is
-    split in two at the bad one's third corner b, which lies on (or a rounding beyond) a–c."""
-    keys = triangle_edge_keys(tris)
-    order = np.argsort(keys.ravel(), kind="stable")
-    sorted_keys = keys.ravel()[order]
+def _key(a: int, b: int) -> int:
+    """``triangulators.edge_keys`` of one edge, in plain integers."""
+    return (min(a, b) << 31) | max(a, b)
+
+
+def _flat(xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Triangles without area at the model's precision, or turned over."""
+    return (_areas_3d(xyz, tris) <= DEGENERATE_AREA) | (_triangle_areas(xyz, tris) <= 0)
+
+
+def _mend_flat(xyz: np.ndarray, tris: np.ndarray, surface: np.ndarray, feature: np.ndarray, cons: Constraints,
+               max_passes: int) -> Tin:
+    """Remove the flat (or turned) triangles; each one's neighbour across its longest edge a–c is split in two
+    at the flat one's third corner b, which lies on (or a rounding beyond) a–c. New triangles that are flat
+    in turn are mended in the next pass. The few edges looked for are found among all in one vectorised
+    search; the new triangles are searched one by one."""
+    keys = triangle_edge_keys(tris).ravel()
+    todo = list(np.flatnonzero(_flat(xyz, tris)))
+    wanted = np.unique(keys.reshape(-1, 3)[todo]) if todo else np.empty(0, dtype=np.int64)
+    at = np.minimum(np.searchsorted(wanted, keys), max(len(wanted) - 1, 0))
+    owners: dict[int, list[int]] = {}
+    for r in np.flatnonzero(wanted[at] == keys) if len(wanted) else []:
+        owners.setdefault(int(keys[r]), []).append(int(r) // 3)
+    rows = [tris]
+    labels = [(surface, feature)]
     removed = np.zeros(len(tris), dtype=bool)
-    touched = np.zeros(len(tris), dtype=bool)
-    extra: list[tuple[int, int, int, int]] = []  # new triangle (3 corners) and the row it takes labels from
-    for k in bad:
-        if touched[k]:
-            continue  # next pass
-        corners = tris[k]
-        lengths = [np.hypot(*(xyz[corners[(i + 1) % 3], :2] - xyz[corners[i], :2])) for i in range(3)]
-        i = int(np.argmax(lengths))
-        a, c, b = corners[i], corners[(i + 1) % 3], corners[(i + 2) % 3]
-        key = keys[k, i]
-        lo, hi = np.searchsorted(sorted_keys, key, "left"), np.searchsorted(sorted_keys, key, "right")
-        others = [int(r) // 3 for r in order[lo:hi] if int(r) // 3 != k and not removed[int(r) // 3]]
-        if others and touched[others[0]]:
-            continue
-        removed[k] = touched[k] = True
-        if others:  # the neighbour runs c → a; at b it becomes c → b → d and b → a → d
-            n = others[0]
-            d = next(v for v in tris[n] if v != a and v != c)
-            removed[n] = touched[n] = True
-            extra += [(c, b, d, n), (b, a, d, n)]
+    extra: list[list[int]] = []  # new triangles (3 corners, the row their labels come from)
+    extra_at: dict[int, list[int]] = {}  # edge key → rows of the new triangles with that edge
+
+    def triangle(k: int) -> np.ndarray:
+        return tris[k] if k < len(tris) else np.array(extra[k - len(tris)][:3])
+
+    def across(k: int, key: int) -> int | None:
+        found = owners[key] if key in owners else [int(r) // 3 for r in np.flatnonzero(keys == key)]
+        found = found + extra_at.get(key, [])
+        live = [r for r in found if r != k and not (removed[r] if r < len(tris) else extra[r - len(tris)][4])]
+        return live[0] if live else None
+
+    for _ in range(max_passes):
+        if not todo:
+            break
+        made = len(extra)
+        for k in todo:
+            if k < len(tris) and removed[k] or k >= len(tris) and extra[k - len(tris)][4]:
+                continue
+            corners = triangle(k)
+            lengths = [np.hypot(*(xyz[corners[(i + 1) % 3], :2] - xyz[corners[i], :2])) for i in range(3)]
+            i = int(np.argmax(lengths))
+            a, c, b = int(corners[i]), int(corners[(i + 1) % 3]), int(corners[(i + 2) % 3])
+            n = across(k, _key(a, c))
+            for r in (k, n):
+                if r is None:
+                    continue
+                if r < len(tris):
+                    removed[r] = True
+                else:
+                    extra[r - len(tris)][4] = True
+            if n is not None:  # the neighbour runs c → a; at b it becomes c → b → d and b → a → d
+                d = next(int(v) for v in triangle(n) if v != a and v != c)
+                source = n if n < len(tris) else extra[n - len(tris)][3]
+                for corners_new in ((c, b, d), (b, a, d)):
+                    extra.append([*corners_new, source, False])
+                    u, v, w = corners_new
+                    for edge in (_key(u, v), _key(v, w), _key(w, u)):
+                        extra_at.setdefault(edge, []).append(len(tris) + len(extra) - 1)
+        new = np.array([e[:3] for e in extra[made:]], dtype=tris.dtype).reshape(-1, 3)
+        todo = [len(tris) + made + int(k) for k in np.flatnonzero(_flat(xyz, new))] if len(new) else []
+    keep = ~removed
     if extra:
-        new = np.array(extra, dtype=tris.dtype)
-        keep = ~removed
-        tris = np.vstack([tris[keep], new[:, :3]])
-        surface = np.concatenate([surface[keep], surface[new[:, 3]]])
-        feature = np.concatenate([feature[keep], feature[new[:, 3]]])
-        return tris, surface, feature
-    return tris[~removed], surface[~removed], feature[~removed]
+        alive = np.array([not e[4] for e in extra])
+        new = np.array([e[:3] for e in extra], dtype=tris.dtype)[alive]
+        source = np.array([e[3] for e in extra])[alive]
+        rows.append(new)
+        labels.append((surface[source], feature[source]))
+    return Tin(xyz, np.vstack([rows[0][keep], *rows[1:]]),
+               np.concatenate([labels[0][0][keep], *[lab[0] for lab in labels[1:]]]),
+               np.concatenate([labels[0][1][keep], *[lab[1] for lab in labels[1:]]]), cons)
 
 
 def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, spatial_index: bool = True,
