@@ -295,6 +295,7 @@ class CdtBackend(Triangulator):
 
 
 def _steiner(points: np.ndarray | None, regions: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Steiner points and their regions as arrays (none; −3: region not known)."""
     if points is None:
         return np.empty((0, 2)), np.empty(0, dtype=np.int64)
     return points, np.full(len(points), -3, dtype=np.int64) if regions is None else regions
