@@ -544,8 +544,8 @@
       <translation>도구</translation>
     </message>
     <message>
-      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, triangle, pygltflib, Dask…) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
-      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, triangle, pygltflib, Dask…)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, pythoncdt, pygltflib, Dask…; 비상업적 이용에만 무료인 triangle은 선택한 경우에만)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
     </message>
     <message>
       <source>Python interpreter to run pip with (empty: QGIS's own)</source>
@@ -816,6 +816,14 @@
       <translation> 또는 </translation>
     </message>
     <message>
+      <source>Triangle (non-commercial licence)</source>
+      <translation>Triangle (비상업적 이용 라이선스)</translation>
+    </message>
+    <message>
+      <source>CDT (MPL-2.0)</source>
+      <translation>CDT (MPL-2.0)</translation>
+    </message>
+    <message>
       <source>Centre of the study area</source>
       <translation>연구 지역 중심</translation>
     </message>
@@ -830,6 +838,14 @@
     <message>
       <source>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</source>
       <translation>법정동: 코드(EMD_CD) 또는 이름, 예: 11680101 또는 역삼동 (중심점과 반경 대신)</translation>
+    </message>
+    <message>
+      <source>Triangulator (licence: Triangle is free for non-commercial use only)</source>
+      <translation>삼각분할 라이브러리 (라이선스: Triangle은 비상업적 이용에만 무료)</translation>
+    </message>
+    <message>
+      <source>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</source>
+      <translation>Triangle('triangle' 패키지)이 설치되어 있지 않습니다: 지형은 CDT(MPL-2.0)로 삼각분할합니다.</translation>
     </message>
     <message>
       <source>Storey height (m)</source>
@@ -868,8 +884,8 @@
       <translation>지형 삼각분할 (제약 들로네)</translation>
     </message>
     <message>
-      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres (a DEM in another CRS than the layers' is reprojected on the fly to theirs, bilinear, on a grid of its own cell size, and the tolerance is measured against that surface); DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
-      <translation>연구 지역을 제약 들로네 삼각분할(라이브러리 'triangle')로 메시화합니다: 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(엄밀한 상한으로 대부분의 삼각형을 확인하고, 나머지는 모든 변과 내부의 DEM 셀 중심에서 정확히 측정하며, 보고하는 최대값도 정확한 값입니다). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간(레이어와 다른 좌표계의 DEM은 실행 중에 레이어의 좌표계로 재투영하며—쌍선형, 원래 셀 크기의 격자—허용오차는 그 표면에 대해 잽니다). DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
+      <source>Meshes the study area with a constrained Delaunay triangulation (library: Triangle, free for non-commercial use only, or CDT, MPL-2.0, free for commercial use too; the same checks whichever): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres (a DEM in another CRS than the layers' is reprojected on the fly to theirs, bilinear, on a grid of its own cell size, and the tolerance is measured against that surface); DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
+      <translation>연구 지역을 제약 들로네 삼각분할로 메시화합니다(라이브러리: 비상업적 이용에만 무료인 Triangle, 또는 상업적 이용도 무료인 CDT(MPL-2.0); 어느 쪽이든 같은 검사): 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(엄밀한 상한으로 대부분의 삼각형을 확인하고, 나머지는 모든 변과 내부의 DEM 셀 중심에서 정확히 측정하며, 보고하는 최대값도 정확한 값입니다). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간(레이어와 다른 좌표계의 DEM은 실행 중에 레이어의 좌표계로 재투영하며—쌍선형, 원래 셀 크기의 격자—허용오차는 그 표면에 대해 잽니다). DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
     </message>
     <message>
       <source>Study area (polygon layer, e.g. study_area of wit:preparevectors)</source>

@@ -20,7 +20,15 @@ from qgis.core import (
 from .base import WitAlgorithm, crs_string
 from .load_results import load_results
 from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
-from .shared_parameters import add_area_parameters, add_height_parameters, height_options, schema_choice, study_area
+from .shared_parameters import (
+    add_area_parameters,
+    add_height_parameters,
+    add_triangulator_parameter,
+    height_options,
+    schema_choice,
+    study_area,
+    triangulator,
+)
 
 OUTSIDE_ORTHO = ("fail", "untextured")
 
@@ -47,7 +55,7 @@ class CityModel(WitAlgorithm):
         "<output>/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the "
         "centre point and radius."
     )
-    requirements = ("shapely", "triangle", "pyproj", "lxml")
+    requirements = ("shapely", "pythoncdt", "pyproj", "lxml")
 
     ORTHO_INPUT = "ORTHO_INPUT"
     DEM = "DEM"
@@ -110,6 +118,7 @@ class CityModel(WitAlgorithm):
         self.addParameter(QgsProcessingParameterNumber(
             self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
             defaultValue=0.5, minValue=0.01))
+        add_triangulator_parameter(self)
         self.addParameter(QgsProcessingParameterNumber(
             self.TEXTURE_SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), NumberType.Double,
             defaultValue=1.0, minValue=0.01, maxValue=1.0))
@@ -121,7 +130,7 @@ class CityModel(WitAlgorithm):
             self.SCHEMA_DIR, self.tr("Schema folder overriding the shipped schemas (with citygml3-all.xsd)"),
             behavior=FileBehavior.Folder, optional=True))
 
-    def chain_settings(self, parameters, context):
+    def chain_settings(self, parameters, context, feedback):
         """(ChainInputs, ChainOptions, checked height expression) from the parameters."""
         from ..wit_plugin.chain import ChainInputs, ChainOptions
 
@@ -141,6 +150,7 @@ class CityModel(WitAlgorithm):
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
             max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
+            triangulator=triangulator(self, parameters, context, feedback),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
             schema_dir=configured, schema_cache=cache)
@@ -149,7 +159,7 @@ class CityModel(WitAlgorithm):
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.chain import run_city_model
 
-        inputs, options, expression = self.chain_settings(parameters, context)
+        inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from qgis.core import (
     QgsCoordinateReferenceSystem,
     QgsProcessingParameterDefinition,
+    QgsProcessingParameterEnum,
     QgsProcessingParameterExpression,
     QgsProcessingParameterField,
     QgsProcessingParameterNumber,
@@ -13,7 +14,7 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import tr
+from .base import tr, translatable
 from .expressions import checked_expression
 from .qgis_compat import FieldDataType, NumberType, ParameterFlag, SourceType
 
@@ -24,6 +25,9 @@ DISTRICT_CODE, DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD = "DISTRICT_CODE", "DIST
 STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
     "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
 LOD1, TIN = "LOD1", "TIN"
+TRIANGULATOR = "TRIANGULATOR"
+#: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
+TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
@@ -65,6 +69,26 @@ def study_area(algorithm, parameters: dict, context):
         return StudyArea.from_layer(area_layer.source())
     point = algorithm.parameterAsPoint(parameters, CENTER, context, WGS84)
     return StudyArea.circle(point.x(), point.y(), algorithm.parameterAsDouble(parameters, RADIUS, context))
+
+
+def add_triangulator_parameter(algorithm) -> None:
+    """The terrain's triangulation library; by default Triangle where it is installed, else CDT."""
+    from ..wit_plugin import triangulators
+
+    algorithm.addParameter(QgsProcessingParameterEnum(
+        TRIANGULATOR, tr("Triangulator (licence: Triangle is free for non-commercial use only)"),
+        options=[tr(label) for label in TRIANGULATOR_OPTIONS], defaultValue=triangulators.default_key()))
+
+
+def triangulator(algorithm, parameters: dict, context, feedback) -> int:
+    """The TRIANGULATOR chosen; says so when Triangle is not installed and CDT is used instead."""
+    from ..wit_plugin import triangulators
+
+    key = algorithm.parameterAsEnum(parameters, TRIANGULATOR, context)
+    if key != triangulators.TRIANGLE and not triangulators.available(triangulators.BACKENDS[triangulators.TRIANGLE]):
+        feedback.info(tr("Triangle (package 'triangle') is not installed: the terrain is meshed with CDT "
+                         "(MPL-2.0)."))
+    return key
 
 
 def add_height_parameters(algorithm, parent: str) -> None:

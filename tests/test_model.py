@@ -20,7 +20,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.qgis_facing]
 
 MODEL_FILE = ROOT / "processing_provider" / "models" / "wit_citymodel.model3"
 INPUTS = ["ORTHO", "DEM", "BUILDINGS", "ROADS", "DISTRICTS", "CENTER", "RADIUS", "STOREY_HEIGHT", "HEIGHT_FIELD",
-          "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT", "MAX_EDGE", "SCHEMA_DIR"]
+          "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT", "MAX_EDGE", "TRIANGULATOR", "SCHEMA_DIR"]
 GML_OUT = "CITYGML:GML"
 REPORT_OUT = "VALIDATE:REPORT"
 CHAIN = ["GEOREFERENCE", "MERGE", "PREPARE", "TERRAIN", "EXTRUDE", "TEXTURE", "CITYGML", "VALIDATE"]
@@ -147,7 +147,11 @@ def test_model_is_valid_with_the_documented_inputs_and_outputs(qgis_processing):
     assert model.parameterDefinition("MAX_EDGE").defaultValue() == 5.0
     optional = {d.name() for d in model.parameterDefinitions()
                 if d.flags() & d.FlagOptional}
-    assert optional == {"ROADS", "DISTRICTS", "CENTER", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "SCHEMA_DIR"}
+    assert optional == {"ROADS", "DISTRICTS", "CENTER", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "TRIANGULATOR",
+                        "SCHEMA_DIR"}
+    # no default in the model: wit:triangulateterrain's own on the machine it runs on
+    assert model.parameterDefinition("TRIANGULATOR").defaultValue() is None
+    assert model.parameterDefinition("TRIANGULATOR").options() == ["Triangle (non-commercial licence)", "CDT (MPL-2.0)"]
     children = model.childAlgorithms()
     assert set(children) == set(CHAIN)
     # left to right in the modeler, in chain order, each with a description
@@ -231,6 +235,52 @@ def test_model_runs_headless_through_qgis_process(model_run, sample, shared_dir,
     # QGIS 3.22 says "Executed 8 algorithms", 3.44 "Executed 8 algorithm(s)"
     assert "Success" in log and re.search(r"Executed 8 algorithm(s|\(s\)) ", log), log[-2000:]
     assert summary(parameters[GML_OUT]) == summary(model_run[1][GML_OUT])
+
+
+#: a sitecustomize that makes ``import triangle`` fail in the process it starts in (as if not installed)
+NO_TRIANGLE = """import sys
+
+
+class NoTriangle:
+    def find_spec(self, name, path=None, target=None):
+        if name == "triangle" or name.startswith("triangle."):
+            raise ImportError("No module named 'triangle' (blocked by the test)")
+        return None
+
+
+sys.meta_path.insert(0, NoTriangle())
+"""
+
+
+def test_model_runs_on_cdt_without_triangle(sample, shared_dir, tmp_path_factory, tmp_path):
+    """With ``triangle`` not importable, the model (TRIANGULATOR left empty) meshes with CDT, says so, and
+    writes a model that xmllint and our validator accept (solids closed)."""
+    from wit_plugin.citygml.validate import validate_files
+
+    out, sample_data = sample
+    (tmp_path / "sitecustomize.py").write_text(NO_TRIANGLE)
+    parameters = model_parameters(sample_data, shared_dir, out / "no-triangle")
+    args = [str(ROOT / "scripts" / "qgis-process"), "--json", "run", str(MODEL_FILE)]
+    args += [f"--{name}={item}" for name, value in parameters.items()
+             for item in (value if isinstance(value, list) else [value])]
+    env = dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path_factory.mktemp("qgis-profile")),
+               PYTHONPATH=os.pathsep.join(filter(None, [str(tmp_path), os.environ.get("PYTHONPATH")])))
+    completed = subprocess.run(args, check=False, capture_output=True, text=True, env=env, timeout=900)
+    assert completed.returncode == 0, completed.stdout[-3000:] + completed.stderr[-3000:]
+    report = json.loads(completed.stdout[completed.stdout.index("{"):])
+    log = "\n".join(report["log"]["info"]) if isinstance(report.get("log"), dict) else completed.stdout
+    log += completed.stdout + completed.stderr
+    assert "Triangle (package 'triangle') is not installed" in log  # the blocker was at work
+    assert "Triangulator: CDT (MPL-2.0); licence: MPL-2.0" in log
+    gml = parameters[GML_OUT]
+    xmllint = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
+                              str(shared_dir / "schemas" / "citygml3-all.xsd"), gml],
+                             capture_output=True, text=True, timeout=600)
+    assert xmllint.returncode == 0, xmllint.stderr[-2000:]
+    (checked,) = validate_files([gml], shared_dir / "schemas")
+    assert checked.valid and not [i for i in checked.issues if i.severity == "error"], checked.issues[:5]
+    ids, counts = summary(gml)
+    assert counts["gml:Solid"] == len(ids) > 20 and counts["gml:Triangle"] > 1000
 
 
 def test_provider_ships_the_model(qgis_processing):

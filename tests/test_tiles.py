@@ -21,6 +21,7 @@ import shapely
 from lxml import etree
 
 from conftest import view_in_chromium
+from wit_plugin import triangulators
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
@@ -128,6 +129,18 @@ def local_run(sample, tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def cdt_run(sample, tmp_path_factory):
+    """The same tiled run on the permissively licensed backend (CDT)."""
+    out = tmp_path_factory.mktemp("tiled-cdt")
+    options = _options()
+    options.triangulator = triangulators.CDT
+    return out, run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=2)
+
+
+BOTH_RUNS = pytest.mark.parametrize("run", ["local_run", "cdt_run"])
+
+
+@pytest.fixture(scope="module")
 def single(sample, tmp_path_factory):
     out = tmp_path_factory.mktemp("single")
     return run_city_model(_inputs(sample), ChainOptions(area=AREA, max_edge=15.0, metrics=False, tiles3d=False), out)
@@ -191,9 +204,10 @@ def test_every_tile_is_a_valid_citygml_file(local_run):
         assert result.returncode == 0, result.stderr[-2000:]
 
 
-def test_neighbouring_tiles_share_their_border_vertex_for_vertex(local_run):
+@BOTH_RUNS
+def test_neighbouring_tiles_share_their_border_vertex_for_vertex(run, request):
     """On every shared border: the same vertices (x, y and z, to the millimetre) on both sides."""
-    out, report = local_run
+    out, report = request.getfixturevalue(run)
     done = [r["sheet"] for r in _modelled(report)]
     polygons = {s: plan.tile_of(s, "EPSG:5186").polygon for s in done}
     checked = 0
@@ -228,14 +242,53 @@ def _t_junctions(triangles: np.ndarray) -> int:
     return int(inner.sum())
 
 
-def test_no_t_junction_inside_a_tile_nor_across_its_borders(local_run):
-    out, report = local_run
+@BOTH_RUNS
+def test_no_t_junction_inside_a_tile_nor_across_its_borders(run, request):
+    out, report = request.getfixturevalue(run)
     every = []
     for row in _modelled(report):
         triangles = _ground_triangles(out / row["gml"])
         assert _t_junctions(triangles) == 0, row["sheet"]
         every.append(triangles)
     assert _t_junctions(np.concatenate(every)) == 0  # the tiles together: no crack along the borders
+
+
+def _walls(gmls: list[Path]) -> list:
+    """The outline of every surface of every building (the footprints among them)."""
+    return [shapely.LinearRing(np.array(p.text.split(), dtype=float).reshape(-1, 3)[:, :2]) for g in gmls
+            for p in etree.parse(str(g)).iterfind(".//bldg:Building//gml:posList", NS)]
+
+
+def _lone_ground_edges(gmls: list[Path], rim, walls: list) -> np.ndarray:
+    """Midpoints of the ground edges (terrain and road triangles, vertices as written: x, y, z to the
+    millimetre) that no other triangle shares, farther than 1 cm from the boundary of ``rim`` and from
+    the ``walls`` (the footprints the ground stops at)."""
+    triangles = np.concatenate([_ground_triangles(g) for g in gmls])
+    digits = np.rint(triangles.reshape(-1, 3) * 1000).astype(np.int64)
+    vertices, index = np.unique(digits, axis=0, return_inverse=True)
+    tris = index.reshape(-1, 3)
+    edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    lone = unique[count == 1]
+    middle = (vertices[lone[:, 0], :2] + vertices[lone[:, 1], :2]) / 2000.0
+    stops = shapely.union_all([rim.boundary, *walls])
+    return middle[~shapely.dwithin(stops, shapely.points(middle), 0.01)]
+
+
+@BOTH_RUNS
+def test_the_ground_is_watertight_to_the_millimetre(run, request, single):
+    """Every ground edge away from the area's rim and the buildings is shared by two triangles as written
+    (a road triangle and a relief one meet at the same digits), in each tile, across the tiles' borders,
+    and in a single run: no vertex written twice a millimetre apart (issue 21)."""
+    out, report = request.getfixturevalue(run)
+    rim = AREA.geometry(pyproj.CRS("EPSG:5186"))
+    gmls = [out / r["gml"] for r in _modelled(report)]
+    walls = _walls(gmls)  # a tile's ground also stops at its neighbours' buildings that cross into it
+    for row in _modelled(report):
+        tile = plan.tile_of(row["sheet"], "EPSG:5186").polygon
+        assert len(_lone_ground_edges([out / row["gml"]], tile.intersection(rim), walls)) == 0, row["sheet"]
+    assert len(_lone_ground_edges(gmls, rim, walls)) == 0
+    assert len(_lone_ground_edges([Path(single.gml)], rim, _walls([Path(single.gml)]))) == 0
 
 
 def test_a_second_run_resumes(local_run, sample):

@@ -1,6 +1,6 @@
 """Optional Python dependencies: which are missing, and how to install them into QGIS's Python.
 
-QGIS ships numpy, GDAL, lxml and pyproj but not ``triangle`` nor (on many systems) shapely 2.
+QGIS ships numpy, GDAL, lxml and pyproj but not ``pythoncdt``, ``triangle`` nor (on many systems) shapely 2.
 The plugin must load without them; the algorithms that need them call ``require`` first.
 """
 from __future__ import annotations
@@ -15,6 +15,7 @@ from .errors import MissingDependencyError
 REQUIREMENTS: dict[str, tuple[str, tuple[int, ...] | None]] = {
     "shapely": ("shapely>=2", (2,)),
     "triangle": ("triangle", None),
+    "pythoncdt": ("pythoncdt>=2.0.2", 2),
     "lxml": ("lxml", None),
     "pyproj": ("pyproj", None),
     "distributed": ("dask[distributed]", None),
@@ -84,7 +85,8 @@ def install_hint(requirements: list[str], problem: str | None = None) -> str:
         f"--break-system-packages {no_binary}{quoted}\n"
         f"  Windows (OSGeo4W / QGIS installer): open the 'OSGeo4W Shell' and run: python -m pip install {quoted}\n"
         f"  macOS (QGIS.app): /Applications/QGIS.app/Contents/MacOS/bin/python3 -m pip install --user {quoted}\n"
-        "Note: 'triangle' is free for non-commercial use only (licence of J. R. Shewchuk's Triangle)."
+        "Note: 'triangle' is free for non-commercial use only (licence of J. R. Shewchuk's Triangle); "
+        "'pythoncdt' (MPL-2.0) is the terrain triangulator for commercial use."
     )
 
 

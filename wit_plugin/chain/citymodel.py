@@ -82,6 +82,7 @@ class ChainOptions:
     margin: float = 50.0  # the NGII orthoimages' margin around their sheet
     max_edge: float = 5.0
     tolerance: float = 0.5
+    triangulator: int | None = None  # triangulators.BACKENDS key; None: Triangle where installed, else CDT
     texture_scale: float = 1.0
     heights: HeightOptions = field(default_factory=HeightOptions)
     outside_ortho: str = "fail"  # or "untextured"
@@ -241,7 +242,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         tin = str(work / "tin.gpkg")
         tin_stats = terrain.run(inputs.dem, layers.buildings, layers.roads, tin, layers.study, options.max_edge,
                                 options.tolerance, spatial_index=options.keep_work, feedback=fb,
-                                foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam)
+                                foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam,
+                                triangulator=options.triangulator)
 
     with clock.step("extrude") as fb:  # a tile that owns no building: terrain and roads only
         lod1 = str(work / "lod1.gpkg") if layers.buildings else None

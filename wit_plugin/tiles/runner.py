@@ -28,6 +28,7 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from .. import triangulators
 from ..chain import ChainInputs, ChainOptions
 from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
 from ..chain.coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
@@ -69,12 +70,13 @@ class TilesReport:
         return sum(r.get("buildings") or 0 for r in self.rows)
 
 
-WORKER_MODULES = ("distributed", "numpy", "shapely", "triangle", "pyproj", "lxml", "osgeo")
+WORKER_MODULES = ("distributed", "numpy", "shapely", "pyproj", "lxml", "osgeo")
 
 
-def worker_python(configured: str | None = None) -> str:
-    """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask)."""
-    return core_python(configured, WORKER_MODULES, "wit_plugin.tiles.worker")
+def worker_python(configured: str | None = None, triangulator: str = "pythoncdt") -> str:
+    """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask and the
+    triangulation library ``triangulator``)."""
+    return core_python(configured, (*WORKER_MODULES, triangulator), "wit_plugin.tiles.worker")
 
 
 def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
@@ -103,6 +105,7 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
         "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area),
         "target_crs": options.target_crs, "sheet_crs": options.sheet_crs, "margin": options.margin,
         "max_edge": options.max_edge, "tolerance": options.tolerance, "texture_scale": options.texture_scale,
+        "triangulator": triangulators.backend(options.triangulator).key,  # one for all tiles: the seams match
         "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
@@ -227,7 +230,9 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                             (str(output / CONTEXT_FILE) if context else None, context)) for t in todo}
     rows = {sheet: row for sheet, row in previous.items() if sheet in {t.sheet for t in tiles}}
     if todo:
-        python = worker_python(python)
+        backend = triangulators.backend(options.triangulator)
+        feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")
+        python = worker_python(python, backend.module)
         workers = workers or os.cpu_count() or 1
         feedback.info(f"Dask: {'scheduler ' + scheduler if scheduler else f'LocalCluster of {workers} worker(s)'}"
                       f"{'' if scheduler else ', Python ' + python}.")
