@@ -87,3 +87,11 @@ def test_this_environment_builds_shapely_against_qgis_geos():
     from qgis.core import Qgis
 
     assert deps.geos_mismatch(Qgis.geosVersion()) is None
+
+
+def test_a_too_old_pythoncdt_is_missing_and_a_new_enough_one_is_not(monkeypatch):
+    """The minimum comes from the requirement's own ``>=`` bound (a bare int there once made every check of
+    pythoncdt raise a TypeError)."""
+    for version, ok in (("2.0.1", False), ("2.0.2", True), ("2.1.0", True), ("0+unknown", True)):
+        monkeypatch.setitem(sys.modules, "pythoncdt", types.SimpleNamespace(__version__=version))
+        assert deps.missing(["pythoncdt"]) == ([] if ok else ["pythoncdt>=2.0.2"]), version

@@ -11,15 +11,15 @@ import sys
 
 from .errors import MissingDependencyError
 
-#: import name -> (pip requirement, minimum release or None)
-REQUIREMENTS: dict[str, tuple[str, tuple[int, ...] | None]] = {
-    "shapely": ("shapely>=2", (2,)),
-    "triangle": ("triangle", None),
-    "pythoncdt": ("pythoncdt>=2.0.2", 2),
-    "lxml": ("lxml", None),
-    "pyproj": ("pyproj", None),
-    "distributed": ("dask[distributed]", None),
-    "pygltflib": ("pygltflib>=1.16", (1, 16)),
+#: import name -> pip requirement; its ``>=`` bound is the minimum release that ``missing`` checks
+REQUIREMENTS: dict[str, str] = {
+    "shapely": "shapely>=2",
+    "triangle": "triangle",
+    "pythoncdt": "pythoncdt>=2.0.2",
+    "lxml": "lxml",
+    "pyproj": "pyproj",
+    "distributed": "dask[distributed]",
+    "pygltflib": "pygltflib>=1.16",
 }
 
 #: what the code uses of a module, checked by feature: distribution builds may report no usable
@@ -57,7 +57,9 @@ def missing(modules: tuple[str, ...] | list[str]) -> list[str]:
     """The pip requirements among ``modules`` that are absent or too old."""
     result = []
     for name in modules:
-        requirement, minimum = REQUIREMENTS.get(name, (name, None))
+        requirement = REQUIREMENTS.get(name, name)
+        bound = requirement.partition(">=")[2]
+        minimum = release(bound) if bound else None
         try:
             module = importlib.import_module(name)
         except ImportError:
