@@ -1,6 +1,7 @@
 // Open the viewer in headless Chromium (Debian's /usr/bin/chromium, driven by playwright-core), wait
 // until the tileset is loaded, take a screenshot, optionally click a building and measure frames per
-// second. Prints one JSON object. Used by the tests and benchmarks/bench_3dtiles.py.
+// second. Prints one JSON object (with the bytes and requests of the tileset's files until the first view was
+// loaded: firstViewBytes, firstViewRequests). Used by the tests and benchmarks/bench_3dtiles.py.
 // Usage: node browse.mjs URL SCREENSHOT.png [--click] [--fps SECONDS] [--timeout SECONDS] [--size WxH]
 import { chromium } from "playwright-core";
 
@@ -25,7 +26,15 @@ try {
   const page = await browser.newPage({ viewport: { width, height } });
   page.on("console", (message) => { if (message.type() === "error") result.consoleErrors.push(message.text()); });
   page.on("pageerror", (error) => result.pageErrors.push(String(error)));
-  page.on("response", (response) => { if (response.status() >= 400) result.httpErrors.push(`${response.status()} ${response.url()}`); });
+  let tilesetBytes = 0;  // bytes of the tileset's files (JSON, glTF, images) received so far, and their number
+  let tilesetRequests = 0;
+  page.on("response", (response) => {
+    if (response.status() >= 400) result.httpErrors.push(`${response.status()} ${response.url()}`);
+    if (new URL(response.url()).pathname.includes("/3dtiles/")) {
+      tilesetRequests += 1;
+      tilesetBytes += Number(response.headers()["content-length"] || 0);
+    }
+  });
   page.on("requestfailed", (request) => result.failedRequests.push(`${request.url()} ${request.failure()?.errorText}`));
   page.on("request", (request) => {
     const host = new URL(request.url()).hostname;
@@ -41,6 +50,7 @@ try {
   await page.waitForFunction(() => window.witViewer && window.witViewer.state !== "loading", null,
                              { timeout, polling: 200 });
   result.navigationSeconds = (Date.now() - started) / 1000;
+  Object.assign(result, { firstViewBytes: tilesetBytes, firstViewRequests: tilesetRequests });
   Object.assign(result, await page.evaluate(() => ({ state: witViewer.state, loadSeconds: witViewer.loadSeconds, loadedTiles: witViewer.loadedTiles,
                                                      viewerErrors: witViewer.errors })));
   result.loaded = result.state === "ready";
