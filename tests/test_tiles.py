@@ -248,7 +248,6 @@ def test_a_second_run_resumes(local_run, sample):
 
 def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_are_asked_for(local_run, sample,
                                                                                            tmp_path):
-    import json
     import shutil
 
     out = tmp_path / "out"

@@ -16,7 +16,7 @@ from osgeo import ogr
 from wit_plugin import model
 from wit_plugin.tiles3d.check import check_glb_metadata, check_tileset, read_glb
 from wit_plugin.tiles3d.glb import GlbBuilder
-from wit_plugin.tiles3d.metadata import (BUILDING_CLASS, INT32_NO_DATA, building_schema, property_columns)
+from wit_plugin.tiles3d.metadata import BUILDING_CLASS, INT32_NO_DATA, building_schema, property_columns
 
 FIELDS = [(model.WIT_ID, ogr.OFTString), (model.HEIGHT, ogr.OFTReal), (model.STOREYS_ABOVE, ogr.OFTInteger),
           (model.STOREYS_BELOW, ogr.OFTInteger), ("BULD_NM", ogr.OFTString), ("BD_MGT_SN", ogr.OFTInteger64)]
@@ -71,7 +71,16 @@ def _bad(change) -> list[str]:
 
 
 def _drop(name):
-    return lambda gltf, blob: _table(gltf)["properties"].pop(name) and None  # (a dict: truthy)
+    def change(gltf, blob):
+        _table(gltf)["properties"].pop(name)
+    return change
+
+
+def _drop_with(name, spec_change):
+    def change(gltf, blob):
+        spec_change(_class(gltf)[name])
+        _table(gltf)["properties"].pop(name)
+    return change
 
 
 def _class(gltf):
@@ -80,9 +89,9 @@ def _class(gltf):
 
 @pytest.mark.parametrize("change, message", [
     (_drop("wit_storeys_below"), "property wit_storeys_below is missing (a numeric property"),
-    (lambda g, b: (_class(g)["BULD_NM"].pop("default"), _table(g)["properties"].pop("BULD_NM")) and None,
+    (_drop_with("BULD_NM", lambda spec: spec.pop("default")),
      "property BULD_NM is missing and the class gives no default"),
-    (lambda g, b: (_class(g)["wit_height"].update(required=True), _table(g)["properties"].pop("wit_height")) and None,
+    (_drop_with("wit_height", lambda spec: spec.update(required=True)),
      "required property wit_height is missing"),
     (lambda g, b: _table(g).update(count=3), "values hold 16 bytes for 3 rows of SCALAR FLOAT64 (24 expected)"),
     (lambda g, b: _table(g)["properties"].update(extra={"values": 0}), "property extra is not declared"),

@@ -194,7 +194,6 @@ def join_terrain(children: list[Terrain], area: BaseGeometry) -> Terrain | None:
         return None
     rect = square(area)
     side = rect[2] - rect[0]
-    step = side / GROUP_CELLS
     # heights: rasters whose pixel centres are the grids' vertices
     sources = [_mem(c.heights[None], _vertex_geotransform(c.rect, c.heights.shape[0] - 1)) for c in children]
     target = _mem(np.full((1, GROUP_CELLS + 1, GROUP_CELLS + 1), np.nan), _vertex_geotransform(rect, GROUP_CELLS))
