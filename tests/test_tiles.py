@@ -259,6 +259,7 @@ def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_ar
     children = _tile_refs(out)
     assert len(children) == len(_modelled(report)) and all((out / c).is_file() for c in children)
     _check_run_tileset(Path(report.tileset), report)
+    _check_from_afar(out, tmp_path)
     again = run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=1)  # now they are all there
     assert again.resumed == len(report.rows) and again.tileset == report.tileset
 
@@ -524,6 +525,19 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
                            env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
     assert probe.returncode == 0, probe.stderr[-2000:]
     assert probe.stdout.split() == [str(target / "wit_plugin" / "tiles" / "worker.py"), "True"]
+
+
+def _check_from_afar(output: Path, tmp_path: Path) -> None:
+    """Zoomed out (4 radii of the run's bounding sphere), the viewer loads the top group's content alone and
+    shows buildings (issue 22: from afar the groups held terrain only): a click names one."""
+    import json
+
+    report, picture = view_in_chromium(output, tmp_path, click=True, query="?range=4")
+    top = json.loads((output / "tileset.json").read_text(encoding="utf-8"))["root"]["children"]
+    assert len(top) == 1 and report["loadedTiles"] == 2  # the top group's file and its content, no tile
+    assert report["firstViewRequests"] == 3 and report["firstViewBytes"] < 2e6  # and tileset.json
+    assert report["buildingPixels"] > 0 and report["info"]["rows"]["wit_id"].startswith("BLD_")
+    assert (np.abs(picture - picture[0]).sum(axis=1) > 30).mean() > 0.02
 
 
 def _check_in_the_viewer(output: Path, tmp_path: Path) -> None:
