@@ -12,12 +12,13 @@ bytes and requests of the tileset's files until the first view is loaded, and a 
 40 km² district, out/bench/tiles/district-run): its groups and tileset are written again (the tiles
 are not touched).
 
-``--generated``: a generated area of ~19 × 18 km west of Suseo (across the 127°E line: two 1° blocks,
+``--generated``: a city of ~20 × 20 km west of Suseo (across the 127°E line and 37.5°N: two 1° blocks,
 four 1:50,000 sheets) cut into its 1:1,000 sheets, **whose tiles are stand-ins**, not chain runs
-(which would take hours here): each tile's tileset is one quad of ground at the DEM's height, and its
-``lod1.gpkg`` holds its share of the generated buildings (ground faces, heights from their floors).
-The groups above them are written and measured exactly as in a real run (DEM, orthoimage,
-buildings). Data cached in out/bench/hierarchy/.
+(which would take hours here): the generated city (60,000 buildings, ≈ 6.6 km a side) repeated
+3 × 3; each tile's tileset is one quad of ground, and its ``lod1.gpkg`` holds its share of the
+buildings (ground faces, heights from their floors); the DEM is synthetic (smooth hills, 30 m) and
+so are the orthoimage sheets (a 128² pattern per 1:5,000 sheet). The groups above the tiles are
+written and measured exactly as in a real run. Data cached in out/bench/hierarchy/.
 
 Results: out/bench/hierarchy-<case>.json and the screenshot beside it; a Markdown table printed.
 """
@@ -36,20 +37,21 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "out" / "bench"
 sys.path.insert(0, str(ROOT))
 
-GENERATED_CENTRE = (127.015, 37.495)  # EPSG:4737 degrees: across 127°E and 37.5°N
-GENERATED_RADIUS = 9000.0
+GENERATED_CENTRE = (127.015, 37.495)  # EPSG:4737 degrees: the copies reach across 127°E and 37.5°N
+GENERATED_COPIES = 3  # the generated city (≈ 6.6 km a side) repeated 3 × 3
 GENERATED_BUILDINGS = 60_000
+CRS = "EPSG:5186"
 
 
 def generated_run(folder: Path) -> tuple[Path, dict]:
-    """The stand-in run (cached): (run folder, inputs)."""
+    """The stand-in run (cached): (run folder, its DEM and orthoimage folder)."""
     import numpy as np
     import pyproj
     import shapely
-    from osgeo import ogr, osr
+    from osgeo import gdal, ogr, osr
 
     from wit_plugin import model
-    from wit_plugin.dem import Dem
+    from wit_plugin.mapsheet import sheets_covering
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.tiles.plan import owners, plan_tiles
     from wit_plugin.tiles3d.geo import Georeference, column_major
@@ -62,71 +64,105 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
         print(f"generating the sample {sample} (not timed)", flush=True)
         shutil.rmtree(sample, ignore_errors=True)
         generate_sample(sample, SampleConfig(center_lon=GENERATED_CENTRE[0], center_lat=GENERATED_CENTRE[1],
-                                             radius_m=GENERATED_RADIUS, n_buildings=GENERATED_BUILDINGS, seed=5,
-                                             ortho_pixel_size=8.0, dem_cell_size=30.0))
+                                             radius_m=3300.0, n_buildings=GENERATED_BUILDINGS, seed=5,
+                                             with_ortho=False, with_dem=False))
     files = json.loads((sample / "sample_manifest.json").read_text(encoding="utf-8"))["files"]
-    inputs = {"dem": str(sample / files["dem"]), "ortho": str(sample / "ortho")}
+    inputs = {"dem": str(folder / "dem.tif"), "ortho": str(folder / "ortho")}
     if (run / "tiles.json").is_file():
         return run, inputs
     print(f"writing the stand-in tiles in {run} (not timed)", flush=True)
     shutil.rmtree(run, ignore_errors=True)
-    crs = "EPSG:5186"
     buildings = read_layer(str(sample / files["buildings"]))
-    footprints = shapely.make_valid(transform(buildings.geoms, buildings.crs, pyproj.CRS(crs)))
-    footprints = np.array([max(shapely.get_parts(g), key=lambda p: p.area) for g in footprints], dtype=object)
+    single = shapely.make_valid(transform(buildings.geoms, buildings.crs, pyproj.CRS(CRS)))
+    single = np.array([max(shapely.get_parts(g), key=lambda p: p.area) for g in single], dtype=object)
+    xmin, ymin, xmax, ymax = shapely.total_bounds(single)
+    width, height = xmax - xmin + 50.0, ymax - ymin + 50.0
+    half = GENERATED_COPIES // 2
+    copies = [(i * width, j * height) for i in range(-half, GENERATED_COPIES - half)
+              for j in range(-half, GENERATED_COPIES - half)]
+    footprints = np.concatenate([shapely.transform(single, lambda xy, d=d: xy + d) for d in copies])
+    floors = np.tile(np.array([int(v) if v else 0 for v in buildings.columns["GRO_FLO_CO"]]), len(copies))
+    names = np.tile(np.array([v or "" for v in buildings.columns["BULD_NM"]], dtype=object), len(copies))
     area = shapely.box(*shapely.total_bounds(footprints))
-    tiles = plan_tiles(area, crs, 1000)
-    owner = np.array(owners(shapely.get_coordinates(shapely.point_on_surface(footprints)), crs, 1000), dtype=object)
-    dem = Dem.open(inputs["dem"])
-    georef = Georeference(crs)
-    floors = buildings.columns.get("GRO_FLO_CO")
     srs = osr.SpatialReference()
     srs.ImportFromEPSG(5186)
+    # a DEM of smooth hills (30 m), and one orthoimage sheet per 1:5,000 sheet (a pattern of its own)
+    ax0, ay0, ax1, ay1 = area.buffer(500).bounds
+    cols, rows = int((ax1 - ax0) / 30) + 1, int((ay1 - ay0) / 30) + 1
+    x = ax0 + 30 * np.arange(cols)
+    y = ay1 - 30 * np.arange(rows)
+    hills = 40 + 25 * np.sin(x[None, :] / 1700.0) * np.cos(y[:, None] / 2300.0)
+    dem = gdal.GetDriverByName("GTiff").Create(inputs["dem"], cols, rows, 1, gdal.GDT_Float32)
+    dem.SetGeoTransform((ax0, 30.0, 0.0, ay1, 0.0, -30.0))
+    dem.SetProjection(srs.ExportToWkt())
+    dem.GetRasterBand(1).WriteArray(hills.astype(np.float32))
+    dem = None
+    to_degrees = pyproj.Transformer.from_crs(CRS, "EPSG:4737", always_xy=True)
+    lon, lat = to_degrees.transform([ax0, ax1, ax1, ax0], [ay0, ay0, ay1, ay1])
+    ortho = Path(inputs["ortho"])
+    ortho.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(1)
+    for sheet in sheets_covering(min(lon), min(lat), max(lon), max(lat), 5000):
+        base = rng.integers(60, 200, 3)
+        pixels = np.clip(base[:, None, None] + rng.normal(0, 25, (3, 128, 128)), 0, 255).astype(np.uint8)
+        pixels[:, ::16, :] = pixels[:, :, ::16] = 90  # a street grid
+        image = gdal.GetDriverByName("GTiff").Create(str(ortho / f"(B060)정사영상_2022_{sheet.number}.tif"), 128, 128,
+                                                    3, gdal.GDT_Byte)
+        for band in range(3):
+            image.GetRasterBand(band + 1).WriteArray(pixels[band])
+        image = None
+    tiles = plan_tiles(area, CRS, 1000)
+    owner = np.array(owners(shapely.get_coordinates(shapely.point_on_surface(footprints)), CRS, 1000), dtype=object)
+    georef = Georeference(CRS)
+    centres = shapely.get_coordinates(shapely.centroid(footprints))
+    base = 40 + 25 * np.sin(centres[:, 0] / 1700.0) * np.cos(centres[:, 1] / 2300.0)
+    order = np.argsort(owner)
+    starts = np.searchsorted(owner[order], [t.sheet for t in tiles], side="left")
+    ends = np.searchsorted(owner[order], [t.sheet for t in tiles], side="right")
     for number, tile in enumerate(tiles):
         folder3d = run / "tiles" / tile.sheet / "3dtiles"
-        folder3d.mkdir(parents=True)
-        xmin, ymin, xmax, ymax = tile.polygon.bounds
-        corners = np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]])
-        z = dem.sample(corners[:, 0], corners[:, 1])
-        z = np.where(np.isfinite(z), z, np.nanmean(z) if np.isfinite(z).any() else 0.0)
-        xyz = np.column_stack([corners, z])
-        frame = georef.frame((xmin + xmax) / 2, (ymin + ymax) / 2, float(z.mean()))
+        (folder3d / "tiles").mkdir(parents=True)
+        bx0, by0, bx1, by1 = tile.polygon.bounds
+        corners = np.array([[bx0, by0], [bx1, by0], [bx1, by1], [bx0, by1]])
+        xyz = np.column_stack([corners, 40 + 25 * np.sin(corners[:, 0] / 1700.0) * np.cos(corners[:, 1] / 2300.0)])
+        frame = georef.frame((bx0 + bx1) / 2, (by0 + by1) / 2, float(xyz[:, 2].mean()))
         glb = GlbBuilder()
         glb.triangles(georef.local(frame, xyz[[0, 1, 2, 0, 2, 3]]).reshape(2, 3, 3),
                       glb.plain_material((150, 150, 140), lit=False, name="ground"))
-        (folder3d / "tiles").mkdir()
         (folder3d / "tiles" / "0_0.glb").write_bytes(glb.to_bytes())
         root = {"boundingVolume": {"region": georef.region(xyz)}, "geometricError": 16.0, "refine": "REPLACE",
                 "transform": column_major(frame), "content": {"uri": "tiles/0_0.glb"}}
         (folder3d / "tileset.json").write_text(json.dumps({"asset": {"version": "1.1"}, "geometricError": 32.0,
                                                            "root": root}), encoding="utf-8")
-        mine = np.flatnonzero(owner == tile.sheet)
+        mine = order[starts[number]:ends[number]]
+        if not len(mine):
+            continue
         ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(run / "tiles" / tile.sheet / "lod1.gpkg"))
-        layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon25D)
+        layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon)
         for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
                            (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal), (model.HEIGHT, ogr.OFTReal),
                            (model.STOREYS_ABOVE, ogr.OFTInteger), ("BULD_NM", ogr.OFTString)):
             layer.CreateField(ogr.FieldDefn(name, kind))
         ds.StartTransaction()
-        centres = shapely.get_coordinates(shapely.centroid(footprints[mine])) if len(mine) else np.empty((0, 2))
-        base = dem.sample(centres[:, 0], centres[:, 1]) if len(mine) else np.empty(0)
-        for k, i in enumerate(mine.tolist()):
+        for i in mine.tolist():
             feature = ogr.Feature(layer.GetLayerDefn())
-            storeys = int(floors[i]) if floors is not None and floors[i] else None
             feature.SetField(model.WIT_ID, f"BLD_{i}")
             feature.SetField(model.FACE_TYPE, "ground")
             feature.SetField(model.FACE_NUMBER, 0)
-            feature.SetField(model.BASE_Z, float(base[k]) if np.isfinite(base[k]) else 0.0)
-            feature.SetField(model.HEIGHT, 3.0 * storeys if storeys else 3.0)
-            if storeys:
-                feature.SetField(model.STOREYS_ABOVE, storeys)
+            feature.SetField(model.BASE_Z, float(base[i]))
+            feature.SetField(model.HEIGHT, 3.0 * floors[i] if floors[i] else 3.0)
+            if floors[i]:
+                feature.SetField(model.STOREYS_ABOVE, int(floors[i]))
+            if names[i]:
+                feature.SetField("BULD_NM", names[i])
             feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(footprints[i])))
             layer.CreateFeature(feature)
         ds.CommitTransaction()
         ds = None
         if number % 200 == 0:
             print(f"  {number}/{len(tiles)} tiles", flush=True)
-    (run / "tiles.json").write_text(json.dumps({t.sheet: shapely.to_wkt(t.polygon) for t in tiles}), encoding="utf-8")
+    (run / "tiles.json").write_text(json.dumps({t.sheet: shapely.to_wkt(t.polygon.intersection(area))
+                                                for t in tiles}), encoding="utf-8")
     return run, inputs
 
 

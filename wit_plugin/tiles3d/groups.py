@@ -254,18 +254,17 @@ def write_group(name: str, area: BaseGeometry, terrain: Terrain | None, building
     cell = (rect[2] - rect[0]) / GROUP_CELLS
     glb, corners, error = GlbBuilder(), [], buildings.dropped
     image = None
+    heights = [buildings.base, buildings.top]
     if terrain is not None:
         xyz, uv = grid_triangles(Patch(terrain.heights, terrain.image, terrain.error), rect)
         corners.append(xyz.reshape(-1, 3))
+        heights.append(xyz[..., 2].ravel())
         error = max(error, cell, terrain.error)
-    if buildings.ids:
-        corners.append(np.column_stack([shapely.get_coordinates(shapely.centroid(buildings.footprints)),
-                                        buildings.base]))
-    points = np.concatenate(corners) if corners else np.empty((0, 3))
-    points = points[np.isfinite(points).all(axis=1)]
-    if not len(points):
+    z = np.concatenate(heights)
+    z = z[np.isfinite(z)]
+    if not len(z):
         return None
-    frame = georef.frame((rect[0] + rect[2]) / 2, (rect[1] + rect[3]) / 2, float(np.mean(points[:, 2])))
+    frame = georef.frame((rect[0] + rect[2]) / 2, (rect[1] + rect[3]) / 2, float((z.min() + z.max()) / 2))
     if terrain is not None and len(xyz):
         image = encode_image(terrain.image)
         glb.triangles(georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3),
@@ -274,7 +273,7 @@ def write_group(name: str, area: BaseGeometry, terrain: Terrain | None, building
     error = max(error, drawn.simplification, drawn.vanished)
     if not glb.primitives:
         return None
-    points = np.concatenate([points, drawn.corners])
+    points = np.concatenate(corners + [drawn.corners])
     folder.mkdir(parents=True, exist_ok=True)
     data = glb.to_bytes()
     (folder / f"{name}.glb").write_bytes(data)
