@@ -161,3 +161,88 @@ def test_a_higher_groups_terrain_is_joined_from_its_childrens(monkeypatch):
     # the grid's own heights between its vertices, as its triangles draw them
     assert grid_at(joined.heights, joined.rect, np.array([209050.0]), np.array([543350.0]))[0] == pytest.approx(
         100.0 + 0.5 + 7.0)
+
+
+def _stand_in_run(folder: Path, sheets: list[str]) -> dict:
+    """Tiles whose tilesets are one quad of ground and whose lod1.gpkg holds four buildings, a DEM of a
+    plane and a 64² orthoimage sheet per 1:5,000 sheet: what ``write_run_tileset`` reads of a run."""
+    import pyproj
+    from osgeo import gdal, osr
+
+    from wit_plugin.tiles.plan import tile_of
+    from wit_plugin.tiles3d.geo import column_major
+
+    georef = Georeference("EPSG:5186")
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(5186)
+    areas = {s: tile_of(s, "EPSG:5186").polygon for s in sheets}
+    x0, y0, x1, y1 = shapely.union_all(list(areas.values())).buffer(300).bounds
+    dem = gdal.GetDriverByName("GTiff").Create(str(folder / "dem.tif"), int((x1 - x0) / 20), int((y1 - y0) / 20), 1,
+                                               gdal.GDT_Float32)
+    dem.SetGeoTransform((x0, 20.0, 0.0, y1, 0.0, -20.0))
+    dem.SetProjection(srs.ExportToWkt())
+    dem.GetRasterBand(1).Fill(35.0)
+    dem = None
+    (folder / "ortho").mkdir()
+    lon, lat = pyproj.Transformer.from_crs("EPSG:5186", "EPSG:4737", always_xy=True).transform([x0, x1], [y0, y1])
+    for sheet in sheets_covering(min(lon), min(lat), max(lon), max(lat), 5000):
+        image = gdal.GetDriverByName("GTiff").Create(str(folder / "ortho" / f"ortho_{sheet.number}.tif"), 64, 64, 3)
+        for band, value in enumerate((90, 160, 70)):
+            image.GetRasterBand(band + 1).Fill(value)
+        image = None
+    for number, (sheet, polygon) in enumerate(areas.items()):
+        tile = folder / "tiles" / sheet
+        (tile / "3dtiles").mkdir(parents=True)
+        bx0, by0, bx1, by1 = polygon.bounds
+        xyz = np.array([[bx0, by0, 35.0], [bx1, by0, 35.0], [bx1, by1, 35.0], [bx0, by1, 35.0]])
+        frame = georef.frame((bx0 + bx1) / 2, (by0 + by1) / 2, 35.0)
+        glb = GlbBuilder()
+        glb.triangles(georef.local(frame, xyz[[0, 1, 2, 0, 2, 3]]).reshape(2, 3, 3),
+                      glb.plain_material((150, 150, 140), lit=False))
+        (tile / "3dtiles" / "ground.glb").write_bytes(glb.to_bytes())
+        root = {"boundingVolume": {"region": georef.region(xyz)}, "geometricError": 8.0, "refine": "REPLACE",
+                "transform": column_major(frame), "content": {"uri": "ground.glb"}}
+        (tile / "3dtiles" / "tileset.json").write_text(json.dumps({"asset": {"version": "1.1"},
+                                                                   "geometricError": 16.0, "root": root}))
+        ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tile / "lod1.gpkg"))
+        layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon)
+        for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
+                           (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal),
+                           (model.HEIGHT, ogr.OFTReal), (model.STOREYS_BELOW, ogr.OFTInteger)):
+            layer.CreateField(ogr.FieldDefn(name, kind))
+        cx, cy = polygon.centroid.x, polygon.centroid.y
+        for k in range(4):
+            feature = ogr.Feature(layer.GetLayerDefn())
+            for name, value in ((model.WIT_ID, f"BLD_{number}_{k}"), (model.FACE_TYPE, "ground"),
+                                (model.FACE_NUMBER, 0), (model.BASE_Z, 35.0), (model.HEIGHT, 10.0 + 10 * k)):
+                feature.SetField(name, value)
+            feature.SetGeometry(ogr.CreateGeometryFromWkt(shapely.box(cx + 30 * k, cy, cx + 30 * k + 12, cy + 15).wkt))
+            layer.CreateFeature(feature)
+        ds = None
+    return areas
+
+
+def test_a_run_across_two_1_50000_sheets_gets_bounded_files_that_our_checker_passes(tmp_path):
+    from wit_plugin.tiles3d.check import check_tileset
+    from wit_plugin.tiles3d.combine import write_run_tileset
+
+    sheets = _sheets(127.0051, 37.4951, 127.0149, 37.5049)  # 1:1,000 sheets on both sides of 37.5°N
+    areas = _stand_in_run(tmp_path, sheets)
+    written = write_run_tileset(tmp_path, {s: f"tiles/{s}" for s in sheets}, areas, str(tmp_path / "dem.tif"),
+                                [str(p) for p in (tmp_path / "ortho").iterdir()], "EPSG:5186")
+    assert written.tiles == len(sheets) == 4 and written.without_terrain == 0
+    groups, top = plan_groups(sheets)
+    assert written.groups == len(groups) == 3 and top == ["377"] and written.levels == 2  # two 1:5,000, a block
+    assert written.buildings == 2 * 4 * len(sheets)  # each building in its 1:5,000 group and in the block
+    check = check_tileset(tmp_path)
+    assert check.problems == [] and check.property_tables == 3
+    assert set(check.tilesets) == {"tileset.json", "3dtiles-groups/377.json"} | {
+        f"3dtiles-groups/{g}.json" for g in groups["377"].children} | {f"tiles/{s}/3dtiles/tileset.json" for s in sheets}
+    assert written.root_bytes == (tmp_path / "tileset.json").stat().st_size < 1000
+    block = json.loads((tmp_path / "3dtiles-groups" / "377.json").read_text())["root"]
+    assert block["geometricError"] == pytest.approx(written.errors["377"], abs=1e-3)
+    assert written.errors["377"] > max(written.errors[g] for g in groups["377"].children)
+    frame = np.array(block["transform"]).reshape(4, 4).T
+    for child in block["children"]:
+        np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-9)
+    assert list(tmp_path.glob(".wit-groups-*")) == []  # the staging folder is gone
