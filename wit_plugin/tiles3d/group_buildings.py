@@ -132,8 +132,10 @@ def add_buildings(glb: GlbBuilder, georef: Georeference, frame: np.ndarray, buil
     simple = shapely.simplify(shapely.make_valid(buildings.footprints), cell * SIMPLIFY_SHARE, preserve_topology=True)
     simple = np.array([_polygons(g) for g in simple], dtype=object)
     drawn = ~shapely.is_empty(simple)
-    moved = shapely.hausdorff_distance(simple[drawn], buildings.footprints[drawn])
-    simplification = float(np.nanmax(moved)) if len(moved) else 0.0
+    with np.errstate(invalid="ignore"):  # (NaN for a footprint GEOS cannot measure: left out of the maximum)
+        moved = shapely.hausdorff_distance(simple[drawn], buildings.footprints[drawn])
+    moved = moved[np.isfinite(moved)]
+    simplification = float(moved.max()) if len(moved) else 0.0
     vanished = float(buildings.size[~drawn].max()) if (~drawn).any() else 0.0
     corners = []
     parts, part_owner = shapely.get_parts(simple, return_index=True)
