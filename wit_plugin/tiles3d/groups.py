@@ -41,6 +41,8 @@ from .textures import encode_image
 GROUP_CELLS = 64
 GROUP_IMAGE = 512
 GROUP_DIR = "3dtiles-groups"
+FILL_TEXELS = 16
+"""A higher group's image: texels off its children's images take their neighbours' colours this far (px)."""
 CHECK_DENSITY = 4
 """The DEM is compared with a group's grid at this many points per cell side (its vertical error)."""
 GROUP_LEVELS = {9: "1:5,000 sheet", 8: "1:50,000 sheet", 5: "1° block"}
@@ -202,12 +204,24 @@ def join_terrain(children: list[Terrain], area: BaseGeometry) -> Terrain | None:
     heights = target.GetRasterBand(1).ReadAsArray().astype(np.float64)
     if not np.isfinite(heights).any():
         return None
+    x, y = _vertices(rect, GROUP_CELLS)  # vertices a cell around the area but off the children's grids: their
+    near = shapely.contains_xy(area.buffer(side / GROUP_CELLS), x, y)  # neighbours' mean (no gap between groups)
+    for _ in range(2):
+        missing = np.isnan(heights) & near
+        if not missing.any():
+            break
+        heights[missing] = _neighbour_mean(heights)[missing]
     sources = [_mem(np.moveaxis(c.image, -1, 0), (c.rect[0], (c.rect[2] - c.rect[0]) / c.image.shape[1], 0.0,
                                                   c.rect[3], 0.0, -(c.rect[3] - c.rect[1]) / c.image.shape[0]))
                for c in children]
     target = _mem(np.zeros((3, GROUP_IMAGE, GROUP_IMAGE), dtype=np.uint8),
                   (rect[0], side / GROUP_IMAGE, 0.0, rect[3], 0.0, -side / GROUP_IMAGE))
     gdal.Warp(target, sources, resampleAlg="average", multithread=False)
+    empty = (target.ReadAsArray() == 0).all(axis=0)
+    if empty.any():  # texels off the children's images (the edge cells): their neighbours' colours
+        mask = _mem((~empty).astype(np.uint8)[None], target.GetGeoTransform())
+        for band in range(3):
+            gdal.FillNodata(target.GetRasterBand(band + 1), mask.GetRasterBand(1), FILL_TEXELS, 0)
     image = np.ascontiguousarray(np.moveaxis(target.ReadAsArray(), 0, -1))
     error = 0.0
     for child in children:
@@ -215,6 +229,18 @@ def join_terrain(children: list[Terrain], area: BaseGeometry) -> Terrain | None:
         deviation = np.abs(grid_at(heights, rect, x, y) - child.heights)
         error = max(error, child.error + (float(np.nanmax(deviation)) if np.isfinite(deviation).any() else 0.0))
     return Terrain(rect, heights, image, error)
+
+
+def _neighbour_mean(grid: np.ndarray) -> np.ndarray:
+    """Each cell's mean of its finite 8 neighbours (NaN where none is)."""
+    padded = np.pad(grid, 1, constant_values=np.nan)
+    rows, cols = grid.shape
+    stack = np.stack([padded[1 + dy:1 + dy + rows, 1 + dx:1 + dx + cols]
+                      for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
+    finite = np.isfinite(stack)
+    count = finite.sum(axis=0)
+    total = np.where(finite, stack, 0.0).sum(axis=0)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
 def _vertex_geotransform(rect: tuple[float, float, float, float], n: int) -> tuple[float, ...]:
