@@ -129,16 +129,21 @@ def add_buildings(glb: GlbBuilder, georef: Georeference, frame: np.ndarray, buil
     ``roof_image`` (JPEG over the square ``rect``) or plain; their property table."""
     if not buildings.ids:
         return Drawn(np.empty((0, 3)), 0.0, 0.0)
-    simple = shapely.simplify(shapely.make_valid(buildings.footprints), cell * SIMPLIFY_SHARE, preserve_topology=True)
-    simple = np.array([_polygons(g) for g in simple], dtype=object)
-    drawn = ~shapely.is_empty(simple)
+    valid = shapely.make_valid(buildings.footprints)
+    simple = shapely.simplify(valid, cell * SIMPLIFY_SHARE, preserve_topology=True)
+    parts, part_owner = shapely.get_parts(simple, return_index=True)
+    parts, inner = shapely.get_parts(parts, return_index=True)  # (make_valid may give a collection of polygons)
+    part_owner = part_owner[inner]
+    polygonal = (shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)  # not the lines make_valid may add
+    parts, part_owner = parts[polygonal], part_owner[polygonal]
+    drawn = np.zeros(len(buildings.ids), dtype=bool)
+    drawn[part_owner] = True
     with np.errstate(invalid="ignore"):  # (NaN for a footprint GEOS cannot measure: left out of the maximum)
-        moved = shapely.hausdorff_distance(simple[drawn], buildings.footprints[drawn])
+        moved = shapely.hausdorff_distance(simple[drawn], valid[drawn])
     moved = moved[np.isfinite(moved)]
     simplification = float(moved.max()) if len(moved) else 0.0
     vanished = float(buildings.size[~drawn].max()) if (~drawn).any() else 0.0
     corners = []
-    parts, part_owner = shapely.get_parts(simple, return_index=True)
     # roofs: flat at the roof height, facing up, uv over the group's image
     triangles, owner = shapely.get_parts(triangulate(parts), return_index=True)
     owner = part_owner[owner]
@@ -174,18 +179,6 @@ def add_buildings(glb: GlbBuilder, georef: Georeference, frame: np.ndarray, buil
     schema = building_schema(buildings.fields)
     glb.property_table(schema, BUILDING_CLASS, property_columns(schema, buildings.ids, buildings.attributes))
     return Drawn(np.concatenate(corners) if corners else np.empty((0, 3)), simplification, vanished)
-
-
-def _polygons(geometry):
-    """The polygonal part of a geometry (make_valid may add lines or points), or an empty polygon."""
-    if geometry is None:
-        return shapely.Polygon()
-    parts = shapely.get_parts(geometry)
-    parts = parts[shapely.get_type_id(parts) == 3]
-    parts = parts[shapely.area(parts) > 0]
-    if not len(parts):
-        return shapely.Polygon()
-    return parts[0] if len(parts) == 1 else shapely.MultiPolygon(list(parts))
 
 
 def _signed_area(xy: np.ndarray) -> np.ndarray:
