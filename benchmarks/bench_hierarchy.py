@@ -206,6 +206,8 @@ def main() -> int:
 
     from wit_plugin.tiles.index import read_index
     from wit_plugin.tiles.plan import tile_of
+    from wit_plugin.tiles.prepare import area_of_layer
+    from wit_plugin.tiles3d.combine import tile_areas
     from wit_plugin.tiles3d.check import check_tileset
 
     if args.district:
@@ -215,8 +217,10 @@ def main() -> int:
             sys.exit(f"{run} holds no tileset: run `benchmarks/bench_tiles.py --district --tiles3d` first.")
         files = json.loads((sample / "sample_manifest.json").read_text(encoding="utf-8"))["files"]
         dem, ortho = str(sample / files["dem"]), str(sample / "ortho")
-        rows = read_index(run)  # the district's run covers whole tiles: their polygons are their areas
-        areas = {s: tile_of(s, "EPSG:5186").polygon for s, r in rows.items() if r.get("status") in ("done", "empty")}
+        rows = read_index(run)  # the run's area is everything the buildings layer covers, as the runner takes it
+        covered = area_of_layer(str(sample / files["buildings"]), "EPSG:5186")
+        areas = tile_areas({s: tile_of(s, "EPSG:5186").polygon for s, r in rows.items()
+                            if r.get("status") in ("done", "empty")}, covered)
     else:
         name = "generated"
         run, inputs = generated_run(OUT / "hierarchy")
@@ -239,7 +243,7 @@ def main() -> int:
               "groups_without_terrain": written.without_terrain,
               "group_errors_m": [errors[0], errors[len(errors) // 2], errors[-1]] if errors else [],
               "check_problems": check.problems[:10], "range": args.range,
-              "viewer": {k: view.get(k) for k in ("loaded", "navigationSeconds", "loadSeconds", "loadedTiles",
+              "viewer": {k: view.get(k) for k in ("loaded", "error", "navigationSeconds", "loadSeconds", "loadedTiles",
                                                   "firstViewBytes", "firstViewRequests", "consoleErrors",
                                                   "pageErrors", "httpErrors")},
               "screenshot": str(shot)}

@@ -153,8 +153,13 @@ def sample_terrain(area: BaseGeometry, crs: pyproj.CRS, dem: str, ortho: list[st
     (``ortho``: georeferenced rasters); None when they do not give it."""
     rect = square(area)
     step = (rect[2] - rect[0]) / GROUP_CELLS
-    try:
-        terrain = Dem.open(dem, area.bounds)
+    try:  # the part of the area the DEM covers (a group at the DEM's edge keeps the terrain it has)
+        x0, y0, x1, y1 = raster_extent(dem, "DEM")
+        xmin, ymin, xmax, ymax = area.bounds
+        bounds = (max(xmin, x0), max(ymin, y0), min(xmax, x1), min(ymax, y1))
+        if bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
+            return None
+        terrain = Dem.open(dem, bounds)
     except WitError:
         return None
     west, south, east, north = terrain.extent
@@ -306,8 +311,8 @@ def write_group(name: str, area: BaseGeometry, terrain: Terrain | None, building
     return Group(f"{name}.glb", frame, georef.region(points), error, len(buildings.ids), len(data))
 
 
-def raster_extent(path: str) -> tuple[float, float, float, float]:
+def raster_extent(path: str, what: str = "orthoimage sheet") -> tuple[float, float, float, float]:
     """xmin, ymin, xmax, ymax of a north-up raster."""
-    ds = open_raster(path, "orthoimage sheet")
+    ds = open_raster(path, what)
     x0, dx, _, y0, _, dy = ds.GetGeoTransform()
     return x0, y0 + dy * ds.RasterYSize, x0 + dx * ds.RasterXSize, y0
