@@ -55,7 +55,7 @@ try {
                                                      viewerErrors: witViewer.errors })));
   result.loaded = result.state === "ready";
   await page.waitForTimeout(500);  // a few frames after the last tile
-  await page.screenshot({ path: screenshot });
+  await page.screenshot({ path: screenshot, timeout });  // software WebGL on a loaded machine: slow frames
   if (rest.includes("--fps")) {
     result.fps = await page.evaluate((seconds) => witViewer.measureFps(seconds), Number(option("--fps", "5")));
   }
@@ -66,13 +66,13 @@ try {
       const named = hits.filter((hit) => hit[2]);  // prefer a building with a (Korean) name
       const [x, y] = (named.length ? named : hits)[0];
       await page.mouse.click(x, y);
-      await page.waitForSelector("#info:not([hidden])", { timeout: 10000 });
+      await page.waitForSelector("#info:not([hidden])", { timeout: Math.min(timeout, 120000) });
       result.info = await page.evaluate(() => ({
         title: document.getElementById("info-title").textContent,
         rows: Object.fromEntries([...document.querySelectorAll("#info-table tr")].map(
           (row) => [row.cells[0].textContent, row.cells[1].textContent])),
       }));
-      await page.screenshot({ path: screenshot.replace(/\.png$/, "-click.png") });
+      await page.screenshot({ path: screenshot.replace(/\.png$/, "-click.png"), timeout });
     }
   }
 } catch (error) {
