@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import subprocess
 from collections import Counter
 
@@ -15,7 +16,7 @@ from lxml import etree
 from conftest import ROOT, ensure_wit_provider
 from wit_plugin.sample import SampleConfig, generate_sample
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.qgis_facing]
 
 MODEL_FILE = ROOT / "processing_provider" / "models" / "wit_citymodel.model3"
 INPUTS = ["ORTHO", "DEM", "BUILDINGS", "ROADS", "DISTRICTS", "CENTER", "RADIUS", "STOREY_HEIGHT", "HEIGHT_FIELD",
@@ -115,9 +116,23 @@ def test_the_generator_reproduces_the_shipped_model(qgis_processing, tmp_path):
     make_model = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(make_model)
     assert make_model.build_model().toFile(str(tmp_path / "built.model3"))
-    # compared as loaded (a file does not keep null and empty strings apart)
-    assert load_model(tmp_path / "built.model3").toVariant() == load_model().toVariant(), \
+    # compared as loaded (a file does not keep null and empty strings apart), in the terms that do not
+    # depend on the QGIS version that wrote the file
+    assert canonical(load_model(tmp_path / "built.model3")) == canonical(load_model()), \
         "the shipped .model3 is stale: run scripts/make_model.py"
+
+
+def canonical(model) -> dict:
+    """``model``'s variant less what QGIS versions write differently for the same model: the format
+    version (``internal_version``) and the names of the model's output parameters (QGIS 3.22 names them
+    CHILD:OUTPUT, 3.40+ after their description; the shipped file keeps its names on every version)."""
+    variant = model.toVariant()
+    variant.pop("internal_version", None)
+    variant["parameterDefinitions"] = {
+        (f"output: {definition['description']}" if "create_by_default" in definition else name):
+            {key: value for key, value in definition.items() if key != "name" or "create_by_default" not in definition}
+        for name, definition in variant["parameterDefinitions"].items()}
+    return variant
 
 
 def test_model_is_valid_with_the_documented_inputs_and_outputs(qgis_processing):
@@ -213,7 +228,8 @@ def test_model_runs_headless_through_qgis_process(model_run, sample, shared_dir,
     report = json.loads(completed.stdout[completed.stdout.index("{"):])
     assert report["results"] == {GML_OUT: parameters[GML_OUT], REPORT_OUT: parameters[REPORT_OUT]}
     log = "\n".join(report["log"]["info"]) if isinstance(report.get("log"), dict) else completed.stdout
-    assert "Success" in log and "Executed 8 algorithms" in log
+    # QGIS 3.22 says "Executed 8 algorithms", 3.44 "Executed 8 algorithm(s)"
+    assert "Success" in log and re.search(r"Executed 8 algorithm(s|\(s\)) ", log), log[-2000:]
     assert summary(parameters[GML_OUT]) == summary(model_run[1][GML_OUT])
 
 

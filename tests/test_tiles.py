@@ -265,16 +265,24 @@ def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_ar
 
 
 def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
-    """A DEM that stops in the middle: the tiles beyond it fail with the reason, the others are built."""
+    """A DEM with a hole (-9999) under the eastern sliver tile: 1 % of the run's area, which the check
+    before the cluster lets through with a warning (a DEM or orthoimage that misses the area is refused
+    there: test_reproject), but all of that tile's: it fails with the reason, the others are built."""
     from osgeo import gdal
 
-    ds = gdal.Open(str(sample.dem))
-    half = tmp_path / "dem_west.tif"
-    gdal.Translate(str(half), ds, srcWin=[0, 0, ds.RasterXSize // 2 + 8, ds.RasterYSize])
-    report = run_tiles(_inputs(sample, dem=str(half)), _options(), tmp_path / "out", AREA, scale=1000, workers=2)
+    holed = tmp_path / "dem_holed.tif"
+    gdal.Translate(str(holed), str(sample.dem))
+    ds = gdal.Open(str(holed), gdal.GA_Update)
+    x0, dx, _, y0, _, dy = ds.GetGeoTransform()
+    c0, c1 = int((209280 - x0) / dx), int((209320 - x0) / dx)
+    r0, r1 = int((543240 - y0) / dy), int((543030 - y0) / dy)
+    band = ds.GetRasterBand(1)
+    band.WriteArray(np.full((r1 - r0, c1 - c0), -9999.0, dtype=np.float32), c0, r0)
+    ds = band = None
+    report = run_tiles(_inputs(sample, dem=str(holed)), _options(), tmp_path / "out", AREA, scale=1000, workers=2)
     failed = [r for r in report.rows if r["status"] == "failed"]
-    assert failed and report.count("done") >= 1
-    assert all("does not cover the area" in r["error"] for r in failed)
+    assert [r["sheet"] for r in failed] == ["377090321"] and report.count("done") >= 1
+    assert "dem_holed.tif has NoData under 100% of the area" in failed[0]["error"]
     assert not any((tmp_path / "out" / "tiles" / r["sheet"]).exists() for r in failed)
     assert {s: r["status"] for s, r in read_index(tmp_path / "out").items()} == {
         r["sheet"]: r["status"] for r in report.rows}
@@ -405,6 +413,7 @@ def _parameters(sample, output: Path) -> dict:
             "RADIUS": 280.0, "MAX_EDGE": 15.0, "TILE_SCALE": 1, "WORKERS": 2, "OUTPUT": str(output)}
 
 
+@pytest.mark.qgis_facing
 def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, sample, local_run, tmp_path,
                                                                  monkeypatch):
     """In the QGIS process, with sys.executable pointing at a program that is not Python (QGIS on
@@ -420,6 +429,7 @@ def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, 
     assert Path(result["INDEX"]).is_file()
 
 
+@pytest.mark.qgis_facing
 def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_path):
     env = dict(os.environ, WIT_QGIS_PROFILE=str(tmp_path / "profile"))
     args = [str(ROOT / "scripts" / "qgis-process"), "--json", "run", "wit:citymodeltiles"]
@@ -485,13 +495,15 @@ def _check_run_tileset(path: Path, local) -> None:
         shown |= set(_property_strings(glb, "wit_id"))
         for child in group["children"]:
             assert group["geometricError"] >= child["geometricError"]
-            np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-9)
+            # translations in metres of ECEF (~6e6 m): float64 round-off there is ~1e-9 m (numpy 2.4 on QGIS 3.44)
+            np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-6)
             target = json.loads((file.parent / child["content"]["uri"]).read_text(encoding="utf-8"))["root"]
             assert child["boundingVolume"]["region"] == target["boundingVolume"]["region"]
             assert child["geometricError"] == target["geometricError"]
     assert shown == {i for r in _modelled(local) for i in _building_ids(out / r["gml"])}  # < 4,000: all of them
     result = subprocess.run(["node", str(ROOT / "viewer" / "validate-gltf.mjs"), str(out / "3dtiles-groups")],
                             capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]  # e.g. the viewer packages missing (scripts/setup-viewer.sh)
     summary = json.loads(result.stdout)
     assert summary["files"] == len(groups) and summary["errors"] == 0 and summary["warnings"] == 0, summary
 

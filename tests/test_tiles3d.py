@@ -295,32 +295,82 @@ def test_terrain_only_and_a_rerun_replaces_the_tileset(chain, tmp_path):
     assert second.tiles == 1 and [p.name for p in (out / "tiles").iterdir()] == ["0"]
 
 
-def test_gui_run_loads_the_results_as_a_group_with_3d_renderers(chain):
-    """Processing's own post-processing (what the GUI runs after an algorithm) loads the queued layers."""
+@pytest.mark.qgis_facing
+def test_gui_run_loads_the_results_as_a_group_with_3d_renderers(chain, monkeypatch):
+    """Processing's own post-processing (what the GUI runs after an algorithm) loads the queued layers:
+    the LoD1 buildings and the TIN, and from QGIS 3.34 on (tiled-scene layers) the tileset too, each with
+    the 3D renderer that shows it in a 3D map view."""
+    from qgis.core import Qgis, QgsProject
+
+    tiled_scenes = Qgis.QGIS_VERSION_INT >= 33400
+    project = QgsProject()
+    try:
+        _check_gui_loading(chain, monkeypatch, project, tiled_scenes)
+    finally:
+        project.clear()  # its layers go now, not after QGIS has shut down (that segfaulted at exit)
+
+
+def _check_gui_loading(chain, monkeypatch, project, tiled_scenes: bool) -> None:
     from processing.gui.Postprocessing import handleAlgorithmResults
     from qgis._3d import QgsVectorLayer3DRenderer
-    from qgis.core import QgsAbstract3DSymbol, QgsApplication, QgsProcessingContext, QgsProcessingFeedback, QgsProject
-
+    from qgis.core import (
+        QgsAbstract3DSymbol,
+        QgsApplication,
+        QgsProcessingContext,
+        QgsProcessingFeedback,
+    )
+    from qgis.PyQt import sip
     from wit_citymodel.processing_provider.load_results import load_results
 
-    project = QgsProject()
     context = QgsProcessingContext()
     context.setProject(project)
     names = load_results(context, lod1=chain["lod1"], tin=chain["tin"],
                          tileset=str(chain["folder"] / "tileset.json"))
-    assert names == ["LoD1 buildings", "Terrain (TIN)"]  # QGIS 3.22: no tiled-scene layer before 3.34
+    assert names == ["LoD1 buildings", "Terrain (TIN)"] + (["3D Tiles"] if tiled_scenes else [])
     algorithm = QgsApplication.processingRegistry().algorithmById("wit:export3dtiles")
-    assert handleAlgorithmResults(algorithm, context, QgsProcessingFeedback(), showResults=True)
+    # no layer tree view here (QGIS 3.44's handler would pass pytest-qgis's mock iface's to C++)
+    monkeypatch.setattr("processing.gui.Postprocessing.iface", None, raising=False)
+    assert handleAlgorithmResults(algorithm, context, QgsProcessingFeedback())  # 3.44 has no showResults
     group = project.layerTreeRoot().findGroup("WIT city model")
     assert group is not None and [n.name() for n in group.findLayers()] == names
     buildings = project.mapLayersByName("LoD1 buildings")[0]
     assert buildings.featureCount() == chain["buildings"]  # one footprint per building
     renderer = buildings.renderer3D()
-    assert isinstance(renderer, QgsVectorLayer3DRenderer)
+    assert renderer is not None and renderer.type() == "vector"
+    renderer = sip.cast(renderer, QgsVectorLayer3DRenderer)  # 3.44's bindings return the base class
     extrusion = renderer.symbol().dataDefinedProperties().property(QgsAbstract3DSymbol.PropertyExtrusionHeight)
     assert extrusion.field() == model.HEIGHT
     terrain = project.mapLayersByName("Terrain (TIN)")[0]
     assert terrain.featureCount() == chain["triangles"] and terrain.renderer3D() is not None
+    if tiled_scenes:
+        from qgis._3d import QgsTiledSceneLayer3DRenderer
+
+        tileset = project.mapLayersByName("3D Tiles")[0]
+        assert tileset.isValid() and tileset.renderer3D() is not None
+        assert tileset.renderer3D().type() == QgsTiledSceneLayer3DRenderer().type()
+        picture = _render_2d(tileset, buildings.extent(), buildings.crs())
+        assert (picture != 255).any(axis=-1).mean() > 0.2, "the tileset draws (almost) nothing in 2D"
+
+
+def _render_2d(layer, extent, crs, size: int = 256) -> np.ndarray:
+    """``layer`` drawn on a white 2D map of ``extent`` (in ``crs``): its (size, size, 3) RGB pixels."""
+    from qgis.core import QgsMapRendererSequentialJob, QgsMapSettings
+    from qgis.PyQt.QtCore import QSize
+    from qgis.PyQt.QtGui import QColor, QImage
+
+    settings = QgsMapSettings()
+    settings.setLayers([layer])
+    settings.setDestinationCrs(crs)
+    settings.setExtent(extent)
+    settings.setOutputSize(QSize(size, size))
+    settings.setBackgroundColor(QColor(255, 255, 255))
+    job = QgsMapRendererSequentialJob(settings)
+    job.start()
+    job.waitForFinished()
+    image = job.renderedImage().convertToFormat(QImage.Format.Format_RGB888)
+    row_bytes = image.bytesPerLine()
+    data = np.frombuffer(image.constBits().asstring(row_bytes * size), dtype=np.uint8).reshape(size, row_bytes)
+    return data[:, :size * 3].reshape(size, size, 3)
 
 
 def test_a_leaf_without_triangles_gets_an_empty_patch():

@@ -31,7 +31,6 @@ from osgeo import ogr
 from shapely.geometry.base import BaseGeometry
 
 from .dem import Dem, ragged_indices
-from .dem import check_crs as check_dem_crs
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
@@ -833,8 +832,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
         raise InputError("Give the study area as a layer (or a constraint layer) so the TIN's CRS is known.")
     if "buildings" in layers:
         area = covering_area(area, layers["buildings"].geoms, feedback)
-    check_dem_crs(dem_path, crs, feedback)
-    dem = Dem.open(dem_path, area.bounds, feedback=feedback)
+    dem = Dem.open(dem_path, area.bounds, feedback=feedback, crs=crs)
     footprints = [f for kind in ("buildings", "foreign") if kind in layers for f in features(layers[kind])]
     tin, stats = triangulate(area, footprints, features(layers["roads"]) if "roads" in layers else [], dem,
                              max_edge, tolerance, footprints_as_holes, fixed_segments=fixed_segments, seam=seam,

@@ -30,7 +30,7 @@ from shapely.geometry.base import BaseGeometry
 
 from ..chain import ChainInputs, ChainOptions
 from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
-from ..chain.coverage import require_sheet_names
+from ..chain.coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 from ..deps import require
 from ..errors import CanceledError, InputError
 from ..feedback import SILENT, Feedback
@@ -209,6 +209,9 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     output = ensure_writable_dir(output_dir)
     require_sheet_names(list_tifs(inputs.ortho))
     polygon = area_polygon(area, inputs, options.target_crs, options.encoding)
+    require_dem(inputs.dem, polygon, options.target_crs, feedback)  # in seconds, before any worker starts
+    require_ortho(ortho_coverage(list_tifs(inputs.ortho), polygon, options.target_crs, options.sheet_crs,
+                                 options.margin), options.outside_ortho == "untextured", feedback)
     tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
     previous = read_index(output)
     write_index(output, tiles, options.target_crs, previous)

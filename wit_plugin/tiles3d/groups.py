@@ -29,7 +29,7 @@ from osgeo import gdal
 from shapely.geometry.base import BaseGeometry
 
 from ..dem import Dem
-from ..errors import WitError
+from ..errors import InputError, WitError
 from ..gdal_env import open_raster
 from ..mapsheet import parse_sheet_number, sheet_at
 from .coarse import Patch, grid_triangles
@@ -153,15 +153,13 @@ def sample_terrain(area: BaseGeometry, crs: pyproj.CRS, dem: str, ortho: list[st
     (``ortho``: georeferenced rasters); None when they do not give it."""
     rect = square(area)
     step = (rect[2] - rect[0]) / GROUP_CELLS
-    try:  # the part of the area the DEM covers (a group at the DEM's edge keeps the terrain it has)
-        x0, y0, x1, y1 = raster_extent(dem, "DEM")
-        xmin, ymin, xmax, ymax = area.bounds
-        bounds = (max(xmin, x0), max(ymin, y0), min(xmax, x1), min(ymax, y1))
-        if bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
+    try:
+        terrain = Dem.open(dem, area.bounds, crs=crs)
+    except WitError:  # a group at the DEM's edge keeps the terrain of the part of its area the DEM covers
+        try:
+            terrain = Dem.open(dem, _covered_bounds(dem, area, crs), crs=crs)
+        except WitError:
             return None
-        terrain = Dem.open(dem, bounds)
-    except WitError:
-        return None
     west, south, east, north = terrain.extent
     near = area.buffer(step)  # a cell's width around the area: no gap at the tiles' edge
 
@@ -180,6 +178,23 @@ def sample_terrain(area: BaseGeometry, crs: pyproj.CRS, dem: str, ortho: list[st
     deviation = np.abs(grid_at(heights, rect, x, y) - dense)
     error = float(np.nanmax(deviation)) if np.isfinite(deviation).any() else 0.0
     return Terrain(rect, heights, image, error)
+
+
+def _covered_bounds(dem: str, area: BaseGeometry, crs: pyproj.CRS) -> tuple[float, float, float, float]:
+    """The bounds of the part of ``area`` that the DEM's extent covers, in ``crs``, a cell inside its edge."""
+    ds = open_raster(dem, "DEM")
+    x0, dx, _, y0, _, dy = ds.GetGeoTransform()
+    x1, y1 = x0 + dx * ds.RasterXSize, y0 + dy * ds.RasterYSize
+    extent = shapely.segmentize(shapely.box(min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)).buffer(
+        -2 * max(abs(dx), abs(dy)), join_style="mitre"), 4 * max(abs(dx), abs(dy)))
+    wkt = ds.GetProjection()
+    if wkt and not pyproj.CRS.from_wkt(wkt).equals(crs):
+        to_crs = pyproj.Transformer.from_crs(pyproj.CRS.from_wkt(wkt), crs, always_xy=True)
+        extent = shapely.transform(extent, lambda xy: np.column_stack(to_crs.transform(xy[:, 0], xy[:, 1])))
+    covered = shapely.intersection(shapely.box(*area.bounds), extent)
+    if covered.is_empty:
+        raise InputError(f"The DEM {dem} does not reach the group's area.")
+    return tuple(covered.bounds)
 
 
 def _warp_image(ortho: list[str], rect: tuple[float, float, float, float], crs: pyproj.CRS) -> np.ndarray | None:
