@@ -51,7 +51,9 @@ class CityModelTiles(CityModel):
         "others go on; a run started again on the same folder skips the tiles already done; Cancel stops "
         "every tile. A tile that owns no building (a park, a hill) still gets its terrain and roads (status "
         "empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output "
-        "folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later)."
+        "folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as "
+        "the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as "
+        "a 3D Tiles layer in QGIS 3.34 and later)."
     )
 
     TILE_SCALE = "TILE_SCALE"

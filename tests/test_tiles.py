@@ -301,7 +301,6 @@ def test_a_second_run_resumes(local_run, sample):
 
 def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_are_asked_for(local_run, sample,
                                                                                            tmp_path):
-    import json
     import shutil
 
     out = tmp_path / "out"
@@ -310,8 +309,10 @@ def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_ar
     options.tiles3d = True
     report = run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=2)
     assert report.resumed == 0 and report.buildings == local_run[1].buildings
-    children = _tile_refs(json.loads(Path(report.tileset).read_text(encoding="utf-8"))["root"])
-    assert len(children) == len(_modelled(report)) and all((out / c["content"]["uri"]).is_file() for c in children)
+    children = _tile_refs(out)
+    assert len(children) == len(_modelled(report)) and all((out / c).is_file() for c in children)
+    _check_run_tileset(Path(report.tileset), report)
+    _check_from_afar(out, tmp_path)
     again = run_tiles(_inputs(sample), options, out, AREA, scale=1000, workers=1)  # now they are all there
     assert again.resumed == len(report.rows) and again.tileset == report.tileset
 
@@ -502,50 +503,72 @@ def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_pat
     _check_in_the_viewer(tmp_path / "out", tmp_path)
 
 
-def _tile_refs(node: dict) -> list[dict]:
-    """The nodes below ``node`` that refer to a tile's tileset."""
-    here = [node] if node.get("content", {}).get("uri", "").endswith("tileset.json") else []
-    return here + [ref for child in node.get("children", []) for ref in _tile_refs(child)]
+def _tile_refs(output: Path) -> list[str]:
+    """The tiles' tilesets (paths relative to ``output``) that the run's group files refer to, once each."""
+    import json
+
+    refs = []
+    for file in (output / "3dtiles-groups").glob("*.json"):
+        for child in json.loads(file.read_text(encoding="utf-8"))["root"]["children"]:
+            target = (file.parent / child["content"]["uri"]).resolve()
+            if target.parent.name == "3dtiles":
+                refs.append(target.relative_to(output.resolve()).as_posix())
+    return refs
 
 
 def _check_run_tileset(path: Path, local) -> None:
-    """One tileset over the tiles: the tiles below their group (1:5,000 sheet) with its coarse terrain,
-    every tile's tileset on disk, regions nested, errors falling, transforms cancelling out."""
+    """One tileset over the tiles: the groups above them (1:5,000 sheets and up), each a tileset file of its
+    own with its coarse terrain and its largest buildings; every tile's tileset referred to once; our
+    checker finds nothing (regions nested, errors falling, metadata complete); transforms cancel out."""
     import json
 
+    from wit_plugin.tiles3d.check import check_tileset
+
+    out = path.parent
     document = json.loads(path.read_text(encoding="utf-8"))
-    assert document["asset"]["version"] == "1.1" and path == path.parent / "tileset.json"
+    assert document["asset"]["version"] == "1.1" and path == out / "tileset.json"
     root = document["root"]
-    refs = _tile_refs(root)
-    assert sorted(c["content"]["uri"] for c in refs) == sorted(
-        f"tiles/{r['sheet']}/3dtiles/tileset.json" for r in _modelled(local))
     assert document["geometricError"] > root["geometricError"]
     w, s, e, n, low, high = root["boundingVolume"]["region"]
     diagonal = np.hypot((e - w) * 6_371_000 * np.cos((s + n) / 2), (n - s) * 6_371_000)
     assert root["geometricError"] >= diagonal * (1 - 1e-9) and diagonal > 500  # opened from any distance
-    groups = root["children"]
-    assert groups and all(g["content"]["uri"].startswith("3dtiles-groups/") for g in groups)
-    for group in groups:
-        assert group["refine"] == "REPLACE" and root["geometricError"] > group["geometricError"]
+    check = check_tileset(path)
+    assert check.problems == [], check.problems[:5]
+    assert sorted(_tile_refs(out)) == sorted(f"tiles/{r['sheet']}/3dtiles/tileset.json" for r in _modelled(local))
+    groups = sorted((out / "3dtiles-groups").glob("*.json"))
+    assert groups and {f"3dtiles-groups/{g.name}" for g in groups} <= set(check.tilesets)
+    shown = set()
+    for file in groups:
+        group = json.loads(file.read_text(encoding="utf-8"))["root"]
         frame = np.array(group["transform"]).reshape(4, 4).T
-        glb = pygltflib.GLTF2().load(str(path.parent / group["content"]["uri"]))
+        glb = pygltflib.GLTF2().load(str(file.parent / group["content"]["uri"]))
         assert glb.meshes and glb.images  # the coarse terrain, draped
-        gw, gs, ge, gn, glow, ghigh = group["boundingVolume"]["region"]
-        assert w <= gw < ge <= e and s <= gs < gn <= n and low <= glow < ghigh <= high
+        metadata = glb.extensions["EXT_structural_metadata"]
+        assert metadata["propertyTables"][0]["count"] > 0  # its buildings, with their attributes
+        shown |= set(_property_strings(glb, "wit_id"))
         for child in group["children"]:
-            assert group["geometricError"] >= 2 * child["geometricError"]
+            assert group["geometricError"] >= child["geometricError"]
             # translations in metres of ECEF (~6e6 m): float64 round-off there is ~1e-9 m (numpy 2.4 on QGIS 3.44)
             np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-6)
-            tile = json.loads((path.parent / child["content"]["uri"]).read_text(encoding="utf-8"))
-            assert child["boundingVolume"]["region"] == tile["root"]["boundingVolume"]["region"]
-            cw, cs, ce, cn, clow, chigh = child["boundingVolume"]["region"]
-            assert gw <= cw < ce <= ge and gs <= cs < cn <= gn and glow <= clow < chigh <= ghigh
-            assert list((path.parent / child["content"]["uri"]).parent.glob("tiles/*/*.glb"))
-    result = subprocess.run(["node", str(ROOT / "viewer" / "validate-gltf.mjs"), str(path.parent / "3dtiles-groups")],
+            target = json.loads((file.parent / child["content"]["uri"]).read_text(encoding="utf-8"))["root"]
+            assert child["boundingVolume"]["region"] == target["boundingVolume"]["region"]
+            assert child["geometricError"] == target["geometricError"]
+    assert shown == {i for r in _modelled(local) for i in _building_ids(out / r["gml"])}  # < 4,000: all of them
+    result = subprocess.run(["node", str(ROOT / "viewer" / "validate-gltf.mjs"), str(out / "3dtiles-groups")],
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-2000:]  # e.g. the viewer packages missing (scripts/setup-viewer.sh)
     summary = json.loads(result.stdout)
-    assert summary["files"] == len(groups) and summary["errors"] == 0, summary
+    assert summary["files"] == len(groups) and summary["errors"] == 0 and summary["warnings"] == 0, summary
+
+
+def _property_strings(gltf: pygltflib.GLTF2, name: str) -> list[str]:
+    """A text column of a glb's property table."""
+    blob = gltf.binary_blob()
+    table = gltf.extensions["EXT_structural_metadata"]["propertyTables"][0]
+    values, offsets = (gltf.bufferViews[table["properties"][name][k]] for k in ("values", "stringOffsets"))
+    ends = np.frombuffer(blob, dtype=np.uint32, count=table["count"] + 1, offset=offsets.byteOffset)
+    data = blob[values.byteOffset:values.byteOffset + values.byteLength]
+    return [data[a:b].decode("utf-8") for a, b in zip(ends[:-1], ends[1:])]
 
 
 def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
@@ -567,6 +590,19 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
                            env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
     assert probe.returncode == 0, probe.stderr[-2000:]
     assert probe.stdout.split() == [str(target / "wit_plugin" / "tiles" / "worker.py"), "True"]
+
+
+def _check_from_afar(output: Path, tmp_path: Path) -> None:
+    """Zoomed out (4 radii of the run's bounding sphere), the viewer loads the top group's content alone and
+    shows buildings (issue 22: from afar the groups held terrain only): a click names one."""
+    import json
+
+    report, picture = view_in_chromium(output, tmp_path, click=True, query="?range=4")
+    top = json.loads((output / "tileset.json").read_text(encoding="utf-8"))["root"]["children"]
+    assert len(top) == 1 and report["loadedTiles"] == 2  # the top group's file and its content, no tile
+    assert report["firstViewRequests"] == 3 and report["firstViewBytes"] < 2e6  # and tileset.json
+    assert report["buildingPixels"] > 0 and report["info"]["rows"]["wit_id"].startswith("BLD_")
+    assert (np.abs(picture - picture[0]).sum(axis=1) > 30).mean() > 0.02
 
 
 def _check_in_the_viewer(output: Path, tmp_path: Path) -> None:

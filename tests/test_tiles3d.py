@@ -20,6 +20,7 @@ from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.tiles3d import TilesetConfig, export_tileset
+from wit_plugin.tiles3d.check import check_tileset, read_glb
 from wit_plugin.tiles3d.geo import Georeference, gltf_to_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -140,6 +141,26 @@ def test_tileset_structure(chain):
                       h.min(), h.max()]
             assert _inside(points, region)
     assert levels == {"0", "1", "2"}  # 128 m leaves over a 400 m square: a root, 4 tiles, 16 leaves
+    check = check_tileset(chain["folder"])  # what the official 3D Tiles validator checks, ours
+    assert check.problems == [] and check.tiles == len(tiles) and check.property_tables >= len(leaves) // 2
+
+
+def test_a_layer_without_floor_values_gives_complete_property_tables(chain, tmp_path):
+    """Issue 22: the official validator rejected tiles whose buildings had no storeys at all ("The property
+    table does not define property wit_storeys_below"): every table now holds every numeric property."""
+    lod1 = tmp_path / "lod1.gpkg"
+    gdal.VectorTranslate(str(lod1), chain["lod1"])
+    ds = ogr.Open(str(lod1), 1)
+    ds.ExecuteSQL(f"UPDATE {model.LOD1_LAYER} SET {model.STOREYS_ABOVE} = NULL, {model.STOREYS_BELOW} = NULL")
+    ds = None
+    out = tmp_path / "3dtiles"
+    export_tileset(str(lod1), chain["tin"], chain["textures"], str(out), config=TilesetConfig(leaf_size=128.0))
+    check = check_tileset(out)
+    assert check.problems == [] and check.property_tables > 0
+    for path in out.rglob("*.glb"):
+        gltf, blob = read_glb(path.read_bytes())
+        for table in gltf.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTables", []):
+            assert {model.STOREYS_ABOVE, model.STOREYS_BELOW, model.HEIGHT} <= set(table["properties"])
 
 
 def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):

@@ -38,8 +38,7 @@ from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import CORE_ROOT, core_env, core_python
-from ..tiles3d.combine import TILE_TILESET, write_run_tileset
-from ..tiles3d.groups import GROUP_SCALE, group_of, write_group_contents
+from ..tiles3d.combine import TILE_TILESET, tile_areas, write_run_tileset
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
@@ -252,24 +251,19 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         raise InputError(f"No tile could be built ({len(failed)} failed, {report.count(EMPTY)} empty): {reasons}")
     if options.tiles3d:
         modelled = {r["sheet"]: Path(r["gml"]).parent.as_posix() for r in report.rows if r["status"] in (DONE, EMPTY)}
-        groups: dict[str, list[str]] = {}
-        for sheet in modelled:
-            groups.setdefault(group_of(sheet, scale, options.sheet_crs), []).append(sheet)
-        tile_polygons = {t.sheet: t.polygon for t in tiles}
-        areas = {name: shapely.intersection(polygon, shapely.union_all([tile_polygons[s] for s in sheets]))
-                 for name, sheets in groups.items()}
-        feedback.info(f"3D Tiles: the coarse terrain of {len(groups)} group(s) of tiles (1:{GROUP_SCALE[scale]:,} "
-                      "sheets).")
-        contents = write_group_contents(output, areas, inputs.dem, list_tifs(inputs.ortho), options.target_crs,
-                                        options.sheet_crs, options.margin, feedback)
-        report.tileset, combined = write_run_tileset(
-            output, modelled.values(), {name: [modelled[s] for s in sheets] for name, sheets in groups.items()},
-            contents)
-        if combined < len(modelled):
-            feedback.warning(f"{len(modelled) - combined} tile(s) have no 3D Tiles and are not in {report.tileset}.")
-        if None in contents.values():
-            feedback.warning(f"{list(contents.values()).count(None)} group(s) of tiles have no coarse terrain (the DEM "
-                             "or the orthoimage does not cover them): their tiles show from afar one by one.")
+        feedback.info("3D Tiles: the groups above the tiles (coarse terrain and largest buildings).")
+        written = write_run_tileset(output, modelled, tile_areas({t.sheet: t.polygon for t in tiles}, polygon),
+                                    inputs.dem, list_tifs(inputs.ortho), options.target_crs, options.sheet_crs,
+                                    options.margin, feedback)
+        report.tileset = written.path
+        feedback.info(f"3D Tiles: {written.groups} group(s) on {written.levels} level(s) over {written.tiles} tiles, "
+                      f"{written.buildings} buildings in the groups; the run's tileset.json {written.root_bytes:,} "
+                      f"bytes, the largest tileset file {written.largest_file_bytes:,} bytes.")
+        if written.tiles < len(modelled):
+            feedback.warning(f"{len(modelled) - written.tiles} tile(s) have no 3D Tiles and are not in {report.tileset}.")
+        if written.without_terrain:
+            feedback.warning(f"{written.without_terrain} group(s) of tiles have no coarse terrain (the DEM or the "
+                             "orthoimage does not cover them): from afar they show their buildings only.")
     feedback.info(f"Tiles: {report.count(DONE)} done, {len(failed)} failed, {report.count(EMPTY)} empty, "
                   f"{report.buildings} buildings, {report.seconds:.1f} s."
                   + (f" 3D Tiles: {report.tileset}" if report.tileset else ""))
