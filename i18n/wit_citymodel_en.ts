@@ -292,20 +292,12 @@
       <translation>CityGML</translation>
     </message>
     <message>
-      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</source>
-      <translation>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</translation>
+      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset. The web profile (off by default) quantizes the tiles' geometry and compresses it with meshoptimizer (KHR_mesh_quantization, EXT_meshopt_compression) for browsers such as CesiumJS: smaller and faster to load, but QGIS's 3D Tiles layer cannot read it; it needs the Python package meshoptimizer.</source>
+      <translation>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset. The web profile (off by default) quantizes the tiles' geometry and compresses it with meshoptimizer (KHR_mesh_quantization, EXT_meshopt_compression) for browsers such as CesiumJS: smaller and faster to load, but QGIS's 3D Tiles layer cannot read it; it needs the Python package meshoptimizer.</translation>
     </message>
     <message>
       <source>Side of a full-detail tile (m)</source>
       <translation>Side of a full-detail tile (m)</translation>
-    </message>
-    <message>
-      <source>LoD1 buildings (wit:extrudebuildings)</source>
-      <translation>LoD1 buildings (wit:extrudebuildings)</translation>
-    </message>
-    <message>
-      <source>Terrain TIN (wit:triangulateterrain)</source>
-      <translation>Terrain TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Texture folder (wit:wittexture)</source>
@@ -772,6 +764,10 @@
       <translation> or </translation>
     </message>
     <message>
+      <source>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</source>
+      <translation>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</translation>
+    </message>
+    <message>
       <source>Centre of the study area</source>
       <translation>Centre of the study area</translation>
     </message>
@@ -802,6 +798,14 @@
     <message>
       <source>Default height (m)</source>
       <translation>Default height (m)</translation>
+    </message>
+    <message>
+      <source>LoD1 buildings (wit:extrudebuildings)</source>
+      <translation>LoD1 buildings (wit:extrudebuildings)</translation>
+    </message>
+    <message>
+      <source>Terrain TIN (wit:triangulateterrain)</source>
+      <translation>Terrain TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>

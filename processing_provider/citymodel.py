@@ -21,7 +21,15 @@ from qgis.core import (
 
 from .base import WitAlgorithm, crs_string
 from .load_results import load_results
-from .shared_parameters import add_area_parameters, add_height_parameters, height_options, schema_choice, study_area
+from .shared_parameters import (
+    WEB_PROFILE,
+    add_area_parameters,
+    add_height_parameters,
+    add_web_profile_parameter,
+    height_options,
+    schema_choice,
+    study_area,
+)
 
 OUTSIDE_ORTHO = ("fail", "untextured")
 
@@ -73,6 +81,7 @@ class CityModel(WitAlgorithm):
         self.add_chain_parameters()
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)"), defaultValue=True))
+        add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterBoolean(
             self.KEEP_WORK, self.tr("Keep the intermediate files"), defaultValue=False))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
@@ -143,7 +152,8 @@ class CityModel(WitAlgorithm):
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
-            schema_dir=configured, schema_cache=cache)
+            schema_dir=configured, schema_cache=cache,
+            tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context))
         return inputs, options, expression
 
     def execute(self, parameters, context, feedback):

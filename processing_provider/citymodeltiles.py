@@ -26,6 +26,7 @@ from qgis.PyQt.QtCore import QVariant
 from .base import crs_string
 from .citymodel import CityModel
 from .load_results import load_index, load_results
+from .shared_parameters import add_web_profile_parameter
 
 TILE_SCALES = (5000, 1000)
 EXPRESSION_COLUMN = "wit_expr_height"
@@ -86,6 +87,7 @@ class CityModelTiles(CityModel):
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset over all tiles (tileset.json) for viewers"),
             defaultValue=True))
+        add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputVectorLayer("INDEX", self.tr("Tile index")))
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset over all tiles (tileset.json)")))

@@ -5,6 +5,7 @@ from __future__ import annotations
 from qgis.core import (
     QgsCoordinateReferenceSystem,
     QgsProcessing,
+    QgsProcessingParameterBoolean,
     QgsProcessingParameterDefinition,
     QgsProcessingParameterExpression,
     QgsProcessingParameterField,
@@ -24,6 +25,7 @@ DISTRICT_CODE, DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD = "DISTRICT_CODE", "DIST
 STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
     "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
 LOD1, TIN = "LOD1", "TIN"
+WEB_PROFILE = "WEB_PROFILE"
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
@@ -119,3 +121,11 @@ def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
         LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon], optional=lod1_optional))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
         TIN, tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon], optional=True))
+
+
+def add_web_profile_parameter(algorithm, advanced: bool = False) -> None:
+    """The 3D Tiles web profile (off by default: QGIS's 3D Tiles layer cannot read it)."""
+    parameter = QgsProcessingParameterBoolean(
+        WEB_PROFILE, tr("3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)"),
+        defaultValue=False)
+    algorithm.addParameter(_advanced(parameter) if advanced else parameter)

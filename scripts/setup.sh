@@ -22,6 +22,7 @@ command -v geos-config >/dev/null || need_apt+=(libgeos-dev)  # shapely is built
 command -v Xvfb >/dev/null || need_apt+=(xvfb)  # the real QGIS window in tests and screenshots
 [ -d /usr/share/fonts/truetype/nanum ] || need_apt+=(fonts-nanum)  # Korean labels render as boxes without
 [ -f /usr/include/python3.11/Python.h ] || need_apt+=(python3-dev)
+command -v g++ >/dev/null || need_apt+=(g++)  # meshoptimizer (the 3D Tiles web profile) is built from source
 "$SYS_PY" -c 'import venv, ensurepip' 2>/dev/null || need_apt+=(python3-venv)
 if [ ${#need_apt[@]} -gt 0 ]; then
     log "installing system packages: ${need_apt[*]}"

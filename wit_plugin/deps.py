@@ -18,6 +18,7 @@ REQUIREMENTS: dict[str, tuple[str, int | None]] = {
     "pyproj": ("pyproj", None),
     "distributed": ("dask[distributed]", None),
     "pygltflib": ("pygltflib>=1.16", 1),
+    "meshoptimizer": ("meshoptimizer==0.2.30a0", None),  # the 3D Tiles web profile only
 }
 
 

@@ -38,7 +38,8 @@ from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import CORE_ROOT, core_env, core_python
 from ..tiles3d.combine import TILE_TILESET, write_run_tileset
-from ..tiles3d.groups import GROUP_SCALE, group_of, write_group_contents
+from ..tiles3d.groups import GROUP_DIR, GROUP_SCALE, group_of, write_group_contents
+from ..tiles3d.web import compress_tiles, require_web_profile
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
@@ -107,6 +108,7 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
         "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir, "tiles3d": options.tiles3d,
+        "tiles3d_web": options.tiles3d_web,
         "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
@@ -209,6 +211,8 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     start = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     require_sheet_names(list_tifs(inputs.ortho))
+    if options.tiles3d and options.tiles3d_web:
+        require_web_profile()
     polygon = area_polygon(area, inputs, options.target_crs, options.encoding)
     tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
     previous = read_index(output)
@@ -254,6 +258,8 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                       "sheets).")
         contents = write_group_contents(output, areas, inputs.dem, list_tifs(inputs.ortho), options.target_crs,
                                         options.sheet_crs, options.margin, feedback)
+        if options.tiles3d_web:
+            compress_tiles(output / GROUP_DIR, feedback)
         report.tileset, combined = write_run_tileset(
             output, modelled.values(), {name: [modelled[s] for s in sheets] for name, sheets in groups.items()},
             contents)

@@ -140,21 +140,23 @@ class Store:
         for batch in _column_batches(layer, fields):
             feedback.check_canceled()
             try:
-                uv, counts = parse_texcoords(_texts(batch[model.TEX_COORDS]))
+                uv, counts = _texcoords(batch[model.TEX_COORDS])
             except ValueError:
                 raise InputError(f"The texture table {path} has malformed texture coordinates: "
                                  "re-run wit:wittexture.") from None
             uv = uv.astype(np.float32)
             starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            names, image = np.unique(_texts(batch[model.TEX_IMAGE]), return_inverse=True)
-            image = np.array([numbers.setdefault(name, len(numbers)) for name in names.tolist()], dtype=np.int64)[image]
-            target = np.array(_texts(batch[model.TEX_TARGET]), dtype=object)
-            roof = np.flatnonzero(target == "roof")
-            features = np.array(_texts(batch[model.TEX_FEATURE]), dtype=object)
+            names, image = _unique_texts(batch[model.TEX_IMAGE])
+            image = np.array([numbers.setdefault(name, len(numbers)) for name in names], dtype=np.int64)[image]
+            kinds, target = _unique_texts(batch[model.TEX_TARGET])
+            is_roof = np.isin(target, [k for k, kind in enumerate(kinds) if kind == "roof"])
+            roof = np.flatnonzero(is_roof)
+            features = np.asarray(batch[model.TEX_FEATURE])
+            faces = batch[model.TEX_FACE][roof].tolist()
             self.db.executemany("INSERT OR REPLACE INTO tex_roof VALUES (?, ?, ?, ?)", [
-                (features[i], int(batch[model.TEX_FACE][i] or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
-                for i in roof.tolist()])
-            tri = np.flatnonzero((target != "roof") & (counts == 4))
+                (feature, int(face or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
+                for feature, face, i in zip(_texts(features[roof]), faces, roof.tolist())])
+            tri = np.flatnonzero(~is_roof & (counts == 4))
             try:
                 ids = features[tri].astype(np.int64)
             except ValueError:
@@ -196,8 +198,8 @@ class Store:
             feedback.check_canceled()
             kinds = [FACE_KINDS[k] for k in _texts(batch[model.FACE_TYPE])]
             self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?)", [
-                row for row in zip(_texts(batch[model.WIT_ID]), batch[model.FACE_NUMBER].tolist(), kinds, batch[None])
-                if row[3]])
+                row for row in zip(_texts(batch[model.WIT_ID]), batch[model.FACE_NUMBER].tolist(), kinds,
+                                   map(_blob, batch[None])) if row[3]])
         del layer, ds
         self.db.execute("CREATE INDEX face_building ON face (wit_id)")
         self.orphan_faces = self.db.execute(
@@ -218,11 +220,11 @@ class Store:
         total = 0
         for batch in _column_batches(layer, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE), geometry=True):
             feedback.check_canceled()
-            xyz = triangle_vertices(shapely.from_wkb(np.array(batch[None], dtype=object), on_invalid="ignore"))
+            xyz = _triangle_corners(batch[None])
             ok = np.isfinite(xyz).all(axis=(1, 2))
             ids = np.asarray(batch[model.TIN_TRIANGLE_ID], dtype=np.int64)[ok]
-            names, surface = np.unique(_texts(batch[model.TIN_SURFACE]), return_inverse=True)
-            surface = np.array([SURFACES.get(name, 0) for name in names.tolist()], dtype=np.int64)[surface][ok]
+            names, surface = _unique_texts(batch[model.TIN_SURFACE])
+            surface = np.array([SURFACES.get(name, 0) for name in names], dtype=np.int64)[surface][ok]
             xyz = xyz[ok]
             centre = xyz.mean(axis=1)
             own = grid.leaf_codes(centre[:, 0], centre[:, 1])
@@ -310,7 +312,7 @@ def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = 
         for batch in layer.GetArrowStreamAsNumPy(options=options):
             columns = {f: batch[f] for f in fields}
             if geometry:
-                columns[None] = [bytes(w) if w is not None else None for w in batch[geom_name]]
+                columns[None] = batch[geom_name]
             yield columns
         return
     rows: list[list] = []
@@ -327,8 +329,55 @@ def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = 
 def _as_columns(rows: list[list], fields: tuple[str, ...], geometry: bool) -> dict:
     columns: dict = {f: np.array([r[k] for r in rows], dtype=object) for k, f in enumerate(fields)}
     if geometry:
-        columns[None] = [r[-1] for r in rows]
+        columns[None] = np.array([r[-1] for r in rows] + [None], dtype=object)[:-1]
     return columns
+
+
+def _blob(wkb) -> bytes | None:
+    return None if wkb is None else bytes(wkb)
+
+
+#: a triangle as GDAL writes it in ISO WKB: little-endian Polygon Z, one ring of four points
+_TRIANGLE_WKB = bytes([1, 0xEB, 3, 0, 0, 1, 0, 0, 0, 4, 0, 0, 0])
+
+
+def _triangle_corners(wkbs: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) corners of triangle polygons (NaN for anything else). Read straight from the WKB
+    bytes when every row is a plain triangle of the same layout (the TIN's), else through shapely."""
+    if wkbs.dtype.kind == "V" and wkbs.dtype.itemsize == len(_TRIANGLE_WKB) + 96 and len(wkbs):
+        raw = np.frombuffer(wkbs.tobytes(), dtype=np.uint8).reshape(len(wkbs), -1)
+        if (raw[:, :len(_TRIANGLE_WKB)] == np.frombuffer(_TRIANGLE_WKB, dtype=np.uint8)).all():
+            points = raw[:, len(_TRIANGLE_WKB):].copy().view("<f8").reshape(len(wkbs), 4, 3)
+            return points[:, :3].astype(np.float64)
+    geometries = shapely.from_wkb(np.array([_blob(w) for w in wkbs], dtype=object), on_invalid="ignore")
+    return triangle_vertices(geometries)
+
+
+def _unique_texts(column: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """The distinct texts of a column (decoded) and each row's index into them."""
+    values = np.asarray(column)
+    if values.dtype == object:
+        values = np.array(_texts(values))
+    names, inverse = np.unique(values, return_inverse=True)
+    return _texts(names), inverse
+
+
+def _texcoords(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``parse_texcoords`` for a column; Arrow's fixed-width byte strings are parsed as one block
+    (numbers and each row's count of them found with numpy, no Python loop per row)."""
+    values = np.asarray(column)
+    if values.dtype.kind != "S" or not len(values):
+        return parse_texcoords(_texts(values))
+    chars = np.full((len(values), values.dtype.itemsize + 1), 32, dtype=np.uint8)  # a blank after each row
+    chars[:, :-1] = np.frombuffer(values.tobytes(), dtype=np.uint8).reshape(len(values), -1)
+    blank = chars <= 32  # spaces and the NULs that pad a row to the column's width
+    chars[blank] = 32
+    starts = ~blank & np.concatenate([np.ones((len(chars), 1), dtype=bool), blank[:, :-1]], axis=1)
+    counts = starts.sum(axis=1)
+    flat = np.fromstring(chars.tobytes(), sep=" ") if counts.any() else np.zeros(0)
+    if len(flat) != counts.sum() or np.any(counts % 2):
+        raise ValueError("malformed texture coordinates")
+    return flat.reshape(-1, 2), counts // 2
 
 
 def _texts(column: np.ndarray) -> list[str]:

@@ -50,6 +50,7 @@ from .glb import GlbBuilder
 from .metadata import BUILDING_CLASS, building_schema, property_columns
 from .store import FACE_KINDS, Grid, Store
 from .textures import TextureSet, encode_image
+from .web import compress_tiles, require_web_profile
 
 TILESET_FILE = "tileset.json"
 TILE_DIR = "tiles"
@@ -70,6 +71,8 @@ class TilesetConfig:
     building_budget: int = 3000
     """Most buildings in an upper tile."""
     jpeg_quality: int = 85
+    web: bool = False
+    """Web profile (``web``): quantized, meshopt-compressed geometry for browsers; QGIS cannot read it."""
 
 
 @dataclass
@@ -115,6 +118,8 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
             or config.leaf_size <= 0 or config.building_budget < 1:
         raise InputError(f"Tileset settings out of range: {config}.")
     out = _check_output(Path(output), [p for p in (lod1, tin, textures) if p])
+    if config.web:
+        require_web_profile()
     georef = Georeference(crs)
     for path, layer in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
         if path:
@@ -150,6 +155,10 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
             if root is None:
                 raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
             root.json["transform"] = column_major(root.frame)
+            if config.web:
+                web_start = time.perf_counter()
+                compress_tiles(folder, feedback)
+                report.seconds["web"] = round(time.perf_counter() - web_start, 3)
             report.geometric_error = root.error
             side = grid.size * (1 << grid.depth)
             document = {"asset": {"version": "1.1", "generator": "WIT City Model (wit:export3dtiles)"},
