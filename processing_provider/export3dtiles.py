@@ -11,7 +11,13 @@ from qgis.core import (
 
 from .base import WitAlgorithm, crs_string, layer_file
 from .load_results import load_results
-from .shared_parameters import LOD1, TIN, WEB_PROFILE, add_model_layer_parameters, add_web_profile_parameter
+from .shared_parameters import (
+    LOD1,
+    TIN,
+    WEB_PROFILE,
+    add_model_layer_parameters,
+    add_web_profile_parameter,
+)
 
 
 class Export3DTiles(WitAlgorithm):
