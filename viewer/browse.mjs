@@ -42,6 +42,7 @@ try {
                              { timeout, polling: 200 });
   result.navigationSeconds = (Date.now() - started) / 1000;
   Object.assign(result, await page.evaluate(() => ({ state: witViewer.state, loadSeconds: witViewer.loadSeconds, loadedTiles: witViewer.loadedTiles,
+                                                     tilesetBytes: witViewer.tilesetBytes,
                                                      viewerErrors: witViewer.errors })));
   result.loaded = result.state === "ready";
   await page.waitForTimeout(500);  // a few frames after the last tile

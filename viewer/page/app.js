@@ -1,7 +1,7 @@
 // Offline viewer of the WIT City Model tileset: CesiumJS with no imagery, no Ion, no network but this
 // server. ?tileset=URL overrides the tileset (default 3dtiles/tileset.json beside the page).
 // window.witViewer tells the tests and the benchmark what happened: state (loading, ready, error),
-// errors, seconds until the first view was fully loaded, and measureFps().
+// errors, seconds until the first view was fully loaded, the tileset's bytes fetched until then, and measureFps().
 "use strict";
 const witViewer = (window.witViewer = { state: "loading", errors: [], loadSeconds: null, tileset: null });
 const status = document.getElementById("status");
@@ -31,7 +31,15 @@ function showProperties(feature) {
   document.getElementById("info").hidden = false;
 }
 
+// Bytes of the tileset's files fetched so far (tileset.json, tiles, textures; not CesiumJS itself).
+function tilesetBytes(url) {
+  const base = new URL(url, location.href).href.replace(/[^/]*$/, "");
+  return performance.getEntriesByType("resource").filter((entry) => entry.name.startsWith(base))
+    .reduce((sum, entry) => sum + entry.encodedBodySize, 0);
+}
+
 async function main() {
+  performance.setResourceTimingBufferSize(100000);  // CesiumJS alone fetches more than the default 250
   const viewer = new Cesium.Viewer("map", {
     baseLayer: false, baseLayerPicker: false, geocoder: false, sceneModePicker: false, navigationHelpButton: false,
     animation: false, timeline: false, fullscreenButton: false, infoBox: false, selectionIndicator: false,
@@ -62,6 +70,7 @@ async function main() {
     removeWatch();
     witViewer.loadSeconds = (performance.now() - started) / 1000;
     witViewer.loadedTiles = loadedTiles;
+    witViewer.tilesetBytes = tilesetBytes(url);
     witViewer.state = "ready";
     status.textContent = `Loaded in ${witViewer.loadSeconds.toFixed(2)} s — click a building for its attributes`;
   });
