@@ -369,7 +369,7 @@ def test_web_profile_passes_the_khronos_gltf_validator_and_is_smaller(chain, web
         if name.suffix != ".glb" and name.name != "tileset.json":
             assert path.read_bytes() == compressed[name].read_bytes(), name  # images copied as they are
     glb = [(p.stat().st_size, compressed[n].stat().st_size) for n, p in default.items() if n.suffix == ".glb"]
-    assert sum(b for _, b in glb) < 0.6 * sum(a for a, _ in glb)
+    assert sum(b for _, b in glb) < 0.7 * sum(a for a, _ in glb)  # 0.44 on the 1 km sample (README)
     for name in (n for n in compressed if n.suffix == ".glb"):
         gltf = pygltflib.GLTF2().load_binary(str(compressed[name]))
         assert {"EXT_meshopt_compression", "KHR_mesh_quantization"} <= set(gltf.extensionsRequired)
@@ -391,13 +391,20 @@ def test_web_profile_keeps_every_triangle_and_building_within_a_centimetre(chain
 
 
 def _matched(before: np.ndarray, after: np.ndarray, tolerance: float) -> bool:
-    """Whether two lists of triangles (t, 3, 3) are alike up to their order, each corner within ``tolerance``:
-    each coordinate of each corner, and a random mix of them, agree once sorted (sorting moves no value by
-    more than the largest difference of a pairing)."""
-    a, b = before.reshape(len(before), 9), after.reshape(len(after), 9)
-    mix = np.random.default_rng(0).random(9)
-    return len(a) == len(b) and np.abs(np.sort(a, axis=0) - np.sort(b, axis=0)).max() <= tolerance \
-        and np.abs(np.sort(a @ mix) - np.sort(b @ mix)).max() <= tolerance * mix.sum()
+    """Whether two lists of triangles (t, 3, 3) are alike up to their order (meshopt's index codec also
+    rotates a triangle's corners, keeping its winding), each corner within ``tolerance``: the triangles'
+    centroids and normals (twice their areas, which rotation keeps and a flipped winding negates), each
+    coordinate and a random mix of them, agree once sorted (sorting moves no value by more than the
+    largest difference of a pairing)."""
+    def shape(t: np.ndarray) -> np.ndarray:
+        return np.column_stack([t.mean(axis=1), np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])])
+
+    a, b = shape(before), shape(after)
+    side = max(np.abs(before).max(), 1.0)  # a normal's error: twice the side times the corners' error
+    limit = np.array([tolerance] * 3 + [8 * side * tolerance] * 3)
+    mix = np.random.default_rng(0).random(6) / limit
+    return len(a) == len(b) and bool((np.abs(np.sort(a, axis=0) - np.sort(b, axis=0)) <= limit).all()) \
+        and np.abs(np.sort(a @ mix) - np.sort(b @ mix)).max() <= 6
 
 
 def _same_buildings(plain: dict, small: dict) -> None:

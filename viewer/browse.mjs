@@ -46,7 +46,7 @@ try {
                                                      viewerErrors: witViewer.errors })));
   result.loaded = result.state === "ready";
   await page.waitForTimeout(500);  // a few frames after the last tile
-  await page.screenshot({ path: screenshot });
+  await page.screenshot({ path: screenshot, timeout });  // software rendering on a busy machine: slow
   if (rest.includes("--fps")) {
     result.fps = await page.evaluate((seconds) => witViewer.measureFps(seconds), Number(option("--fps", "5")));
   }
@@ -63,7 +63,7 @@ try {
         rows: Object.fromEntries([...document.querySelectorAll("#info-table tr")].map(
           (row) => [row.cells[0].textContent, row.cells[1].textContent])),
       }));
-      await page.screenshot({ path: screenshot.replace(/\.png$/, "-click.png") });
+      await page.screenshot({ path: screenshot.replace(/\.png$/, "-click.png"), timeout });
     }
   }
 } catch (error) {
