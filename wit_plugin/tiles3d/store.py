@@ -81,7 +81,8 @@ def morton(col: np.ndarray, row: np.ndarray) -> np.ndarray:
     """Interleave the bits of column (even bits) and row (odd bits), 20 bits each."""
     code = np.zeros(np.shape(col), dtype=np.int64)
     col, row = np.asarray(col, dtype=np.int64), np.asarray(row, dtype=np.int64)
-    for bit in range(20):
+    bits = min(20, int(max(col.max(), row.max())).bit_length()) if code.size else 0  # the higher bits are 0
+    for bit in range(bits):
         code |= ((col >> bit) & 1) << (2 * bit) | ((row >> bit) & 1) << (2 * bit + 1)
     return code
 

@@ -45,14 +45,16 @@ def encode_image(pixels: np.ndarray, fmt: str = "JPEG", quality: int = 85) -> by
 
 
 def read_rgb(path: Path) -> np.ndarray:
-    """An image file as rows × columns × 3 uint8 (grey repeated, alpha dropped)."""
+    """An image file as rows × columns × 3 uint8 (grey repeated, alpha dropped), read pixel-interleaved."""
     ds = gdal.Open(str(path))
     if ds is None:
         raise InputError(f"Cannot read the texture image {path}: re-run wit:wittexture.")
-    pixels = ds.ReadAsArray()
-    pixels = pixels[None] if pixels.ndim == 2 else pixels
-    pixels = np.repeat(pixels, 3, axis=0) if len(pixels) == 1 else pixels[:3]
-    return np.ascontiguousarray(np.moveaxis(pixels, 0, -1).astype(np.uint8))
+    bands = min(ds.RasterCount, 3) if ds.RasterCount != 2 else 1
+    pixels = ds.ReadAsArray(band_list=list(range(1, bands + 1)), interleave="pixel")
+    pixels = pixels.reshape(pixels.shape[0], pixels.shape[1], -1)
+    if pixels.shape[2] == 1:
+        pixels = np.repeat(pixels, 3, axis=2)
+    return np.ascontiguousarray(pixels, dtype=np.uint8)
 
 
 class TextureSet:
