@@ -57,7 +57,7 @@ try {
       const named = hits.filter((hit) => hit[2]);  // prefer a building with a (Korean) name
       const [x, y] = (named.length ? named : hits)[0];
       await page.mouse.click(x, y);
-      await page.waitForSelector("#info:not([hidden])", { timeout: 10000 });
+      await page.waitForSelector("#info:not([hidden])", { timeout });  // polled per frame: slow when rendering is
       result.info = await page.evaluate(() => ({
         title: document.getElementById("info-title").textContent,
         rows: Object.fromEntries([...document.querySelectorAll("#info-table tr")].map(
