@@ -1,6 +1,5 @@
 """wit:preparevectors — reproject, repair, clip and simplify the road-name-address layers."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
@@ -13,6 +12,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm, crs_string
+from .qgis_compat import NumberType, SourceType
 from .shared_parameters import add_area_parameters, study_area
 
 
@@ -50,10 +50,10 @@ class PrepareVectors(WitAlgorithm):
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        for name, label, kind in ((self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD)"), QgsProcessing.TypeVectorPolygon),
-                                  (self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), QgsProcessing.TypeVectorLine),
+        for name, label, kind in ((self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD)"), SourceType.VectorPolygon),
+                                  (self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), SourceType.VectorLine),
                                   (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"),
-                                   QgsProcessing.TypeVectorPolygon)):
+                                   SourceType.VectorPolygon)):
             self.addParameter(QgsProcessingParameterVectorLayer(name, label, [kind], optional=True))
         add_area_parameters(self)
         self.addParameter(QgsProcessingParameterCrs(
@@ -77,7 +77,7 @@ class PrepareVectors(WitAlgorithm):
 
     def _number(self, name: str, label: str, default: float, minimum: float) -> None:
         self.addParameter(QgsProcessingParameterNumber(
-            name, label, QgsProcessingParameterNumber.Double, defaultValue=default, minValue=minimum))
+            name, label, NumberType.Double, defaultValue=default, minValue=minimum))
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
