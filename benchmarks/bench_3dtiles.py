@@ -10,7 +10,8 @@ On the sample (default: 1 km around Suseo station, the chain's default 5 m maxim
 3. **Export time and peak memory**, ``--runs`` times, each in its own child process (wall and CPU time
    around the library call, peak RSS = the child's ``VmHWM``), both profiles; the reference measured
    beside it in the same run is the CityGML writer on the same step outputs (also a child, same
-   inputs, textures copied). ``--profile``: one more export under cProfile, its time per sub-stage.
+   inputs, textures copied). ``--profile``: one more export with CPU-time counters around its
+   sub-stages (cProfile first showed where the time goes; its overhead inflates per-row Python work).
 4. **Viewer**: each profile's viewer folder served on 127.0.0.1, headless Chromium
    (``viewer/browse.mjs``), the two interleaved: seconds from opening the page until the tileset is
    loaded for the first view (CesiumJS start-up included) and from the tileset request alone, the
@@ -76,18 +77,51 @@ def prepare(radius: float, max_edge: float) -> Path:
     return model
 
 
-#: sub-stages of the export for ``--profile`` (cumulative seconds of these functions)
-STAGES = {"stage: texture table": "add_textures", "stage: buildings": "add_buildings",
-          "stage: TIN": "add_triangles", "leaves (all)": "_leaf", "leaves: read triangles": "triangles",
-          "leaves: coarse terrain sample": "leaf_patch", "buildings (leaves and upper)": "_buildings",
-          "upper tiles (own work)": "_upper", "textures: copy and mips": "uri", "glb bytes": "to_bytes",
-          "web profile pass": "compress_tiles"}
+#: sub-stages of the export for ``--profile``: (label, module, class or None, function)
+STAGES = (("staging: texture table", "store", "Store", "add_textures"),
+          ("staging: buildings", "store", "Store", "add_buildings"),
+          ("staging: TIN", "store", "Store", "add_triangles"),
+          ("leaves: reading their triangles back", "store", "Store", "triangles"),
+          ("coarse terrain of the leaves", "tileset", None, "leaf_patch"),
+          ("decoding images and their mip chains", "textures", "TextureSet", "level"),
+          ("buildings: roofs, walls, atlas copies and mip files", "tileset", "_Writer", "_buildings"),
+          ("coordinates to ECEF", "geo", "Georeference", "local"),
+          ("regions", "geo", "Georeference", "region"),
+          ("glTF primitives", "glb", "GlbBuilder", "triangles"),
+          (".glb bytes", "glb", "GlbBuilder", "to_bytes"),
+          ("web profile pass", "tileset", None, "compress_tiles"))
+
+
+def _count_stages() -> dict[str, float]:
+    """Wrap the sub-stages' functions with CPU-time counters (a few hundred calls: no measurable
+    overhead, unlike a profiler, which inflates per-row Python work); returns the live totals."""
+    import functools
+    import importlib
+
+    totals: dict[str, float] = {}
+    for label, module, owner, name in STAGES:
+        target = importlib.import_module(f"wit_plugin.tiles3d.{module}")
+        target = getattr(target, owner) if owner else target
+        function = getattr(target, name)
+
+        @functools.wraps(function)
+        def counted(*args, _function=function, _label=label, **kwargs):
+            start = time.process_time()
+            try:
+                return _function(*args, **kwargs)
+            finally:
+                totals[_label] = totals.get(_label, 0.0) + time.process_time() - start
+
+        setattr(target, name, counted)
+    return totals
 
 
 def child(kind: str, model: Path, output: Path, profile: bool = False) -> None:
-    """One measured case in this process: prints {"seconds", "cpu_seconds", "peak_mb"} as JSON."""
+    """One measured case in this process: prints {"seconds", "cpu_seconds", "peak_mb"} (and with
+    ``profile`` the CPU seconds per sub-stage) as JSON."""
     sys.path.insert(0, str(ROOT))
     work = model / "work"
+    stages = _count_stages() if profile else None
     if kind.startswith("3dtiles"):
         from wit_plugin.tiles3d import TilesetConfig, export_tileset
 
@@ -102,23 +136,12 @@ def child(kind: str, model: Path, output: Path, profile: bool = False) -> None:
                                         roads=str(work / "prepared.gpkg"), districts=str(work / "prepared.gpkg"),
                                         textures=str(work / "textures")), str(output))
     start, cpu = time.perf_counter(), time.process_time()
-    if profile:
-        import cProfile
-        import pstats
-
-        profiler = cProfile.Profile(time.process_time)  # CPU seconds: the shared machine's load matters less
-        profiler.runcall(run)
-        stats = pstats.Stats(profiler).stats
-        wanted = {name: 0.0 for name in STAGES.values()}
-        for (file, _line, name), (_cc, _nc, _tt, cumulative, _callers) in stats.items():
-            if name in wanted and "wit_plugin" in file:
-                wanted[name] += cumulative
-        print(json.dumps({"seconds": round(time.perf_counter() - start, 3),
-                          "stages": {label: round(wanted[name], 3) for label, name in STAGES.items()}}))
-        return
     run()
-    print(json.dumps({"seconds": round(time.perf_counter() - start, 3),
-                      "cpu_seconds": round(time.process_time() - cpu, 3), "peak_mb": _vm_hwm_mb()}))
+    result = {"seconds": round(time.perf_counter() - start, 3), "cpu_seconds": round(time.process_time() - cpu, 3),
+              "peak_mb": _vm_hwm_mb()}
+    if stages is not None:
+        result["stages"] = {label: round(stages.get(label, 0.0), 2) for label, *_ in STAGES}
+    print(json.dumps(result))
 
 
 def _run_child(kind: str, model: Path, output: Path, profile: bool = False) -> dict:
@@ -221,7 +244,7 @@ def main() -> int:
     parser.add_argument("--max-edge", type=float, default=5.0)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--fps-seconds", type=float, default=5.0)
-    parser.add_argument("--profile", action="store_true", help="also the export's time per sub-stage (cProfile)")
+    parser.add_argument("--profile", action="store_true", help="also the export's CPU seconds per sub-stage")
     parser.add_argument("--tileset", type=Path, help="measure this tileset folder and its web profile instead")
     parser.add_argument("--child", nargs=3, metavar=("KIND", "MODEL", "OUTPUT"), help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -239,7 +262,7 @@ def main() -> int:
     for _ in range(args.runs):  # interleaved, so all see the same load on the shared machine
         for kind, rows in runs.items():
             rows.append(_run_child(kind, model, outputs[kind]))
-    stages = _run_child("3dtiles", model, scratch / "3dtiles-profiled", profile=True)["stages"] if args.profile \
+    stages = _run_child("3dtiles-web", model, scratch / "3dtiles-profiled", profile=True)["stages"] if args.profile \
         else None
     views = _viewers(outputs["3dtiles"], outputs["3dtiles-web"], args.runs, args.fps_seconds)
     gml_mb = round((model / "model.gml").stat().st_size / 1e6 + _folder_mb(model / "model_textures"), 1)
@@ -276,7 +299,7 @@ def main() -> int:
     print("|---|---|---|---|---|---|")
     print("\n".join(_profile_rows(results, views)))
     if stages:
-        print("\n| export sub-stage (cProfile, cumulative) | seconds |\n|---|---:|")
+        print("\n| export sub-stage (CPU seconds; they overlap) | seconds |\n|---|---:|")
         print("\n".join(f"| {label} | {value:.2f} |" for label, value in stages.items()))
     return 0
 
