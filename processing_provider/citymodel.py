@@ -162,7 +162,8 @@ class CityModel(WitAlgorithm):
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)
-        load_results(context, lod1=report.lod1, tin=report.tin, tileset=report.tileset)
+        load_results(context, lod1=report.lod1, tin=report.tin,  # QGIS cannot read the web profile
+                     tileset=None if options.tiles3d_web else report.tileset)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {

@@ -120,7 +120,7 @@ class CityModelTiles(CityModel):
             or None, self.parameterAsInt(parameters, self.WORKERS, context),
             self.parameterAsFile(parameters, self.WORKER_PYTHON, context) or None, feedback)
         load_index(context, report.index)
-        load_results(context, tileset=report.tileset)
+        load_results(context, tileset=None if options.tiles3d_web else report.tileset)  # QGIS cannot read it
         return {self.OUTPUT: output, "INDEX": report.index, "TILESET": report.tileset,
                 "TILES_DONE": report.count("done"),
                 "TILES_FAILED": report.count("failed"), "TILES_EMPTY": report.count("empty"),

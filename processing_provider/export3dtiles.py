@@ -76,11 +76,12 @@ class Export3DTiles(WitAlgorithm):
         crs = layer.crs() if layer is not None and layer.crs().isValid() else \
             self.parameterAsCrs(parameters, self.TARGET_CRS, context)
         output = self.parameterAsString(parameters, self.OUTPUT, context)
+        web = self.parameterAsBool(parameters, self.WEB_PROFILE, context)
         report = export_tileset(
             layer_file(lod1), layer_file(tin), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             output, crs_string(crs), feedback,
-            TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context),
-                          web=self.parameterAsBool(parameters, self.WEB_PROFILE, context)))
-        load_results(context, tileset=report.tileset)  # a 3D Tiles layer on QGIS ≥ 3.34, from the GUI
+            TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context), web=web))
+        if not web:  # QGIS cannot read the web profile
+            load_results(context, tileset=report.tileset)  # a 3D Tiles layer on QGIS ≥ 3.34, from the GUI
         return {self.OUTPUT: output, "TILESET": report.tileset, "TILES": report.tiles,
                 "BUILDINGS": report.buildings, "MEGABYTES": round(report.bytes_written / 1e6, 3)}
