@@ -312,8 +312,8 @@
       <translation>CityGML</translation>
     </message>
     <message>
-      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</source>
-      <translation>도시 모델을 OGC 3D Tiles 1.1 타일셋(tileset.json, glTF 바이너리 타일, 텍스처 이미지)으로 내보냅니다. CesiumJS, QGIS 3.34 이상(3D Tiles 레이어) 및 그 밖의 3D Tiles 뷰어에서 볼 수 있습니다. 가장 상세한 타일에는 LoD1 건물(wit:wittexture의 텍스처 아틀라스를 입힌 지붕, 음영만 준 벽면)과 TIN의 지형·도로가 지면 이미지와 함께 그대로 재사용되어 담깁니다. 그 위의 개략 타일에는 자체 이미지를 가진 지형 격자와, 아틀라스의 더 작은 밉 레벨을 입힌 큰 건물들이 담겨 넓은 지역도 스트리밍으로 볼 수 있습니다. 좌표는 모델 좌표계에서 변환한 지구 중심 좌표이며, 각 타일은 자체 지역 좌표계를 가집니다. 모든 건물은 식별자와 속성(이름, 높이, 층수, 높이 출처, 원본 필드)을 3D Tiles 메타데이터(EXT_mesh_features, EXT_structural_metadata)로 지니므로 뷰어에서 클릭하면 표시됩니다. 출력 폴더는 통째로 교체되므로 새 폴더, 빈 폴더 또는 이전에 만든 타일셋 폴더여야 합니다.</translation>
+      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset. The web profile (off by default) quantizes the tiles' geometry and compresses it with meshoptimizer (KHR_mesh_quantization, EXT_meshopt_compression) for browsers such as CesiumJS: smaller and faster to load, but QGIS's 3D Tiles layer cannot read it; it needs the Python package meshoptimizer.</source>
+      <translation>도시 모델을 OGC 3D Tiles 1.1 타일셋(tileset.json, glTF 바이너리 타일, 텍스처 이미지)으로 내보냅니다. CesiumJS, QGIS 3.34 이상(3D Tiles 레이어) 및 그 밖의 3D Tiles 뷰어에서 볼 수 있습니다. 가장 상세한 타일에는 LoD1 건물(wit:wittexture의 텍스처 아틀라스를 입힌 지붕, 음영만 준 벽면)과 TIN의 지형·도로가 지면 이미지와 함께 그대로 재사용되어 담깁니다. 그 위의 개략 타일에는 자체 이미지를 가진 지형 격자와, 아틀라스의 더 작은 밉 레벨을 입힌 큰 건물들이 담겨 넓은 지역도 스트리밍으로 볼 수 있습니다. 좌표는 모델 좌표계에서 변환한 지구 중심 좌표이며, 각 타일은 자체 지역 좌표계를 가집니다. 모든 건물은 식별자와 속성(이름, 높이, 층수, 높이 출처, 원본 필드)을 3D Tiles 메타데이터(EXT_mesh_features, EXT_structural_metadata)로 지니므로 뷰어에서 클릭하면 표시됩니다. 출력 폴더는 통째로 교체되므로 새 폴더, 빈 폴더 또는 이전에 만든 타일셋 폴더여야 합니다. 웹 프로파일(기본값은 꺼짐)은 타일의 지오메트리를 양자화하고 meshoptimizer로 압축하여(KHR_mesh_quantization, EXT_meshopt_compression) CesiumJS 같은 브라우저에서 더 작고 빠르게 불러오게 하지만, QGIS의 3D Tiles 레이어는 이를 읽을 수 없으며 파이썬 패키지 meshoptimizer가 필요합니다.</translation>
     </message>
     <message>
       <source>Side of a full-detail tile (m)</source>
@@ -822,6 +822,10 @@
     <message>
       <source>CDT (MPL-2.0)</source>
       <translation>CDT (MPL-2.0)</translation>
+    </message>
+    <message>
+      <source>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</source>
+      <translation>3D Tiles 웹 프로파일: 브라우저용 압축 지오메트리 (QGIS에서는 읽을 수 없음)</translation>
     </message>
     <message>
       <source>Centre of the study area</source>

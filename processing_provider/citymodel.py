@@ -21,9 +21,11 @@ from .base import WitAlgorithm, crs_string
 from .load_results import load_results
 from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
 from .shared_parameters import (
+    WEB_PROFILE,
     add_area_parameters,
     add_height_parameters,
     add_triangulator_parameter,
+    add_web_profile_parameter,
     height_options,
     schema_choice,
     study_area,
@@ -81,6 +83,7 @@ class CityModel(WitAlgorithm):
         self.add_chain_parameters()
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)"), defaultValue=True))
+        add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterBoolean(
             self.KEEP_WORK, self.tr("Keep the intermediate files"), defaultValue=False))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
@@ -153,7 +156,8 @@ class CityModel(WitAlgorithm):
             triangulator=triangulator(self, parameters, context, feedback),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
-            schema_dir=configured, schema_cache=cache)
+            schema_dir=configured, schema_cache=cache,
+            tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context))
         return inputs, options, expression
 
     def execute(self, parameters, context, feedback):
@@ -163,7 +167,8 @@ class CityModel(WitAlgorithm):
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)
-        load_results(context, lod1=report.lod1, tin=report.tin, tileset=report.tileset)
+        load_results(context, lod1=report.lod1, tin=report.tin,  # QGIS cannot read the web profile
+                     tileset=None if options.tiles3d_web else report.tileset)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {

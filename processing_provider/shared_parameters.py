@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from qgis.core import (
     QgsCoordinateReferenceSystem,
+    QgsProcessingParameterBoolean,
     QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterExpression,
@@ -28,6 +29,7 @@ LOD1, TIN = "LOD1", "TIN"
 TRIANGULATOR = "TRIANGULATOR"
 #: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
+WEB_PROFILE = "WEB_PROFILE"
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
@@ -143,3 +145,11 @@ def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
         LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [SourceType.VectorPolygon], optional=lod1_optional))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
         TIN, tr("Terrain TIN (wit:triangulateterrain)"), [SourceType.VectorPolygon], optional=True))
+
+
+def add_web_profile_parameter(algorithm, advanced: bool = False) -> None:
+    """The 3D Tiles web profile (off by default: QGIS's 3D Tiles layer cannot read it)."""
+    parameter = QgsProcessingParameterBoolean(
+        WEB_PROFILE, tr("3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)"),
+        defaultValue=False)
+    algorithm.addParameter(_advanced(parameter) if advanced else parameter)

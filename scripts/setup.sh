@@ -37,6 +37,9 @@ command -v lrelease >/dev/null || need_apt+=(qttools5-dev-tools)
 command -v Xvfb >/dev/null || need_apt+=(xvfb)  # the real QGIS window in tests and screenshots
 command -v git >/dev/null || need_apt+=(git)  # the tests copy the checkout's files (scripts/qgis-chroot.sh)
 [ -d /usr/share/fonts/truetype/nanum ] || need_apt+=(fonts-nanum)  # Korean labels render as boxes without
+# meshoptimizer (the 3D Tiles web profile) is built from source: a C++ compiler and Python's headers
+command -v g++ >/dev/null || need_apt+=(g++)
+[ -f "$("$SYS_PY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')/Python.h" ] || need_apt+=(python3-dev)
 "$SYS_PY" -c 'import venv, ensurepip' 2>/dev/null || need_apt+=(python3-venv)
 # PostgreSQL driver for PostGIS colour stores: Debian's python3-psycopg2 (python3-qgis depends on
 # it; built on Debian's libpq), not a pip wheel bundling its own libpq. The server itself is only

@@ -317,6 +317,20 @@ def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_ar
     assert again.resumed == len(report.rows) and again.tileset == report.tileset
 
 
+def test_a_tiled_run_in_the_3d_tiles_web_profile_compresses_every_tile_and_group(sample, tmp_path):
+    import pygltflib
+
+    options = _options()
+    options.tiles3d, options.tiles3d_web = True, True
+    report = run_tiles(_inputs(sample), options, tmp_path / "out", AREA, scale=1000, workers=2)
+    files = sorted((tmp_path / "out").rglob("*.glb"))
+    groups = [f for f in files if "3dtiles-groups" in f.parts]
+    assert report.tileset and groups and len(files) > len(groups)
+    for path in files:
+        gltf = pygltflib.GLTF2().load_binary(str(path))
+        assert {"EXT_meshopt_compression", "KHR_mesh_quantization"} <= set(gltf.extensionsRequired), path
+
+
 def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
     """A DEM with a hole (-9999) under the eastern sliver tile: 1 % of the run's area, which the check
     before the cluster lets through with a warning (a DEM or orthoimage that misses the area is refused

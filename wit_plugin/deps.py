@@ -20,6 +20,7 @@ REQUIREMENTS: dict[str, str] = {
     "pyproj": "pyproj",
     "distributed": "dask[distributed]",
     "pygltflib": "pygltflib>=1.16",
+    "meshoptimizer": "meshoptimizer==0.2.30a0",  # the 3D Tiles web profile only
 }
 
 #: what the code uses of a module, checked by feature: distribution builds may report no usable

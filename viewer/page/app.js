@@ -2,7 +2,7 @@
 // server. ?tileset=URL overrides the tileset (default 3dtiles/tileset.json beside the page); ?range=R sets the
 // first view's distance in radii of the tileset's bounding sphere (default 1.2; larger: zoomed out).
 // window.witViewer tells the tests and the benchmark what happened: state (loading, ready, error),
-// errors, seconds until the first view was fully loaded, and measureFps().
+// errors, seconds until the first view was fully loaded, the tileset's bytes fetched until then, and measureFps().
 "use strict";
 const witViewer = (window.witViewer = { state: "loading", errors: [], loadSeconds: null, tileset: null });
 const status = document.getElementById("status");
@@ -33,6 +33,7 @@ function showProperties(feature) {
 }
 
 async function main() {
+  performance.setResourceTimingBufferSize(100000);  // CesiumJS alone fetches more than the default 250
   const viewer = new Cesium.Viewer("map", {
     baseLayer: false, baseLayerPicker: false, geocoder: false, sceneModePicker: false, navigationHelpButton: false,
     animation: false, timeline: false, fullscreenButton: false, infoBox: false, selectionIndicator: false,

@@ -39,6 +39,7 @@ from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import CORE_ROOT, core_env, core_python
 from ..tiles3d.combine import TILE_TILESET, tile_areas, write_run_tileset
+from ..tiles3d.web import require_web_profile
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, update_row, write_index
@@ -109,6 +110,7 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
         "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir, "tiles3d": options.tiles3d,
+        "tiles3d_web": options.tiles3d_web,
         "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
@@ -211,6 +213,8 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     start = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     require_sheet_names(list_tifs(inputs.ortho))
+    if options.tiles3d and options.tiles3d_web:
+        require_web_profile()
     polygon = area_polygon(area, inputs, options.target_crs, options.encoding)
     require_dem(inputs.dem, polygon, options.target_crs, feedback)  # in seconds, before any worker starts
     require_ortho(ortho_coverage(list_tifs(inputs.ortho), polygon, options.target_crs, options.sheet_crs,
@@ -254,7 +258,7 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         feedback.info("3D Tiles: the groups above the tiles (coarse terrain and largest buildings).")
         written = write_run_tileset(output, modelled, tile_areas({t.sheet: t.polygon for t in tiles}, polygon),
                                     inputs.dem, list_tifs(inputs.ortho), options.target_crs, options.sheet_crs,
-                                    options.margin, feedback)
+                                    options.margin, feedback, web=options.tiles3d_web)
         report.tileset = written.path
         feedback.info(f"3D Tiles: {written.groups} group(s) on {written.levels} level(s) over {written.tiles} tiles, "
                       f"{written.buildings} buildings in the groups; the run's tileset.json {written.root_bytes:,} "

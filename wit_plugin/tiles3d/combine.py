@@ -36,6 +36,7 @@ from .geo import Georeference, column_major, union_region
 from .group_buildings import GROUP_BUILDINGS, Candidates, read_tile_buildings
 from .groups import GROUP_DIR, Terrain, join_terrain, plan_groups, raster_extent, sample_terrain, write_group
 from .tileset import TILESET_FILE
+from .web import compress_tiles
 
 #: where each tile's tileset lies in its tile folder (the chain's ``3dtiles`` output)
 TILE_TILESET = f"3dtiles/{TILESET_FILE}"
@@ -87,11 +88,12 @@ class _Node:
 
 def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str, BaseGeometry],
                       dem: str | None, ortho: list[str], target_crs: str, sheet_crs: str = "EPSG:4737",
-                      margin: float = 50.0, feedback: Feedback = SILENT) -> RunTileset:
+                      margin: float = 50.0, feedback: Feedback = SILENT, web: bool = False) -> RunTileset:
     """Write ``<output>/tileset.json`` and ``<output>/3dtiles-groups/`` over the tiles ``tiles`` (sheet →
     tile folder relative to ``output``), whose areas (target CRS, clipped to the run) are ``areas``.
-    The groups' terrain comes from ``dem`` and the ``ortho`` sheets (none without them). Tiles without
-    a tileset are left out; none at all is an error."""
+    The groups' terrain comes from ``dem`` and the ``ortho`` sheets (none without them); ``web``: the
+    groups' contents in the web profile, as the tiles'. Tiles without a tileset are left out; none at all
+    is an error."""
     out = Path(output)
     roots = {}
     for sheet, folder in tiles.items():
@@ -158,6 +160,9 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
 
         nodes = [build(name) for name in top]
         result.levels = max(n.depth for n in nodes)
+        if web:
+            compress_tiles(folder, feedback)
+            result.group_bytes = sum(file.stat().st_size for file in folder.iterdir())
         document = _root_document([_reference(n, n.uri, None) for n in nodes])
         target = out / GROUP_DIR
         if target.exists():
