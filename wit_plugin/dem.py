@@ -24,6 +24,7 @@ import pyproj
 import shapely
 from osgeo import gdal
 
+from .arrays import ragged_indices
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .gdal_env import open_raster, read_window
@@ -379,14 +380,6 @@ def _window(gt: tuple[float, ...], cols: int, rows: int, bounds: Bounds, margin_
 def _fmt(b: Bounds, degrees: bool = False) -> str:
     d = 6 if degrees else 1
     return f"x {b[0]:.{d}f}–{b[2]:.{d}f}, y {b[1]:.{d}f}–{b[3]:.{d}f}"
-
-
-def ragged_indices(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For ragged groups of ``counts`` items: each item's group index and its index within it."""
-    counts = np.asarray(counts, dtype=np.int64)
-    owner = np.repeat(np.arange(len(counts)), counts)
-    starts = np.cumsum(counts) - counts
-    return owner, np.arange(len(owner)) - starts[owner]
 
 
 def _crossings(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

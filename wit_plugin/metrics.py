@@ -76,11 +76,11 @@ from lxml import etree
 from osgeo import gdal, ogr, osr
 
 from . import bulk_read, model
+from .arrays import ragged_indices
+from .citygml.validation.crs import frame_of
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
-from .citygml.validation.crs import frame_of
-from .dem import ragged_indices
 from .gdal_env import open_raster, read_window
 from .raster_crs import crs_name, foreign_crs, transform_geometry
 from .vector_io import FieldDef, OutputLayer, gdal_quiet, write_gpkg

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .dem import ragged_indices
+from .arrays import ragged_indices
 
 if TYPE_CHECKING:
     from .triangulators import Mesh, Pslg, Triangulator

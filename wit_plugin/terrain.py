@@ -31,7 +31,8 @@ from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
 from . import triangulators
-from .dem import Dem, ragged_indices
+from .arrays import ragged_indices
+from .dem import Dem
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
