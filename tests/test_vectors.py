@@ -163,7 +163,8 @@ def test_one_km_around_suseo_gives_43_valid_roads_inside_the_circle(juso: Path, 
     assert shapely.contains(report.area.buffer(1e-6), geoms).all()
     assert shapely.distance(report.area.centroid, shapely.points(shapely.get_coordinates(geoms))).max() < 1000.01
     assert all(i.startswith("RD_11680_") for i in ids) and len(set(ids)) == 43
-    assert all((w == bt and src == "ROAD_BT") or (bt == 0 and src == "default") for w, src, bt in widths)
+    assert all((w == bt and src == "ROAD_BT") or (bt == 0 and (src == "default" or src.startswith("ROA_CLS_SE=")))
+               for w, src, bt in widths)
     # road polygons tile the road area: no overlaps between roads
     a, b = shapely.STRtree(geoms).query(geoms, predicate="intersects")
     assert max(shapely.area(shapely.intersection(geoms[a[a < b]], geoms[b[a < b]])), default=0) < 1e-3
