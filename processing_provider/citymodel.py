@@ -21,7 +21,15 @@ from qgis.core import (
 
 from .base import WitAlgorithm, crs_string
 from .load_results import load_results
-from .shared_parameters import add_area_parameters, add_height_parameters, height_options, schema_choice, study_area
+from .shared_parameters import (
+    ROADS_LABEL,
+    ROADS_TYPES,
+    add_area_parameters,
+    add_height_parameters,
+    height_options,
+    schema_choice,
+    study_area,
+)
 
 OUTSIDE_ORTHO = ("fail", "untextured")
 
@@ -97,7 +105,7 @@ class CityModel(WitAlgorithm):
             self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)"),
             [QgsProcessing.TypeVectorPolygon]))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), [QgsProcessing.TypeVectorLine], optional=True))
+            self.ROADS, self.tr(ROADS_LABEL), ROADS_TYPES, optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [QgsProcessing.TypeVectorPolygon], optional=True))
         add_area_parameters(self)
@@ -121,13 +129,12 @@ class CityModel(WitAlgorithm):
             self.SCHEMA_DIR, self.tr("Schema folder overriding the shipped schemas (with citygml3-all.xsd)"),
             behavior=QgsProcessingParameterFile.Folder, optional=True))
 
-    def chain_settings(self, parameters, context):
+    def chain_settings(self, parameters, context, feedback=None):
         """(ChainInputs, ChainOptions, checked height expression) from the parameters."""
         from ..wit_plugin.chain import ChainInputs, ChainOptions
 
         def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
+            return self.vector_source(parameters, name, context, feedback)
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)
@@ -135,9 +142,9 @@ class CityModel(WitAlgorithm):
         inputs = ChainInputs(
             ortho=self.parameterAsFileList(parameters, self.ORTHO_INPUT, context),
             dem=self.parameterAsRasterLayer(parameters, self.DEM, context).source(),
-            buildings=buildings.source(), roads=source(self.ROADS), districts=source(self.DISTRICTS))
+            buildings=source(self.BUILDINGS), roads=source(self.ROADS), districts=source(self.DISTRICTS))
         options = ChainOptions(
-            area=study_area(self, parameters, context),
+            area=study_area(self, parameters, context, feedback),
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
             max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
@@ -149,7 +156,7 @@ class CityModel(WitAlgorithm):
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.chain import run_city_model
 
-        inputs, options, expression = self.chain_settings(parameters, context)
+        inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)

@@ -99,7 +99,7 @@ class CityModelTiles(CityModel):
         from ..wit_plugin.tiles.runner import run_tiles
         from ..wit_plugin.vectors import StudyArea
 
-        inputs, options, expression = self.chain_settings(parameters, context)
+        inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         output = self.parameterAsString(parameters, self.OUTPUT, context)
         area = options.area

@@ -9,7 +9,7 @@ from qgis.core import (
     QgsProcessingParameterNumber,
 )
 
-from .base import WitAlgorithm, crs_string, layer_file
+from .base import WitAlgorithm, crs_string
 from .load_results import load_results
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
@@ -67,7 +67,8 @@ class Export3DTiles(WitAlgorithm):
             self.parameterAsCrs(parameters, self.TARGET_CRS, context)
         output = self.parameterAsString(parameters, self.OUTPUT, context)
         report = export_tileset(
-            layer_file(lod1), layer_file(tin), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
+            self.vector_source(parameters, self.LOD1, context, feedback),
+            self.vector_source(parameters, self.TIN, context, feedback), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             output, crs_string(crs), feedback,
             TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context)))
         load_results(context, tileset=report.tileset)  # a 3D Tiles layer on QGIS ≥ 3.34, from the GUI

@@ -42,7 +42,8 @@ class ExtrudeBuildings(WitAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.BUILDINGS, self.tr("Building footprints (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon]))
+            self.BUILDINGS, self.tr("Building footprints (any polygon layer, e.g. of wit:preparevectors)"),
+            [QgsProcessing.TypeVectorPolygon]))
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
         add_height_parameters(self, self.BUILDINGS)
         self.addParameter(QgsProcessingParameterEnum(
@@ -62,7 +63,7 @@ class ExtrudeBuildings(WitAlgorithm):
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
+        stats = run(self.vector_source(parameters, self.BUILDINGS, context, feedback), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
                     heights, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
                     self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
         if expression is not None and expression.failure_warning():

@@ -8,8 +8,8 @@ Stable ids (``wit_id``) derive from the source ids, so the same input gives the 
 CityGML ``gml:id`` on every run:
 
 * buildings: ``BLD_<BD_MGT_SN>`` (25-digit management number), else ``BLD_<SIG_CD>_<BUL_MAN_NO>``,
-  else ``BLD_<UFID>`` (the NGII digital map's feature id)
-* roads: ``RD_<SIG_CD>_<RDS_MAN_NO>``, else ``RD_<UFID>``
+  else ``BLD_<UFID>`` (the NGII digital map's feature id), else ``BLD_<osm_id>`` (OpenStreetMap)
+* roads: ``RD_<SIG_CD>_<RDS_MAN_NO>``, else ``RD_<UFID>``, else ``RD_<osm_id>``
 * else ``<prefix>_F<source FID>``; characters that cannot be in an XML name become ``_``
 * districts: ``EMD_<EMD_CD>``
 

@@ -839,7 +839,8 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
     return _Prepared(name, out, [ids[i] for i in keep]), stats
 
 
-ROAD_KEYS = [("SIG_CD", "RDS_MAN_NO"), ("UFID",)]  # juso road sections share one id (merged); NGII: UFID
+#: road ids: juso road sections share one (merged), NGII's feature id UFID, OpenStreetMap's osm_id
+ROAD_KEYS = [("SIG_CD", "RDS_MAN_NO"), ("UFID",), ("osm_id",)]
 
 
 def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfig,
@@ -978,7 +979,7 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
         reach = polygon.buffer(config.context_margin) if config.context_margin > 0 else polygon
         layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config, reach, feedback.scaled(10, 30))
         results.append(_polygon_layer(layer, model.PREPARED_BUILDINGS, "BLD",
-                                      [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO"), ("UFID",)], polygon,
+                                      [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO"), ("UFID",), ("osm_id",)], polygon,
                                       config.building_tolerance, False, config, dropped, feedback.scaled(30, 70)))
     if roads:
         feedback.check_canceled()
