@@ -11,13 +11,13 @@ import sys
 import textwrap
 from pathlib import Path
 
+import ngii
 import numpy as np
 import pytest
 import shapely
+from conftest import ROOT
 from osgeo import gdal, ogr
 
-import ngii
-from conftest import ROOT
 from wit_plugin import bulk_read, model, roads, vector_io
 from wit_plugin.errors import InputError
 from wit_plugin.feedback import Feedback
@@ -45,7 +45,7 @@ def in_subprocess(code: str, shape_encoding: str | None = "") -> subprocess.Comp
         f"gdal.SetConfigOption('SHAPE_ENCODING', {shape_encoding!r})\n" if shape_encoding is not None else "")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
     return subprocess.run([sys.executable, "-X", "faulthandler", "-c", prelude + textwrap.dedent(code)],
-                          capture_output=True, text=True, env=env, timeout=300)
+                          capture_output=True, text=True, env=env, timeout=300, check=False)
 
 
 def _json(result: subprocess.CompletedProcess):
