@@ -253,14 +253,19 @@ def qgis_process(parameters: dict, algorithm: str, profile: Path) -> dict:
     return json.loads(result.stdout[result.stdout.index("{"):])
 
 
+@pytest.fixture(scope="module")
+def profile(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("qgis-profile")
+
+
 @pytest.mark.parametrize("algorithm", list(CASES))
-def test_real_layers_through_qgis_process(algorithm, scene, tmp_path):
+def test_real_layers_through_qgis_process(algorithm, scene, tmp_path, profile):
     build, check = CASES[algorithm]
-    report = qgis_process(build(scene, tmp_path), algorithm, tmp_path / "profile")
+    report = qgis_process(build(scene, tmp_path), algorithm, profile)
     check(report["results"], scene, tmp_path)
 
 
-def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path):
+def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path, profile):
     """The issue's case: NGII buildings and road polygons as shipped (EUC-KR .cpg, Korean field names,
     EPSG:5187), the model in EPSG:5187, tiled on 1:5,000 sheets, through qgis_process: no crash, no
     failed tile, roads in every tile, every building's height = 층수 × storey height. (The DEM is in
@@ -269,7 +274,7 @@ def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path):
     report = qgis_process({"ORTHO_INPUT": [scene["ortho"]], "DEM": scene["dem"], "BUILDINGS": scene["buildings"],
                            "ROADS": scene["roads"], "TARGET_CRS": TARGET, "ALL_BUILDINGS": True, "TILE_SCALE": 0,
                            "WORKERS": 1, "MAX_EDGE": 20.0, "TILES3D": False, "OUTPUT": str(out)},
-                          "wit:citymodeltiles", tmp_path / "profile")
+                          "wit:citymodeltiles", profile)
     results = report["results"]
     assert (results["TILES_DONE"], results["TILES_FAILED"], results["TILES_EMPTY"]) == (2, 0, 0)
     assert results["BUILDINGS_WRITTEN"] == 12
