@@ -26,7 +26,7 @@ class ExtrudeBuildings(WitAlgorithm):
         "DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × "
         "storey height when the road-name-address floor count is known, else the height field, else the "
         "expression; with neither given, the height and floor fields of common layers are recognised by "
-        "name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; "
+        "name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 height, A26 floors; "
         "OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is "
         "a warning with the count. The log says which rule was used, and every building records it "
         "(wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face "

@@ -22,8 +22,9 @@ class PrepareVectors(WitAlgorithm):
     group_name = "Geometry"
     help_text = (
         "Reads the building (TL_SPBD_BULD, NGII N3A_B0010000, AL_D010, OpenStreetMap…), road and legal-dong "
-        "(TL_SCCO_EMD) layers — any layer of the right geometry type; shapefiles are read in the encoding their "
-        "text is in (CP949 when it says so, whatever the .cpg declares), field names included — reprojects them "
+        "(TL_SCCO_EMD) layers — any layer of the right geometry type; shapefiles are read in their text's "
+        "encoding (the .cpg's when it fits the text, else CP949 or UTF-8 as the text shows), field names "
+        "included — reprojects them "
         "(EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and "
         "holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite "
         "or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same "
