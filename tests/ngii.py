@@ -13,6 +13,8 @@ The scene lies across the border of two 1:5,000 sheets near Gyeongju (129.2°E, 
 """
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +53,19 @@ def srs(epsg: int = EPSG) -> osr.SpatialReference:
     return ref
 
 
+@contextlib.contextmanager
+def shapefile_text(encoding: str) -> Iterator[None]:
+    """GDAL writes a shapefile's text in ``encoding`` only if ``SHAPE_ENCODING`` agrees: QGIS sets it to ""
+    (no recoding), which then wins over the ``ENCODING`` creation option (UTF-8 bytes under a CP949
+    .cpg); set for this thread while writing."""
+    before = gdal.GetThreadLocalConfigOption("SHAPE_ENCODING", None)
+    gdal.SetThreadLocalConfigOption("SHAPE_ENCODING", encoding)
+    try:
+        yield
+    finally:
+        gdal.SetThreadLocalConfigOption("SHAPE_ENCODING", before)
+
+
 def building_wkt(x: float, y: float, size: float = 20.0) -> str:
     return f"POLYGON(({x} {y},{x + size} {y},{x + size} {y + size},{x} {y + size},{x} {y}))"
 
@@ -60,22 +75,23 @@ def write_shapefile(path: Path, geometry: int, fields: list[tuple[str, int, int]
     """A shapefile in CP949 with the given ``.cpg`` text (None: no .cpg, language-driver byte 0, as NGII
     and juso.go.kr ship theirs)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    ds = ogr.GetDriverByName("ESRI Shapefile").CreateDataSource(str(path))
-    layer = ds.CreateLayer(path.stem, srs(epsg), geometry, options=["ENCODING=CP949"])
-    for name, kind, width in fields:
-        definition = ogr.FieldDefn(name, kind)
-        definition.SetWidth(width)
-        if kind == ogr.OFTReal:
-            definition.SetPrecision(2)
-        layer.CreateField(definition)
-    for row, wkt in zip(rows, wkts):
-        feature = ogr.Feature(layer.GetLayerDefn())
-        for name, value in row.items():
-            if value is not None:
-                feature.SetField(name, value)
-        feature.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
-        layer.CreateFeature(feature)
-    del layer, ds
+    with shapefile_text("CP949"):
+        ds = ogr.GetDriverByName("ESRI Shapefile").CreateDataSource(str(path))
+        layer = ds.CreateLayer(path.stem, srs(epsg), geometry, options=["ENCODING=CP949"])
+        for name, kind, width in fields:
+            definition = ogr.FieldDefn(name, kind)
+            definition.SetWidth(width)
+            if kind == ogr.OFTReal:
+                definition.SetPrecision(2)
+            layer.CreateField(definition)
+        for row, wkt in zip(rows, wkts):
+            feature = ogr.Feature(layer.GetLayerDefn())
+            for name, value in row.items():
+                if value is not None:
+                    feature.SetField(name, value)
+            feature.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
+            layer.CreateFeature(feature)
+        del layer, ds
     cpg_file = path.with_suffix(".cpg")
     if cpg is None:
         cpg_file.unlink(missing_ok=True)

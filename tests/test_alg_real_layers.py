@@ -26,6 +26,8 @@ from wit_plugin.colorstore import build_color_store
 from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers
 from wit_plugin.vectors import StudyArea
 
+pytestmark = pytest.mark.slow
+
 TARGET = "EPSG:5187"
 AREA_WKT = "POLYGON((217870 361780,218260 361780,218260 361940,217870 361940,217870 361780))"
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "tran": "http://www.opengis.net/citygml/transportation/3.0",
@@ -69,8 +71,10 @@ def scene(tmp_path_factory) -> dict:
                                      (str(work / "prepared.gpkg"), model.PREPARED_ROADS, "도로")])
     _copy_layers(steps / "index.gpkg", [(str(work / "prepared.gpkg"), model.STUDY_AREA, "area"),
                                         (str(work / "sheets.gpkg"), "footprints", "sheets")])
-    gdal.VectorTranslate(str(steps / "footprints.shp"), f"{work / 'prepared.gpkg'}", layers=[model.PREPARED_BUILDINGS],
-                         layerCreationOptions=["ENCODING=CP949"])
+    with ngii.shapefile_text("CP949"):
+        gdal.VectorTranslate(str(steps / "footprints.shp"), f"{work / 'prepared.gpkg'}",
+                             layers=[model.PREPARED_BUILDINGS], layerCreationOptions=["ENCODING=CP949"])
+    assert "층수".encode("cp949") in (steps / "footprints.dbf").read_bytes()
     points = ngii.write_shapefile(steps / "지점.shp", ogr.wkbPoint, [("이름", ogr.OFTString, 20)],
                                   [{"이름": "첨성대"}, {"이름": "똠방각하"}],
                                   ["POINT(217910 361810)", "POINT(218120 361870)"], cpg="CP949")

@@ -56,9 +56,12 @@ def _json(result: subprocess.CompletedProcess):
 @pytest.fixture(scope="module")
 def layers(tmp_path_factory) -> dict[str, Path]:
     folder = tmp_path_factory.mktemp("ngii")
-    return {"buildings": ngii.buildings(folder / "euckr"), "buildings_cp949": ngii.buildings(folder / "cp949", "CP949"),
+    made = {"buildings": ngii.buildings(folder / "euckr"), "buildings_cp949": ngii.buildings(folder / "cp949", "CP949"),
             "buildings_nocpg": ngii.buildings(folder / "nocpg", None), "roads": ngii.road_polygons(folder / "roads"),
             "lines": ngii.centre_lines(folder / "lines"), "dem": ngii.dem(folder / "dem.tif")}
+    dbf = made["buildings"].with_suffix(".dbf").read_bytes()
+    assert "층수".encode("cp949") in dbf and "똠방각하".encode("cp949") in dbf  # CP949 bytes, as NGII ships them
+    return made
 
 
 # -- no crash, whatever the encoding and the field names ------------------------------------------

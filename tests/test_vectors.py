@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
+from ngii import shapefile_text
 from osgeo import ogr, osr
 
 from wit_plugin import model, vector_io, vectors
@@ -46,16 +47,17 @@ def write_shapefile(path: Path, polygons: list[str], rows: list[dict], epsg: int
     if epsg:
         srs = osr.SpatialReference()
         srs.ImportFromEPSG(epsg)
-    lyr = ds.CreateLayer(path.stem, srs, geometry, options=[f"ENCODING={encoding}"])
-    for name, value in rows[0].items():
-        lyr.CreateField(ogr.FieldDefn(name, ogr.OFTInteger if isinstance(value, int) else ogr.OFTString))
-    for wkt, row in zip(polygons, rows):
-        feat = ogr.Feature(lyr.GetLayerDefn())
-        for name, value in row.items():
-            feat.SetField(name, value)
-        feat.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
-        lyr.CreateFeature(feat)
-    ds = None
+    with shapefile_text(encoding):  # in this encoding even after QGIS has set SHAPE_ENCODING=""
+        lyr = ds.CreateLayer(path.stem, srs, geometry, options=[f"ENCODING={encoding}"])
+        for name, value in rows[0].items():
+            lyr.CreateField(ogr.FieldDefn(name, ogr.OFTInteger if isinstance(value, int) else ogr.OFTString))
+        for wkt, row in zip(polygons, rows):
+            feat = ogr.Feature(lyr.GetLayerDefn())
+            for name, value in row.items():
+                feat.SetField(name, value)
+            feat.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
+            lyr.CreateFeature(feat)
+        ds = None
     path.with_suffix(".cpg").unlink(missing_ok=True)
     return path
 

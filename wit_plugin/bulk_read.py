@@ -49,8 +49,12 @@ def arrow_ready(layer: ogr.Layer) -> bool:
 
 
 def ignore_fields(layer: ogr.Layer, names: list[str]) -> None:
-    """``SetIgnoredFields`` for any names, also those that are not UTF-8 (passed as their own bytes)."""
-    layer.SetIgnoredFields([n if is_utf8(n) else n.encode("utf-8", "surrogateescape") for n in names])
+    """``SetIgnoredFields`` for any names: those that are not UTF-8 are passed as their own bytes, or, by
+    bindings that take text only, left read (a few more columns; ``arrow_ready`` then says no)."""
+    try:
+        layer.SetIgnoredFields([n if is_utf8(n) else n.encode("utf-8", "surrogateescape") for n in names])
+    except TypeError:
+        layer.SetIgnoredFields([n for n in names if is_utf8(n)])
 
 
 def batches(layer: ogr.Layer, size: int = BATCH, fid: bool = False) -> Iterator[dict[str, np.ndarray]]:

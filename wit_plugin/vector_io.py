@@ -233,8 +233,10 @@ def shapefile_encoding(path: str | os.PathLike, feedback: Feedback = SILENT) -> 
                 feedback.warning(f"{shp.name}: {origin}{', which does not decode its text' if declared else ''}; "
                                  f"read as {candidate}. Set the encoding parameter to choose another.")
             return candidate
-    feedback.warning(f"{shp.name}: text is neither UTF-8 nor CP949 and no encoding is declared; read as "
-                     "ISO-8859-1: set the encoding parameter if names look garbled.")
+    said = (f", and {origin}, which does not decode it" if declared else f" ({origin})" if origin else
+            ", and no encoding is declared")
+    feedback.warning(f"{shp.name}: its text is neither UTF-8 nor CP949{said}; read as ISO-8859-1: set the encoding "
+                     "parameter if names look garbled.")
     return "ISO-8859-1"
 
 
