@@ -4,12 +4,32 @@
   <context>
     <name>WitCityModel</name>
     <message>
+      <source>WIT City Model</source>
+      <translation>WIT City Model</translation>
+    </message>
+    <message>
+      <source>Install Python dependencies…</source>
+      <translation>Install Python dependencies…</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}.</source>
+      <translation>Missing Python packages: {packages}.</translation>
+    </message>
+    <message>
       <source>Build a spatial index (slower to write, faster to display)</source>
       <translation>Build a spatial index (slower to write, faster to display)</translation>
     </message>
     <message>
       <source>Cancelled: no output was written.</source>
       <translation>Cancelled: no output was written.</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}. Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install them into your QGIS profile.</source>
+      <translation>Missing Python packages: {packages}. Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install them into your QGIS profile.</translation>
+    </message>
+    <message>
+      <source>Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.</source>
+      <translation>Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.</translation>
     </message>
     <message>
       <source>City model (whole chain)</source>
@@ -516,6 +536,42 @@
       <translation>VRT</translation>
     </message>
     <message>
+      <source>Install Python dependencies</source>
+      <translation>Install Python dependencies</translation>
+    </message>
+    <message>
+      <source>Tools</source>
+      <translation>Tools</translation>
+    </message>
+    <message>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, triangle, pygltflib, Dask…) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, triangle, pygltflib, Dask…) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</translation>
+    </message>
+    <message>
+      <source>Python interpreter to run pip with (empty: QGIS's own)</source>
+      <translation>Python interpreter to run pip with (empty: QGIS's own)</translation>
+    </message>
+    <message>
+      <source>Packages to install when missing</source>
+      <translation>Packages to install when missing</translation>
+    </message>
+    <message>
+      <source>Package folder</source>
+      <translation>Package folder</translation>
+    </message>
+    <message>
+      <source>Installed packages</source>
+      <translation>Installed packages</translation>
+    </message>
+    <message>
+      <source>Cancelled: pip was stopped and nothing was installed.</source>
+      <translation>Cancelled: pip was stopped and nothing was installed.</translation>
+    </message>
+    <message>
+      <source>Restart QGIS to use the new {modules}: this session loaded an older version.</source>
+      <translation>Restart QGIS to use the new {modules}: this session loaded an older version.</translation>
+    </message>
+    <message>
       <source>WIT city model</source>
       <translation>WIT city model</translation>
     </message>
@@ -650,10 +706,6 @@
     <message>
       <source>City model (graphical model)</source>
       <translation>City model (graphical model)</translation>
-    </message>
-    <message>
-      <source>WIT City Model</source>
-      <translation>WIT City Model</translation>
     </message>
     <message>
       <source>WIT City Model: textured CityGML 3.0 from Korean national GIS data</source>
@@ -986,6 +1038,86 @@
     <message>
       <source>Texture images beside the CityGML file</source>
       <translation>Texture images beside the CityGML file</translation>
+    </message>
+    <message>
+      <source>triangle (J. R. Shewchuk's Triangle) is free for non-commercial use only; commercial use needs a licence from its author.</source>
+      <translation>triangle (J. R. Shewchuk's Triangle) is free for non-commercial use only; commercial use needs a licence from its author.</translation>
+    </message>
+    <message>
+      <source>Missing: {names}.</source>
+      <translation>Missing: {names}.</translation>
+    </message>
+    <message>
+      <source>Installed into {folder}: {packages}.</source>
+      <translation>Installed into {folder}: {packages}.</translation>
+    </message>
+    <message>
+      <source>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</source>
+      <translation>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</translation>
+    </message>
+    <message>
+      <source>Every selected package is present already: {names}.</source>
+      <translation>Every selected package is present already: {names}.</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip: {command}</source>
+      <translation>QGIS's Python ({python}) has no pip: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</source>
+      <translation>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</translation>
+    </message>
+    <message>
+      <source>Run: {command}</source>
+      <translation>Run: {command}</translation>
+    </message>
+    <message>
+      <source>Running: {command}</source>
+      <translation>Running: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip.</source>
+      <translation>QGIS's Python ({python}) has no pip.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</source>
+      <translation>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</translation>
+    </message>
+    <message>
+      <source>shapely: the system GEOS development files are version {system}, but QGIS runs GEOS {qgis}; a shapely built against them would crash QGIS. Install the GEOS development files of QGIS's GEOS.</source>
+      <translation>shapely: the system GEOS development files are version {system}, but QGIS runs GEOS {qgis}; a shapely built against them would crash QGIS. Install the GEOS development files of QGIS's GEOS.</translation>
+    </message>
+    <message>
+      <source>The installed packages do not import; nothing was installed:</source>
+      <translation>The installed packages do not import; nothing was installed:</translation>
+    </message>
+    <message>
+      <source>The shapely built here uses GEOS {built}, QGIS uses GEOS {qgis}; it would crash QGIS, so nothing was installed.</source>
+      <translation>The shapely built here uses GEOS {built}, QGIS uses GEOS {qgis}; it would crash QGIS, so nothing was installed.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</source>
+      <translation>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</translation>
+    </message>
+    <message>
+      <source>Nothing was installed.</source>
+      <translation>Nothing was installed.</translation>
+    </message>
+    <message>
+      <source>Then run 'Install Python dependencies' again.</source>
+      <translation>Then run 'Install Python dependencies' again.</translation>
+    </message>
+    <message>
+      <source>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</source>
+      <translation>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</translation>
+    </message>
+    <message>
+      <source>pip failed installing {package} (exit code {code}); nothing was installed:</source>
+      <translation>pip failed installing {package} (exit code {code}); nothing was installed:</translation>
+    </message>
+    <message>
+      <source>pip cannot install {module} on this Python ({requirements}):</source>
+      <translation>pip cannot install {module} on this Python ({requirements}):</translation>
     </message>
   </context>
 </TS>

@@ -4,12 +4,32 @@
   <context>
     <name>WitCityModel</name>
     <message>
+      <source>WIT City Model</source>
+      <translation>WIT 도시모델</translation>
+    </message>
+    <message>
+      <source>Install Python dependencies…</source>
+      <translation>파이썬 의존 패키지 설치…</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}.</source>
+      <translation>없는 파이썬 패키지: {packages}.</translation>
+    </message>
+    <message>
       <source>Build a spatial index (slower to write, faster to display)</source>
       <translation>공간 인덱스 생성 (쓰기는 느려지고 표시는 빨라짐)</translation>
     </message>
     <message>
       <source>Cancelled: no output was written.</source>
       <translation>취소됨: 출력 파일을 쓰지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}. Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install them into your QGIS profile.</source>
+      <translation>없는 파이썬 패키지: {packages}. '파이썬 의존 패키지 설치'(wit:installdependencies, 도구 그룹)를 실행하면 QGIS 프로필에 설치됩니다.</translation>
+    </message>
+    <message>
+      <source>Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.</source>
+      <translation>'파이썬 의존 패키지 설치'(wit:installdependencies, 도구 그룹)를 실행하여 QGIS의 GEOS를 쓰는 shapely를 QGIS 프로필에 설치한 뒤 QGIS를 다시 시작하십시오.</translation>
     </message>
     <message>
       <source>City model (whole chain)</source>
@@ -516,6 +536,42 @@
       <translation>VRT</translation>
     </message>
     <message>
+      <source>Install Python dependencies</source>
+      <translation>파이썬 의존 패키지 설치</translation>
+    </message>
+    <message>
+      <source>Tools</source>
+      <translation>도구</translation>
+    </message>
+    <message>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, triangle, pygltflib, Dask…) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, triangle, pygltflib, Dask…)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
+    </message>
+    <message>
+      <source>Python interpreter to run pip with (empty: QGIS's own)</source>
+      <translation>pip을 실행할 파이썬 인터프리터 (비우면 QGIS의 파이썬)</translation>
+    </message>
+    <message>
+      <source>Packages to install when missing</source>
+      <translation>없으면 설치할 패키지</translation>
+    </message>
+    <message>
+      <source>Package folder</source>
+      <translation>패키지 폴더</translation>
+    </message>
+    <message>
+      <source>Installed packages</source>
+      <translation>설치한 패키지</translation>
+    </message>
+    <message>
+      <source>Cancelled: pip was stopped and nothing was installed.</source>
+      <translation>취소됨: pip을 멈췄으며 아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Restart QGIS to use the new {modules}: this session loaded an older version.</source>
+      <translation>새 {modules}을(를) 쓰려면 QGIS를 다시 시작하십시오. 이 세션은 이전 버전을 불러와 두었습니다.</translation>
+    </message>
+    <message>
       <source>WIT city model</source>
       <translation>WIT 도시 모델</translation>
     </message>
@@ -650,10 +706,6 @@
     <message>
       <source>City model (graphical model)</source>
       <translation>도시모델 (그래픽 모델)</translation>
-    </message>
-    <message>
-      <source>WIT City Model</source>
-      <translation>WIT 도시모델</translation>
     </message>
     <message>
       <source>WIT City Model: textured CityGML 3.0 from Korean national GIS data</source>
@@ -986,6 +1038,86 @@
     <message>
       <source>Texture images beside the CityGML file</source>
       <translation>CityGML 파일 옆의 텍스처 이미지</translation>
+    </message>
+    <message>
+      <source>triangle (J. R. Shewchuk's Triangle) is free for non-commercial use only; commercial use needs a licence from its author.</source>
+      <translation>triangle(J. R. Shewchuk의 Triangle)은 비상업적 용도로만 무료이며, 상업적으로 사용하려면 저작자의 라이선스가 필요합니다.</translation>
+    </message>
+    <message>
+      <source>Missing: {names}.</source>
+      <translation>없는 패키지: {names}.</translation>
+    </message>
+    <message>
+      <source>Installed into {folder}: {packages}.</source>
+      <translation>{folder}에 설치함: {packages}.</translation>
+    </message>
+    <message>
+      <source>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</source>
+      <translation>shapely: shapely 휠은 자체 GEOS를 담고 있어 리눅스에서 QGIS를 비정상 종료시키므로 시스템 GEOS에 맞춰 빌드해야 하며, 이를 위해 GEOS 개발 파일, C 컴파일러, 파이썬 헤더({packages})가 필요합니다.</translation>
+    </message>
+    <message>
+      <source>Every selected package is present already: {names}.</source>
+      <translation>선택한 패키지가 모두 이미 있습니다: {names}.</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip: {command}</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없습니다: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</source>
+      <translation>QGIS의 파이썬({python})의 pip은 {version}입니다. 설치하려면 pip 22.2 이상이 필요합니다: {command}</translation>
+    </message>
+    <message>
+      <source>Run: {command}</source>
+      <translation>실행: {command}</translation>
+    </message>
+    <message>
+      <source>Running: {command}</source>
+      <translation>실행 중: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip.</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없습니다.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</source>
+      <translation>{module}: PyPI의 휠은 QGIS가 직접 불러오는 C 라이브러리를 담고 있어 QGIS를 비정상 종료시킬 수 있습니다. 플랫폼 패키지 {package}가 안전합니다.</translation>
+    </message>
+    <message>
+      <source>shapely: the system GEOS development files are version {system}, but QGIS runs GEOS {qgis}; a shapely built against them would crash QGIS. Install the GEOS development files of QGIS's GEOS.</source>
+      <translation>shapely: 시스템의 GEOS 개발 파일은 {system} 버전인데 QGIS는 GEOS {qgis}를 씁니다. 이에 맞춰 빌드한 shapely는 QGIS를 비정상 종료시킬 수 있으니 QGIS가 쓰는 GEOS의 개발 파일을 설치하십시오.</translation>
+    </message>
+    <message>
+      <source>The installed packages do not import; nothing was installed:</source>
+      <translation>설치한 패키지를 가져올(import) 수 없어 아무것도 설치하지 않았습니다:</translation>
+    </message>
+    <message>
+      <source>The shapely built here uses GEOS {built}, QGIS uses GEOS {qgis}; it would crash QGIS, so nothing was installed.</source>
+      <translation>여기서 빌드한 shapely는 GEOS {built}를, QGIS는 GEOS {qgis}를 씁니다. QGIS를 비정상 종료시킬 수 있으므로 아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</source>
+      <translation>{module}: PyPI의 휠은 QGIS가 직접 불러오는 C 라이브러리를 담고 있어 QGIS를 비정상 종료시킬 수 있습니다. 배포판의 패키지({package})를 설치하십시오.</translation>
+    </message>
+    <message>
+      <source>Nothing was installed.</source>
+      <translation>아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Then run 'Install Python dependencies' again.</source>
+      <translation>그런 다음 '파이썬 의존 패키지 설치'를 다시 실행하십시오.</translation>
+    </message>
+    <message>
+      <source>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</source>
+      <translation>pip이 {name}을(를) 두 가지 버전({first}, {second})으로 요구합니다. 패키지를 하나씩 설치하십시오.</translation>
+    </message>
+    <message>
+      <source>pip failed installing {package} (exit code {code}); nothing was installed:</source>
+      <translation>pip이 {package} 설치에 실패했습니다(종료 코드 {code}). 아무것도 설치하지 않았습니다:</translation>
+    </message>
+    <message>
+      <source>pip cannot install {module} on this Python ({requirements}):</source>
+      <translation>pip이 이 파이썬에 {module}을(를) 설치할 수 없습니다({requirements}):</translation>
     </message>
   </context>
 </TS>

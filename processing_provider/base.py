@@ -17,7 +17,6 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingFeedback,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterDefinition,
     QgsVectorFileWriter,
 )
 from qgis.PyQt.QtCore import QCoreApplication
@@ -27,6 +26,8 @@ from ..wit_plugin import deps, fileio
 from ..wit_plugin.errors import CanceledError, WitError
 from ..wit_plugin.feedback import Feedback
 from ..wit_plugin.gdal_env import no_sidecars
+from .dependency_notice import NOTICE
+from .qgis_compat import ParameterFlag
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1]
 HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
@@ -113,8 +114,14 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         text = self.tr(self.help_text)
         absent = deps.missing(self.requirements)
         if absent:
-            text = deps.install_hint(absent).replace("\n", "<br>") + "<br><br>" + text
+            text = self.missing_message(absent).replace("\n", "<br>") + "<br><br>" + text
         return text
+
+    def missing_message(self, absent: list[str]) -> str:
+        """What to do about missing packages: the installing algorithm first, the shell commands after."""
+        return (self.tr("Missing Python packages: {packages}. Run 'Install Python dependencies' "
+                        "(wit:installdependencies, group Tools) to install them into your QGIS profile.")
+                .format(packages=", ".join(absent)) + "\n" + deps.install_hint(absent))
 
     def checkParameterValues(self, parameters, context):  # noqa: N802
         """A vector or raster file's real problem before QGIS's generic "Incorrect parameter value";
@@ -150,7 +157,10 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         from . import safeguards
 
         try:
-            deps.require(self.requirements)
+            absent = deps.missing(self.requirements)
+            if absent:
+                NOTICE.missing.emit(absent)  # the GUI offers the installer (plugin.py)
+                raise QgsProcessingException(self.missing_message(absent))
             self._check_geos()
             with no_sidecars():  # layers QGIS loads for the parameters write no .aux.xml beside the inputs
                 problem = (safeguards.file_problem(self, parameters, context)
@@ -170,7 +180,11 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         """Refuse, rather than crash QGIS, when shapely carries a GEOS other than QGIS's."""
         problem = "shapely" in self.requirements and deps.geos_mismatch(Qgis.geosVersion())
         if problem:
-            raise QgsProcessingException(deps.install_hint(["shapely>=2"], problem))
+            NOTICE.missing.emit(["shapely>=2"])
+            raise QgsProcessingException(
+                self.tr("Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a "
+                        "shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.")
+                + "\n" + deps.install_hint(["shapely>=2"], problem))
 
     def execute(self, parameters, context, feedback: QgisFeedback) -> dict:
         """Convert the parameters, call the core, return the outputs."""
@@ -184,5 +198,5 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         param = QgsProcessingParameterBoolean(
             self.SPATIAL_INDEX, self.tr("Build a spatial index (slower to write, faster to display)"),
             defaultValue=True)
-        param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        param.setFlags(param.flags() | ParameterFlag.Advanced)
         self.addParameter(param)

@@ -2,8 +2,6 @@
 import json
 
 from qgis.core import (
-    QgsProcessing,
-    QgsProcessingAlgorithm,
     QgsProcessingOutputBoolean,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
@@ -21,6 +19,7 @@ from qgis.core import (
 
 from .base import WitAlgorithm, crs_string
 from .load_results import load_results
+from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
 from .shared_parameters import (
     ROADS_LABEL,
     ROADS_TYPES,
@@ -75,7 +74,7 @@ class CityModel(WitAlgorithm):
     def flags(self):
         # writing and validating CityGML use lxml, which has crashed QGIS from a background thread on
         # Windows (qgis/QGIS#54751): the chain runs in the main thread
-        return super().flags() | QgsProcessingAlgorithm.FlagNoThreading
+        return super().flags() | AlgorithmFlag.NoThreading
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.add_chain_parameters()
@@ -99,27 +98,27 @@ class CityModel(WitAlgorithm):
     def add_chain_parameters(self) -> None:
         """The inputs and options of the chain (wit:citymodeltiles takes the same)."""
         self.addParameter(QgsProcessingParameterMultipleLayers(
-            self.ORTHO_INPUT, self.tr("Orthoimage TIFs or folders"), QgsProcessing.TypeFile))
+            self.ORTHO_INPUT, self.tr("Orthoimage TIFs or folders"), SourceType.File))
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)"),
-            [QgsProcessing.TypeVectorPolygon]))
+            [SourceType.VectorPolygon]))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.ROADS, self.tr(ROADS_LABEL), ROADS_TYPES, optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [QgsProcessing.TypeVectorPolygon], optional=True))
+            self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [SourceType.VectorPolygon], optional=True))
         add_area_parameters(self)
         self.addParameter(QgsProcessingParameterCrs(
             self.TARGET_CRS, self.tr("Target CRS"), defaultValue="EPSG:5186", optional=True))
         add_height_parameters(self, self.BUILDINGS)
         self.addParameter(QgsProcessingParameterNumber(
-            self.MAX_EDGE, self.tr("Maximum edge length (m)"), QgsProcessingParameterNumber.Double,
+            self.MAX_EDGE, self.tr("Maximum edge length (m)"), NumberType.Double,
             defaultValue=5.0, minValue=0.5))
         self.addParameter(QgsProcessingParameterNumber(
-            self.TOLERANCE, self.tr("Vertical tolerance (m)"), QgsProcessingParameterNumber.Double,
+            self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
             defaultValue=0.5, minValue=0.01))
         self.addParameter(QgsProcessingParameterNumber(
-            self.TEXTURE_SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), QgsProcessingParameterNumber.Double,
+            self.TEXTURE_SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), NumberType.Double,
             defaultValue=1.0, minValue=0.01, maxValue=1.0))
         self.addParameter(QgsProcessingParameterEnum(
             self.OUTSIDE_ORTHO, self.tr("Surfaces outside the orthoimage"),
@@ -127,7 +126,7 @@ class CityModel(WitAlgorithm):
             defaultValue=0))
         self.addParameter(QgsProcessingParameterFile(
             self.SCHEMA_DIR, self.tr("Schema folder overriding the shipped schemas (with citygml3-all.xsd)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
 
     def chain_settings(self, parameters, context, feedback=None):
         """(ChainInputs, ChainOptions, checked height expression) from the parameters."""

@@ -10,7 +10,6 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterExtent,
     QgsProcessingParameterFile,
@@ -21,11 +20,11 @@ from qgis.core import (
     QgsVectorLayer,
     QgsWkbTypes,
 )
-from qgis.PyQt.QtCore import QVariant
 
 from .base import crs_string
 from .citymodel import CityModel
 from .load_results import load_index, load_results
+from .qgis_compat import FieldType, NumberType, ParameterFlag
 
 TILE_SCALES = (5000, 1000)
 EXPRESSION_COLUMN = "wit_expr_height"
@@ -76,12 +75,12 @@ class CityModelTiles(CityModel):
             self.SCHEDULER, self.tr("Dask scheduler address (empty = an embedded one on this computer)"),
             optional=True))
         self.addParameter(QgsProcessingParameterNumber(
-            self.WORKERS, self.tr("Worker processes (embedded scheduler)"), QgsProcessingParameterNumber.Integer,
+            self.WORKERS, self.tr("Worker processes (embedded scheduler)"), NumberType.Integer,
             defaultValue=os.cpu_count() or 1, minValue=1))
         python = QgsProcessingParameterFile(
             self.WORKER_PYTHON, self.tr("Python interpreter of the workers (empty = found automatically)"),
             optional=True)
-        python.setFlags(python.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        python.setFlags(python.flags() | ParameterFlag.Advanced)
         self.addParameter(python)
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset over all tiles (tileset.json) for viewers"),
@@ -134,7 +133,7 @@ class CityModelTiles(CityModel):
         work.mkdir(parents=True, exist_ok=True)
         target = str(work / "buildings_expression.gpkg")
         fields = QgsFields(layer.fields())
-        fields.append(QgsField(EXPRESSION_COLUMN, QVariant.Double))
+        fields.append(QgsField(EXPRESSION_COLUMN, FieldType.Double))
         memory = QgsVectorLayer(QgsWkbTypes.displayString(layer.wkbType()), "buildings", "memory")
         memory.setCrs(layer.crs())
         memory.dataProvider().addAttributes(fields.toList())
@@ -150,7 +149,7 @@ class CityModelTiles(CityModel):
         options = QgsVectorFileWriter.SaveVectorOptions()
         options.driverName = "GPKG"
         error = QgsVectorFileWriter.writeAsVectorFormatV2(memory, target, context.transformContext(), options)
-        if error[0] != QgsVectorFileWriter.NoError:
+        if error[0] != QgsVectorFileWriter.WriterError.NoError:
             raise QgsProcessingException(self.tr("Cannot write {path}: {error}").format(path=target, error=error[1]))
         if expression.failure_warning():
             feedback.warning(expression.failure_warning())

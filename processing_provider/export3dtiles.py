@@ -3,7 +3,6 @@ from qgis.core import (
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
     QgsProcessingParameterCrs,
-    QgsProcessingParameterDefinition,
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
     QgsProcessingParameterNumber,
@@ -11,6 +10,7 @@ from qgis.core import (
 
 from .base import WitAlgorithm, crs_string
 from .load_results import load_results
+from .qgis_compat import FileBehavior, NumberType, ParameterFlag
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 
@@ -42,14 +42,14 @@ class Export3DTiles(WitAlgorithm):
         add_model_layer_parameters(self)
         self.addParameter(QgsProcessingParameterFile(
             self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
         self.addParameter(QgsProcessingParameterCrs(
             self.TARGET_CRS, self.tr("Model CRS (when the layers carry none)"), defaultValue="EPSG:5186",
             optional=True))
         leaf = QgsProcessingParameterNumber(
-            self.LEAF_SIZE, self.tr("Side of a full-detail tile (m)"), QgsProcessingParameterNumber.Double,
+            self.LEAF_SIZE, self.tr("Side of a full-detail tile (m)"), NumberType.Double,
             defaultValue=256.0, minValue=16.0, maxValue=10000.0)
-        leaf.setFlags(leaf.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        leaf.setFlags(leaf.flags() | ParameterFlag.Advanced)
         self.addParameter(leaf)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Tileset folder")))
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("tileset.json")))

@@ -1,7 +1,6 @@
 """wit:extrudebuildings — closed LoD1 solids from footprints, floors and the DEM."""
 
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
@@ -11,6 +10,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .qgis_compat import SourceType
 from .shared_parameters import add_height_parameters, height_options
 
 BASES = ("min", "median")
@@ -43,7 +43,7 @@ class ExtrudeBuildings(WitAlgorithm):
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.BUILDINGS, self.tr("Building footprints (any polygon layer, e.g. of wit:preparevectors)"),
-            [QgsProcessing.TypeVectorPolygon]))
+            [SourceType.VectorPolygon]))
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
         add_height_parameters(self, self.BUILDINGS)
         self.addParameter(QgsProcessingParameterEnum(

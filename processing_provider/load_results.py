@@ -98,14 +98,15 @@ def _polygon_symbol(rgb: tuple[int, int, int], extrusion_field: str | None = Non
     else:
         from qgis._3d import Qgs3DTypes
 
-        symbol.setAltitudeClamping(Qgs3DTypes.AltClampAbsolute)
+        symbol.setAltitudeClamping(Qgs3DTypes.AltitudeClamping.AltClampAbsolute)
     material = QgsPhongMaterialSettings()
     material.setDiffuse(QColor(*rgb))
     material.setAmbient(QColor(*rgb).darker(150))
     symbol.setMaterial(material)
     if extrusion_field:
         properties = symbol.dataDefinedProperties()
-        properties.setProperty(QgsAbstract3DSymbol.PropertyExtrusionHeight, QgsProperty.fromField(extrusion_field))
+        properties.setProperty(QgsAbstract3DSymbol.Property.PropertyExtrusionHeight,
+                               QgsProperty.fromField(extrusion_field))
         symbol.setDataDefinedProperties(properties)
     return symbol
 

@@ -1,6 +1,5 @@
 """wit:preparevectors — reproject, repair, clip and simplify the building, road and legal-dong layers."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
@@ -13,6 +12,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm, crs_string
+from .qgis_compat import NumberType, SourceType
 from .shared_parameters import ROADS_LABEL, ROADS_TYPES, add_area_parameters, study_area
 
 
@@ -55,9 +55,9 @@ class PrepareVectors(WitAlgorithm):
     def initAlgorithm(self, config=None):  # noqa: N802
         for name, label, kinds in (
                 (self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)"),
-                 [QgsProcessing.TypeVectorPolygon]),
+                 [SourceType.VectorPolygon]),
                 (self.ROADS, self.tr(ROADS_LABEL), ROADS_TYPES),
-                (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [QgsProcessing.TypeVectorPolygon])):
+                (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [SourceType.VectorPolygon])):
             self.addParameter(QgsProcessingParameterVectorLayer(name, label, kinds, optional=True))
         add_area_parameters(self)
         self.addParameter(QgsProcessingParameterCrs(
@@ -82,7 +82,7 @@ class PrepareVectors(WitAlgorithm):
 
     def _number(self, name: str, label: str, default: float, minimum: float) -> None:
         self.addParameter(QgsProcessingParameterNumber(
-            name, label, QgsProcessingParameterNumber.Double, defaultValue=default, minValue=minimum))
+            name, label, NumberType.Double, defaultValue=default, minValue=minimum))
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model

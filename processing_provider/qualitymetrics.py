@@ -1,6 +1,5 @@
 """wit:qualitymetrics — the paper's Tables 17 and 19: positions, shape similarity, texture quality."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
@@ -9,6 +8,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .qgis_compat import FileBehavior, SourceType
 
 
 class QualityMetrics(WitAlgorithm):
@@ -43,17 +43,17 @@ class QualityMetrics(WitAlgorithm):
             self.MODEL, self.tr("Model: CityGML file or LoD1 GeoPackage"), optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.SOURCE_BUILDINGS, self.tr("2D source footprints (prepared buildings)"),
-            [QgsProcessing.TypeVectorPolygon], optional=True))
+            [SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterFile(
             self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
         self.addParameter(QgsProcessingParameterRasterLayer(
             self.ORTHO, self.tr("Orthoimage for comparison"), optional=True))
         self.addParameter(QgsProcessingParameterRasterLayer(
             self.MOSAIC, self.tr("Merged mosaic (seam step)"), optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.FOOTPRINTS, self.tr("Tile footprints (index of wit:georeferencemapsheets)"),
-            [QgsProcessing.TypeVectorPolygon], optional=True))
+            [SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT, self.tr("Metrics table (CSV)"), self.tr("CSV files (*.csv)")))
         self.addParameter(QgsProcessingParameterFileDestination(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from qgis.core import (
     QgsCoordinateReferenceSystem,
-    QgsProcessing,
     QgsProcessingParameterDefinition,
     QgsProcessingParameterExpression,
     QgsProcessingParameterField,
@@ -16,6 +15,7 @@ from qgis.core import (
 
 from .base import tr, translatable
 from .expressions import checked_expression
+from .qgis_compat import FieldDataType, NumberType, ParameterFlag, SourceType
 
 WGS84 = QgsCoordinateReferenceSystem("EPSG:4326")
 
@@ -25,13 +25,13 @@ STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
     "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
 LOD1, TIN = "LOD1", "TIN"
 #: the raw road layer: centre lines (buffered by their width) or road polygons (the road surfaces as they are)
-ROADS_TYPES = [QgsProcessing.TypeVectorLine, QgsProcessing.TypeVectorPolygon]
+ROADS_TYPES = [SourceType.VectorLine, SourceType.VectorPolygon]
 ROADS_LABEL = translatable("Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, "
                            "OpenStreetMap…)")
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
-    parameter.setFlags(parameter.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+    parameter.setFlags(parameter.flags() | ParameterFlag.Advanced)
     return parameter
 
 
@@ -41,10 +41,10 @@ def add_area_parameters(algorithm, radius: float = 1000.0) -> None:
     algorithm.addParameter(QgsProcessingParameterPoint(
         CENTER, tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]", optional=True))
     algorithm.addParameter(QgsProcessingParameterNumber(
-        RADIUS, tr("Radius of the study area (m)"), QgsProcessingParameterNumber.Double, defaultValue=radius,
+        RADIUS, tr("Radius of the study area (m)"), NumberType.Double, defaultValue=radius,
         minValue=1.0))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
-        AREA_LAYER, tr("Study area polygons (instead of centre and radius)"), [QgsProcessing.TypeVectorPolygon],
+        AREA_LAYER, tr("Study area polygons (instead of centre and radius)"), [SourceType.VectorPolygon],
         optional=True))
     algorithm.addParameter(QgsProcessingParameterString(
         DISTRICT_CODE, tr("Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)"),
@@ -74,15 +74,15 @@ def study_area(algorithm, parameters: dict, context, feedback=None):
 def add_height_parameters(algorithm, parent: str) -> None:
     """Storey height, height field, height expression and default height (SPEC §4, wit_plugin.heights)."""
     algorithm.addParameter(QgsProcessingParameterNumber(
-        STOREY_HEIGHT, tr("Storey height (m)"), QgsProcessingParameterNumber.Double, defaultValue=3.0, minValue=0.5))
+        STOREY_HEIGHT, tr("Storey height (m)"), NumberType.Double, defaultValue=3.0, minValue=0.5))
     algorithm.addParameter(QgsProcessingParameterField(
         HEIGHT_FIELD, tr("Height field (m), when floors are unknown (empty = recognised by name)"),
-        parentLayerParameterName=parent, type=QgsProcessingParameterField.Any, optional=True))
+        parentLayerParameterName=parent, type=FieldDataType.Any, optional=True))
     algorithm.addParameter(QgsProcessingParameterExpression(
         HEIGHT_EXPRESSION, tr("Height expression (m), when floors and field are unknown"),
         parentLayerParameterName=parent, optional=True))
     algorithm.addParameter(QgsProcessingParameterNumber(
-        DEFAULT_HEIGHT, tr("Default height (m)"), QgsProcessingParameterNumber.Double, defaultValue=3.0, minValue=0.1))
+        DEFAULT_HEIGHT, tr("Default height (m)"), NumberType.Double, defaultValue=3.0, minValue=0.1))
 
 
 def height_options(algorithm, parameters: dict, context, layer):
@@ -120,6 +120,6 @@ def schema_choice(algorithm, parameters: dict, name: str, context) -> tuple[str 
 def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
     """The chain's step outputs an algorithm reads: the LoD1 buildings and the terrain TIN (optional)."""
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
-        LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon], optional=lod1_optional))
+        LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [SourceType.VectorPolygon], optional=lod1_optional))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
-        TIN, tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon], optional=True))
+        TIN, tr("Terrain TIN (wit:triangulateterrain)"), [SourceType.VectorPolygon], optional=True))

@@ -1,6 +1,5 @@
 """wit:triangulateterrain — constrained Delaunay TIN of the study area with DEM heights."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
@@ -11,6 +10,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .qgis_compat import NumberType, SourceType
 
 
 class TriangulateTerrain(WitAlgorithm):
@@ -45,17 +45,17 @@ class TriangulateTerrain(WitAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.AREA, self.tr("Study area (polygon layer, e.g. study_area of wit:preparevectors)"),
-            [QgsProcessing.TypeVectorPolygon]))
+            [SourceType.VectorPolygon]))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.BUILDINGS, self.tr("Building footprints (constraints)"), [QgsProcessing.TypeVectorPolygon],
+            self.BUILDINGS, self.tr("Building footprints (constraints)"), [SourceType.VectorPolygon],
             optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Road polygons (constraints)"), [QgsProcessing.TypeVectorPolygon], optional=True))
+            self.ROADS, self.tr("Road polygons (constraints)"), [SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterNumber(
-            self.MAX_EDGE, self.tr("Maximum edge length (m)"), QgsProcessingParameterNumber.Double,
+            self.MAX_EDGE, self.tr("Maximum edge length (m)"), NumberType.Double,
             defaultValue=5.0, minValue=0.5))
         self.addParameter(QgsProcessingParameterNumber(
-            self.TOLERANCE, self.tr("Vertical tolerance (m)"), QgsProcessingParameterNumber.Double,
+            self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
             defaultValue=0.5, minValue=0.01))
         self.addParameter(QgsProcessingParameterEnum(
             self.FOOTPRINTS, self.tr("Building footprints become"),

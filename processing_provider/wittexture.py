@@ -10,6 +10,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .qgis_compat import NumberType
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 IMAGE_FORMATS = ("JPEG", "PNG")
@@ -46,7 +47,7 @@ class WitTexture(WitAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.ORTHO, self.tr("Merged orthoimage")))
         add_model_layer_parameters(self)
         self.addParameter(QgsProcessingParameterNumber(
-            self.SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), QgsProcessingParameterNumber.Double,
+            self.SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), NumberType.Double,
             defaultValue=1.0, minValue=0.01, maxValue=1.0))
         self.addParameter(QgsProcessingParameterEnum(
             self.FORMAT, self.tr("Image format"), options=list(IMAGE_FORMATS), defaultValue=0))

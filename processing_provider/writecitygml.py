@@ -2,8 +2,6 @@
 from pathlib import Path
 
 from qgis.core import (
-    QgsProcessing,
-    QgsProcessingAlgorithm,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterFile,
@@ -12,6 +10,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm, crs_string
+from .qgis_compat import AlgorithmFlag, FileBehavior, SourceType
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 
@@ -41,19 +40,19 @@ class WriteCityGML(WitAlgorithm):
     def flags(self):
         # lxml from a Processing background thread has crashed QGIS on Windows (qgis/QGIS#54751):
         # the writer runs in the main thread.
-        return super().flags() | QgsProcessingAlgorithm.FlagNoThreading
+        return super().flags() | AlgorithmFlag.NoThreading
 
     def initAlgorithm(self, config=None):  # noqa: N802
         add_model_layer_parameters(self, lod1_optional=False)
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Road polygons (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon],
+            self.ROADS, self.tr("Road polygons (wit:preparevectors)"), [SourceType.VectorPolygon],
             optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.DISTRICTS, self.tr("Legal dongs (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon],
+            self.DISTRICTS, self.tr("Legal dongs (wit:preparevectors)"), [SourceType.VectorPolygon],
             optional=True))
         self.addParameter(QgsProcessingParameterFile(
             self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
         self.addParameter(QgsProcessingParameterBoolean(
             self.COPY_TEXTURES, self.tr("Copy texture images beside the .gml"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFileDestination(
