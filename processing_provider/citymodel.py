@@ -23,11 +23,15 @@ from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
 from .shared_parameters import (
     ROADS_LABEL,
     ROADS_TYPES,
+    WEB_PROFILE,
     add_area_parameters,
     add_height_parameters,
+    add_triangulator_parameter,
+    add_web_profile_parameter,
     height_options,
     schema_choice,
     study_area,
+    triangulator,
 )
 
 OUTSIDE_ORTHO = ("fail", "untextured")
@@ -41,7 +45,8 @@ class CityModel(WitAlgorithm):
         "Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare "
         "the building, road and legal-dong layers for the study area; check, in seconds and before any heavy "
         "work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing "
-        "sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the "
+        "sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, "
+        "bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the "
         "terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights "
         "as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of "
         "the common layers recognised by name; buildings given the default height are a warning and the "
@@ -54,7 +59,7 @@ class CityModel(WitAlgorithm):
         "<output>/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the "
         "centre point and radius."
     )
-    requirements = ("shapely", "triangle", "pyproj", "lxml")
+    requirements = ("shapely", "pythoncdt", "pyproj", "lxml")
 
     ORTHO_INPUT = "ORTHO_INPUT"
     DEM = "DEM"
@@ -80,6 +85,7 @@ class CityModel(WitAlgorithm):
         self.add_chain_parameters()
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)"), defaultValue=True))
+        add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterBoolean(
             self.KEEP_WORK, self.tr("Keep the intermediate files"), defaultValue=False))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
@@ -117,6 +123,7 @@ class CityModel(WitAlgorithm):
         self.addParameter(QgsProcessingParameterNumber(
             self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
             defaultValue=0.5, minValue=0.01))
+        add_triangulator_parameter(self)
         self.addParameter(QgsProcessingParameterNumber(
             self.TEXTURE_SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), NumberType.Double,
             defaultValue=1.0, minValue=0.01, maxValue=1.0))
@@ -128,7 +135,7 @@ class CityModel(WitAlgorithm):
             self.SCHEMA_DIR, self.tr("Schema folder overriding the shipped schemas (with citygml3-all.xsd)"),
             behavior=FileBehavior.Folder, optional=True))
 
-    def chain_settings(self, parameters, context, feedback=None):
+    def chain_settings(self, parameters, context, feedback):
         """(ChainInputs, ChainOptions, checked height expression) from the parameters."""
         from ..wit_plugin.chain import ChainInputs, ChainOptions
 
@@ -147,9 +154,11 @@ class CityModel(WitAlgorithm):
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
             max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
+            triangulator=triangulator(self, parameters, context, feedback),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
-            schema_dir=configured, schema_cache=cache)
+            schema_dir=configured, schema_cache=cache,
+            tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context))
         return inputs, options, expression
 
     def execute(self, parameters, context, feedback):
@@ -159,7 +168,8 @@ class CityModel(WitAlgorithm):
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)
-        load_results(context, lod1=report.lod1, tin=report.tin, tileset=report.tileset)
+        load_results(context, lod1=report.lod1, tin=report.tin,  # QGIS cannot read the web profile
+                     tileset=None if options.tiles3d_web else report.tileset)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {

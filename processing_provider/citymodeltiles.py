@@ -25,6 +25,7 @@ from .base import crs_string
 from .citymodel import CityModel
 from .load_results import load_index, load_results
 from .qgis_compat import FieldType, NumberType, ParameterFlag
+from .shared_parameters import add_web_profile_parameter
 
 TILE_SCALES = (5000, 1000)
 EXPRESSION_COLUMN = "wit_expr_height"
@@ -51,7 +52,9 @@ class CityModelTiles(CityModel):
         "others go on; a run started again on the same folder skips the tiles already done; Cancel stops "
         "every tile. A tile that owns no building (a park, a hill) still gets its terrain and roads (status "
         "empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output "
-        "folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later)."
+        "folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as "
+        "the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as "
+        "a 3D Tiles layer in QGIS 3.34 and later)."
     )
 
     TILE_SCALE = "TILE_SCALE"
@@ -85,6 +88,7 @@ class CityModelTiles(CityModel):
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset over all tiles (tileset.json) for viewers"),
             defaultValue=True))
+        add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputVectorLayer("INDEX", self.tr("Tile index")))
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset over all tiles (tileset.json)")))
@@ -118,7 +122,7 @@ class CityModelTiles(CityModel):
             or None, self.parameterAsInt(parameters, self.WORKERS, context),
             self.parameterAsFile(parameters, self.WORKER_PYTHON, context) or None, feedback)
         load_index(context, report.index)
-        load_results(context, tileset=report.tileset)
+        load_results(context, tileset=None if options.tiles3d_web else report.tileset)  # QGIS cannot read it
         return {self.OUTPUT: output, "INDEX": report.index, "TILESET": report.tileset,
                 "TILES_DONE": report.count("done"),
                 "TILES_FAILED": report.count("failed"), "TILES_EMPTY": report.count("empty"),

@@ -23,7 +23,8 @@ class ExtrudeBuildings(WitAlgorithm):
     help_text = (
         "Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per "
         "footprint edge (courtyards included). The base is one height per building: the minimum of the "
-        "DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × "
+        "DEM (bilinear; a DEM in another CRS is reprojected on the fly) over the footprint, so no building "
+        "floats, or the median. Height: GRO_FLO_CO × "
         "storey height when the road-name-address floor count is known, else the height field, else the "
         "expression; with neither given, the height and floor fields of common layers are recognised by "
         "name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 height, A26 floors; "

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from qgis.core import (
     QgsCoordinateReferenceSystem,
+    QgsProcessingParameterBoolean,
     QgsProcessingParameterDefinition,
+    QgsProcessingParameterEnum,
     QgsProcessingParameterExpression,
     QgsProcessingParameterField,
     QgsProcessingParameterNumber,
@@ -28,6 +30,10 @@ LOD1, TIN = "LOD1", "TIN"
 ROADS_TYPES = [SourceType.VectorLine, SourceType.VectorPolygon]
 ROADS_LABEL = translatable("Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, "
                            "OpenStreetMap…)")
+TRIANGULATOR = "TRIANGULATOR"
+#: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
+TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
+WEB_PROFILE = "WEB_PROFILE"
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
@@ -69,6 +75,26 @@ def study_area(algorithm, parameters: dict, context, feedback=None):
         return StudyArea.from_layer(area_layer)
     point = algorithm.parameterAsPoint(parameters, CENTER, context, WGS84)
     return StudyArea.circle(point.x(), point.y(), algorithm.parameterAsDouble(parameters, RADIUS, context))
+
+
+def add_triangulator_parameter(algorithm) -> None:
+    """The terrain's triangulation library; by default Triangle where it is installed, else CDT."""
+    from ..wit_plugin import triangulators
+
+    algorithm.addParameter(QgsProcessingParameterEnum(
+        TRIANGULATOR, tr("Triangulator (licence: Triangle is free for non-commercial use only)"),
+        options=[tr(label) for label in TRIANGULATOR_OPTIONS], defaultValue=triangulators.default_key()))
+
+
+def triangulator(algorithm, parameters: dict, context, feedback) -> int:
+    """The TRIANGULATOR chosen; says so when Triangle is not installed and CDT is used instead."""
+    from ..wit_plugin import triangulators
+
+    key = algorithm.parameterAsEnum(parameters, TRIANGULATOR, context)
+    if key != triangulators.TRIANGLE and not triangulators.available(triangulators.BACKENDS[triangulators.TRIANGLE]):
+        feedback.info(tr("Triangle (package 'triangle') is not installed: the terrain is meshed with CDT "
+                         "(MPL-2.0)."))
+    return key
 
 
 def add_height_parameters(algorithm, parent: str) -> None:
@@ -123,3 +149,11 @@ def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
         LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [SourceType.VectorPolygon], optional=lod1_optional))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
         TIN, tr("Terrain TIN (wit:triangulateterrain)"), [SourceType.VectorPolygon], optional=True))
+
+
+def add_web_profile_parameter(algorithm, advanced: bool = False) -> None:
+    """The 3D Tiles web profile (off by default: QGIS's 3D Tiles layer cannot read it)."""
+    parameter = QgsProcessingParameterBoolean(
+        WEB_PROFILE, tr("3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)"),
+        defaultValue=False)
+    algorithm.addParameter(_advanced(parameter) if advanced else parameter)

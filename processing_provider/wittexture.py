@@ -28,7 +28,8 @@ class WitTexture(WitAlgorithm):
         "(edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one "
         "image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S "
         "(0 < S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The "
-        "orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, "
+        "orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected "
+        "as it is read (bilinear). Output: a folder of images and texcoords.gpkg, "
         "the input of wit:writecitygml."
     )
     requirements = ("shapely",)

@@ -26,7 +26,8 @@ class WriteCityGML(WitAlgorithm):
         "wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per "
         "legal dong (districts); and, when given, the textures of wit:wittexture as "
         "app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids "
-        "derive from the source ids, so the same input gives the same ids. Runs in the main thread."
+        "derive from the source ids, so the same input gives the same ids. srsName: EPSG:n, coordinates "
+        "easting first, as GIS software reads that form. Runs in the main thread."
     )
     requirements = ("lxml", "shapely")
 

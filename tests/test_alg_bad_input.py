@@ -9,6 +9,8 @@ from conftest import write_polygons
 from osgeo import gdal, osr
 from qgis.core import QgsProcessingException
 
+pytestmark = pytest.mark.qgis_facing
+
 
 def _raster(path, bands, x0=209000.0, y0=543000.0, size=20, pixel=1.0):
     ds = gdal.GetDriverByName("GTiff").Create(str(path), size, size, bands, gdal.GDT_Byte)

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.qgis_facing
+
 FAKE_PIP = textwrap.dedent('''\
     #!{python}
     """A stand-in for QGIS's Python: "-c" runs the real one; "-m pip" plays pip as $FAKE_PIP_* say."""

@@ -11,6 +11,8 @@ from osgeo import gdal, ogr, osr
 
 from conftest import ROOT
 
+pytestmark = pytest.mark.qgis_facing
+
 
 def qgis_process(*args: str, profile) -> dict:
     env = dict(os.environ, WIT_QGIS_PROFILE=str(profile))

@@ -10,6 +10,8 @@ import pytest
 from conftest import ROOT
 from qt6_scan import plugin_sources, scan_plugin, scan_source
 
+pytestmark = pytest.mark.qgis_facing
+
 BAD_SNIPPETS = {
     "pyqt5-import": [
         "from PyQt5.QtCore import QTimer\n",

@@ -79,8 +79,10 @@ from . import bulk_read, model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .citygml.validation.crs import frame_of
 from .dem import ragged_indices
 from .gdal_env import open_raster, read_window
+from .raster_crs import crs_name, foreign_crs, transform_geometry
 from .vector_io import FieldDef, OutputLayer, gdal_quiet, open_step_layer, split_source, write_gpkg
 
 METRICS_TABLE = "quality_metrics"
@@ -689,11 +691,16 @@ def _gml_srs(path: str) -> str | None:
 
 
 def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding], str | None]:
-    """Buildings of a CityGML 3.0 file: per gml:id the solids' ground polygons and roof vertices (streamed)."""
+    """Buildings of a CityGML 3.0 file: per gml:id the solids' ground polygons and roof vertices (streamed).
+
+    Positions are turned easting (longitude) first when the srsName says they are written northing
+    (latitude) first: its URN or URL form for a CRS whose EPSG order is so (``validation.crs``).
+    """
     buildings: dict[str, _ModelBuilding] = {}
     size = max(os.path.getsize(path), 1)
     try:
         srs = _gml_srs(path)
+        order = [1, 0, 2] if srs and frame_of(srs).lat_axis == 0 else [0, 1, 2]
         with open(path, "rb") as fh:
             members = etree.iterparse(fh, events=("end",), huge_tree=True,
                                       tag=(_CORE + "cityObjectMember", _CORE + "appearanceMember"))
@@ -704,7 +711,7 @@ def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding],
                     faces = []
                     for solid in building.iter(_CORE + "lod1Solid"):
                         for polygon in solid.iter(_GML + "Polygon"):
-                            rings = [_poslist(r, gml_id) for r in polygon.iter(_GML + "LinearRing")]
+                            rings = [_poslist(r, gml_id)[:, order] for r in polygon.iter(_GML + "LinearRing")]
                             if rings:
                                 faces.append((*_polygon_3d(rings), None))
                     _add_solid(buildings.setdefault(gml_id, _ModelBuilding()), faces)
@@ -1089,6 +1096,19 @@ standard deviation of I. Seam step: mean |colour step| across tile borders insid
     path.write_text(page, encoding="utf-8")
 
 
+def _in_ortho_crs(footprints: shapely.Geometry, crs_wkt: str | None, ortho: str | None,
+                  feedback: Feedback) -> shapely.Geometry:
+    """The footprints in the ortho's CRS when it has another one: its own pixels are measured, never
+    resampled (a warp would smooth them and lower their sharpness)."""
+    if not ortho or not crs_wkt:
+        return footprints
+    source = foreign_crs(open_raster(ortho, "orthoimage"), crs_wkt)
+    if source is None:
+        return footprints
+    feedback.info(f"The orthoimage {Path(ortho).name} is in {crs_name(source)}: the footprints are reprojected to it.")
+    return transform_geometry(footprints, pyproj.CRS.from_wkt(crs_wkt), source, 1.0)
+
+
 def quality_report(output_csv: str, model_source: str | None = None, source_buildings: str | None = None,
                    textures: Sequence[str] | str | None = None, ortho: str | None = None,
                    mosaic: str | None = None, footprints: str | Sequence[str] | None = None,
@@ -1123,7 +1143,8 @@ def quality_report(output_csv: str, model_source: str | None = None, source_buil
     if geometry is not None:
         sources = [b.geometry for b in geometry.buildings if b.status != MODEL_ONLY and b.geometry is not None]
         if sources:
-            footprints_2d = shapely.multipolygons(shapely.get_parts(np.array(sources, dtype=object)))
+            footprints_2d = _in_ortho_crs(shapely.multipolygons(shapely.get_parts(np.array(sources, dtype=object))),
+                                          geometry.crs_wkt, ortho, feedback)
             area = tuple(footprints_2d.bounds)
     texture = texture_metrics(textures, ortho, area, footprints_2d, next_feedback()) if textures or ortho else None
     seam = seam_metrics(mosaic, footprints, next_feedback()) if mosaic else None

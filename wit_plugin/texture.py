@@ -1,7 +1,8 @@
 """Texture roofs, terrain and roads from the merged orthoimage (``wit:wittexture``, SPEC §5 items 1, 3, 4).
 
 Inputs follow ``model``: the LoD1 faces layer (``lod1_faces``), the TIN layer (``tin``) and the
-merged orthoimage (north-up RGB GeoTIFF in the same CRS). Outputs, in ``output_dir`` (the texture
+merged orthoimage (north-up RGB GeoTIFF; in another CRS than the layers', the window over them
+is reprojected as it is read, bilinear, ``_Ortho.reproject_to``). Outputs, in ``output_dir`` (the texture
 folder): JPEG or PNG images and ``texcoords.gpkg`` holding the attribute table ``texcoords``
 (one row per textured ring, ``model.TEX_*`` columns, image names relative to the folder).
 
@@ -65,6 +66,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 import numpy as np
+import pyproj
 import shapely
 from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
@@ -77,6 +79,14 @@ from .gc_pause import collector_paused
 from .gdal_env import capped_block_cache, open_raster, read_window
 from .gpkg_bulk import BulkTable
 from .numtext import ring_texts
+from .raster_crs import (
+    aligned,
+    cell_size,
+    crs_name,
+    foreign_crs,
+    transform_geometry,
+    warp,
+)
 from .vector_io import FieldDef, open_step_layer, split_source
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
@@ -221,6 +231,7 @@ def texture_model(
             stack.callback(tin.close)
             untextured["footprint"] = tin.count(("footprint",))
         layers = [layer for layer in (roofs, tin) if layer is not None]
+        image.reproject_to(layers, feedback)
         for layer in layers:
             image.check_covers(layer, extent=coverage is None)
         inside = _Inside(coverage, untextured)
@@ -412,6 +423,8 @@ class _Ortho:
     def __init__(self, path: str, config: TextureConfig):
         self.path, self.scale = path, config.scale
         self.ds = open_raster(path, "orthoimage")
+        self.footprint: BaseGeometry | None = None  # where a reprojected ortho has pixels
+        self.source: gdal.Dataset | None = None  # the file behind a reprojected ortho's warped VRT
         ds = self.ds
         if ds.RasterCount < 3 or any(ds.GetRasterBand(b).DataType != gdal.GDT_Byte for b in (1, 2, 3)):
             raise InputError(f"The orthoimage {path} must be RGB with 8-bit bands (it has {ds.RasterCount} band(s)): "
@@ -420,16 +433,39 @@ class _Ortho:
         if gt is None or gt[2] or gt[4] or gt[5] >= 0:
             raise InputError(f"The orthoimage {path} is not georeferenced north-up: georeference it "
                              "(wit:georeferencemapsheets) and merge it (wit:mergetiles) first.")
-        self.x0, self.px, self.y0, self.py = gt[0], gt[1], gt[3], -gt[5]
-        self.width, self.height = ds.RasterXSize, ds.RasterYSize
-        self.extent = (self.x0, self.y0 - self.height * self.py, self.x0 + self.width * self.px, self.y0)
-        self.step = max(1, round(1.0 / config.scale))
-        self.texel_size = max(self.px, self.py) / config.scale
+        self._grid(ds)
         wkt = ds.GetProjection()
         self.srs = osr.SpatialReference(wkt) if wkt else None
 
+    def _grid(self, ds: gdal.Dataset) -> None:
+        gt = ds.GetGeoTransform()
+        self.x0, self.px, self.y0, self.py = gt[0], gt[1], gt[3], -gt[5]
+        self.width, self.height = ds.RasterXSize, ds.RasterYSize
+        self.extent = (self.x0, self.y0 - self.height * self.py, self.x0 + self.width * self.px, self.y0)
+        self.step = max(1, round(1.0 / self.scale))
+        self.texel_size = max(self.px, self.py) / self.scale
+
+    def reproject_to(self, layers: list[_Layer], feedback: Feedback) -> None:
+        """An ortho in another CRS than the layers': read from then on through a warped VRT (in memory,
+        bilinear, its pixel size in metres) over the layers' extent, so only the pixels needed are warped."""
+        wkt = next((layer.srs.ExportToWkt() for layer in layers if layer.srs is not None), None)
+        source = foreign_crs(self.ds, wkt) if wkt else None
+        if source is None:
+            return
+        target = pyproj.CRS.from_wkt(wkt)
+        size = cell_size(self.ds, source, target)
+        self.footprint = transform_geometry(shapely.box(*self.extent), source, target)
+        boxes = [layer.extent for layer in layers]
+        needed = (min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes), max(b[3] for b in boxes))
+        self.source, self.ds = self.ds, warp(self.ds, source, target, aligned(needed, size, 8), size, fmt="VRT",
+                                             exact=False)
+        self._grid(self.ds)
+        self.srs = osr.SpatialReference(wkt)
+        feedback.info(f"The orthoimage {Path(self.path).name} is in {crs_name(source)}: its pixels over the layers are "
+                      f"reprojected as they are read to {crs_name(target)} (bilinear, {size:g} m pixels).")
+
     def close(self) -> None:
-        self.ds = None
+        self.ds = self.source = None
 
     def check_covers(self, layer: _Layer, extent: bool = True) -> None:
         """Refuse a layer whose CRS differs or (``extent``) whose extent reaches beyond the ortho."""
@@ -440,8 +476,9 @@ class _Ortho:
         if not extent:
             return
         lx0, ly0, lx1, ly1 = layer.extent
-        ox0, oy0, ox1, oy1 = self.extent
-        if lx0 < ox0 or ly0 < oy0 or lx1 > ox1 or ly1 > oy1:
+        ox0, oy0, ox1, oy1 = self.footprint.bounds if self.footprint is not None else self.extent
+        if lx0 < ox0 or ly0 < oy0 or lx1 > ox1 or ly1 > oy1 or (
+                self.footprint is not None and not self.footprint.contains(shapely.box(*layer.extent))):
             raise InputError(
                 f"Layer {layer.name!r} in {layer.path} reaches beyond the orthoimage, whose pixels are needed for "
                 f"every textured surface: layer x {lx0:.2f}–{lx1:.2f}, y {ly0:.2f}–{ly1:.2f}; ortho x "

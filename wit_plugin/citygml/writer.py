@@ -113,7 +113,7 @@ class WriteReport:
 def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186",
                   feedback: Feedback = SILENT, copy_textures: bool = True) -> WriteReport:
     """Write the CityGML 3.0 model to ``output`` (atomically); see the module docstring."""
-    srs_uri = srs_uri_of(srs_name)
+    srs_uri = srs_name_of(srs_name)
     report = WriteReport()
     out = Path(output)
     with contextlib.ExitStack() as stack:
@@ -170,12 +170,22 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
     return report
 
 
-def srs_uri_of(srs_name: str) -> str:
-    """``EPSG:n`` → the OGC http URI; URIs and URNs are passed through unchanged."""
+_ONE_EPSG_CODE = re.compile(r"(?i)(?:EPSG:|urn:ogc:def:crs:EPSG:[\d.]*:|https?://www\.opengis\.net/def/crs/EPSG/[\d.]+/)"
+                            r"(\d+)")
+
+
+def srs_name_of(srs_name: str) -> str:
+    """The ``srsName`` written for the target CRS: ``EPSG:n`` for an EPSG CRS in any form.
+
+    Coordinates are written as the layers hold them, easting (longitude) first. That is what the
+    short form means to readers (GDAL's GML reader, the validator: ``citygml.validation.crs``); the
+    URN and URL forms mean EPSG's axis order, northing first for the Korean belts (EPSG:5186), so
+    GDAL would read a URL-named model with x and y swapped. Other CRS URIs and URNs pass unchanged.
+    """
     name = srs_name.strip()
-    match = re.fullmatch(r"(?i)EPSG:(\d+)", name)
+    match = _ONE_EPSG_CODE.fullmatch(name)
     if match:
-        return f"http://www.opengis.net/def/crs/EPSG/0/{match.group(1)}"
+        return f"EPSG:{match.group(1)}"
     if re.match(r"(?i)(https?://|urn:)\S+$", name):
         return name
     raise InputError(f"CRS '{srs_name}' is neither EPSG:<code> nor a CRS URI/URN (e.g. EPSG:5186).")
