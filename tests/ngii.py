@@ -131,14 +131,22 @@ def area(folder: Path, name: str = "대상지역") -> Path:
 
 
 def dem(path: Path, epsg: int = EPSG, cell: float = 5.0) -> Path:
-    """A gently sloping DEM (40 m at the west edge, rising 2 cm per m east and 1 cm per m north) around the scene."""
-    x0, y1, size = 217600.0, 362200.0, (200, 160)
+    """A gently sloping DEM around the scene (40 m at x 217,600 in EPSG:5187, rising 2 cm per m east and 1 cm
+    per m north), on a grid of ``cell`` metres in ``epsg``: the same ground in any CRS."""
+    import pyproj
+
+    to_scene = pyproj.Transformer.from_crs(epsg, EPSG, always_xy=True)
+    west, south, east, north = pyproj.Transformer.from_crs(EPSG, epsg, always_xy=True).transform_bounds(
+        217600.0, 361400.0, 218600.0, 362200.0)
+    x0, y1 = np.floor(west / cell) * cell, np.ceil(north / cell) * cell
+    size = (int(np.ceil((east - x0) / cell)), int(np.ceil((y1 - south) / cell)))
+    xs = x0 + (np.arange(size[0]) + 0.5) * cell
+    ys = y1 - (np.arange(size[1]) + 0.5) * cell
+    sx, sy = to_scene.transform(*np.meshgrid(xs, ys))
     ds = gdal.GetDriverByName("GTiff").Create(str(path), size[0], size[1], 1, gdal.GDT_Float32)
     ds.SetGeoTransform((x0, cell, 0, y1, 0, -cell))
     ds.SetProjection(srs(epsg).ExportToWkt())
-    xs = x0 + (np.arange(size[0]) + 0.5) * cell
-    ys = y1 - (np.arange(size[1]) + 0.5) * cell
-    ds.GetRasterBand(1).WriteArray((40 + 0.02 * (xs[None, :] - x0) + 0.01 * (ys[:, None] - 361000)).astype(np.float32))
+    ds.GetRasterBand(1).WriteArray((40 + 0.02 * (sx - 217600.0) + 0.01 * (sy - 361000.0)).astype(np.float32))
     ds.GetRasterBand(1).SetNoDataValue(-9999)
     ds = None
     return path

@@ -52,7 +52,8 @@ def scene(tmp_path_factory) -> dict:
     folder = tmp_path_factory.mktemp("ngii-scene")
     raw = folder / "수치지도"
     inputs = {"buildings": ngii.buildings(raw), "roads": ngii.road_polygons(raw), "lines": ngii.centre_lines(raw),
-              "area": ngii.area(raw), "dem": ngii.dem(folder / "dem_5187.tif")}
+              "area": ngii.area(raw), "dem": ngii.dem(folder / "dem_5187.tif"),
+              "dem_5186": ngii.dem(folder / "dem_5186.tif", epsg=5186)}
     sample = draw_from_layers(folder / "sample", GivenLayers(buildings=str(inputs["buildings"]), roads=str(inputs["roads"])),
                               SampleConfig(ortho_pixel_size=2.0, with_dem=False))
     assert sample.sheets == ["35901058", "35901059"]
@@ -271,11 +272,11 @@ def test_real_layers_through_qgis_process(algorithm, scene, tmp_path, profile):
 
 def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path, profile):
     """The issue's case: NGII buildings and road polygons as shipped (EUC-KR .cpg, Korean field names,
-    EPSG:5187), the model in EPSG:5187, tiled on 1:5,000 sheets, through qgis_process: no crash, no
-    failed tile, roads in every tile, every building's height = 층수 × storey height. (The DEM is in
-    EPSG:5187 here; a DEM in another CRS is reprojected by the chain since issue 21's DEM work.)"""
+    EPSG:5187), the DEM in EPSG:5186, the model in EPSG:5187, tiled on 1:5,000 sheets, through
+    qgis_process: no crash, no failed tile, roads in every tile, every building's height = 층수 × storey
+    height."""
     out = tmp_path / "tiles"
-    report = qgis_process({"ORTHO_INPUT": [scene["ortho"]], "DEM": scene["dem"], "BUILDINGS": scene["buildings"],
+    report = qgis_process({"ORTHO_INPUT": [scene["ortho"]], "DEM": scene["dem_5186"], "BUILDINGS": scene["buildings"],
                            "ROADS": scene["roads"], "TARGET_CRS": TARGET, "ALL_BUILDINGS": True, "TILE_SCALE": 0,
                            "WORKERS": 1, "MAX_EDGE": 20.0, "TILES3D": False, "OUTPUT": str(out)},
                           "wit:citymodeltiles", profile)
