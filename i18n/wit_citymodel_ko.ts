@@ -108,10 +108,6 @@
       <translation>건물 (TL_SPBD_BULD, 국토지리정보원, AL_D010, 오픈스트리트맵…)</translation>
     </message>
     <message>
-      <source>Roads (TL_SPRD_MANAGE)</source>
-      <translation>도로 (TL_SPRD_MANAGE)</translation>
-    </message>
-    <message>
       <source>Legal dongs (TL_SCCO_EMD)</source>
       <translation>법정동 (TL_SCCO_EMD)</translation>
     </message>
@@ -368,12 +364,12 @@
       <translation>기하</translation>
     </message>
     <message>
-      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear; a DEM in another CRS is reprojected on the fly) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
-      <translation>건물마다 닫힌, 바깥을 향하는 LoD1 솔리드를 만듭니다: 바닥면, 지붕, 외곽선의 변마다 벽 하나(중정 포함). 기준 높이는 건물마다 하나입니다: 건물이 뜨지 않도록 외곽선 위 DEM(쌍선형; 다른 좌표계의 DEM은 실행 중에 바로 재투영)의 최솟값, 또는 중앙값. 높이: 도로명주소 지상층수를 알면 GRO_FLO_CO × 층고, 아니면 높이 필드, 아니면 식; 둘 다 주지 않으면 흔한 레이어의 높이·층수 필드를 이름으로 알아봅니다(국토지리정보원 수치지도 BFLR_CO; GIS건물통합정보 AL_D010 A16 높이, A26 지상층수; 오픈스트리트맵 height, building:levels; 한글 높이, 지상층수). 그래도 없으면 기본 높이를 쓰며, 그 건물 수를 경고로 알립니다. 어느 규칙을 썼는지 로그에 남기고 건물마다 기록합니다(wit_height_src, wit_height_rule). 출력: 건물 id(wit_id), 면 종류, 면 번호, 기준 높이, 높이, 층수(파생 필드는 모두 wit_… 이름)와 모든 원본 속성을 원래 이름 그대로 가진 PolygonZ 면.</translation>
+      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear; a DEM in another CRS is reprojected on the fly) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
+      <translation>건물마다 닫힌, 바깥을 향하는 LoD1 솔리드를 만듭니다: 바닥면, 지붕, 외곽선의 변마다 벽 하나(중정 포함). 기준 높이는 건물마다 하나입니다: 건물이 뜨지 않도록 외곽선 위 DEM(쌍선형; 다른 좌표계의 DEM은 실행 중에 바로 재투영)의 최솟값, 또는 중앙값. 높이: 도로명주소 지상층수를 알면 GRO_FLO_CO × 층고, 아니면 높이 필드, 아니면 식; 둘 다 주지 않으면 흔한 레이어의 높이·층수 필드를 이름으로 알아봅니다(국토지리정보원 수치지도 BFLR_CO, 또는 배포된 그대로의 층수; GIS건물통합정보 AL_D010 A16 높이, A26 지상층수; 오픈스트리트맵 height, building:levels; 한글 높이, 지상층수). 그래도 없으면 기본 높이를 쓰며, 그 건물 수를 경고로 알립니다. 어느 규칙을 썼는지 로그에 남기고 건물마다 기록합니다(wit_height_src, wit_height_rule). 출력: 건물 id(wit_id), 면 종류, 면 번호, 기준 높이, 높이, 층수(파생 필드는 모두 wit_… 이름)와 모든 원본 속성을 원래 이름 그대로 가진 PolygonZ 면.</translation>
     </message>
     <message>
-      <source>Building footprints (wit:preparevectors)</source>
-      <translation>건물 외곽선 (wit:preparevectors)</translation>
+      <source>Building footprints (any polygon layer, e.g. of wit:preparevectors)</source>
+      <translation>건물 외곽선 (아무 폴리곤 레이어, 예: wit:preparevectors 출력)</translation>
     </message>
     <message>
       <source>Base height from the DEM</source>
@@ -454,6 +450,10 @@
     <message>
       <source>Buildings (TL_SPBD_BULD)</source>
       <translation>건물 (TL_SPBD_BULD)</translation>
+    </message>
+    <message>
+      <source>Roads (TL_SPRD_MANAGE)</source>
+      <translation>도로 (TL_SPRD_MANAGE)</translation>
     </message>
     <message>
       <source>Orthoimage tile folder</source>
@@ -644,8 +644,8 @@
       <translation>벡터 레이어 준비</translation>
     </message>
     <message>
-      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
-      <translation>건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD) 레이어를 읽습니다(.cpg가 없거나 다른 코드 페이지를 선언한 셰이프파일도 내용이 CP949이면 CP949로 읽음). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거. 가는 조각, 무한대나 NaN 좌표가 있는 피처, 완전히 같은 중복 피처(같은 ID와 외곽선)는 이유와 개수를 남기고 제외하며, ID가 같지만 외곽선이 다른 피처는 wit_id에 _2, _3…을 붙여 모두 남김). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로는 ROAD_BT / 2 만큼 버퍼한 폴리곤이 됩니다(없으면 도로 등급별 기본 폭). 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
+      <source>Reads the building (TL_SPBD_BULD, NGII N3A_B0010000, AL_D010, OpenStreetMap…), road and legal-dong (TL_SCCO_EMD) layers — any layer of the right geometry type; shapefiles are read in their text's encoding (the .cpg's when it fits the text, else CP949 or UTF-8 as the text shows), field names included — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Road polygons (NGII N3A_A0010000) are the road surfaces as they are; centre lines become polygons buffered by width / 2, the width from the layer's width field (ROAD_BT, NGII 도로폭 / RVWD, OpenStreetMap width), else its lanes × 3.25 m (CARTRK_CO, 차로수, RDLN, lanes), else its class (ROA_CLS_SE, highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
+      <translation>건물(TL_SPBD_BULD, 국토지리정보원 N3A_B0010000, AL_D010, 오픈스트리트맵…), 도로, 법정동(TL_SCCO_EMD) 레이어를 읽습니다(도형 유형만 맞으면 어떤 레이어든; 셰이프파일은 내용의 인코딩으로 읽음: .cpg가 내용과 맞으면 그것, 아니면 내용에 따라 CP949나 UTF-8, 필드 이름 포함). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거. 가는 조각, 무한대나 NaN 좌표가 있는 피처, 완전히 같은 중복 피처(같은 ID와 외곽선)는 이유와 개수를 남기고 제외하며, ID가 같지만 외곽선이 다른 피처는 wit_id에 _2, _3…을 붙여 모두 남김). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로 폴리곤(국토지리정보원 N3A_A0010000)은 그대로 도로면이 되고, 중심선은 폭 / 2 만큼 버퍼한 폴리곤이 됩니다. 폭은 레이어의 폭 필드(ROAD_BT, 국토지리정보원 도로폭 / RVWD, 오픈스트리트맵 width), 없으면 차로수 × 3.25 m(CARTRK_CO, 차로수, RDLN, lanes), 없으면 등급(ROA_CLS_SE, highway), 없으면 기본 폭이며, 어느 규칙을 썼는지와 개수를 로그에 남깁니다. 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
     </message>
     <message>
       <source>Douglas–Peucker tolerance, buildings (m)</source>
@@ -664,8 +664,8 @@
       <translation>최소 건물 면적 (m²)</translation>
     </message>
     <message>
-      <source>Road width when ROAD_BT is missing (m)</source>
-      <translation>ROAD_BT가 없을 때 도로 폭 (m)</translation>
+      <source>Road width when a centre line has no width, lanes or class (m)</source>
+      <translation>중심선에 폭·차로수·등급이 없을 때 도로 폭 (m)</translation>
     </message>
     <message>
       <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
@@ -814,6 +814,10 @@
     <message>
       <source> or </source>
       <translation> 또는 </translation>
+    </message>
+    <message>
+      <source>Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, OpenStreetMap…)</source>
+      <translation>도로: 중심선 또는 도로 폴리곤 (TL_SPRD_MANAGE, 국토지리정보원 N3L_A0020000 또는 N3A_A0010000, 오픈스트리트맵…)</translation>
     </message>
     <message>
       <source>Triangle (non-commercial licence)</source>

@@ -17,6 +17,7 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingFeedback,
     QgsProcessingParameterBoolean,
+    QgsVectorFileWriter,
 )
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
@@ -35,11 +36,6 @@ HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
 def crs_string(crs: QgsCoordinateReferenceSystem) -> str:
     """A CRS as the core takes it: the authority id when there is one, else WKT."""
     return crs.authid() or crs.toWkt()
-
-
-def layer_file(layer) -> str | None:
-    """The file behind a file-based layer (``path|layername=…`` → ``path``); the core opens it itself."""
-    return layer.source().split("|")[0] if layer is not None else None
 
 
 def translatable(text: str) -> str:
@@ -135,6 +131,23 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         with no_sidecars():
             problem = safeguards.file_problem(self, parameters, context)
             return (False, problem) if problem else super().checkParameterValues(parameters, context)
+
+    def vector_source(self, parameters, name: str, context, feedback=None) -> str | None:
+        """The core's source for a vector-layer parameter: ``file`` or ``file|layername=…`` of whatever layer
+        the user gave — a file of any name, a layer of a GeoPackage, a layer of the project. Layers the
+        core cannot open as they are (memory or database layers, filtered or /vsi layers, formats GDAL
+        cannot write) are copied to a GeoPackage by Processing first; None when the parameter is empty."""
+        layer = self.parameterAsVectorLayer(parameters, name, context)
+        if layer is None:
+            return None
+        path, layer_name = self.parameterAsCompatibleSourceLayerPathAndLayerName(
+            parameters, name, context, QgsVectorFileWriter.supportedFormatExtensions(), "gpkg",
+            getattr(feedback, "processing_feedback", feedback))
+        if not path:
+            return None
+        if Path(path) == fileio.source_file(layer.source()):
+            return layer.source()  # the layer's own file: its |layername= or |layerid= as QGIS opened it
+        return f"{path}|layername={layer_name}" if layer_name else path
 
     def extra_outputs(self, parameters, context) -> list:
         """Files or folders written beside the destination parameters' (``safeguards.Endpoint``s)."""

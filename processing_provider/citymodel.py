@@ -21,6 +21,8 @@ from .base import WitAlgorithm, crs_string
 from .load_results import load_results
 from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
 from .shared_parameters import (
+    ROADS_LABEL,
+    ROADS_TYPES,
     WEB_PROFILE,
     add_area_parameters,
     add_height_parameters,
@@ -108,7 +110,7 @@ class CityModel(WitAlgorithm):
             self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)"),
             [SourceType.VectorPolygon]))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), [SourceType.VectorLine], optional=True))
+            self.ROADS, self.tr(ROADS_LABEL), ROADS_TYPES, optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [SourceType.VectorPolygon], optional=True))
         add_area_parameters(self)
@@ -138,8 +140,7 @@ class CityModel(WitAlgorithm):
         from ..wit_plugin.chain import ChainInputs, ChainOptions
 
         def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
+            return self.vector_source(parameters, name, context, feedback)
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)
@@ -147,9 +148,9 @@ class CityModel(WitAlgorithm):
         inputs = ChainInputs(
             ortho=self.parameterAsFileList(parameters, self.ORTHO_INPUT, context),
             dem=self.parameterAsRasterLayer(parameters, self.DEM, context).source(),
-            buildings=buildings.source(), roads=source(self.ROADS), districts=source(self.DISTRICTS))
+            buildings=source(self.BUILDINGS), roads=source(self.ROADS), districts=source(self.DISTRICTS))
         options = ChainOptions(
-            area=study_area(self, parameters, context),
+            area=study_area(self, parameters, context, feedback),
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
             max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),

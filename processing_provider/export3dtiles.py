@@ -8,7 +8,7 @@ from qgis.core import (
     QgsProcessingParameterNumber,
 )
 
-from .base import WitAlgorithm, crs_string, layer_file
+from .base import WitAlgorithm, crs_string
 from .load_results import load_results
 from .qgis_compat import FileBehavior, NumberType, ParameterFlag
 from .shared_parameters import (
@@ -78,7 +78,8 @@ class Export3DTiles(WitAlgorithm):
         output = self.parameterAsString(parameters, self.OUTPUT, context)
         web = self.parameterAsBool(parameters, self.WEB_PROFILE, context)
         report = export_tileset(
-            layer_file(lod1), layer_file(tin), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
+            self.vector_source(parameters, self.LOD1, context, feedback),
+            self.vector_source(parameters, self.TIN, context, feedback), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             output, crs_string(crs), feedback,
             TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context), web=web))
         if not web:  # QGIS cannot read the web profile

@@ -93,10 +93,6 @@ class GenerateSample(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("ROADS_DRAWN", self.tr("Given roads drawn")))
         self.addOutput(QgsProcessingOutputNumber("TILES_WRITTEN", self.tr("Orthoimage tiles written")))
 
-    def _source(self, parameters, name, context) -> str | None:
-        layer = self.parameterAsVectorLayer(parameters, name, context)
-        return layer.source() if layer is not None else None
-
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.sample import SampleConfig
 
@@ -114,7 +110,8 @@ class GenerateSample(WitAlgorithm):
             with_dem=self.parameterAsBool(parameters, self.WITH_DEM, context),
         )
         folder = self.parameterAsString(parameters, self.OUTPUT, context)
-        given = {name: self._source(parameters, name, context) for name in (self.BUILDINGS, self.ROADS, self.DISTRICTS)}
+        given = {name: self.vector_source(parameters, name, context, feedback)
+                 for name in (self.BUILDINGS, self.ROADS, self.DISTRICTS)}
         whole = self.parameterAsBool(parameters, self.WHOLE_EXTENT, context)
         if given[self.BUILDINGS] or given[self.ROADS]:
             if count:
@@ -154,7 +151,7 @@ class GenerateSample(WitAlgorithm):
 
         layers = GivenLayers(buildings=given[self.BUILDINGS], roads=given[self.ROADS],
                              districts=given[self.DISTRICTS],
-                             area=None if whole else study_area(self, parameters, context))
+                             area=None if whole else study_area(self, parameters, context, feedback))
         result = draw_from_layers(folder, layers, config, feedback)
         return {
             self.OUTPUT: folder,

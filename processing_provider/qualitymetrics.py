@@ -7,7 +7,7 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import WitAlgorithm, layer_file
+from .base import WitAlgorithm
 from .qgis_compat import FileBehavior, SourceType
 
 
@@ -74,8 +74,7 @@ class QualityMetrics(WitAlgorithm):
             return layer.source() if layer is not None else None
 
         def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
+            return self.vector_source(parameters, name, context, feedback)
 
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         html = self.parameterAsFileOutput(parameters, self.OUTPUT_HTML, context) or None
@@ -85,7 +84,7 @@ class QualityMetrics(WitAlgorithm):
             source_buildings=source(self.SOURCE_BUILDINGS),
             textures=self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             ortho=raster(self.ORTHO), mosaic=raster(self.MOSAIC),
-            footprints=layer_file(self.parameterAsVectorLayer(parameters, self.FOOTPRINTS, context)),
+            footprints=source(self.FOOTPRINTS),
             output_html=html, feedback=feedback)
         values = {r.metric: r.value for r in report.rows}
         for row in report.rows:

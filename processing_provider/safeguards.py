@@ -21,6 +21,7 @@ from qgis.core import (
     QgsProcessingOutputLayerDefinition,
     QgsProcessingParameterDefinition,
     QgsProperty,
+    QgsProviderRegistry,
     QgsWkbTypes,
 )
 
@@ -59,16 +60,21 @@ def _given(parameters: dict, name: str) -> bool:
     return value is not None and value != "" and value != []
 
 
+def _layer_file(layer) -> str:
+    """The file behind a layer ('' for a memory or database layer, which no output can overwrite)."""
+    return QgsProviderRegistry.instance().decodeUri(layer.providerType(), layer.source()).get("path") or ""
+
+
 def _layer_sources(algorithm, definition: QgsProcessingParameterDefinition, parameters: dict, context) -> list[str]:
     name = definition.name()
     kind = definition.type()
     if kind in LAYER_TYPES:
         layer = algorithm.parameterAsLayer(parameters, name, context)
-        return [layer.source()] if layer is not None else []
+        return [_layer_file(layer)] if layer is not None else []
     if kind == "multilayer":
         if code(definition.layerType()) == code(SourceType.File):
             return algorithm.parameterAsFileList(parameters, name, context)
-        return [layer.source() for layer in algorithm.parameterAsLayerList(parameters, name, context)]
+        return [_layer_file(layer) for layer in algorithm.parameterAsLayerList(parameters, name, context)]
     if kind == "file" or (kind == "string" and name in algorithm.path_parameters):
         return [algorithm.parameterAsString(parameters, name, context)]
     return []

@@ -26,6 +26,10 @@ DISTRICT_CODE, DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD = "DISTRICT_CODE", "DIST
 STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
     "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
 LOD1, TIN = "LOD1", "TIN"
+#: the raw road layer: centre lines (buffered by their width) or road polygons (the road surfaces as they are)
+ROADS_TYPES = [SourceType.VectorLine, SourceType.VectorPolygon]
+ROADS_LABEL = translatable("Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, "
+                           "OpenStreetMap…)")
 TRIANGULATOR = "TRIANGULATOR"
 #: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
@@ -57,7 +61,7 @@ def add_area_parameters(algorithm, radius: float = 1000.0) -> None:
         DISTRICT_NAME_FIELD, tr("Name field of the district layer (empty = EMD_KOR_NM, EMD_ENG_NM)"), optional=True)))
 
 
-def study_area(algorithm, parameters: dict, context):
+def study_area(algorithm, parameters: dict, context, feedback=None):
     """The core's StudyArea: a district if one is named, else the area layer, else the circle."""
     from ..wit_plugin.vectors import StudyArea
 
@@ -66,9 +70,9 @@ def study_area(algorithm, parameters: dict, context):
         return StudyArea.from_district_code(
             code, algorithm.parameterAsString(parameters, DISTRICT_CODE_FIELD, context).strip() or None,
             algorithm.parameterAsString(parameters, DISTRICT_NAME_FIELD, context).strip() or None)
-    area_layer = algorithm.parameterAsVectorLayer(parameters, AREA_LAYER, context)
+    area_layer = algorithm.vector_source(parameters, AREA_LAYER, context, feedback)
     if area_layer is not None:
-        return StudyArea.from_layer(area_layer.source())
+        return StudyArea.from_layer(area_layer)
     point = algorithm.parameterAsPoint(parameters, CENTER, context, WGS84)
     return StudyArea.circle(point.x(), point.y(), algorithm.parameterAsDouble(parameters, RADIUS, context))
 

@@ -78,8 +78,7 @@ class TriangulateTerrain(WitAlgorithm):
         from ..wit_plugin.terrain import run
 
         def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
+            return self.vector_source(parameters, name, context, feedback)
 
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         stats = run(

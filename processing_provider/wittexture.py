@@ -9,7 +9,7 @@ from qgis.core import (
     QgsProcessingParameterRasterLayer,
 )
 
-from .base import WitAlgorithm, layer_file
+from .base import WitAlgorithm
 from .qgis_compat import NumberType
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
@@ -68,8 +68,8 @@ class WitTexture(WitAlgorithm):
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.texture import TextureConfig, texture_model
 
-        lod1 = layer_file(self.parameterAsVectorLayer(parameters, self.LOD1, context))
-        tin = layer_file(self.parameterAsVectorLayer(parameters, self.TIN, context))
+        lod1 = self.vector_source(parameters, self.LOD1, context, feedback)
+        tin = self.vector_source(parameters, self.TIN, context, feedback)
         if not (lod1 or tin):
             raise QgsProcessingException(self.tr("Give the LoD1 buildings, the TIN, or both."))
         config = TextureConfig(

@@ -9,7 +9,7 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import WitAlgorithm, crs_string, layer_file
+from .base import WitAlgorithm, crs_string
 from .qgis_compat import AlgorithmFlag, FileBehavior, SourceType
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
@@ -78,10 +78,10 @@ class WriteCityGML(WitAlgorithm):
 
         lod1 = self.parameterAsVectorLayer(parameters, self.LOD1, context)
         inputs = CityGMLInputs(
-            lod1=layer_file(lod1),
-            tin=layer_file(self.parameterAsVectorLayer(parameters, self.TIN, context)),
-            roads=layer_file(self.parameterAsVectorLayer(parameters, self.ROADS, context)),
-            districts=layer_file(self.parameterAsVectorLayer(parameters, self.DISTRICTS, context)),
+            lod1=self.vector_source(parameters, self.LOD1, context, feedback),
+            tin=self.vector_source(parameters, self.TIN, context, feedback),
+            roads=self.vector_source(parameters, self.ROADS, context, feedback),
+            districts=self.vector_source(parameters, self.DISTRICTS, context, feedback),
             textures=self.parameterAsFile(parameters, self.TEXTURES, context) or None,
         )
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)

@@ -318,7 +318,7 @@ def test_input_errors(written, tmp_path):
     inputs, _, _, _ = written
     with pytest.raises(InputError, match="does not exist"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=str(tmp_path / "missing.gpkg")), str(tmp_path / "x.gml"))
-    with pytest.raises(InputError, match="no layer 'lod1_faces'"):
+    with pytest.raises(InputError, match=r"lacks the field\(s\) .*wit_face.* of the LoD1 faces \(wit:extrudebuildings\)"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=inputs.roads), str(tmp_path / "x.gml"))
     with pytest.raises(InputError, match="EPSG:5186, not EPSG:5179"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=inputs.lod1), str(tmp_path / "x.gml"), srs_name="EPSG:5179")

@@ -105,7 +105,7 @@ def test_an_output_over_its_input_fails_headless_and_leaves_the_input_intact(tmp
                              f"--BUILDINGS={tmp_path / 'buildings.shp'}", f"--OUTPUT={tmp_path / 'buildings.dbf'}"],
                             capture_output=True, text=True, env=env, timeout=600)
     assert result.returncode != 0
-    assert f"would overwrite the input 'Buildings (TL_SPBD_BULD)' ({tmp_path / 'buildings.shp'})" in (
+    assert f"would overwrite the input 'Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)' ({tmp_path / 'buildings.shp'})" in (
         result.stdout + result.stderr)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 

@@ -296,7 +296,8 @@ def test_bad_inputs_and_outputs_are_refused_before_anything_is_written(chain, tm
         export_tileset(lod1, tin, textures, str(tmp_path / "b"), crs="EPSG:4326")
     with pytest.raises(InputError, match="EPSG:5186"):
         export_tileset(lod1, tin, textures, str(tmp_path / "c"), crs="EPSG:5179")
-    with pytest.raises(InputError, match="has no layer 'lod1_faces'"):
+    with pytest.raises(InputError, match=r"Layer 'tin' .* lacks the field\(s\) wit_id, wit_face, wit_face_no, wit_height "
+                                         r"of the LoD1 faces \(wit:extrudebuildings\)"):
         export_tileset(tin, None, None, str(tmp_path / "d"))
     assert not any((tmp_path / n).exists() for n in "abcd")
 

@@ -51,6 +51,7 @@ from .model import (
 )
 from .triangulators import edge_pairs, triangle_edge_keys
 from .vector_io import FieldDef, VectorLayer, read_layer, read_prepared
+from .vectors import transform
 
 #: snapping grid for constraint coordinates (m): far below survey accuracy, far above float noise
 GRID = 0.001
@@ -937,6 +938,9 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
         crs = next(iter(layers.values())).crs if layers else None
     if crs is None:
         raise InputError("Give the study area as a layer (or a constraint layer) so the TIN's CRS is known.")
+    for layer in layers.values():  # any layer: its geometries in the TIN's CRS
+        if not layer.crs.equals(crs):
+            layer.geoms = transform(layer.geoms, layer.crs, crs)
     if "buildings" in layers:
         area = covering_area(area, layers["buildings"].geoms, feedback)
     dem = Dem.open(dem_path, area.bounds, feedback=feedback, crs=crs)

@@ -87,7 +87,7 @@ from .raster_crs import (
     transform_geometry,
     warp,
 )
-from .vector_io import FieldDef
+from .vector_io import FieldDef, open_step_layer, split_source
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
 TEXCOORDS_FILE = model.TEXCOORD_FILE
@@ -221,13 +221,13 @@ def texture_model(
         if lod1_gpkg:
             roofs = _Layer(lod1_gpkg, model.LOD1_LAYER, model.FACE_TYPE,
                            (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER), (ROOF_TARGET,),
-                           "wit:extrudebuildings")
+                           model.LOD1_ROLE)
             stack.callback(roofs.close)
             untextured.update({k: roofs.count((k,)) for k in ("wall", "ground")})
         if tin_gpkg:
             tin = _Layer(tin_gpkg, model.TIN_LAYER, model.TIN_SURFACE,
                          (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), TEXTURED_TIN_SURFACES,
-                         "wit:triangulateterrain")
+                         model.TIN_ROLE)
             stack.callback(tin.close)
             untextured["footprint"] = tin.count(("footprint",))
         layers = [layer for layer in (roofs, tin) if layer is not None]
@@ -324,25 +324,9 @@ class _Layer:
     """A textured layer: the faces of the given kinds, read in bulk tile by tile (``tiles``)."""
 
     def __init__(self, path: str, name: str, kind_field: str, fields: tuple[str, ...], kinds: tuple[str, ...],
-                 producer: str):
-        self.path, self.name, self.kind_field, self.kinds = path, name, kind_field, kinds
-        try:
-            self._ds = ogr.Open(str(path))
-        except RuntimeError as exc:
-            raise InputError(f"Cannot open {path} as a vector file: {exc}") from exc
-        if self._ds is None:
-            raise InputError(f"Cannot open {path} as a vector file: {gdal.GetLastErrorMsg() or 'unknown format'}.")
-        self.layer = self._ds.GetLayerByName(name)
-        if self.layer is None:
-            names = [self._ds.GetLayer(i).GetName() for i in range(self._ds.GetLayerCount())]
-            raise InputError(f"{path} has no layer {name!r} (it has: {', '.join(names) or 'none'}): "
-                             f"use the output of {producer}.")
-        defn = self.layer.GetLayerDefn()
-        self._fields = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
-        lacking = [f for f in fields if f not in self._fields]
-        if lacking:
-            raise InputError(f"Layer {name!r} in {path} lacks the field(s) {', '.join(lacking)}: "
-                             f"use the output of {producer}.")
+                 role: str):
+        self._ds, self.layer, self._fields = open_step_layer(path, name, role, fields)
+        self.path, self.name, self.kind_field, self.kinds = split_source(path)[0], self.layer.GetName(), kind_field, kinds
         xmin, xmax, ymin, ymax = self.layer.GetExtent()
         self.extent = (xmin, ymin, xmax, ymax)
         srs = self.layer.GetSpatialRef()
@@ -404,7 +388,7 @@ class _Layer:
         """(2D points, points per ring, the batch's columns) of the layer's surfaces, batch by batch,
         only the ``wanted`` ones (a mask over all of them, in order) if given."""
         self.layer.SetAttributeFilter(self._where(self.kinds))
-        self.layer.SetIgnoredFields([f for f in self._fields if f not in columns])
+        bulk_read.ignore_fields(self.layer, [f for f in self._fields if f not in columns])
         start = 0
         try:
             for batch in bulk_read.batches(self.layer, fid=True):

@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import model
+from .. import bulk_read, model
 from ..errors import InputError
 from ..feedback import Feedback
 from ..meshes import parse_texcoords, triangle_vertices
@@ -139,7 +139,7 @@ class Store:
     def add_textures(self, folder: str, feedback: Feedback) -> None:
         path = Path(folder) / model.TEXCOORD_FILE
         fields = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
-        ds, layer, _ = open_step_layer(str(path), model.TEXCOORD_TABLE, "texture table (wit:wittexture)", fields)
+        ds, layer, _ = open_step_layer(str(path), model.TEXCOORD_TABLE, model.TEXCOORD_ROLE, fields)
         numbers: dict[str, int] = {}
         for batch in _column_batches(layer, fields):
             feedback.check_canceled()
@@ -180,7 +180,7 @@ class Store:
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
         """Buildings from their ground faces, then their roof and wall faces; returns the building count."""
-        ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
+        ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, model.LOD1_ROLE,
                                        (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.HEIGHT))
         defn = layer.GetLayerDefn()
         kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
@@ -224,7 +224,7 @@ class Store:
                             [(r[0], int(leaf), r[3], r[4]) for r, leaf in zip(rows, leaves.tolist())])
 
     def add_triangles(self, path: str, grid: Grid, feedback: Feedback) -> int:
-        ds, layer, _ = open_step_layer(path, model.TIN_LAYER, "TIN (wit:triangulateterrain)",
+        ds, layer, _ = open_step_layer(path, model.TIN_LAYER, model.TIN_ROLE,
                                        (model.TIN_TRIANGLE_ID, model.TIN_SURFACE))
         seen = []
         for batch in _column_batches(layer, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE), geometry=True):
@@ -343,8 +343,9 @@ class Store:
 
 def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = False) -> Iterator[dict]:
     """Batches of columns (numpy arrays; key None: the ISO WKB geometries), through GDAL's Arrow
-    interface when it has one, else a feature loop. Text may come as bytes: see ``_texts``."""
-    if hasattr(layer, "GetArrowStreamAsNumPy"):
+    interface when it can take the layer (``bulk_read.arrow_ready``), else a feature loop. Text may
+    come as bytes: see ``_texts``."""
+    if bulk_read.arrow_ready(layer):
         geom_name = layer.GetGeometryColumn() or "geom"
         options = ["USE_MASKED_ARRAYS=NO", f"MAX_FEATURES_IN_BATCH={BATCH}", "INCLUDE_FID=NO"]
         for batch in layer.GetArrowStreamAsNumPy(options=options):

@@ -121,9 +121,9 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
     if config.web:
         require_web_profile()
     georef = Georeference(crs)
-    for path, layer in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
+    for path, layer, role in ((lod1, model.LOD1_LAYER, model.LOD1_ROLE), (tin, model.TIN_LAYER, model.TIN_ROLE)):
         if path:
-            _check_crs(path, layer, georef)
+            _check_crs(path, layer, role, georef)
     report = TilesetReport(output=str(out), tileset=str(out / TILESET_FILE))
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=".wit-stage-", dir=out.parent) as stage_dir, \
@@ -190,8 +190,8 @@ def _check_output(out: Path, inputs: list[str]) -> Path:
     return out
 
 
-def _check_crs(path: str, layer_name: str, georef: Georeference) -> None:
-    ds, layer, _ = open_step_layer(path, layer_name, f"layer '{layer_name}'")
+def _check_crs(path: str, layer_name: str, role: str, georef: Georeference) -> None:
+    ds, layer, _ = open_step_layer(path, layer_name, role)
     srs = layer.GetSpatialRef()
     if srs is not None:
         wanted = osr.SpatialReference()
@@ -204,9 +204,9 @@ def _check_crs(path: str, layer_name: str, georef: Georeference) -> None:
 
 def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, float]:
     boxes = []
-    for path, name in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
+    for path, name, role in ((lod1, model.LOD1_LAYER, model.LOD1_ROLE), (tin, model.TIN_LAYER, model.TIN_ROLE)):
         if path:
-            ds, layer, _ = open_step_layer(path, name, f"layer '{name}'")
+            ds, layer, _ = open_step_layer(path, name, role)
             if layer.GetFeatureCount() > 0:
                 xmin, xmax, ymin, ymax = layer.GetExtent()
                 boxes.append((xmin, ymin, xmax, ymax))
