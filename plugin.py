@@ -1,10 +1,14 @@
-"""QGIS plugin object: installs the translation and registers the Processing provider."""
+"""QGIS plugin object: installs the translation, registers the Processing provider and, in the QGIS window,
+offers the dependency installer when an algorithm lacks a package."""
 from pathlib import Path
 
 from osgeo import gdal
-from qgis.core import QgsApplication
+from qgis.core import Qgis, QgsApplication
 from qgis.PyQt.QtCore import QCoreApplication, QLocale, QSettings, QTranslator
+from qgis.PyQt.QtWidgets import QPushButton
 
+from .processing_provider.base import tr
+from .processing_provider.dependency_notice import NOTICE
 from .processing_provider.provider import WitProvider
 
 PLUGIN_DIR = Path(__file__).resolve().parent
@@ -41,6 +45,15 @@ def batch_reads_write_nothing() -> None:
         gdal.SetConfigOption("GDAL_PAM_ENABLED", "NO")
 
 
+def open_installer():
+    """The dialog of wit:installdependencies (non-modal: the user watches it work)."""
+    import processing
+
+    dialog = processing.createAlgorithmDialog("wit:installdependencies")
+    dialog.show()
+    return dialog
+
+
 class WitCityModelPlugin:
     """Loaded by QGIS (classFactory); qgis_process calls initProcessing() only."""
 
@@ -48,6 +61,8 @@ class WitCityModelPlugin:
         self.iface = iface
         self.provider = None
         self.translator = install_translator(user_locale())
+        self.notice = None  # the message bar item offering the installer
+        self.installer_dialog = None
 
     def initProcessing(self):  # noqa: N802 (QGIS API name)
         batch_reads_write_nothing()
@@ -57,8 +72,33 @@ class WitCityModelPlugin:
 
     def initGui(self):  # noqa: N802 (QGIS API name)
         self.initProcessing()
+        NOTICE.missing.connect(self.offer_installer)
+
+    def offer_installer(self, missing: list) -> None:
+        """A message bar item with a button that opens 'Install Python dependencies' (once at a time)."""
+        bar = self.iface.messageBar()
+        if self.notice is not None and self.notice in bar.items():
+            return
+        item = bar.createMessage(tr("WIT City Model"), tr("Missing Python packages: {packages}.").format(
+            packages=", ".join(missing)))
+        button = QPushButton(tr("Install Python dependencies…"), item)
+        button.clicked.connect(self.show_installer)
+        item.layout().addWidget(button)
+        bar.pushWidget(item, Qgis.MessageLevel.Warning)
+        self.notice = item
+
+    def show_installer(self) -> None:
+        bar = self.iface.messageBar()
+        if self.notice in bar.items():
+            bar.popWidget(self.notice)
+        self.notice = None
+        self.installer_dialog = open_installer()
 
     def unload(self):
+        try:
+            NOTICE.missing.disconnect(self.offer_installer)
+        except TypeError:  # not connected: initGui never ran (qgis_process)
+            pass
         if self.provider is not None:
             QgsApplication.processingRegistry().removeProvider(self.provider)
             self.provider = None

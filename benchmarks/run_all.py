@@ -621,6 +621,8 @@ def main() -> int:
     parser.add_argument("--skip-chain", action="store_true",
                         help="leave out the whole wit:citymodel through qgis_process beside xmllint (bench_chain.py)")
     parser.add_argument("--skip-tiles", action="store_true", help="leave out the tiled runs on Dask (bench_tiles.py)")
+    parser.add_argument("--skip-triangulators", action="store_true",
+                        help="leave out Triangle beside CDT on 1 km and 16 tiles (bench_triangulators.py)")
     args = parser.parse_args()
     sizes = (args.sizes or ("quick" if args.quick else "default,4x")).split(",")
     runs = max(1, args.runs)
@@ -671,7 +673,9 @@ def main() -> int:
             (args.skip_chain, "The whole chain as users run it (qgis_process) beside xmllint --stream", "bench_chain.py",
              ["--radius", "300", "--no-core"] if quick else []),
             (args.skip_tiles, "Tiled runs on Dask (1:1,000 sheets)", "bench_tiles.py",
-             ["--tiles", "1", "4"] if quick else [])):
+             ["--tiles", "1", "4"] if quick else []),
+            (args.skip_triangulators, "Terrain triangulators: Triangle beside CDT", "bench_triangulators.py",
+             ["--tiles", "4"] if quick else [])):
         if not skip:
             md += f"\n\n## {title} (benchmarks/{script})\n\n" + run_script(script, extra)
     (OUT / "results.md").write_text(md + "\n", encoding="utf-8")

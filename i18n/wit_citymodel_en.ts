@@ -4,12 +4,32 @@
   <context>
     <name>WitCityModel</name>
     <message>
+      <source>WIT City Model</source>
+      <translation>WIT City Model</translation>
+    </message>
+    <message>
+      <source>Install Python dependencies…</source>
+      <translation>Install Python dependencies…</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}.</source>
+      <translation>Missing Python packages: {packages}.</translation>
+    </message>
+    <message>
       <source>Build a spatial index (slower to write, faster to display)</source>
       <translation>Build a spatial index (slower to write, faster to display)</translation>
     </message>
     <message>
       <source>Cancelled: no output was written.</source>
       <translation>Cancelled: no output was written.</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}. Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install them into your QGIS profile.</source>
+      <translation>Missing Python packages: {packages}. Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install them into your QGIS profile.</translation>
+    </message>
+    <message>
+      <source>Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.</source>
+      <translation>Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.</translation>
     </message>
     <message>
       <source>City model (whole chain)</source>
@@ -20,8 +40,8 @@
       <translation>Chain</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -88,10 +108,6 @@
       <translation>Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)</translation>
     </message>
     <message>
-      <source>Roads (TL_SPRD_MANAGE)</source>
-      <translation>Roads (TL_SPRD_MANAGE)</translation>
-    </message>
-    <message>
       <source>Legal dongs (TL_SCCO_EMD)</source>
       <translation>Legal dongs (TL_SCCO_EMD)</translation>
     </message>
@@ -132,8 +148,8 @@
       <translation>City model in map-sheet tiles (Dask)</translation>
     </message>
     <message>
-      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
-      <translation>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</translation>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
+      <translation>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</translation>
     </message>
     <message>
       <source>Python interpreter of the workers (empty = found automatically)</source>
@@ -296,8 +312,8 @@
       <translation>CityGML</translation>
     </message>
     <message>
-      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</source>
-      <translation>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</translation>
+      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset. The web profile (off by default) quantizes the tiles' geometry and compresses it with meshoptimizer (KHR_mesh_quantization, EXT_meshopt_compression) for browsers such as CesiumJS: smaller and faster to load, but QGIS's 3D Tiles layer cannot read it; it needs the Python package meshoptimizer.</source>
+      <translation>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset. The web profile (off by default) quantizes the tiles' geometry and compresses it with meshoptimizer (KHR_mesh_quantization, EXT_meshopt_compression) for browsers such as CesiumJS: smaller and faster to load, but QGIS's 3D Tiles layer cannot read it; it needs the Python package meshoptimizer.</translation>
     </message>
     <message>
       <source>Side of a full-detail tile (m)</source>
@@ -352,12 +368,12 @@
       <translation>Geometry</translation>
     </message>
     <message>
-      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
-      <translation>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</translation>
+      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear; a DEM in another CRS is reprojected on the fly) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
+      <translation>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear; a DEM in another CRS is reprojected on the fly) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</translation>
     </message>
     <message>
-      <source>Building footprints (wit:preparevectors)</source>
-      <translation>Building footprints (wit:preparevectors)</translation>
+      <source>Building footprints (any polygon layer, e.g. of wit:preparevectors)</source>
+      <translation>Building footprints (any polygon layer, e.g. of wit:preparevectors)</translation>
     </message>
     <message>
       <source>Base height from the DEM</source>
@@ -440,6 +456,10 @@
       <translation>Buildings (TL_SPBD_BULD)</translation>
     </message>
     <message>
+      <source>Roads (TL_SPRD_MANAGE)</source>
+      <translation>Roads (TL_SPRD_MANAGE)</translation>
+    </message>
+    <message>
       <source>Orthoimage tile folder</source>
       <translation>Orthoimage tile folder</translation>
     </message>
@@ -476,8 +496,8 @@
       <translation>Rasters</translation>
     </message>
     <message>
-      <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
-      <translation>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</translation>
+      <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. A TIF that already carries a georeference in another CRS than the target is reprojected from it instead (bilinear, its pixel size in metres). Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
+      <translation>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. A TIF that already carries a georeference in another CRS than the target is reprojected from it instead (bilinear, its pixel size in metres). Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</translation>
     </message>
     <message>
       <source>Datum of the sheet degrees</source>
@@ -518,6 +538,42 @@
     <message>
       <source>VRT</source>
       <translation>VRT</translation>
+    </message>
+    <message>
+      <source>Install Python dependencies</source>
+      <translation>Install Python dependencies</translation>
+    </message>
+    <message>
+      <source>Tools</source>
+      <translation>Tools</translation>
+    </message>
+    <message>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</translation>
+    </message>
+    <message>
+      <source>Python interpreter to run pip with (empty: QGIS's own)</source>
+      <translation>Python interpreter to run pip with (empty: QGIS's own)</translation>
+    </message>
+    <message>
+      <source>Packages to install when missing</source>
+      <translation>Packages to install when missing</translation>
+    </message>
+    <message>
+      <source>Package folder</source>
+      <translation>Package folder</translation>
+    </message>
+    <message>
+      <source>Installed packages</source>
+      <translation>Installed packages</translation>
+    </message>
+    <message>
+      <source>Cancelled: pip was stopped and nothing was installed.</source>
+      <translation>Cancelled: pip was stopped and nothing was installed.</translation>
+    </message>
+    <message>
+      <source>Restart QGIS to use the new {modules}: this session loaded an older version.</source>
+      <translation>Restart QGIS to use the new {modules}: this session loaded an older version.</translation>
     </message>
     <message>
       <source>WIT city model</source>
@@ -592,8 +648,8 @@
       <translation>Prepare vector layers</translation>
     </message>
     <message>
-      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
-      <translation>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</translation>
+      <source>Reads the building (TL_SPBD_BULD, NGII N3A_B0010000, AL_D010, OpenStreetMap…), road and legal-dong (TL_SCCO_EMD) layers — any layer of the right geometry type; shapefiles are read in their text's encoding (the .cpg's when it fits the text, else CP949 or UTF-8 as the text shows), field names included — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Road polygons (NGII N3A_A0010000) are the road surfaces as they are; centre lines become polygons buffered by width / 2, the width from the layer's width field (ROAD_BT, NGII 도로폭 / RVWD, OpenStreetMap width), else its lanes × 3.25 m (CARTRK_CO, 차로수, RDLN, lanes), else its class (ROA_CLS_SE, highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
+      <translation>Reads the building (TL_SPBD_BULD, NGII N3A_B0010000, AL_D010, OpenStreetMap…), road and legal-dong (TL_SCCO_EMD) layers — any layer of the right geometry type; shapefiles are read in their text's encoding (the .cpg's when it fits the text, else CP949 or UTF-8 as the text shows), field names included — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Road polygons (NGII N3A_A0010000) are the road surfaces as they are; centre lines become polygons buffered by width / 2, the width from the layer's width field (ROAD_BT, NGII 도로폭 / RVWD, OpenStreetMap width), else its lanes × 3.25 m (CARTRK_CO, 차로수, RDLN, lanes), else its class (ROA_CLS_SE, highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</translation>
     </message>
     <message>
       <source>Douglas–Peucker tolerance, buildings (m)</source>
@@ -612,8 +668,8 @@
       <translation>Minimum building area (m²)</translation>
     </message>
     <message>
-      <source>Road width when ROAD_BT is missing (m)</source>
-      <translation>Road width when ROAD_BT is missing (m)</translation>
+      <source>Road width when a centre line has no width, lanes or class (m)</source>
+      <translation>Road width when a centre line has no width, lanes or class (m)</translation>
     </message>
     <message>
       <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
@@ -654,10 +710,6 @@
     <message>
       <source>City model (graphical model)</source>
       <translation>City model (graphical model)</translation>
-    </message>
-    <message>
-      <source>WIT City Model</source>
-      <translation>WIT City Model</translation>
     </message>
     <message>
       <source>WIT City Model: textured CityGML 3.0 from Korean national GIS data</source>
@@ -768,6 +820,22 @@
       <translation> or </translation>
     </message>
     <message>
+      <source>Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, OpenStreetMap…)</source>
+      <translation>Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, OpenStreetMap…)</translation>
+    </message>
+    <message>
+      <source>Triangle (non-commercial licence)</source>
+      <translation>Triangle (non-commercial licence)</translation>
+    </message>
+    <message>
+      <source>CDT (MPL-2.0)</source>
+      <translation>CDT (MPL-2.0)</translation>
+    </message>
+    <message>
+      <source>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</source>
+      <translation>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</translation>
+    </message>
+    <message>
       <source>Centre of the study area</source>
       <translation>Centre of the study area</translation>
     </message>
@@ -782,6 +850,14 @@
     <message>
       <source>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</source>
       <translation>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</translation>
+    </message>
+    <message>
+      <source>Triangulator (licence: Triangle is free for non-commercial use only)</source>
+      <translation>Triangulator (licence: Triangle is free for non-commercial use only)</translation>
+    </message>
+    <message>
+      <source>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</source>
+      <translation>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</translation>
     </message>
     <message>
       <source>Storey height (m)</source>
@@ -820,8 +896,8 @@
       <translation>Triangulate terrain (constrained Delaunay)</translation>
     </message>
     <message>
-      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
-      <translation>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</translation>
+      <source>Meshes the study area with a constrained Delaunay triangulation (library: Triangle, free for non-commercial use only, or CDT, MPL-2.0, free for commercial use too; the same checks whichever): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres (a DEM in another CRS than the layers' is reprojected on the fly to theirs, bilinear, on a grid of its own cell size, and the tolerance is measured against that surface); DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
+      <translation>Meshes the study area with a constrained Delaunay triangulation (library: Triangle, free for non-commercial use only, or CDT, MPL-2.0, free for commercial use too; the same checks whichever): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres (a DEM in another CRS than the layers' is reprojected on the fly to theirs, bilinear, on a grid of its own cell size, and the tolerance is measured against that surface); DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</translation>
     </message>
     <message>
       <source>Study area (polygon layer, e.g. study_area of wit:preparevectors)</source>
@@ -872,8 +948,8 @@
       <translation>Validate CityGML 3.0</translation>
     </message>
     <message>
-      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
-      <translation>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</translation>
+      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
+      <translation>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</translation>
     </message>
     <message>
       <source>CityGML files</source>
@@ -904,8 +980,8 @@
       <translation>WIT texturing</translation>
     </message>
     <message>
-      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
-      <translation>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</translation>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</translation>
     </message>
     <message>
       <source>Merged orthoimage</source>
@@ -952,8 +1028,8 @@
       <translation>Write CityGML 3.0</translation>
     </message>
     <message>
-      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
-      <translation>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</translation>
+      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. srsName: EPSG:n, coordinates easting first, as GIS software reads that form. Runs in the main thread.</source>
+      <translation>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. srsName: EPSG:n, coordinates easting first, as GIS software reads that form. Runs in the main thread.</translation>
     </message>
     <message>
       <source>Road polygons (wit:preparevectors)</source>
@@ -986,6 +1062,86 @@
     <message>
       <source>Texture images beside the CityGML file</source>
       <translation>Texture images beside the CityGML file</translation>
+    </message>
+    <message>
+      <source>triangle (J. R. Shewchuk's Triangle) is free for non-commercial use only; commercial use needs a licence from its author.</source>
+      <translation>triangle (J. R. Shewchuk's Triangle) is free for non-commercial use only; commercial use needs a licence from its author.</translation>
+    </message>
+    <message>
+      <source>Missing: {names}.</source>
+      <translation>Missing: {names}.</translation>
+    </message>
+    <message>
+      <source>Installed into {folder}: {packages}.</source>
+      <translation>Installed into {folder}: {packages}.</translation>
+    </message>
+    <message>
+      <source>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</source>
+      <translation>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</translation>
+    </message>
+    <message>
+      <source>Every selected package is present already: {names}.</source>
+      <translation>Every selected package is present already: {names}.</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip: {command}</source>
+      <translation>QGIS's Python ({python}) has no pip: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</source>
+      <translation>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</translation>
+    </message>
+    <message>
+      <source>Run: {command}</source>
+      <translation>Run: {command}</translation>
+    </message>
+    <message>
+      <source>Running: {command}</source>
+      <translation>Running: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip.</source>
+      <translation>QGIS's Python ({python}) has no pip.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</source>
+      <translation>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</translation>
+    </message>
+    <message>
+      <source>shapely: the system GEOS development files are version {system}, but QGIS runs GEOS {qgis}; a shapely built against them would crash QGIS. Install the GEOS development files of QGIS's GEOS.</source>
+      <translation>shapely: the system GEOS development files are version {system}, but QGIS runs GEOS {qgis}; a shapely built against them would crash QGIS. Install the GEOS development files of QGIS's GEOS.</translation>
+    </message>
+    <message>
+      <source>The installed packages do not import; nothing was installed:</source>
+      <translation>The installed packages do not import; nothing was installed:</translation>
+    </message>
+    <message>
+      <source>The shapely built here uses GEOS {built}, QGIS uses GEOS {qgis}; it would crash QGIS, so nothing was installed.</source>
+      <translation>The shapely built here uses GEOS {built}, QGIS uses GEOS {qgis}; it would crash QGIS, so nothing was installed.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</source>
+      <translation>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</translation>
+    </message>
+    <message>
+      <source>Nothing was installed.</source>
+      <translation>Nothing was installed.</translation>
+    </message>
+    <message>
+      <source>Then run 'Install Python dependencies' again.</source>
+      <translation>Then run 'Install Python dependencies' again.</translation>
+    </message>
+    <message>
+      <source>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</source>
+      <translation>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</translation>
+    </message>
+    <message>
+      <source>pip failed installing {package} (exit code {code}); nothing was installed:</source>
+      <translation>pip failed installing {package} (exit code {code}); nothing was installed:</translation>
+    </message>
+    <message>
+      <source>pip cannot install {module} on this Python ({requirements}):</source>
+      <translation>pip cannot install {module} on this Python ({requirements}):</translation>
     </message>
   </context>
 </TS>

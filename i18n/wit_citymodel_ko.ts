@@ -4,12 +4,32 @@
   <context>
     <name>WitCityModel</name>
     <message>
+      <source>WIT City Model</source>
+      <translation>WIT 도시모델</translation>
+    </message>
+    <message>
+      <source>Install Python dependencies…</source>
+      <translation>파이썬 의존 패키지 설치…</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}.</source>
+      <translation>없는 파이썬 패키지: {packages}.</translation>
+    </message>
+    <message>
       <source>Build a spatial index (slower to write, faster to display)</source>
       <translation>공간 인덱스 생성 (쓰기는 느려지고 표시는 빨라짐)</translation>
     </message>
     <message>
       <source>Cancelled: no output was written.</source>
       <translation>취소됨: 출력 파일을 쓰지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Missing Python packages: {packages}. Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install them into your QGIS profile.</source>
+      <translation>없는 파이썬 패키지: {packages}. '파이썬 의존 패키지 설치'(wit:installdependencies, 도구 그룹)를 실행하면 QGIS 프로필에 설치됩니다.</translation>
+    </message>
+    <message>
+      <source>Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.</source>
+      <translation>'파이썬 의존 패키지 설치'(wit:installdependencies, 도구 그룹)를 실행하여 QGIS의 GEOS를 쓰는 shapely를 QGIS 프로필에 설치한 뒤 QGIS를 다시 시작하십시오.</translation>
     </message>
     <message>
       <source>City model (whole chain)</source>
@@ -20,8 +40,8 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며, 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -88,10 +108,6 @@
       <translation>건물 (TL_SPBD_BULD, 국토지리정보원, AL_D010, 오픈스트리트맵…)</translation>
     </message>
     <message>
-      <source>Roads (TL_SPRD_MANAGE)</source>
-      <translation>도로 (TL_SPRD_MANAGE)</translation>
-    </message>
-    <message>
       <source>Legal dongs (TL_SCCO_EMD)</source>
       <translation>법정동 (TL_SCCO_EMD)</translation>
     </message>
@@ -132,8 +148,8 @@
       <translation>도엽 타일 단위 도시 모델 (Dask)</translation>
     </message>
     <message>
-      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
-      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786: 일반 dask 스케줄러이면 되고, 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 데이터를 만들 수 없는 타일은 이유와 함께 실패하고 나머지는 계속됩니다. 그러면 알고리즘은 실패한 타일 수와 처음 몇 가지 이유를 담은 오류로 끝나고, 끝난 타일은 남습니다: 같은 폴더에서 다시 실행하면 그 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다. 건물을 하나도 남기지 않는 타일(공원, 산, 건물이 모두 이웃 타일에 속하거나 너무 작은 경우)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 하나로 묶습니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가).</translation>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
+      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786: 기본 dask 스케줄러; 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 데이터를 만들 수 없는 타일은 그 이유와 함께 실패로 기록되고 나머지는 계속됩니다. 그러면 알고리즘은 실패 수와 첫 이유들을 담은 오류로 끝나며, 끝난 타일은 남습니다: 같은 폴더에서 다시 실행하면 그 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다. 남는 건물이 하나도 없는 타일(공원, 산, 건물이 모두 이웃 타일에 속하거나 너무 작은 경우)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 도엽별 그룹(1:5,000, 1:50,000, 1° 블록; 실행에 필요한 만큼의 단계) 아래에 하나로 묶습니다. 그룹은 멀리서 지형과 가장 큰 건물들을 보여 줍니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가).</translation>
     </message>
     <message>
       <source>Python interpreter of the workers (empty = found automatically)</source>
@@ -296,8 +312,8 @@
       <translation>CityGML</translation>
     </message>
     <message>
-      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset.</source>
-      <translation>도시 모델을 OGC 3D Tiles 1.1 타일셋(tileset.json, glTF 바이너리 타일, 텍스처 이미지)으로 내보냅니다. CesiumJS, QGIS 3.34 이상(3D Tiles 레이어) 및 그 밖의 3D Tiles 뷰어에서 볼 수 있습니다. 가장 상세한 타일에는 LoD1 건물(wit:wittexture의 텍스처 아틀라스를 입힌 지붕, 음영만 준 벽면)과 TIN의 지형·도로가 지면 이미지와 함께 그대로 재사용되어 담깁니다. 그 위의 개략 타일에는 자체 이미지를 가진 지형 격자와, 아틀라스의 더 작은 밉 레벨을 입힌 큰 건물들이 담겨 넓은 지역도 스트리밍으로 볼 수 있습니다. 좌표는 모델 좌표계에서 변환한 지구 중심 좌표이며, 각 타일은 자체 지역 좌표계를 가집니다. 모든 건물은 식별자와 속성(이름, 높이, 층수, 높이 출처, 원본 필드)을 3D Tiles 메타데이터(EXT_mesh_features, EXT_structural_metadata)로 지니므로 뷰어에서 클릭하면 표시됩니다. 출력 폴더는 통째로 교체되므로 새 폴더, 빈 폴더 또는 이전에 만든 타일셋 폴더여야 합니다.</translation>
+      <source>Writes the city model as an OGC 3D Tiles 1.1 tileset (tileset.json, glTF binary tiles and the texture images) for CesiumJS, QGIS 3.34 or later (3D Tiles layer) and other 3D Tiles viewers. Full-detail tiles hold the LoD1 buildings (roofs with the texture atlases of wit:wittexture, plain lit walls) and the terrain and roads of the TIN with their ground images, reused as they are; coarser tiles above them hold a terrain grid with its own image and the larger buildings on smaller mip levels of the atlases, so a large area streams. Coordinates are Earth-centred (from the model CRS), each tile in its own local frame. Every building carries its id and attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata (EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output folder is replaced whole; it must be new, empty or an earlier tileset. The web profile (off by default) quantizes the tiles' geometry and compresses it with meshoptimizer (KHR_mesh_quantization, EXT_meshopt_compression) for browsers such as CesiumJS: smaller and faster to load, but QGIS's 3D Tiles layer cannot read it; it needs the Python package meshoptimizer.</source>
+      <translation>도시 모델을 OGC 3D Tiles 1.1 타일셋(tileset.json, glTF 바이너리 타일, 텍스처 이미지)으로 내보냅니다. CesiumJS, QGIS 3.34 이상(3D Tiles 레이어) 및 그 밖의 3D Tiles 뷰어에서 볼 수 있습니다. 가장 상세한 타일에는 LoD1 건물(wit:wittexture의 텍스처 아틀라스를 입힌 지붕, 음영만 준 벽면)과 TIN의 지형·도로가 지면 이미지와 함께 그대로 재사용되어 담깁니다. 그 위의 개략 타일에는 자체 이미지를 가진 지형 격자와, 아틀라스의 더 작은 밉 레벨을 입힌 큰 건물들이 담겨 넓은 지역도 스트리밍으로 볼 수 있습니다. 좌표는 모델 좌표계에서 변환한 지구 중심 좌표이며, 각 타일은 자체 지역 좌표계를 가집니다. 모든 건물은 식별자와 속성(이름, 높이, 층수, 높이 출처, 원본 필드)을 3D Tiles 메타데이터(EXT_mesh_features, EXT_structural_metadata)로 지니므로 뷰어에서 클릭하면 표시됩니다. 출력 폴더는 통째로 교체되므로 새 폴더, 빈 폴더 또는 이전에 만든 타일셋 폴더여야 합니다. 웹 프로파일(기본값은 꺼짐)은 타일의 지오메트리를 양자화하고 meshoptimizer로 압축하여(KHR_mesh_quantization, EXT_meshopt_compression) CesiumJS 같은 브라우저에서 더 작고 빠르게 불러오게 하지만, QGIS의 3D Tiles 레이어는 이를 읽을 수 없으며 파이썬 패키지 meshoptimizer가 필요합니다.</translation>
     </message>
     <message>
       <source>Side of a full-detail tile (m)</source>
@@ -352,12 +368,12 @@
       <translation>기하</translation>
     </message>
     <message>
-      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
-      <translation>건물마다 닫힌, 바깥을 향하는 LoD1 솔리드를 만듭니다: 바닥면, 지붕, 외곽선의 변마다 벽 하나(중정 포함). 기준 높이는 건물마다 하나입니다: 건물이 뜨지 않도록 외곽선 위 DEM(쌍선형)의 최솟값, 또는 중앙값. 높이: 도로명주소 지상층수를 알면 GRO_FLO_CO × 층고, 아니면 높이 필드, 아니면 식; 둘 다 주지 않으면 흔한 레이어의 높이·층수 필드를 이름으로 알아봅니다(국토지리정보원 수치지도 BFLR_CO; GIS건물통합정보 AL_D010 A16 높이, A26 지상층수; 오픈스트리트맵 height, building:levels; 한글 높이, 지상층수). 그래도 없으면 기본 높이를 쓰며, 그 건물 수를 경고로 알립니다. 어느 규칙을 썼는지 로그에 남기고 건물마다 기록합니다(wit_height_src, wit_height_rule). 출력: 건물 id(wit_id), 면 종류, 면 번호, 기준 높이, 높이, 층수(파생 필드는 모두 wit_… 이름)와 모든 원본 속성을 원래 이름 그대로 가진 PolygonZ 면.</translation>
+      <source>Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per footprint edge (courtyards included). The base is one height per building: the minimum of the DEM (bilinear; a DEM in another CRS is reprojected on the fly) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × storey height when the road-name-address floor count is known, else the height field, else the expression; with neither given, the height and floor fields of common layers are recognised by name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 height, A26 floors; OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is a warning with the count. The log says which rule was used, and every building records it (wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face type, face number, base height, height, storeys (all derived fields named wit_…) and every source attribute under its own name.</source>
+      <translation>건물마다 닫힌, 바깥을 향하는 LoD1 솔리드를 만듭니다: 바닥면, 지붕, 외곽선의 변마다 벽 하나(중정 포함). 기준 높이는 건물마다 하나입니다: 건물이 뜨지 않도록 외곽선 위 DEM(쌍선형; 다른 좌표계의 DEM은 실행 중에 바로 재투영)의 최솟값, 또는 중앙값. 높이: 도로명주소 지상층수를 알면 GRO_FLO_CO × 층고, 아니면 높이 필드, 아니면 식; 둘 다 주지 않으면 흔한 레이어의 높이·층수 필드를 이름으로 알아봅니다(국토지리정보원 수치지도 BFLR_CO, 또는 배포된 그대로의 층수; GIS건물통합정보 AL_D010 A16 높이, A26 지상층수; 오픈스트리트맵 height, building:levels; 한글 높이, 지상층수). 그래도 없으면 기본 높이를 쓰며, 그 건물 수를 경고로 알립니다. 어느 규칙을 썼는지 로그에 남기고 건물마다 기록합니다(wit_height_src, wit_height_rule). 출력: 건물 id(wit_id), 면 종류, 면 번호, 기준 높이, 높이, 층수(파생 필드는 모두 wit_… 이름)와 모든 원본 속성을 원래 이름 그대로 가진 PolygonZ 면.</translation>
     </message>
     <message>
-      <source>Building footprints (wit:preparevectors)</source>
-      <translation>건물 외곽선 (wit:preparevectors)</translation>
+      <source>Building footprints (any polygon layer, e.g. of wit:preparevectors)</source>
+      <translation>건물 외곽선 (아무 폴리곤 레이어, 예: wit:preparevectors 출력)</translation>
     </message>
     <message>
       <source>Base height from the DEM</source>
@@ -440,6 +456,10 @@
       <translation>건물 (TL_SPBD_BULD)</translation>
     </message>
     <message>
+      <source>Roads (TL_SPRD_MANAGE)</source>
+      <translation>도로 (TL_SPRD_MANAGE)</translation>
+    </message>
+    <message>
       <source>Orthoimage tile folder</source>
       <translation>정사영상 타일 폴더</translation>
     </message>
@@ -476,8 +496,8 @@
       <translation>래스터</translation>
     </message>
     <message>
-      <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
-      <translation>각 TIF 파일 이름의 어느 위치에서든 NGII 도엽번호(1:50,000~1:1,000)를 읽고, 원본 측지계(기본: Korea 2000 / GRS80, EPSG:4737)의 도엽 경위도 범위로부터 대상 좌표계에서의 도엽 범위를 계산한 뒤 여백(NGII 타일은 도엽 + 약 50 m)을 더해, 좌표가 부여된 타일·압축 GeoTIFF 또는 원본 픽셀을 그대로 가리키는 VRT를 씁니다. 유효한 도엽번호가 없는 이름과 GDAL이 열 수 없는 파일은 건너뛰고 그 이유를 로그와 도엽 색인에 남깁니다. 추측하지 않습니다. 입력: TIF 파일 및/또는 폴더(그 안의 *.tif, 하위 폴더 제외).</translation>
+      <source>Reads the NGII map-sheet number (도엽번호, 1:50,000 to 1:1,000) anywhere in each TIF's file name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or a VRT that points at the untouched pixels. A TIF that already carries a georeference in another CRS than the target is reprojected from it instead (bilinear, its pixel size in metres). Names without a valid sheet number and files GDAL cannot open are skipped with the reason in the log and in the footprint index; nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive).</source>
+      <translation>각 TIF 파일 이름의 어느 위치에서든 NGII 도엽번호(1:50,000~1:1,000)를 읽고, 원본 측지계(기본: Korea 2000 / GRS80, EPSG:4737)의 도엽 경위도 범위로부터 대상 좌표계에서의 도엽 범위를 계산한 뒤 여백(NGII 타일은 도엽 + 약 50 m)을 더해, 좌표가 부여된 타일·압축 GeoTIFF 또는 원본 픽셀을 그대로 가리키는 VRT를 씁니다. 대상 좌표계와 다른 좌표계의 지리참조를 이미 가진 TIF는 도엽번호 대신 그 지리참조로부터 재투영합니다(쌍선형, 미터 단위의 원래 픽셀 크기). 유효한 도엽번호가 없는 이름과 GDAL이 열 수 없는 파일은 건너뛰고 그 이유를 로그와 도엽 색인에 남깁니다. 추측하지 않습니다. 입력: TIF 파일 및/또는 폴더(그 안의 *.tif, 하위 폴더 제외).</translation>
     </message>
     <message>
       <source>Datum of the sheet degrees</source>
@@ -518,6 +538,42 @@
     <message>
       <source>VRT</source>
       <translation>VRT</translation>
+    </message>
+    <message>
+      <source>Install Python dependencies</source>
+      <translation>파이썬 의존 패키지 설치</translation>
+    </message>
+    <message>
+      <source>Tools</source>
+      <translation>도구</translation>
+    </message>
+    <message>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, pythoncdt, pygltflib, Dask…; 비상업적 이용에만 무료인 triangle은 선택한 경우에만)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
+    </message>
+    <message>
+      <source>Python interpreter to run pip with (empty: QGIS's own)</source>
+      <translation>pip을 실행할 파이썬 인터프리터 (비우면 QGIS의 파이썬)</translation>
+    </message>
+    <message>
+      <source>Packages to install when missing</source>
+      <translation>없으면 설치할 패키지</translation>
+    </message>
+    <message>
+      <source>Package folder</source>
+      <translation>패키지 폴더</translation>
+    </message>
+    <message>
+      <source>Installed packages</source>
+      <translation>설치한 패키지</translation>
+    </message>
+    <message>
+      <source>Cancelled: pip was stopped and nothing was installed.</source>
+      <translation>취소됨: pip을 멈췄으며 아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Restart QGIS to use the new {modules}: this session loaded an older version.</source>
+      <translation>새 {modules}을(를) 쓰려면 QGIS를 다시 시작하십시오. 이 세션은 이전 버전을 불러와 두었습니다.</translation>
     </message>
     <message>
       <source>WIT city model</source>
@@ -592,8 +648,8 @@
       <translation>벡터 레이어 준비</translation>
     </message>
     <message>
-      <source>Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text says so — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
-      <translation>건물(TL_SPBD_BULD), 도로(TL_SPRD_MANAGE), 법정동(TL_SCCO_EMD) 레이어를 읽습니다(.cpg가 없거나 다른 코드 페이지를 선언한 셰이프파일도 내용이 CP949이면 CP949로 읽음). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거. 가는 조각, 무한대나 NaN 좌표가 있는 피처, 완전히 같은 중복 피처(같은 ID와 외곽선)는 이유와 개수를 남기고 제외하며, ID가 같지만 외곽선이 다른 피처는 wit_id에 _2, _3…을 붙여 모두 남김). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로는 ROAD_BT / 2 만큼 버퍼한 폴리곤이 됩니다(없으면 도로 등급별 기본 폭). 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
+      <source>Reads the building (TL_SPBD_BULD, NGII N3A_B0010000, AL_D010, OpenStreetMap…), road and legal-dong (TL_SCCO_EMD) layers — any layer of the right geometry type; shapefiles are read in their text's encoding (the .cpg's when it fits the text, else CP949 or UTF-8 as the text shows), field names included — reprojects them (EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same id on different footprints gets _2, _3… on its wit_id), clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still share it. Road polygons (NGII N3A_A0010000) are the road surfaces as they are; centre lines become polygons buffered by width / 2, the width from the layer's width field (ROAD_BT, NGII 도로폭 / RVWD, OpenStreetMap width), else its lanes × 3.25 m (CARTRK_CO, 차로수, RDLN, lanes), else its class (ROA_CLS_SE, highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if given, else a polygon layer if given, else the centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) and a stats CSV: features in/out, repairs, drops and vertices per layer.</source>
+      <translation>건물(TL_SPBD_BULD, 국토지리정보원 N3A_B0010000, AL_D010, 오픈스트리트맵…), 도로, 법정동(TL_SCCO_EMD) 레이어를 읽습니다(도형 유형만 맞으면 어떤 레이어든; 셰이프파일은 내용의 인코딩으로 읽음: .cpg가 내용과 맞으면 그것, 아니면 내용에 따라 CP949나 UTF-8, 필드 이름 포함). 좌표계를 변환하고(기본 EPSG:5186) 오류를 고칩니다(링 닫기, 외곽은 반시계·구멍은 시계 방향, 유효화, 중복 꼭짓점 제거. 가는 조각, 무한대나 NaN 좌표가 있는 피처, 완전히 같은 중복 피처(같은 ID와 외곽선)는 이유와 개수를 남기고 제외하며, ID가 같지만 외곽선이 다른 피처는 wit_id에 _2, _3…을 붙여 모두 남김). 연구 지역으로 자르고 Douglas–Peucker로 단순화합니다(기본: 건물 0.5 m, 도로·행정구역 5 m). 폴리곤은 유효하게 유지되고 벽을 공유하던 건물은 계속 공유합니다. 도로 폴리곤(국토지리정보원 N3A_A0010000)은 그대로 도로면이 되고, 중심선은 폭 / 2 만큼 버퍼한 폴리곤이 됩니다. 폭은 레이어의 폭 필드(ROAD_BT, 국토지리정보원 도로폭 / RVWD, 오픈스트리트맵 width), 없으면 차로수 × 3.25 m(CARTRK_CO, 차로수, RDLN, lanes), 없으면 등급(ROA_CLS_SE, highway), 없으면 기본 폭이며, 어느 규칙을 썼는지와 개수를 로그에 남깁니다. 연구 지역: 법정동 코드가 있으면 그것, 없으면 폴리곤 레이어, 없으면 중심점과 반경. 하나의 GeoPackage(buildings, roads, districts, stats, dropped)와 통계 CSV(레이어별 입력/출력 수, 수정, 제외, 꼭짓점 수)를 씁니다.</translation>
     </message>
     <message>
       <source>Douglas–Peucker tolerance, buildings (m)</source>
@@ -612,8 +668,8 @@
       <translation>최소 건물 면적 (m²)</translation>
     </message>
     <message>
-      <source>Road width when ROAD_BT is missing (m)</source>
-      <translation>ROAD_BT가 없을 때 도로 폭 (m)</translation>
+      <source>Road width when a centre line has no width, lanes or class (m)</source>
+      <translation>중심선에 폭·차로수·등급이 없을 때 도로 폭 (m)</translation>
     </message>
     <message>
       <source>Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)</source>
@@ -654,10 +710,6 @@
     <message>
       <source>City model (graphical model)</source>
       <translation>도시모델 (그래픽 모델)</translation>
-    </message>
-    <message>
-      <source>WIT City Model</source>
-      <translation>WIT 도시모델</translation>
     </message>
     <message>
       <source>WIT City Model: textured CityGML 3.0 from Korean national GIS data</source>
@@ -768,6 +820,22 @@
       <translation> 또는 </translation>
     </message>
     <message>
+      <source>Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, OpenStreetMap…)</source>
+      <translation>도로: 중심선 또는 도로 폴리곤 (TL_SPRD_MANAGE, 국토지리정보원 N3L_A0020000 또는 N3A_A0010000, 오픈스트리트맵…)</translation>
+    </message>
+    <message>
+      <source>Triangle (non-commercial licence)</source>
+      <translation>Triangle (비상업적 이용 라이선스)</translation>
+    </message>
+    <message>
+      <source>CDT (MPL-2.0)</source>
+      <translation>CDT (MPL-2.0)</translation>
+    </message>
+    <message>
+      <source>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</source>
+      <translation>3D Tiles 웹 프로파일: 브라우저용 압축 지오메트리 (QGIS에서는 읽을 수 없음)</translation>
+    </message>
+    <message>
       <source>Centre of the study area</source>
       <translation>연구 지역 중심</translation>
     </message>
@@ -782,6 +850,14 @@
     <message>
       <source>Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)</source>
       <translation>법정동: 코드(EMD_CD) 또는 이름, 예: 11680101 또는 역삼동 (중심점과 반경 대신)</translation>
+    </message>
+    <message>
+      <source>Triangulator (licence: Triangle is free for non-commercial use only)</source>
+      <translation>삼각분할 라이브러리 (라이선스: Triangle은 비상업적 이용에만 무료)</translation>
+    </message>
+    <message>
+      <source>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</source>
+      <translation>Triangle('triangle' 패키지)이 설치되어 있지 않습니다: 지형은 CDT(MPL-2.0)로 삼각분할합니다.</translation>
     </message>
     <message>
       <source>Storey height (m)</source>
@@ -820,8 +896,8 @@
       <translation>지형 삼각분할 (제약 들로네)</translation>
     </message>
     <message>
-      <source>Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres; DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
-      <translation>연구 지역을 제약 들로네 삼각분할(라이브러리 'triangle')로 메시화합니다: 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(엄밀한 상한으로 대부분의 삼각형을 확인하고, 나머지는 모든 변과 내부의 DEM 셀 중심에서 정확히 측정하며, 보고하는 최대값도 정확한 값입니다). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간. DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
+      <source>Meshes the study area with a constrained Delaunay triangulation (library: Triangle, free for non-commercial use only, or CDT, MPL-2.0, free for commercial use too; the same checks whichever): building footprints and road polygons are constraints whose edges appear in the mesh; footprints become holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: bilinear interpolation of the four surrounding DEM cell centres (a DEM in another CRS than the layers' is reprojected on the fly to theirs, bilinear, on a grid of its own cell size, and the tolerance is measured against that surface); DEM NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, feature_id), plus counts and the measured maximum vertical error.</source>
+      <translation>연구 지역을 제약 들로네 삼각분할로 메시화합니다(라이브러리: 비상업적 이용에만 무료인 Triangle, 또는 상업적 이용도 무료인 CDT(MPL-2.0); 어느 쪽이든 같은 검사): 건물 외곽선과 도로 폴리곤이 제약이 되어 그 변이 메시에 나타나며, 외곽선은 구멍(건물이 그 위에 섬) 또는 제약 변이 됩니다. 변 길이는 최대 변 길이(논문: 5 m) 이하이며, DEM 표면이 TIN에서 수직 허용오차보다 멀어지는 곳은 세분합니다(엄밀한 상한으로 대부분의 삼각형을 확인하고, 나머지는 모든 변과 내부의 DEM 셀 중심에서 정확히 측정하며, 보고하는 최대값도 정확한 값입니다). 높이: 주변 네 DEM 셀 중심의 쌍선형 보간(레이어와 다른 좌표계의 DEM은 실행 중에 레이어의 좌표계로 재투영하며—쌍선형, 원래 셀 크기의 격자—허용오차는 그 표면에 대해 잽니다). DEM NoData(선언된 값, 선언이 없으면 −1000 이하)는 이웃으로 채우며 높이로 쓰지 않습니다. 삼각분할기가 멈추지 않도록 지저분한 제약(중복, 교차, 가는 조각)을 먼저 정리합니다. 출력: 삼각형마다 하나의 PolygonZ 피처(tri_id, surface: terrain/road/footprint, feature_id), 개수와 측정된 최대 수직 오차.</translation>
     </message>
     <message>
       <source>Study area (polygon layer, e.g. study_area of wit:preparevectors)</source>
@@ -872,8 +948,8 @@
       <translation>CityGML 3.0 검증</translation>
     </message>
     <message>
-      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
-      <translation>CityGML 3.0 파일을 오프라인으로 검증하고 모든 문제를 파일, 줄, gml:id와 함께 보고합니다: 모든 CityGML 3.0 모듈에 대한 XSD 유효성(스키마가 없는 ADE를 쓰는 파일은 그렇다고 보고), gml:id 중복 없음, 모든 #id / xlink:href 참조 해석, 건물 솔리드가 닫혀 있고 일관되게 바깥을 향하며 면이 평면이고 자기 교차가 없음, TIN 삼각형이 퇴화하지 않음, 모든 좌표가 3차원, 텍스처 이미지 존재 및 텍스처 좌표 수가 링과 일치. 기하 허용 오차는 좌표계와 관계없이 미터 단위입니다: 도 단위 좌표(예: EPSG:4326, EPSG:6697)는 국지 미터 좌표로 환산해 재며, 알 수 없는 좌표계는 미터로 보고 경고를 남깁니다. 비어 있거나, XML이 아니거나, CityGML 3.0이 아니거나, 중간에 잘린 파일은 그 사실을 알리는 메시지 하나로 보고합니다. 큰 파일은 스트리밍으로 처리합니다. 파싱 중 외부 엔티티와 네트워크 접근은 꺼져 있습니다. 스키마: SCHEMA_DIR 폴더(예: ADE용으로 덮어쓰기), 없으면 플러그인 설정의 폴더, 없으면 플러그인에 포함된 CityGML 3.0 스키마(네트워크 불필요). 어느 것을 썼는지 로그에 남깁니다. 결과: VALID, ERROR_COUNT, 논문 표 13과 같은 파일별 표(파일, 상태, 상세), HTML 및 CSV 보고서(HTML 보고서를 지정하지 않으면 임시 파일에 씁니다).</translation>
+      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
+      <translation>CityGML 3.0 파일을 오프라인으로 검증하고 모든 문제를 파일, 줄, gml:id와 함께 보고합니다: 모든 CityGML 3.0 모듈에 대한 XSD 유효성(스키마가 없는 ADE를 쓰는 파일은 그렇다고 보고), gml:id 중복 없음, 모든 #id / xlink:href 참조 해석, 건물 솔리드가 닫혀 있고 일관되게 바깥을 향하며 면이 평면이고 자기 교차가 없음, TIN 삼각형이 퇴화하지 않음, 모든 좌표가 3차원, 텍스처 이미지 존재 및 텍스처 좌표 수가 링과 일치. 기하 허용 오차는 좌표계와 관계없이 미터 단위입니다: 도 단위 좌표(예: EPSG:4326, EPSG:6697)는 국지 미터 좌표로 환산해 재며, 알 수 없는 좌표계는 미터로 보고 경고를 남깁니다. 축 순서는 GDAL이 읽는 방식을 따릅니다: 짧은 형식 EPSG:n은 경도(동향) 먼저, URN과 URL 형식은 EPSG의 순서(EPSG:4326, 6697, 5186 등은 위도 또는 북향 먼저)입니다. ±90°를 넘는 위도는 축을 바꿔 읽고 경고를 남깁니다. 비어 있거나, XML이 아니거나, CityGML 3.0이 아니거나, 중간에 잘린 파일은 그 사실을 알리는 메시지 하나로 보고합니다. 큰 파일은 스트리밍으로 처리합니다. 파싱 중 외부 엔티티와 네트워크 접근은 꺼져 있습니다. 스키마: SCHEMA_DIR 폴더(예: ADE용으로 덮어쓰기), 없으면 플러그인 설정의 폴더, 없으면 플러그인에 포함된 CityGML 3.0 스키마(네트워크 불필요). 어느 것을 썼는지 로그에 남깁니다. 결과: VALID, ERROR_COUNT, 논문 표 13과 같은 파일별 표(파일, 상태, 상세), HTML 및 CSV 보고서(HTML 보고서를 지정하지 않으면 임시 파일에 씁니다).</translation>
     </message>
     <message>
       <source>CityGML files</source>
@@ -904,8 +980,8 @@
       <translation>WIT 텍스처링</translation>
     </message>
     <message>
-      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
-      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 텍스처를 입히지 않습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽습니다. 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 텍스처를 입히지 않습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽으며, 레이어와 다른 좌표계의 정사영상은 읽는 대로 재투영합니다(쌍선형). 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
     </message>
     <message>
       <source>Merged orthoimage</source>
@@ -952,8 +1028,8 @@
       <translation>CityGML 3.0 쓰기</translation>
     </message>
     <message>
-      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. Runs in the main thread.</source>
-      <translation>CityGML 3.0 도시모델을 스트리밍으로 씁니다(건물 수가 늘어도 메모리가 늘지 않음): 닫혀 있고 바깥을 향하는 lod1Solid, con:height, 층수, 모든 원본 속성을 형식 있는 일반 속성으로 가진 bldg:Building(wit:extrudebuildings에서), 지형 위에 놓인 통행 영역을 가진 tran:Road와 TIN을 가진 dem:ReliefFeature(wit:triangulateterrain에서, 준비된 도로 속성 포함), 법정동마다 하나의 grp:CityObjectGroup(행정구역), 그리고 있으면 wit:wittexture의 텍스처를 app:ParameterizedTexture로(이미지는 .gml 옆에 복사, 상대 경로 URI). gml:id는 원본 ID에서 만들어지므로 같은 입력은 같은 ID를 줍니다. 메인 스레드에서 실행됩니다.</translation>
+      <source>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. srsName: EPSG:n, coordinates easting first, as GIS software reads that form. Runs in the main thread.</source>
+      <translation>CityGML 3.0 도시모델을 스트리밍으로 씁니다(건물 수가 늘어도 메모리가 늘지 않음): 닫혀 있고 바깥을 향하는 lod1Solid, con:height, 층수, 모든 원본 속성을 형식 있는 일반 속성으로 가진 bldg:Building(wit:extrudebuildings에서), 지형 위에 놓인 통행 영역을 가진 tran:Road와 TIN을 가진 dem:ReliefFeature(wit:triangulateterrain에서, 준비된 도로 속성 포함), 법정동마다 하나의 grp:CityObjectGroup(행정구역), 그리고 있으면 wit:wittexture의 텍스처를 app:ParameterizedTexture로(이미지는 .gml 옆에 복사, 상대 경로 URI). gml:id는 원본 ID에서 만들어지므로 같은 입력은 같은 ID를 줍니다. srsName은 EPSG:n이고 좌표는 GIS 소프트웨어가 이 형식을 읽는 대로 동향 먼저입니다. 메인 스레드에서 실행됩니다.</translation>
     </message>
     <message>
       <source>Road polygons (wit:preparevectors)</source>
@@ -986,6 +1062,86 @@
     <message>
       <source>Texture images beside the CityGML file</source>
       <translation>CityGML 파일 옆의 텍스처 이미지</translation>
+    </message>
+    <message>
+      <source>triangle (J. R. Shewchuk's Triangle) is free for non-commercial use only; commercial use needs a licence from its author.</source>
+      <translation>triangle(J. R. Shewchuk의 Triangle)은 비상업적 용도로만 무료이며, 상업적으로 사용하려면 저작자의 라이선스가 필요합니다.</translation>
+    </message>
+    <message>
+      <source>Missing: {names}.</source>
+      <translation>없는 패키지: {names}.</translation>
+    </message>
+    <message>
+      <source>Installed into {folder}: {packages}.</source>
+      <translation>{folder}에 설치함: {packages}.</translation>
+    </message>
+    <message>
+      <source>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</source>
+      <translation>shapely: shapely 휠은 자체 GEOS를 담고 있어 리눅스에서 QGIS를 비정상 종료시키므로 시스템 GEOS에 맞춰 빌드해야 하며, 이를 위해 GEOS 개발 파일, C 컴파일러, 파이썬 헤더({packages})가 필요합니다.</translation>
+    </message>
+    <message>
+      <source>Every selected package is present already: {names}.</source>
+      <translation>선택한 패키지가 모두 이미 있습니다: {names}.</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip: {command}</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없습니다: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</source>
+      <translation>QGIS의 파이썬({python})의 pip은 {version}입니다. 설치하려면 pip 22.2 이상이 필요합니다: {command}</translation>
+    </message>
+    <message>
+      <source>Run: {command}</source>
+      <translation>실행: {command}</translation>
+    </message>
+    <message>
+      <source>Running: {command}</source>
+      <translation>실행 중: {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python ({python}) has no pip.</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없습니다.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</source>
+      <translation>{module}: PyPI의 휠은 QGIS가 직접 불러오는 C 라이브러리를 담고 있어 QGIS를 비정상 종료시킬 수 있습니다. 플랫폼 패키지 {package}가 안전합니다.</translation>
+    </message>
+    <message>
+      <source>shapely: the system GEOS development files are version {system}, but QGIS runs GEOS {qgis}; a shapely built against them would crash QGIS. Install the GEOS development files of QGIS's GEOS.</source>
+      <translation>shapely: 시스템의 GEOS 개발 파일은 {system} 버전인데 QGIS는 GEOS {qgis}를 씁니다. 이에 맞춰 빌드한 shapely는 QGIS를 비정상 종료시킬 수 있으니 QGIS가 쓰는 GEOS의 개발 파일을 설치하십시오.</translation>
+    </message>
+    <message>
+      <source>The installed packages do not import; nothing was installed:</source>
+      <translation>설치한 패키지를 가져올(import) 수 없어 아무것도 설치하지 않았습니다:</translation>
+    </message>
+    <message>
+      <source>The shapely built here uses GEOS {built}, QGIS uses GEOS {qgis}; it would crash QGIS, so nothing was installed.</source>
+      <translation>여기서 빌드한 shapely는 GEOS {built}를, QGIS는 GEOS {qgis}를 씁니다. QGIS를 비정상 종료시킬 수 있으므로 아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</source>
+      <translation>{module}: PyPI의 휠은 QGIS가 직접 불러오는 C 라이브러리를 담고 있어 QGIS를 비정상 종료시킬 수 있습니다. 배포판의 패키지({package})를 설치하십시오.</translation>
+    </message>
+    <message>
+      <source>Nothing was installed.</source>
+      <translation>아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Then run 'Install Python dependencies' again.</source>
+      <translation>그런 다음 '파이썬 의존 패키지 설치'를 다시 실행하십시오.</translation>
+    </message>
+    <message>
+      <source>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</source>
+      <translation>pip이 {name}을(를) 두 가지 버전({first}, {second})으로 요구합니다. 패키지를 하나씩 설치하십시오.</translation>
+    </message>
+    <message>
+      <source>pip failed installing {package} (exit code {code}); nothing was installed:</source>
+      <translation>pip이 {package} 설치에 실패했습니다(종료 코드 {code}). 아무것도 설치하지 않았습니다:</translation>
+    </message>
+    <message>
+      <source>pip cannot install {module} on this Python ({requirements}):</source>
+      <translation>pip이 이 파이썬에 {module}을(를) 설치할 수 없습니다({requirements}):</translation>
     </message>
   </context>
 </TS>

@@ -17,7 +17,7 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingFeedback,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterDefinition,
+    QgsVectorFileWriter,
 )
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
@@ -26,6 +26,8 @@ from ..wit_plugin import deps, fileio
 from ..wit_plugin.errors import CanceledError, WitError
 from ..wit_plugin.feedback import Feedback
 from ..wit_plugin.gdal_env import no_sidecars
+from .dependency_notice import NOTICE
+from .qgis_compat import ParameterFlag
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1]
 HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
@@ -34,11 +36,6 @@ HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
 def crs_string(crs: QgsCoordinateReferenceSystem) -> str:
     """A CRS as the core takes it: the authority id when there is one, else WKT."""
     return crs.authid() or crs.toWkt()
-
-
-def layer_file(layer) -> str | None:
-    """The file behind a file-based layer (``path|layername=…`` → ``path``); the core opens it itself."""
-    return layer.source().split("|")[0] if layer is not None else None
 
 
 def translatable(text: str) -> str:
@@ -117,8 +114,14 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         text = self.tr(self.help_text)
         absent = deps.missing(self.requirements)
         if absent:
-            text = deps.install_hint(absent).replace("\n", "<br>") + "<br><br>" + text
+            text = self.missing_message(absent).replace("\n", "<br>") + "<br><br>" + text
         return text
+
+    def missing_message(self, absent: list[str]) -> str:
+        """What to do about missing packages: the installing algorithm first, the shell commands after."""
+        return (self.tr("Missing Python packages: {packages}. Run 'Install Python dependencies' "
+                        "(wit:installdependencies, group Tools) to install them into your QGIS profile.")
+                .format(packages=", ".join(absent)) + "\n" + deps.install_hint(absent))
 
     def checkParameterValues(self, parameters, context):  # noqa: N802
         """A vector or raster file's real problem before QGIS's generic "Incorrect parameter value";
@@ -129,6 +132,23 @@ class WitAlgorithm(QgsProcessingAlgorithm):
             problem = safeguards.file_problem(self, parameters, context)
             return (False, problem) if problem else super().checkParameterValues(parameters, context)
 
+    def vector_source(self, parameters, name: str, context, feedback=None) -> str | None:
+        """The core's source for a vector-layer parameter: ``file`` or ``file|layername=…`` of whatever layer
+        the user gave — a file of any name, a layer of a GeoPackage, a layer of the project. Layers the
+        core cannot open as they are (memory or database layers, filtered or /vsi layers, formats GDAL
+        cannot write) are copied to a GeoPackage by Processing first; None when the parameter is empty."""
+        layer = self.parameterAsVectorLayer(parameters, name, context)
+        if layer is None:
+            return None
+        path, layer_name = self.parameterAsCompatibleSourceLayerPathAndLayerName(
+            parameters, name, context, QgsVectorFileWriter.supportedFormatExtensions(), "gpkg",
+            getattr(feedback, "processing_feedback", feedback))
+        if not path:
+            return None
+        if Path(path) == fileio.source_file(layer.source()):
+            return layer.source()  # the layer's own file: its |layername= or |layerid= as QGIS opened it
+        return f"{path}|layername={layer_name}" if layer_name else path
+
     def extra_outputs(self, parameters, context) -> list:
         """Files or folders written beside the destination parameters' (``safeguards.Endpoint``s)."""
         return []
@@ -137,7 +157,10 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         from . import safeguards
 
         try:
-            deps.require(self.requirements)
+            absent = deps.missing(self.requirements)
+            if absent:
+                NOTICE.missing.emit(absent)  # the GUI offers the installer (plugin.py)
+                raise QgsProcessingException(self.missing_message(absent))
             self._check_geos()
             with no_sidecars():  # layers QGIS loads for the parameters write no .aux.xml beside the inputs
                 problem = (safeguards.file_problem(self, parameters, context)
@@ -157,7 +180,11 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         """Refuse, rather than crash QGIS, when shapely carries a GEOS other than QGIS's."""
         problem = "shapely" in self.requirements and deps.geos_mismatch(Qgis.geosVersion())
         if problem:
-            raise QgsProcessingException(deps.install_hint(["shapely>=2"], problem))
+            NOTICE.missing.emit(["shapely>=2"])
+            raise QgsProcessingException(
+                self.tr("Run 'Install Python dependencies' (wit:installdependencies, group Tools) to install a "
+                        "shapely that uses QGIS's GEOS into your QGIS profile, then restart QGIS.")
+                + "\n" + deps.install_hint(["shapely>=2"], problem))
 
     def execute(self, parameters, context, feedback: QgisFeedback) -> dict:
         """Convert the parameters, call the core, return the outputs."""
@@ -171,5 +198,5 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         param = QgsProcessingParameterBoolean(
             self.SPATIAL_INDEX, self.tr("Build a spatial index (slower to write, faster to display)"),
             defaultValue=True)
-        param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        param.setFlags(param.flags() | ParameterFlag.Advanced)
         self.addParameter(param)

@@ -2,8 +2,6 @@
 import json
 
 from qgis.core import (
-    QgsProcessing,
-    QgsProcessingAlgorithm,
     QgsProcessingOutputBoolean,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
@@ -21,7 +19,20 @@ from qgis.core import (
 
 from .base import WitAlgorithm, crs_string
 from .load_results import load_results
-from .shared_parameters import add_area_parameters, add_height_parameters, height_options, schema_choice, study_area
+from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
+from .shared_parameters import (
+    ROADS_LABEL,
+    ROADS_TYPES,
+    WEB_PROFILE,
+    add_area_parameters,
+    add_height_parameters,
+    add_triangulator_parameter,
+    add_web_profile_parameter,
+    height_options,
+    schema_choice,
+    study_area,
+    triangulator,
+)
 
 OUTSIDE_ORTHO = ("fail", "untextured")
 
@@ -34,7 +45,8 @@ class CityModel(WitAlgorithm):
         "Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare "
         "the building, road and legal-dong layers for the study area; check, in seconds and before any heavy "
         "work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing "
-        "sheets; georeference and merge only the sheets it needs (WIT feather + gain); triangulate the "
+        "sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, "
+        "bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the "
         "terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights "
         "as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of "
         "the common layers recognised by name; buildings given the default height are a warning and the "
@@ -47,7 +59,7 @@ class CityModel(WitAlgorithm):
         "<output>/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the "
         "centre point and radius."
     )
-    requirements = ("shapely", "triangle", "pyproj", "lxml")
+    requirements = ("shapely", "pythoncdt", "pyproj", "lxml")
 
     ORTHO_INPUT = "ORTHO_INPUT"
     DEM = "DEM"
@@ -67,12 +79,13 @@ class CityModel(WitAlgorithm):
     def flags(self):
         # writing and validating CityGML use lxml, which has crashed QGIS from a background thread on
         # Windows (qgis/QGIS#54751): the chain runs in the main thread
-        return super().flags() | QgsProcessingAlgorithm.FlagNoThreading
+        return super().flags() | AlgorithmFlag.NoThreading
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.add_chain_parameters()
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)"), defaultValue=True))
+        add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterBoolean(
             self.KEEP_WORK, self.tr("Keep the intermediate files"), defaultValue=False))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
@@ -91,27 +104,28 @@ class CityModel(WitAlgorithm):
     def add_chain_parameters(self) -> None:
         """The inputs and options of the chain (wit:citymodeltiles takes the same)."""
         self.addParameter(QgsProcessingParameterMultipleLayers(
-            self.ORTHO_INPUT, self.tr("Orthoimage TIFs or folders"), QgsProcessing.TypeFile))
+            self.ORTHO_INPUT, self.tr("Orthoimage TIFs or folders"), SourceType.File))
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)"),
-            [QgsProcessing.TypeVectorPolygon]))
+            [SourceType.VectorPolygon]))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), [QgsProcessing.TypeVectorLine], optional=True))
+            self.ROADS, self.tr(ROADS_LABEL), ROADS_TYPES, optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [QgsProcessing.TypeVectorPolygon], optional=True))
+            self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [SourceType.VectorPolygon], optional=True))
         add_area_parameters(self)
         self.addParameter(QgsProcessingParameterCrs(
             self.TARGET_CRS, self.tr("Target CRS"), defaultValue="EPSG:5186", optional=True))
         add_height_parameters(self, self.BUILDINGS)
         self.addParameter(QgsProcessingParameterNumber(
-            self.MAX_EDGE, self.tr("Maximum edge length (m)"), QgsProcessingParameterNumber.Double,
+            self.MAX_EDGE, self.tr("Maximum edge length (m)"), NumberType.Double,
             defaultValue=5.0, minValue=0.5))
         self.addParameter(QgsProcessingParameterNumber(
-            self.TOLERANCE, self.tr("Vertical tolerance (m)"), QgsProcessingParameterNumber.Double,
+            self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
             defaultValue=0.5, minValue=0.01))
+        add_triangulator_parameter(self)
         self.addParameter(QgsProcessingParameterNumber(
-            self.TEXTURE_SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), QgsProcessingParameterNumber.Double,
+            self.TEXTURE_SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), NumberType.Double,
             defaultValue=1.0, minValue=0.01, maxValue=1.0))
         self.addParameter(QgsProcessingParameterEnum(
             self.OUTSIDE_ORTHO, self.tr("Surfaces outside the orthoimage"),
@@ -119,15 +133,14 @@ class CityModel(WitAlgorithm):
             defaultValue=0))
         self.addParameter(QgsProcessingParameterFile(
             self.SCHEMA_DIR, self.tr("Schema folder overriding the shipped schemas (with citygml3-all.xsd)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
 
-    def chain_settings(self, parameters, context):
+    def chain_settings(self, parameters, context, feedback):
         """(ChainInputs, ChainOptions, checked height expression) from the parameters."""
         from ..wit_plugin.chain import ChainInputs, ChainOptions
 
         def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
+            return self.vector_source(parameters, name, context, feedback)
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)
@@ -135,25 +148,28 @@ class CityModel(WitAlgorithm):
         inputs = ChainInputs(
             ortho=self.parameterAsFileList(parameters, self.ORTHO_INPUT, context),
             dem=self.parameterAsRasterLayer(parameters, self.DEM, context).source(),
-            buildings=buildings.source(), roads=source(self.ROADS), districts=source(self.DISTRICTS))
+            buildings=source(self.BUILDINGS), roads=source(self.ROADS), districts=source(self.DISTRICTS))
         options = ChainOptions(
-            area=study_area(self, parameters, context),
+            area=study_area(self, parameters, context, feedback),
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
             max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
+            triangulator=triangulator(self, parameters, context, feedback),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
-            schema_dir=configured, schema_cache=cache)
+            schema_dir=configured, schema_cache=cache,
+            tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context))
         return inputs, options, expression
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.chain import run_city_model
 
-        inputs, options, expression = self.chain_settings(parameters, context)
+        inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)
-        load_results(context, lod1=report.lod1, tin=report.tin, tileset=report.tileset)
+        load_results(context, lod1=report.lod1, tin=report.tin,  # QGIS cannot read the web profile
+                     tileset=None if options.tiles3d_web else report.tileset)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {

@@ -10,7 +10,6 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterExtent,
     QgsProcessingParameterFile,
@@ -21,11 +20,12 @@ from qgis.core import (
     QgsVectorLayer,
     QgsWkbTypes,
 )
-from qgis.PyQt.QtCore import QVariant
 
 from .base import crs_string
 from .citymodel import CityModel
 from .load_results import load_index, load_results
+from .qgis_compat import FieldType, NumberType, ParameterFlag
+from .shared_parameters import add_web_profile_parameter
 
 TILE_SCALES = (5000, 1000)
 EXPRESSION_COLUMN = "wit_expr_height"
@@ -54,7 +54,9 @@ class CityModelTiles(CityModel):
         "stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to "
         "neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles "
         "on, each tile writes its tileset and tileset.json at the top of the output folder joins them into "
-        "one (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later)."
+        "one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that "
+        "show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer "
+        "in QGIS 3.34 and later)."
     )
 
     TILE_SCALE = "TILE_SCALE"
@@ -78,16 +80,17 @@ class CityModelTiles(CityModel):
             self.SCHEDULER, self.tr("Dask scheduler address (empty = an embedded one on this computer)"),
             optional=True))
         self.addParameter(QgsProcessingParameterNumber(
-            self.WORKERS, self.tr("Worker processes (embedded scheduler)"), QgsProcessingParameterNumber.Integer,
+            self.WORKERS, self.tr("Worker processes (embedded scheduler)"), NumberType.Integer,
             defaultValue=os.cpu_count() or 1, minValue=1))
         python = QgsProcessingParameterFile(
             self.WORKER_PYTHON, self.tr("Python interpreter of the workers (empty = found automatically)"),
             optional=True)
-        python.setFlags(python.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        python.setFlags(python.flags() | ParameterFlag.Advanced)
         self.addParameter(python)
         self.addParameter(QgsProcessingParameterBoolean(
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset over all tiles (tileset.json) for viewers"),
             defaultValue=True))
+        add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputVectorLayer("INDEX", self.tr("Tile index")))
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset over all tiles (tileset.json)")))
@@ -101,7 +104,7 @@ class CityModelTiles(CityModel):
         from ..wit_plugin.tiles.runner import run_tiles
         from ..wit_plugin.vectors import StudyArea
 
-        inputs, options, expression = self.chain_settings(parameters, context)
+        inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         output = self.parameterAsString(parameters, self.OUTPUT, context)
         area = options.area
@@ -128,7 +131,7 @@ class CityModelTiles(CityModel):
                 "(map of the run: index.gpkg); run the algorithm again on this folder to build only the others."
             ).format(failed=len(failed), tiles=len(report.rows), reasons=reasons, output=output))
         load_index(context, report.index)
-        load_results(context, tileset=report.tileset)
+        load_results(context, tileset=None if options.tiles3d_web else report.tileset)  # QGIS cannot read it
         return {self.OUTPUT: output, "INDEX": report.index, "TILESET": report.tileset,
                 "TILES_DONE": report.count("done"),
                 "TILES_FAILED": report.count("failed"), "TILES_EMPTY": report.count("empty"),
@@ -143,7 +146,7 @@ class CityModelTiles(CityModel):
         work.mkdir(parents=True, exist_ok=True)
         target = str(work / "buildings_expression.gpkg")
         fields = QgsFields(layer.fields())
-        fields.append(QgsField(EXPRESSION_COLUMN, QVariant.Double))
+        fields.append(QgsField(EXPRESSION_COLUMN, FieldType.Double))
         memory = QgsVectorLayer(QgsWkbTypes.displayString(layer.wkbType()), "buildings", "memory")
         memory.setCrs(layer.crs())
         memory.dataProvider().addAttributes(fields.toList())
@@ -159,7 +162,7 @@ class CityModelTiles(CityModel):
         options = QgsVectorFileWriter.SaveVectorOptions()
         options.driverName = "GPKG"
         error = QgsVectorFileWriter.writeAsVectorFormatV2(memory, target, context.transformContext(), options)
-        if error[0] != QgsVectorFileWriter.NoError:
+        if error[0] != QgsVectorFileWriter.WriterError.NoError:
             raise QgsProcessingException(self.tr("Cannot write {path}: {error}").format(path=target, error=error[1]))
         if expression.failure_warning():
             feedback.warning(expression.failure_warning())

@@ -5,7 +5,6 @@ from qgis.core import (
     QgsFeature,
     QgsFeatureSink,
     QgsField,
-    QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterExtent,
@@ -16,11 +15,10 @@ from qgis.core import (
     QgsProcessingParameterRasterDestination,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterString,
-    QgsWkbTypes,
 )
-from qgis.PyQt.QtCore import QVariant
 
 from .base import WitAlgorithm
+from .qgis_compat import FieldType, NumberType, SourceType, WkbType
 
 STORE_HELP = ("The store is a GeoPackage file, or a PostGIS table when a PostgreSQL connection string "
               "(postgresql://user:password@host:port/database) is given.")
@@ -48,7 +46,7 @@ class BuildColorStore(WitAlgorithm):
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterRasterLayer(self.INPUT, self.tr("RGB orthoimage")))
         self.addParameter(QgsProcessingParameterNumber(
-            self.TOLERANCE, self.tr("Colour tolerance (RMS, 0–255)"), QgsProcessingParameterNumber.Double,
+            self.TOLERANCE, self.tr("Colour tolerance (RMS, 0–255)"), NumberType.Double,
             defaultValue=12.0, minValue=0.5, maxValue=128.0))
         self.addParameter(QgsProcessingParameterString(
             self.POSTGIS, self.tr("PostGIS connection (empty = GeoPackage)"), optional=True))
@@ -99,13 +97,13 @@ class QueryColorStore(WitAlgorithm):
             self.STORE, self.tr("Colour store (GeoPackage path or PostGIS connection)")))
         self.addParameter(QgsProcessingParameterString(self.TABLE, self.tr("Table"), defaultValue="color_cells"))
         self.addParameter(QgsProcessingParameterFeatureSource(
-            self.POINTS, self.tr("Points to colour"), [QgsProcessing.TypeVectorPoint], optional=True))
+            self.POINTS, self.tr("Points to colour"), [SourceType.VectorPoint], optional=True))
         self.addParameter(QgsProcessingParameterExtent(self.EXTENT, self.tr("Patch extent"), optional=True))
         self.addParameter(QgsProcessingParameterNumber(
-            self.RESOLUTION, self.tr("Patch resolution (m)"), QgsProcessingParameterNumber.Double,
+            self.RESOLUTION, self.tr("Patch resolution (m)"), NumberType.Double,
             defaultValue=0.5, minValue=0.01))
         self.addParameter(QgsProcessingParameterFeatureSink(
-            self.OUTPUT, self.tr("Coloured points"), QgsProcessing.TypeVectorPoint, optional=True))
+            self.OUTPUT, self.tr("Coloured points"), SourceType.VectorPoint, optional=True))
         self.addParameter(QgsProcessingParameterRasterDestination(
             self.OUTPUT_PATCH, self.tr("Texture patch"), optional=True))
         self.addOutput(QgsProcessingOutputNumber("POINTS_COLOURED", self.tr("Points coloured")))
@@ -134,8 +132,8 @@ class QueryColorStore(WitAlgorithm):
     def _colour_points(self, parameters, context, feedback, store, source, to_store) -> dict:
         fields = source.fields()
         for band in ("R", "G", "B"):
-            fields.append(QgsField(band, QVariant.Int))
-        sink, sink_id = self.parameterAsSink(parameters, self.OUTPUT, context, fields, QgsWkbTypes.Point,
+            fields.append(QgsField(band, FieldType.Int))
+        sink, sink_id = self.parameterAsSink(parameters, self.OUTPUT, context, fields, WkbType.Point,
                                              source.sourceCrs())
         total = max(source.featureCount(), 1)
         count = 0
@@ -147,7 +145,7 @@ class QueryColorStore(WitAlgorithm):
             out.setGeometry(feature.geometry())
             out.setAttributes(feature.attributes() + list(store.query_point(point.x(), point.y())))
             if sink is not None:
-                sink.addFeature(out, QgsFeatureSink.FastInsert)
+                sink.addFeature(out, QgsFeatureSink.Flag.FastInsert)
             count += 1
             feedback.progress(100.0 * number / total)
         feedback.check_canceled()

@@ -3,15 +3,21 @@ from qgis.core import (
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
     QgsProcessingParameterCrs,
-    QgsProcessingParameterDefinition,
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
     QgsProcessingParameterNumber,
 )
 
-from .base import WitAlgorithm, crs_string, layer_file
+from .base import WitAlgorithm, crs_string
 from .load_results import load_results
-from .shared_parameters import LOD1, TIN, add_model_layer_parameters
+from .qgis_compat import FileBehavior, NumberType, ParameterFlag
+from .shared_parameters import (
+    LOD1,
+    TIN,
+    WEB_PROFILE,
+    add_model_layer_parameters,
+    add_web_profile_parameter,
+)
 
 
 class Export3DTiles(WitAlgorithm):
@@ -28,11 +34,14 @@ class Export3DTiles(WitAlgorithm):
         "(from the model CRS), each tile in its own local frame. Every building carries its id and "
         "attributes (name, height, storeys, height source, source fields) as 3D Tiles metadata "
         "(EXT_mesh_features and EXT_structural_metadata): a click in a viewer shows them. The output "
-        "folder is replaced whole; it must be new, empty or an earlier tileset."
+        "folder is replaced whole; it must be new, empty or an earlier tileset. The web profile (off by "
+        "default) quantizes the tiles' geometry and compresses it with meshoptimizer (KHR_mesh_quantization, "
+        "EXT_meshopt_compression) for browsers such as CesiumJS: smaller and faster to load, but QGIS's 3D Tiles "
+        "layer cannot read it; it needs the Python package meshoptimizer."
     )
     requirements = ("shapely", "pyproj", "pygltflib")
 
-    LOD1, TIN = LOD1, TIN
+    LOD1, TIN, WEB_PROFILE = LOD1, TIN, WEB_PROFILE
     TEXTURES = "TEXTURES"
     TARGET_CRS = "TARGET_CRS"
     LEAF_SIZE = "LEAF_SIZE"
@@ -42,15 +51,16 @@ class Export3DTiles(WitAlgorithm):
         add_model_layer_parameters(self)
         self.addParameter(QgsProcessingParameterFile(
             self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
         self.addParameter(QgsProcessingParameterCrs(
             self.TARGET_CRS, self.tr("Model CRS (when the layers carry none)"), defaultValue="EPSG:5186",
             optional=True))
         leaf = QgsProcessingParameterNumber(
-            self.LEAF_SIZE, self.tr("Side of a full-detail tile (m)"), QgsProcessingParameterNumber.Double,
+            self.LEAF_SIZE, self.tr("Side of a full-detail tile (m)"), NumberType.Double,
             defaultValue=256.0, minValue=16.0, maxValue=10000.0)
-        leaf.setFlags(leaf.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        leaf.setFlags(leaf.flags() | ParameterFlag.Advanced)
         self.addParameter(leaf)
+        add_web_profile_parameter(self)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Tileset folder")))
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("tileset.json")))
         for name, label in (("TILES", self.tr("Tiles written")), ("BUILDINGS", self.tr("Buildings written")),
@@ -66,10 +76,13 @@ class Export3DTiles(WitAlgorithm):
         crs = layer.crs() if layer is not None and layer.crs().isValid() else \
             self.parameterAsCrs(parameters, self.TARGET_CRS, context)
         output = self.parameterAsString(parameters, self.OUTPUT, context)
+        web = self.parameterAsBool(parameters, self.WEB_PROFILE, context)
         report = export_tileset(
-            layer_file(lod1), layer_file(tin), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
+            self.vector_source(parameters, self.LOD1, context, feedback),
+            self.vector_source(parameters, self.TIN, context, feedback), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             output, crs_string(crs), feedback,
-            TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context)))
-        load_results(context, tileset=report.tileset)  # a 3D Tiles layer on QGIS ≥ 3.34, from the GUI
+            TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context), web=web))
+        if not web:  # QGIS cannot read the web profile
+            load_results(context, tileset=report.tileset)  # a 3D Tiles layer on QGIS ≥ 3.34, from the GUI
         return {self.OUTPUT: output, "TILESET": report.tileset, "TILES": report.tiles,
                 "BUILDINGS": report.buildings, "MEGABYTES": round(report.bytes_written / 1e6, 3)}

@@ -1,7 +1,6 @@
 """wit:extrudebuildings — closed LoD1 solids from footprints, floors and the DEM."""
 
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
@@ -11,6 +10,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .qgis_compat import SourceType
 from .shared_parameters import add_height_parameters, height_options
 
 BASES = ("min", "median")
@@ -23,10 +23,11 @@ class ExtrudeBuildings(WitAlgorithm):
     help_text = (
         "Builds a closed, outward-oriented LoD1 solid per building: ground face, roof and one wall per "
         "footprint edge (courtyards included). The base is one height per building: the minimum of the "
-        "DEM (bilinear) over the footprint, so no building floats, or the median. Height: GRO_FLO_CO × "
+        "DEM (bilinear; a DEM in another CRS is reprojected on the fly) over the footprint, so no building "
+        "floats, or the median. Height: GRO_FLO_CO × "
         "storey height when the road-name-address floor count is known, else the height field, else the "
         "expression; with neither given, the height and floor fields of common layers are recognised by "
-        "name (NGII digital map BFLR_CO; building-integrated information AL_D010 A16 height, A26 floors; "
+        "name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 height, A26 floors; "
         "OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is "
         "a warning with the count. The log says which rule was used, and every building records it "
         "(wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face "
@@ -42,7 +43,8 @@ class ExtrudeBuildings(WitAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.BUILDINGS, self.tr("Building footprints (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon]))
+            self.BUILDINGS, self.tr("Building footprints (any polygon layer, e.g. of wit:preparevectors)"),
+            [SourceType.VectorPolygon]))
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
         add_height_parameters(self, self.BUILDINGS)
         self.addParameter(QgsProcessingParameterEnum(
@@ -62,7 +64,7 @@ class ExtrudeBuildings(WitAlgorithm):
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        stats = run(buildings.source(), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
+        stats = run(self.vector_source(parameters, self.BUILDINGS, context, feedback), self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
                     heights, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
                     self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
         if expression is not None and expression.failure_warning():

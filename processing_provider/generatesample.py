@@ -1,7 +1,6 @@
 """wit:generatesample — realistic sample data in the national formats (demo, tests, benchmarks), or an
 orthoimage and DEM drawn from given building and road layers."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputFile,
     QgsProcessingOutputFolder,
@@ -15,6 +14,7 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .qgis_compat import NumberType, SourceType
 from .shared_parameters import AREA_LAYER, CENTER, DISTRICT_CODE, RADIUS, WGS84, add_area_parameters, study_area
 
 
@@ -55,13 +55,13 @@ class GenerateSample(WitAlgorithm):
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.BUILDINGS, self.tr("Buildings to draw the orthoimage from (empty = a synthetic city)"),
-            [QgsProcessing.TypeVectorPolygon], optional=True))
+            [SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.ROADS, self.tr("Roads to draw the orthoimage from: centre lines or polygons"),
-            [QgsProcessing.TypeVectorLine, QgsProcessing.TypeVectorPolygon], optional=True))
+            [SourceType.VectorLine, SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD), to name a district as the area"),
-            [QgsProcessing.TypeVectorPolygon], optional=True))
+            [SourceType.VectorPolygon], optional=True))
         add_area_parameters(self)
         self.addParameter(QgsProcessingParameterBoolean(
             self.WHOLE_EXTENT, self.tr("Draw over the whole extent of the given layers (instead of the study area)"),
@@ -73,10 +73,10 @@ class GenerateSample(WitAlgorithm):
             self.SEED, self.tr("Random seed"), defaultValue=42, minValue=0))
         self.addParameter(QgsProcessingParameterNumber(
             self.ORTHO_PIXEL_SIZE, self.tr("Orthoimage pixel size (m)"),
-            QgsProcessingParameterNumber.Double, defaultValue=0.5, minValue=0.05, maxValue=50.0))
+            NumberType.Double, defaultValue=0.5, minValue=0.05, maxValue=50.0))
         self.addParameter(QgsProcessingParameterNumber(
             self.DEM_CELL_SIZE, self.tr("DEM cell size (m)"),
-            QgsProcessingParameterNumber.Double, defaultValue=5.0, minValue=0.5, maxValue=500.0))
+            NumberType.Double, defaultValue=5.0, minValue=0.5, maxValue=500.0))
         self.addParameter(QgsProcessingParameterBoolean(
             self.WITH_ORTHO, self.tr("Generate orthoimage tiles"), defaultValue=True))
         self.addParameter(QgsProcessingParameterBoolean(
@@ -92,10 +92,6 @@ class GenerateSample(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("BUILDINGS_DRAWN", self.tr("Given buildings drawn")))
         self.addOutput(QgsProcessingOutputNumber("ROADS_DRAWN", self.tr("Given roads drawn")))
         self.addOutput(QgsProcessingOutputNumber("TILES_WRITTEN", self.tr("Orthoimage tiles written")))
-
-    def _source(self, parameters, name, context) -> str | None:
-        layer = self.parameterAsVectorLayer(parameters, name, context)
-        return layer.source() if layer is not None else None
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.sample import SampleConfig
@@ -114,7 +110,8 @@ class GenerateSample(WitAlgorithm):
             with_dem=self.parameterAsBool(parameters, self.WITH_DEM, context),
         )
         folder = self.parameterAsString(parameters, self.OUTPUT, context)
-        given = {name: self._source(parameters, name, context) for name in (self.BUILDINGS, self.ROADS, self.DISTRICTS)}
+        given = {name: self.vector_source(parameters, name, context, feedback)
+                 for name in (self.BUILDINGS, self.ROADS, self.DISTRICTS)}
         whole = self.parameterAsBool(parameters, self.WHOLE_EXTENT, context)
         if given[self.BUILDINGS] or given[self.ROADS]:
             if count:
@@ -154,7 +151,7 @@ class GenerateSample(WitAlgorithm):
 
         layers = GivenLayers(buildings=given[self.BUILDINGS], roads=given[self.ROADS],
                              districts=given[self.DISTRICTS],
-                             area=None if whole else study_area(self, parameters, context))
+                             area=None if whole else study_area(self, parameters, context, feedback))
         result = draw_from_layers(folder, layers, config, feedback)
         return {
             self.OUTPUT: folder,

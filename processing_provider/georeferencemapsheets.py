@@ -5,7 +5,6 @@ from qgis.core import (
     QgsField,
     QgsFields,
     QgsGeometry,
-    QgsProcessing,
     QgsProcessingOutputMultipleLayers,
     QgsProcessingOutputNumber,
     QgsProcessingParameterCrs,
@@ -15,11 +14,10 @@ from qgis.core import (
     QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterNumber,
     QgsRectangle,
-    QgsWkbTypes,
 )
-from qgis.PyQt.QtCore import QVariant
 
 from .base import WitAlgorithm, crs_string
+from .qgis_compat import FieldType, NumberType, SourceType, WkbType
 
 FORMATS = ("GTiff", "VRT")
 
@@ -33,7 +31,8 @@ class GeoreferenceMapSheets(WitAlgorithm):
         "name, computes the sheet's envelope in the target CRS from the sheet's degree bounds on "
         "the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles "
         "cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or "
-        "a VRT that points at the untouched pixels. Names without a valid sheet number and files "
+        "a VRT that points at the untouched pixels. A TIF that already carries a georeference in another "
+        "CRS than the target is reprojected from it instead (bilinear, its pixel size in metres). Names without a valid sheet number and files "
         "GDAL cannot open are skipped with the reason in the log and in the footprint index; "
         "nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive)."
     )
@@ -48,7 +47,7 @@ class GeoreferenceMapSheets(WitAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterMultipleLayers(
-            self.INPUT, self.tr("Orthoimage TIFs or folders"), QgsProcessing.TypeFile))
+            self.INPUT, self.tr("Orthoimage TIFs or folders"), SourceType.File))
         # Optional with a default: QGIS 3.22 does not fill a missing mandatory CRS with its default
         # (qgis_process reports it as "not specified"); parameterAsCrs falls back to the default.
         self.addParameter(QgsProcessingParameterCrs(
@@ -57,14 +56,14 @@ class GeoreferenceMapSheets(WitAlgorithm):
             self.SOURCE_CRS, self.tr("Datum of the sheet degrees"), defaultValue="EPSG:4737", optional=True))
         self.addParameter(QgsProcessingParameterNumber(
             self.MARGIN, self.tr("Margin around the sheet (m)"),
-            QgsProcessingParameterNumber.Double, defaultValue=50.0, minValue=0.0))
+            NumberType.Double, defaultValue=50.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterEnum(
             self.FORMAT, self.tr("Output format"), options=[self.tr("GeoTIFF"), self.tr("VRT")],
             defaultValue=0))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         # Optional (qgis_process needs no value), created by default in the dialog.
         self.addParameter(QgsProcessingParameterFeatureSink(
-            self.OUTPUT_INDEX, self.tr("Footprint index"), QgsProcessing.TypeVectorPolygon, optional=True,
+            self.OUTPUT_INDEX, self.tr("Footprint index"), SourceType.VectorPolygon, optional=True,
             createByDefault=True))
         self.addOutput(QgsProcessingOutputMultipleLayers("OUTPUT_LAYERS", self.tr("Georeferenced rasters")))
         self.addOutput(QgsProcessingOutputNumber("GEOREFERENCED", self.tr("Sheets georeferenced")))
@@ -86,13 +85,13 @@ class GeoreferenceMapSheets(WitAlgorithm):
         )
         fields = index_fields()
         sink, index_id = self.parameterAsSink(parameters, self.OUTPUT_INDEX, context, fields,
-                                              QgsWkbTypes.Polygon, target_crs)
+                                              WkbType.Polygon, target_crs)
         for result in results if sink is not None else ():
             feature = QgsFeature(fields)
             feature.setAttributes([getattr(result, name) for name in fields.names()])
             if result.bounds:
                 feature.setGeometry(QgsGeometry.fromRect(QgsRectangle(*result.bounds)))
-            sink.addFeature(feature, QgsFeatureSink.FastInsert)
+            sink.addFeature(feature, QgsFeatureSink.Flag.FastInsert)
         outputs = {self.OUTPUT_INDEX: index_id} if sink is not None else {}
         return {
             **outputs,
@@ -110,5 +109,5 @@ def index_fields() -> QgsFields:
 
     fields = QgsFields()
     for name, kind in INDEX_FIELDS:
-        fields.append(QgsField(name, QVariant.Int if kind is int else QVariant.String))
+        fields.append(QgsField(name, FieldType.Int if kind is int else FieldType.QString))
     return fields

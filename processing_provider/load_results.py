@@ -1,7 +1,7 @@
 """The chain's results into the QGIS project when a run from the GUI finishes: one layer group with
 the LoD1 buildings (a 3D renderer extruding the footprints by their height), the terrain TIN (3D
-polygons at their heights) and, on QGIS ≥ 3.34, the 3D Tiles tileset as a tiled-scene layer — so the
-3D map view shows the city without leaving QGIS.
+polygons at their heights) and, on QGIS ≥ 3.34, the 3D Tiles tileset as a tiled-scene layer with its
+3D renderer — so the 3D map view shows the city without leaving QGIS.
 
 Processing loads the layers queued with ``context.addLayerToLoadOnCompletion`` after the algorithm
 (Processing's own post-processing, in the GUI only); a post-processor per layer then moves it into
@@ -30,11 +30,13 @@ _processors: list = []  # post-processors must outlive the run that queued them
 
 
 class _IntoGroup(QgsProcessingLayerPostProcessorInterface):
-    """Moves the loaded layer into the results group (created on top if missing), then styles it."""
+    """Moves the loaded layer into the results group (created on top if missing) at its place in
+    ``order`` (the layer names, top first: QGIS versions post-process the layers in different orders),
+    then styles it."""
 
-    def __init__(self, group_name: str, style=None):
+    def __init__(self, group_name: str, order: list[str], style=None):
         super().__init__()
-        self.group_name, self.style = group_name, style
+        self.group_name, self.order, self.style = group_name, order, style
 
     def postProcessLayer(self, layer, context, feedback):  # noqa: N802 - QGIS API
         project = context.project()
@@ -43,7 +45,10 @@ class _IntoGroup(QgsProcessingLayerPostProcessorInterface):
         node = root.findLayer(layer.id())
         if node is not None and node.parent() is not group:
             parent = node.parent()
-            group.addLayer(layer)
+            after = self.order[self.order.index(layer.name()) + 1:] if layer.name() in self.order else []
+            children = group.children()
+            place = next((i for i, child in enumerate(children) if child.name() in after), len(children))
+            group.insertLayer(place, layer)
             parent.removeChildNode(node)
         if self.style is not None:
             self.style(layer)
@@ -67,23 +72,22 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 
-        layers.append((QgsTiledSceneLayer(tileset, tr("3D Tiles"), "cesiumtiles"), None))
+        layers.append((QgsTiledSceneLayer(tileset, tr("3D Tiles"), "cesiumtiles"), _tileset_renderer))
     return _queue(context, layers, group_name)
 
 
 def _queue(context: QgsProcessingContext, layers: list[tuple[QgsMapLayer, object]], group_name: str) -> list[str]:
-    """Queue valid layers for loading at the end of the run, each moved into the group and styled."""
-    names = []
-    for layer, style in layers:
-        if not layer.isValid():
-            continue
+    """Queue valid layers for loading at the end of the run, each moved into the group (in this
+    order, top first) and styled."""
+    valid = [(layer, style) for layer, style in layers if layer.isValid()]
+    names = [layer.name() for layer, _ in valid]
+    for layer, style in valid:
         context.temporaryLayerStore().addMapLayer(layer)
         details = QgsProcessingContext.LayerDetails(layer.name(), context.project(), layer.name())
-        processor = _IntoGroup(group_name, style)
+        processor = _IntoGroup(group_name, names, style)
         _processors.append(processor)
         details.setPostProcessor(processor)
         context.addLayerToLoadOnCompletion(layer.id(), details)
-        names.append(layer.name())
     return names
 
 
@@ -98,14 +102,17 @@ def _polygon_symbol(rgb: tuple[int, int, int], extrusion_field: str | None = Non
     else:
         from qgis._3d import Qgs3DTypes
 
-        symbol.setAltitudeClamping(Qgs3DTypes.AltClampAbsolute)
+        symbol.setAltitudeClamping(Qgs3DTypes.AltitudeClamping.AltClampAbsolute)
     material = QgsPhongMaterialSettings()
     material.setDiffuse(QColor(*rgb))
     material.setAmbient(QColor(*rgb).darker(150))
-    symbol.setMaterial(material)
+    # QGIS 3.22's Python bindings have setMaterial only; 3.44's setMaterialSettings only
+    set_material = getattr(symbol, "setMaterialSettings", None) or symbol.setMaterial
+    set_material(material)
     if extrusion_field:
         properties = symbol.dataDefinedProperties()
-        properties.setProperty(QgsAbstract3DSymbol.PropertyExtrusionHeight, QgsProperty.fromField(extrusion_field))
+        properties.setProperty(QgsAbstract3DSymbol.Property.PropertyExtrusionHeight,
+                               QgsProperty.fromField(extrusion_field))
         symbol.setDataDefinedProperties(properties)
     return symbol
 
@@ -124,6 +131,14 @@ def _building_renderer(layer: QgsVectorLayer) -> None:
 
 def _terrain_renderer(layer: QgsVectorLayer) -> None:
     _set_renderer(layer, _polygon_symbol(TERRAIN_RGB))
+
+
+def _tileset_renderer(layer) -> None:
+    """The tiled-scene layer's 3D renderer (QGIS ≥ 3.34): without it a 3D map view does not show the
+    tileset, only the 2D map does."""
+    from qgis._3d import QgsTiledSceneLayer3DRenderer
+
+    layer.setRenderer3D(QgsTiledSceneLayer3DRenderer())
 
 
 def load_index(context: QgsProcessingContext, index: str, group_name: str | None = None) -> None:

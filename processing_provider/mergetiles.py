@@ -1,9 +1,7 @@
 """wit:mergetiles — streaming mosaic of georeferenced tiles, overwrite (paper) or WIT feather."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterExtent,
     QgsProcessingParameterMultipleLayers,
@@ -13,6 +11,7 @@ from qgis.core import (
 
 from ..wit_plugin.mosaic import DEFAULT_MAX_EMPTY
 from .base import WitAlgorithm
+from .qgis_compat import NumberType, ParameterFlag, SourceType
 
 MODES = ("overwrite", "feather")
 
@@ -46,7 +45,7 @@ class MergeTiles(WitAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterMultipleLayers(
-            self.INPUT, self.tr("Input rasters"), QgsProcessing.TypeRaster))
+            self.INPUT, self.tr("Input rasters"), SourceType.Raster))
         self.addParameter(QgsProcessingParameterEnum(
             self.OVERLAP, self.tr("Overlap"),
             options=[self.tr("Overwrite (paper)"), self.tr("Feather (WIT)")], defaultValue=1))
@@ -54,11 +53,11 @@ class MergeTiles(WitAlgorithm):
             self.GAIN, self.tr("Equalise tile tone (gain and offset; with feather)"), defaultValue=True))
         self.addParameter(QgsProcessingParameterNumber(
             self.NODATA, self.tr("NoData value of the inputs (empty = as declared)"),
-            QgsProcessingParameterNumber.Double, optional=True))
+            NumberType.Double, optional=True))
         max_empty = QgsProcessingParameterNumber(
-            self.MAX_EMPTY, self.tr("Maximum empty share of the mosaic (%)"), QgsProcessingParameterNumber.Double,
+            self.MAX_EMPTY, self.tr("Maximum empty share of the mosaic (%)"), NumberType.Double,
             defaultValue=100 * DEFAULT_MAX_EMPTY, minValue=0.0, maxValue=100.0, optional=True)  # old models stay valid
-        max_empty.setFlags(max_empty.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        max_empty.setFlags(max_empty.flags() | ParameterFlag.Advanced)
         self.addParameter(max_empty)
         self.addParameter(QgsProcessingParameterExtent(
             self.EXTENT, self.tr("Write only this extent of the mosaic (empty = all of it)"), optional=True))

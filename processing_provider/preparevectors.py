@@ -1,6 +1,5 @@
-"""wit:preparevectors — reproject, repair, clip and simplify the road-name-address layers."""
+"""wit:preparevectors — reproject, repair, clip and simplify the building, road and legal-dong layers."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
@@ -13,7 +12,8 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm, crs_string
-from .shared_parameters import add_area_parameters, study_area
+from .qgis_compat import NumberType, SourceType
+from .shared_parameters import ROADS_LABEL, ROADS_TYPES, add_area_parameters, study_area
 
 
 class PrepareVectors(WitAlgorithm):
@@ -21,17 +21,20 @@ class PrepareVectors(WitAlgorithm):
     display_name = "Prepare vector layers"
     group_name = "Geometry"
     help_text = (
-        "Reads the building (TL_SPBD_BULD), road (TL_SPRD_MANAGE) and legal-dong (TL_SCCO_EMD) "
-        "layers — shapefiles without .cpg, or declaring another code page, are read as CP949 when their text "
-        "says so — reprojects them "
+        "Reads the building (TL_SPBD_BULD, NGII N3A_B0010000, AL_D010, OpenStreetMap…), road and legal-dong "
+        "(TL_SCCO_EMD) layers — any layer of the right geometry type; shapefiles are read in their text's "
+        "encoding (the .cpg's when it fits the text, else CP949 or UTF-8 as the text shows), field names "
+        "included — reprojects them "
         "(EPSG:5186 by default), repairs them (closes rings, orients exteriors counter-clockwise and "
         "holes clockwise, makes them valid, removes duplicate vertices, drops slivers, features with infinite "
         "or NaN coordinates and exact duplicates (same id and footprint) with the reason and a count; the same "
         "id on different footprints gets _2, _3… on its wit_id), "
         "clips them to the study area and simplifies them with Douglas–Peucker (buildings 0.5 m, roads "
         "and districts 5 m by default) so that polygons stay valid and buildings sharing a wall still "
-        "share it. Roads become polygons buffered by ROAD_BT / 2 (a default width by road class "
-        "otherwise). Study area: a legal-dong code if given, else a polygon layer if given, else the "
+        "share it. Road polygons (NGII N3A_A0010000) are the road surfaces as they are; centre lines become "
+        "polygons buffered by width / 2, the width from the layer's width field (ROAD_BT, NGII 도로폭 / RVWD, "
+        "OpenStreetMap width), else its lanes × 3.25 m (CARTRK_CO, 차로수, RDLN, lanes), else its class (ROA_CLS_SE, "
+        "highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if given, else a polygon layer if given, else the "
         "centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) "
         "and a stats CSV: features in/out, repairs, drops and vertices per layer."
     )
@@ -50,11 +53,12 @@ class PrepareVectors(WitAlgorithm):
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        for name, label, kind in ((self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD)"), QgsProcessing.TypeVectorPolygon),
-                                  (self.ROADS, self.tr("Roads (TL_SPRD_MANAGE)"), QgsProcessing.TypeVectorLine),
-                                  (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"),
-                                   QgsProcessing.TypeVectorPolygon)):
-            self.addParameter(QgsProcessingParameterVectorLayer(name, label, [kind], optional=True))
+        for name, label, kinds in (
+                (self.BUILDINGS, self.tr("Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)"),
+                 [SourceType.VectorPolygon]),
+                (self.ROADS, self.tr(ROADS_LABEL), ROADS_TYPES),
+                (self.DISTRICTS, self.tr("Legal dongs (TL_SCCO_EMD)"), [SourceType.VectorPolygon])):
+            self.addParameter(QgsProcessingParameterVectorLayer(name, label, kinds, optional=True))
         add_area_parameters(self)
         self.addParameter(QgsProcessingParameterCrs(
             self.TARGET_CRS, self.tr("Target CRS"), defaultValue="EPSG:5186", optional=True))
@@ -62,7 +66,8 @@ class PrepareVectors(WitAlgorithm):
         self._number(self.ROAD_TOLERANCE, self.tr("Douglas–Peucker tolerance, roads (m)"), 5.0, 0.0)
         self._number(self.DISTRICT_TOLERANCE, self.tr("Douglas–Peucker tolerance, districts (m)"), 5.0, 0.0)
         self._number(self.MIN_AREA, self.tr("Minimum building area (m²)"), 1.0, 0.0)
-        self._number(self.DEFAULT_ROAD_WIDTH, self.tr("Road width when ROAD_BT is missing (m)"), 6.0, 0.1)
+        self._number(self.DEFAULT_ROAD_WIDTH, self.tr("Road width when a centre line has no width, lanes or class (m)"),
+                     6.0, 0.1)
         self.addParameter(QgsProcessingParameterString(
             self.ENCODING, self.tr("Shapefile text encoding (empty = detect; CP949 for juso.go.kr files)"),
             optional=True))
@@ -77,20 +82,17 @@ class PrepareVectors(WitAlgorithm):
 
     def _number(self, name: str, label: str, default: float, minimum: float) -> None:
         self.addParameter(QgsProcessingParameterNumber(
-            name, label, QgsProcessingParameterNumber.Double, defaultValue=default, minValue=minimum))
+            name, label, NumberType.Double, defaultValue=default, minValue=minimum))
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
         from ..wit_plugin.vectors import PrepareConfig, prepare_vectors
 
-        def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
-
-        buildings, roads, districts = source(self.BUILDINGS), source(self.ROADS), source(self.DISTRICTS)
+        buildings, roads, districts = (self.vector_source(parameters, name, context, feedback)
+                                       for name in (self.BUILDINGS, self.ROADS, self.DISTRICTS))
         if not (buildings or roads or districts):
             raise QgsProcessingException(self.tr("Give at least one of the building, road and district layers."))
-        area = study_area(self, parameters, context)
+        area = study_area(self, parameters, context, feedback)
         config = PrepareConfig(
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
             building_tolerance=self.parameterAsDouble(parameters, self.BUILDING_TOLERANCE, context),

@@ -9,6 +9,7 @@ from .colorstore_algorithms import BuildColorStore, QueryColorStore
 from .export3dtiles import Export3DTiles
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
+from .installdependencies import InstallDependencies
 from .extrudebuildings import ExtrudeBuildings
 from .mergetiles import MergeTiles
 from .preparevectors import PrepareVectors
@@ -34,6 +35,7 @@ ALGORITHMS = (
     QualityMetrics,
     CityModel,
     CityModelTiles,
+    InstallDependencies,
 )
 
 

@@ -1,6 +1,5 @@
 """wit:qualitymetrics — the paper's Tables 17 and 19: positions, shape similarity, texture quality."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
@@ -8,7 +7,8 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import WitAlgorithm, layer_file
+from .base import WitAlgorithm
+from .qgis_compat import FileBehavior, SourceType
 
 
 class QualityMetrics(WitAlgorithm):
@@ -43,17 +43,17 @@ class QualityMetrics(WitAlgorithm):
             self.MODEL, self.tr("Model: CityGML file or LoD1 GeoPackage"), optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.SOURCE_BUILDINGS, self.tr("2D source footprints (prepared buildings)"),
-            [QgsProcessing.TypeVectorPolygon], optional=True))
+            [SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterFile(
             self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
         self.addParameter(QgsProcessingParameterRasterLayer(
             self.ORTHO, self.tr("Orthoimage for comparison"), optional=True))
         self.addParameter(QgsProcessingParameterRasterLayer(
             self.MOSAIC, self.tr("Merged mosaic (seam step)"), optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.FOOTPRINTS, self.tr("Tile footprints (index of wit:georeferencemapsheets)"),
-            [QgsProcessing.TypeVectorPolygon], optional=True))
+            [SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT, self.tr("Metrics table (CSV)"), self.tr("CSV files (*.csv)")))
         self.addParameter(QgsProcessingParameterFileDestination(
@@ -74,8 +74,7 @@ class QualityMetrics(WitAlgorithm):
             return layer.source() if layer is not None else None
 
         def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
+            return self.vector_source(parameters, name, context, feedback)
 
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         html = self.parameterAsFileOutput(parameters, self.OUTPUT_HTML, context) or None
@@ -85,7 +84,7 @@ class QualityMetrics(WitAlgorithm):
             source_buildings=source(self.SOURCE_BUILDINGS),
             textures=self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             ortho=raster(self.ORTHO), mosaic=raster(self.MOSAIC),
-            footprints=layer_file(self.parameterAsVectorLayer(parameters, self.FOOTPRINTS, context)),
+            footprints=source(self.FOOTPRINTS),
             output_html=html, feedback=feedback)
         values = {r.metric: r.value for r in report.rows}
         for row in report.rows:

@@ -21,26 +21,28 @@ from qgis.core import (
     QgsProcessingOutputLayerDefinition,
     QgsProcessingParameterDefinition,
     QgsProperty,
+    QgsProviderRegistry,
     QgsWkbTypes,
 )
 
 from ..wit_plugin import fileio
 from ..wit_plugin.gdal_env import raster_file_problem
 from .base import tr, translatable
+from .qgis_compat import GeometryType, SourceType, code
 
 VECTOR_TYPES = ("vector", "source")
 LAYER_TYPES = (*VECTOR_TYPES, "raster", "layer")
-#: Processing layer type filter → the geometry type it asks for
+#: Processing layer type filter (its integer: ``dataTypes()`` gives integers) → the geometry type it asks for
 WANTED_GEOMETRY = {
-    QgsProcessing.TypeVectorPoint: QgsWkbTypes.PointGeometry,
-    QgsProcessing.TypeVectorLine: QgsWkbTypes.LineGeometry,
-    QgsProcessing.TypeVectorPolygon: QgsWkbTypes.PolygonGeometry,
+    code(SourceType.VectorPoint): GeometryType.Point,
+    code(SourceType.VectorLine): GeometryType.Line,
+    code(SourceType.VectorPolygon): GeometryType.Polygon,
 }
 GEOMETRY_NAMES = {
-    QgsWkbTypes.PointGeometry: translatable("points"),
-    QgsWkbTypes.LineGeometry: translatable("lines"),
-    QgsWkbTypes.PolygonGeometry: translatable("polygons"),
-    QgsWkbTypes.NullGeometry: translatable("no geometry"),
+    GeometryType.Point: translatable("points"),
+    GeometryType.Line: translatable("lines"),
+    GeometryType.Polygon: translatable("polygons"),
+    GeometryType.Null: translatable("no geometry"),
 }
 
 
@@ -58,16 +60,21 @@ def _given(parameters: dict, name: str) -> bool:
     return value is not None and value != "" and value != []
 
 
+def _layer_file(layer) -> str:
+    """The file behind a layer ('' for a memory or database layer, which no output can overwrite)."""
+    return QgsProviderRegistry.instance().decodeUri(layer.providerType(), layer.source()).get("path") or ""
+
+
 def _layer_sources(algorithm, definition: QgsProcessingParameterDefinition, parameters: dict, context) -> list[str]:
     name = definition.name()
     kind = definition.type()
     if kind in LAYER_TYPES:
         layer = algorithm.parameterAsLayer(parameters, name, context)
-        return [layer.source()] if layer is not None else []
+        return [_layer_file(layer)] if layer is not None else []
     if kind == "multilayer":
-        if definition.layerType() == QgsProcessing.TypeFile:
+        if code(definition.layerType()) == code(SourceType.File):
             return algorithm.parameterAsFileList(parameters, name, context)
-        return [layer.source() for layer in algorithm.parameterAsLayerList(parameters, name, context)]
+        return [_layer_file(layer) for layer in algorithm.parameterAsLayerList(parameters, name, context)]
     if kind == "file" or (kind == "string" and name in algorithm.path_parameters):
         return [algorithm.parameterAsString(parameters, name, context)]
     return []
@@ -138,7 +145,7 @@ def overlap_problem(algorithm, parameters: dict, context) -> str | None:
 def _raster_files(definition: QgsProcessingParameterDefinition, value) -> list[str]:
     """The file names given to a raster parameter (layer ids, names and URIs are left to QGIS)."""
     is_raster = definition.type() == "raster" or (
-        definition.type() == "multilayer" and definition.layerType() == QgsProcessing.TypeRaster)
+        definition.type() == "multilayer" and code(definition.layerType()) == code(SourceType.Raster))
     values = value if isinstance(value, (list, tuple)) else [value]
     paths = [v.split("|")[0] for v in values if is_raster and isinstance(v, str)]
     return [p for p in paths if Path(p).suffix and "://" not in p and not p.startswith("/vsi")]
@@ -164,17 +171,17 @@ def geometry_problem(algorithm, parameters: dict, context) -> str | None:
     for definition in algorithm.parameterDefinitions():
         if definition.type() not in VECTOR_TYPES or not _given(parameters, definition.name()):
             continue
-        wanted = {WANTED_GEOMETRY[t] for t in definition.dataTypes() if t in WANTED_GEOMETRY}
+        wanted = {WANTED_GEOMETRY[code(t)] for t in definition.dataTypes() if code(t) in WANTED_GEOMETRY}
         if not wanted or len(wanted) < len(definition.dataTypes()):
             continue  # any geometry (or no filter) accepted
         layer = algorithm.parameterAsVectorLayer(parameters, definition.name(), context)
         if layer is None:
             continue  # QGIS's own check names a layer it cannot load
         found = QgsWkbTypes.geometryType(layer.wkbType())
-        if found == QgsWkbTypes.UnknownGeometry or found in wanted:
+        if found == GeometryType.Unknown or found in wanted:
             continue  # mixed types are sorted feature by feature, with counts
         return tr("{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.").format(
             label=definition.description(), layer=layer.name(), source=layer.source(),
             found=tr(GEOMETRY_NAMES.get(found, translatable("unknown geometries"))), wkb=QgsWkbTypes.displayString(layer.wkbType()),
-            wanted=tr(" or ").join(tr(GEOMETRY_NAMES[g]) for g in sorted(wanted)))
+            wanted=tr(" or ").join(tr(GEOMETRY_NAMES[g]) for g in sorted(wanted, key=code)))
     return None

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from qgis.core import (
     QgsCoordinateReferenceSystem,
-    QgsProcessing,
+    QgsProcessingParameterBoolean,
     QgsProcessingParameterDefinition,
+    QgsProcessingParameterEnum,
     QgsProcessingParameterExpression,
     QgsProcessingParameterField,
     QgsProcessingParameterNumber,
@@ -14,8 +15,9 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import tr
+from .base import tr, translatable
 from .expressions import checked_expression
+from .qgis_compat import FieldDataType, NumberType, ParameterFlag, SourceType
 
 WGS84 = QgsCoordinateReferenceSystem("EPSG:4326")
 
@@ -24,10 +26,18 @@ DISTRICT_CODE, DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD = "DISTRICT_CODE", "DIST
 STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
     "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
 LOD1, TIN = "LOD1", "TIN"
+#: the raw road layer: centre lines (buffered by their width) or road polygons (the road surfaces as they are)
+ROADS_TYPES = [SourceType.VectorLine, SourceType.VectorPolygon]
+ROADS_LABEL = translatable("Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, "
+                           "OpenStreetMap…)")
+TRIANGULATOR = "TRIANGULATOR"
+#: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
+TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
+WEB_PROFILE = "WEB_PROFILE"
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
-    parameter.setFlags(parameter.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+    parameter.setFlags(parameter.flags() | ParameterFlag.Advanced)
     return parameter
 
 
@@ -37,10 +47,10 @@ def add_area_parameters(algorithm, radius: float = 1000.0) -> None:
     algorithm.addParameter(QgsProcessingParameterPoint(
         CENTER, tr("Centre of the study area"), defaultValue="127.1020,37.4876 [EPSG:4326]", optional=True))
     algorithm.addParameter(QgsProcessingParameterNumber(
-        RADIUS, tr("Radius of the study area (m)"), QgsProcessingParameterNumber.Double, defaultValue=radius,
+        RADIUS, tr("Radius of the study area (m)"), NumberType.Double, defaultValue=radius,
         minValue=1.0))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
-        AREA_LAYER, tr("Study area polygons (instead of centre and radius)"), [QgsProcessing.TypeVectorPolygon],
+        AREA_LAYER, tr("Study area polygons (instead of centre and radius)"), [SourceType.VectorPolygon],
         optional=True))
     algorithm.addParameter(QgsProcessingParameterString(
         DISTRICT_CODE, tr("Legal dong: code (EMD_CD) or name, e.g. 11680101 or 역삼동 (instead of centre and radius)"),
@@ -51,7 +61,7 @@ def add_area_parameters(algorithm, radius: float = 1000.0) -> None:
         DISTRICT_NAME_FIELD, tr("Name field of the district layer (empty = EMD_KOR_NM, EMD_ENG_NM)"), optional=True)))
 
 
-def study_area(algorithm, parameters: dict, context):
+def study_area(algorithm, parameters: dict, context, feedback=None):
     """The core's StudyArea: a district if one is named, else the area layer, else the circle."""
     from ..wit_plugin.vectors import StudyArea
 
@@ -60,25 +70,45 @@ def study_area(algorithm, parameters: dict, context):
         return StudyArea.from_district_code(
             code, algorithm.parameterAsString(parameters, DISTRICT_CODE_FIELD, context).strip() or None,
             algorithm.parameterAsString(parameters, DISTRICT_NAME_FIELD, context).strip() or None)
-    area_layer = algorithm.parameterAsVectorLayer(parameters, AREA_LAYER, context)
+    area_layer = algorithm.vector_source(parameters, AREA_LAYER, context, feedback)
     if area_layer is not None:
-        return StudyArea.from_layer(area_layer.source())
+        return StudyArea.from_layer(area_layer)
     point = algorithm.parameterAsPoint(parameters, CENTER, context, WGS84)
     return StudyArea.circle(point.x(), point.y(), algorithm.parameterAsDouble(parameters, RADIUS, context))
+
+
+def add_triangulator_parameter(algorithm) -> None:
+    """The terrain's triangulation library; by default Triangle where it is installed, else CDT."""
+    from ..wit_plugin import triangulators
+
+    algorithm.addParameter(QgsProcessingParameterEnum(
+        TRIANGULATOR, tr("Triangulator (licence: Triangle is free for non-commercial use only)"),
+        options=[tr(label) for label in TRIANGULATOR_OPTIONS], defaultValue=triangulators.default_key()))
+
+
+def triangulator(algorithm, parameters: dict, context, feedback) -> int:
+    """The TRIANGULATOR chosen; says so when Triangle is not installed and CDT is used instead."""
+    from ..wit_plugin import triangulators
+
+    key = algorithm.parameterAsEnum(parameters, TRIANGULATOR, context)
+    if key != triangulators.TRIANGLE and not triangulators.available(triangulators.BACKENDS[triangulators.TRIANGLE]):
+        feedback.info(tr("Triangle (package 'triangle') is not installed: the terrain is meshed with CDT "
+                         "(MPL-2.0)."))
+    return key
 
 
 def add_height_parameters(algorithm, parent: str) -> None:
     """Storey height, height field, height expression and default height (SPEC §4, wit_plugin.heights)."""
     algorithm.addParameter(QgsProcessingParameterNumber(
-        STOREY_HEIGHT, tr("Storey height (m)"), QgsProcessingParameterNumber.Double, defaultValue=3.0, minValue=0.5))
+        STOREY_HEIGHT, tr("Storey height (m)"), NumberType.Double, defaultValue=3.0, minValue=0.5))
     algorithm.addParameter(QgsProcessingParameterField(
         HEIGHT_FIELD, tr("Height field (m), when floors are unknown (empty = recognised by name)"),
-        parentLayerParameterName=parent, type=QgsProcessingParameterField.Any, optional=True))
+        parentLayerParameterName=parent, type=FieldDataType.Any, optional=True))
     algorithm.addParameter(QgsProcessingParameterExpression(
         HEIGHT_EXPRESSION, tr("Height expression (m), when floors and field are unknown"),
         parentLayerParameterName=parent, optional=True))
     algorithm.addParameter(QgsProcessingParameterNumber(
-        DEFAULT_HEIGHT, tr("Default height (m)"), QgsProcessingParameterNumber.Double, defaultValue=3.0, minValue=0.1))
+        DEFAULT_HEIGHT, tr("Default height (m)"), NumberType.Double, defaultValue=3.0, minValue=0.1))
 
 
 def height_options(algorithm, parameters: dict, context, layer):
@@ -116,6 +146,14 @@ def schema_choice(algorithm, parameters: dict, name: str, context) -> tuple[str 
 def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
     """The chain's step outputs an algorithm reads: the LoD1 buildings and the terrain TIN (optional)."""
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
-        LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [QgsProcessing.TypeVectorPolygon], optional=lod1_optional))
+        LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [SourceType.VectorPolygon], optional=lod1_optional))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
-        TIN, tr("Terrain TIN (wit:triangulateterrain)"), [QgsProcessing.TypeVectorPolygon], optional=True))
+        TIN, tr("Terrain TIN (wit:triangulateterrain)"), [SourceType.VectorPolygon], optional=True))
+
+
+def add_web_profile_parameter(algorithm, advanced: bool = False) -> None:
+    """The 3D Tiles web profile (off by default: QGIS's 3D Tiles layer cannot read it)."""
+    parameter = QgsProcessingParameterBoolean(
+        WEB_PROFILE, tr("3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)"),
+        defaultValue=False)
+    algorithm.addParameter(_advanced(parameter) if advanced else parameter)

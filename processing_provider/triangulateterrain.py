@@ -1,6 +1,5 @@
 """wit:triangulateterrain — constrained Delaunay TIN of the study area with DEM heights."""
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
@@ -11,6 +10,8 @@ from qgis.core import (
 )
 
 from .base import WitAlgorithm
+from .qgis_compat import NumberType, SourceType
+from .shared_parameters import add_triangulator_parameter, triangulator
 
 
 class TriangulateTerrain(WitAlgorithm):
@@ -18,19 +19,22 @@ class TriangulateTerrain(WitAlgorithm):
     display_name = "Triangulate terrain (constrained Delaunay)"
     group_name = "Geometry"
     help_text = (
-        "Meshes the study area with a constrained Delaunay triangulation (library 'triangle'): building "
+        "Meshes the study area with a constrained Delaunay triangulation (library: Triangle, free for "
+        "non-commercial use only, or CDT, MPL-2.0, free for commercial use too; the same checks whichever): building "
         "footprints and road polygons are constraints whose edges appear in the mesh; footprints become "
         "holes (buildings stand on them) or constrained edges. Edges are at most the maximum edge "
         "length (paper: 5 m), and the mesh is refined where the DEM surface departs from the TIN by more "
         "than the vertical tolerance (a rigorous bound clears most triangles; the others are measured exactly "
         "along every edge and at the DEM cell centres inside, and so is the reported maximum). Heights: "
-        "bilinear interpolation of the four surrounding DEM cell centres; DEM "
+        "bilinear interpolation of the four surrounding DEM cell centres (a DEM in another CRS than the "
+        "layers' is reprojected on the fly to theirs, bilinear, on a grid of its own cell size, and the "
+        "tolerance is measured against that surface); DEM "
         "NoData (declared, or ≤ −1000 when none is declared) is filled from neighbours, never used. "
         "Messy constraints (duplicates, crossings, slivers) are cleaned first so the triangulator cannot "
         "crash. Output: one PolygonZ triangle per feature (tri_id, surface: terrain/road/footprint, "
         "feature_id), plus counts and the measured maximum vertical error."
     )
-    requirements = ("shapely", "triangle", "pyproj")
+    requirements = ("shapely", "pythoncdt", "pyproj")
 
     DEM = "DEM"
     AREA = "AREA"
@@ -45,21 +49,22 @@ class TriangulateTerrain(WitAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, self.tr("DEM")))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.AREA, self.tr("Study area (polygon layer, e.g. study_area of wit:preparevectors)"),
-            [QgsProcessing.TypeVectorPolygon]))
+            [SourceType.VectorPolygon]))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.BUILDINGS, self.tr("Building footprints (constraints)"), [QgsProcessing.TypeVectorPolygon],
+            self.BUILDINGS, self.tr("Building footprints (constraints)"), [SourceType.VectorPolygon],
             optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Road polygons (constraints)"), [QgsProcessing.TypeVectorPolygon], optional=True))
+            self.ROADS, self.tr("Road polygons (constraints)"), [SourceType.VectorPolygon], optional=True))
         self.addParameter(QgsProcessingParameterNumber(
-            self.MAX_EDGE, self.tr("Maximum edge length (m)"), QgsProcessingParameterNumber.Double,
+            self.MAX_EDGE, self.tr("Maximum edge length (m)"), NumberType.Double,
             defaultValue=5.0, minValue=0.5))
         self.addParameter(QgsProcessingParameterNumber(
-            self.TOLERANCE, self.tr("Vertical tolerance (m)"), QgsProcessingParameterNumber.Double,
+            self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
             defaultValue=0.5, minValue=0.01))
         self.addParameter(QgsProcessingParameterEnum(
             self.FOOTPRINTS, self.tr("Building footprints become"),
             options=[self.tr("Holes (buildings stand on them)"), self.tr("Constrained edges")], defaultValue=0))
+        add_triangulator_parameter(self)
         self.add_spatial_index_parameter()
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT, self.tr("TIN (GeoPackage)"), self.tr("GeoPackage (*.gpkg)")))
@@ -73,8 +78,7 @@ class TriangulateTerrain(WitAlgorithm):
         from ..wit_plugin.terrain import run
 
         def source(name):
-            layer = self.parameterAsVectorLayer(parameters, name, context)
-            return layer.source() if layer is not None else None
+            return self.vector_source(parameters, name, context, feedback)
 
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         stats = run(
@@ -84,7 +88,7 @@ class TriangulateTerrain(WitAlgorithm):
             tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
             footprints_as_holes=self.parameterAsEnum(parameters, self.FOOTPRINTS, context) == 0,
             spatial_index=self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context),
-            feedback=feedback,
+            feedback=feedback, triangulator=triangulator(self, parameters, context, feedback),
         )
         return {self.OUTPUT: output, "TIN": f"{output}|layername={model.TIN_LAYER}",
                 "TRIANGLES": stats.triangles, "MAX_VERTICAL_ERROR": stats.max_vertical_error,

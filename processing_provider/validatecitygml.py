@@ -7,8 +7,6 @@ from qgis.core import (
     QgsFeatureSink,
     QgsField,
     QgsFields,
-    QgsProcessing,
-    QgsProcessingAlgorithm,
     QgsProcessingOutputBoolean,
     QgsProcessingOutputNumber,
     QgsProcessingOutputString,
@@ -18,11 +16,10 @@ from qgis.core import (
     QgsProcessingParameterMultipleLayers,
     QgsProcessingUtils,
     QgsSettings,
-    QgsWkbTypes,
 )
-from qgis.PyQt.QtCore import QVariant
 
 from .base import WitAlgorithm
+from .qgis_compat import AlgorithmFlag, FieldType, FileBehavior, SourceType, WkbType
 
 #: QgsSettings key of the user's schema folder (used when SCHEMA_DIR is empty)
 SCHEMA_SETTING = "wit_citymodel/schema_dir"
@@ -40,7 +37,9 @@ class ValidateCityGML(WitAlgorithm):
         "TIN triangles non-degenerate, all positions 3D, texture images present and texture "
         "coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in "
         "degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a "
-        "warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. "
+        "warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and "
+        "URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond "
+        "±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. "
         "Large files are streamed. External entities and network "
         "access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an "
         "ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin "
@@ -58,21 +57,21 @@ class ValidateCityGML(WitAlgorithm):
 
     def flags(self):
         # lxml from a Processing background thread has crashed QGIS on Windows (qgis/QGIS#54751)
-        return super().flags() | QgsProcessingAlgorithm.FlagNoThreading
+        return super().flags() | AlgorithmFlag.NoThreading
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterMultipleLayers(
-            self.INPUT, self.tr("CityGML files"), QgsProcessing.TypeFile))
+            self.INPUT, self.tr("CityGML files"), SourceType.File))
         self.addParameter(QgsProcessingParameterFile(
             self.SCHEMA_DIR, self.tr("Schema folder (with citygml3-all.xsd)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT, self.tr("HTML report"), self.tr("HTML files (*.html)"), optional=True, createByDefault=True))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.OUTPUT_CSV, self.tr("CSV report (one row per problem)"), self.tr("CSV files (*.csv)"),
             optional=True, createByDefault=False))
         self.addParameter(QgsProcessingParameterFeatureSink(
-            self.OUTPUT_TABLE, self.tr("Validation table"), QgsProcessing.TypeVector, optional=True))
+            self.OUTPUT_TABLE, self.tr("Validation table"), SourceType.Vector, optional=True))
         self.addOutput(QgsProcessingOutputBoolean("VALID", self.tr("All files valid")))
         self.addOutput(QgsProcessingOutputNumber("ERROR_COUNT", self.tr("Number of errors")))
         self.addOutput(QgsProcessingOutputString("SCHEMA_SOURCE", self.tr("Schemas used")))
@@ -99,10 +98,10 @@ class ValidateCityGML(WitAlgorithm):
             write_report_csv(reports, csv)
             results[self.OUTPUT_CSV] = csv
         fields = QgsFields()
-        for name, kind in (("file", QVariant.String), ("status", QVariant.String),
-                           ("details", QVariant.String), ("errors", QVariant.Int), ("warnings", QVariant.Int)):
+        for name, kind in (("file", FieldType.QString), ("status", FieldType.QString),
+                           ("details", FieldType.QString), ("errors", FieldType.Int), ("warnings", FieldType.Int)):
             fields.append(QgsField(name, kind))
-        sink, table_id = self.parameterAsSink(parameters, self.OUTPUT_TABLE, context, fields, QgsWkbTypes.NoGeometry)
+        sink, table_id = self.parameterAsSink(parameters, self.OUTPUT_TABLE, context, fields, WkbType.NoGeometry)
         errors = 0
         for report in reports:
             counts = [sum(i.severity == s for i in report.issues) for s in ("error", "warning")]
@@ -111,7 +110,7 @@ class ValidateCityGML(WitAlgorithm):
             if sink is not None:
                 feature = QgsFeature(fields)
                 feature.setAttributes([report.file, report.status, report.details, *counts])
-                sink.addFeature(feature, QgsFeatureSink.FastInsert)
+                sink.addFeature(feature, QgsFeatureSink.Flag.FastInsert)
         if sink is not None:
             results[self.OUTPUT_TABLE] = table_id
         results.update(VALID=all(r.valid for r in reports), ERROR_COUNT=errors, SCHEMA_SOURCE=source)

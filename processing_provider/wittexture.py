@@ -9,7 +9,8 @@ from qgis.core import (
     QgsProcessingParameterRasterLayer,
 )
 
-from .base import WitAlgorithm, layer_file
+from .base import WitAlgorithm
+from .qgis_compat import NumberType
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 IMAGE_FORMATS = ("JPEG", "PNG")
@@ -27,7 +28,8 @@ class WitTexture(WitAlgorithm):
         "(edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one "
         "image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S "
         "(0 < S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The "
-        "orthoimage is read in windows, never whole. Output: a folder of images and texcoords.gpkg, "
+        "orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected "
+        "as it is read (bilinear). Output: a folder of images and texcoords.gpkg, "
         "the input of wit:writecitygml."
     )
     requirements = ("shapely",)
@@ -46,7 +48,7 @@ class WitTexture(WitAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.ORTHO, self.tr("Merged orthoimage")))
         add_model_layer_parameters(self)
         self.addParameter(QgsProcessingParameterNumber(
-            self.SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), QgsProcessingParameterNumber.Double,
+            self.SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), NumberType.Double,
             defaultValue=1.0, minValue=0.01, maxValue=1.0))
         self.addParameter(QgsProcessingParameterEnum(
             self.FORMAT, self.tr("Image format"), options=list(IMAGE_FORMATS), defaultValue=0))
@@ -66,8 +68,8 @@ class WitTexture(WitAlgorithm):
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.texture import TextureConfig, texture_model
 
-        lod1 = layer_file(self.parameterAsVectorLayer(parameters, self.LOD1, context))
-        tin = layer_file(self.parameterAsVectorLayer(parameters, self.TIN, context))
+        lod1 = self.vector_source(parameters, self.LOD1, context, feedback)
+        tin = self.vector_source(parameters, self.TIN, context, feedback)
         if not (lod1 or tin):
             raise QgsProcessingException(self.tr("Give the LoD1 buildings, the TIN, or both."))
         config = TextureConfig(

@@ -2,8 +2,6 @@
 from pathlib import Path
 
 from qgis.core import (
-    QgsProcessing,
-    QgsProcessingAlgorithm,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterFile,
@@ -11,7 +9,8 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import WitAlgorithm, crs_string, layer_file
+from .base import WitAlgorithm, crs_string
+from .qgis_compat import AlgorithmFlag, FileBehavior, SourceType
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 
@@ -27,7 +26,8 @@ class WriteCityGML(WitAlgorithm):
         "wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per "
         "legal dong (districts); and, when given, the textures of wit:wittexture as "
         "app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids "
-        "derive from the source ids, so the same input gives the same ids. Runs in the main thread."
+        "derive from the source ids, so the same input gives the same ids. srsName: EPSG:n, coordinates "
+        "easting first, as GIS software reads that form. Runs in the main thread."
     )
     requirements = ("lxml", "shapely")
 
@@ -41,19 +41,19 @@ class WriteCityGML(WitAlgorithm):
     def flags(self):
         # lxml from a Processing background thread has crashed QGIS on Windows (qgis/QGIS#54751):
         # the writer runs in the main thread.
-        return super().flags() | QgsProcessingAlgorithm.FlagNoThreading
+        return super().flags() | AlgorithmFlag.NoThreading
 
     def initAlgorithm(self, config=None):  # noqa: N802
         add_model_layer_parameters(self, lod1_optional=False)
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Road polygons (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon],
+            self.ROADS, self.tr("Road polygons (wit:preparevectors)"), [SourceType.VectorPolygon],
             optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
-            self.DISTRICTS, self.tr("Legal dongs (wit:preparevectors)"), [QgsProcessing.TypeVectorPolygon],
+            self.DISTRICTS, self.tr("Legal dongs (wit:preparevectors)"), [SourceType.VectorPolygon],
             optional=True))
         self.addParameter(QgsProcessingParameterFile(
             self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=QgsProcessingParameterFile.Folder, optional=True))
+            behavior=FileBehavior.Folder, optional=True))
         self.addParameter(QgsProcessingParameterBoolean(
             self.COPY_TEXTURES, self.tr("Copy texture images beside the .gml"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFileDestination(
@@ -78,10 +78,10 @@ class WriteCityGML(WitAlgorithm):
 
         lod1 = self.parameterAsVectorLayer(parameters, self.LOD1, context)
         inputs = CityGMLInputs(
-            lod1=layer_file(lod1),
-            tin=layer_file(self.parameterAsVectorLayer(parameters, self.TIN, context)),
-            roads=layer_file(self.parameterAsVectorLayer(parameters, self.ROADS, context)),
-            districts=layer_file(self.parameterAsVectorLayer(parameters, self.DISTRICTS, context)),
+            lod1=self.vector_source(parameters, self.LOD1, context, feedback),
+            tin=self.vector_source(parameters, self.TIN, context, feedback),
+            roads=self.vector_source(parameters, self.ROADS, context, feedback),
+            districts=self.vector_source(parameters, self.DISTRICTS, context, feedback),
             textures=self.parameterAsFile(parameters, self.TEXTURES, context) or None,
         )
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)

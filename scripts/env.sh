@@ -4,6 +4,6 @@ export PROJ_DATA="${PROJ_DATA:-/usr/share/proj}"
 export QT_QPA_PLATFORM="${QT_QPA_PLATFORM:-offscreen}"
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/runtime-$(id -un)}"
 mkdir -p -m 700 "$XDG_RUNTIME_DIR"
-# Python packages of .venv (triangle, shapely 2) importable by QGIS's own /usr/bin/python3.
+# Python packages of .venv (pythoncdt, triangle, shapely 2) importable by QGIS's own /usr/bin/python3.
 WIT_SITE="$("$WIT_ROOT/.venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
 export PYTHONPATH="$WIT_SITE${PYTHONPATH:+:$PYTHONPATH}"

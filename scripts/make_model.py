@@ -45,6 +45,8 @@ INPUT_HELP = {
     "HEIGHT_EXPRESSION": "Expression giving the height in metres, when floors and field are unknown.",
     "DEFAULT_HEIGHT": "Height of buildings with no usable height (a warning counts them).",
     "MAX_EDGE": "Maximum edge length of the terrain triangles in metres.",
+    "TRIANGULATOR": "Library that triangulates the terrain: Triangle (free for non-commercial use only) or CDT "
+                    "(MPL-2.0, free for commercial use too); empty: Triangle where it is installed, else CDT.",
     "SCHEMA_DIR": "Folder with citygml3-all.xsd for validation (empty: the plugin's configured/bundled schemas).",
 }
 
@@ -80,6 +82,7 @@ def _bootstrap():
 def build_model():
     """The model (QgsProcessingModelAlgorithm); needs the ``wit`` provider registered."""
     from qgis.core import (
+        QgsApplication,
         QgsProcessing,
         QgsProcessingModelAlgorithm,
         QgsProcessingModelChildAlgorithm,
@@ -87,6 +90,7 @@ def build_model():
         QgsProcessingModelParameter,
         QgsProcessingParameterFile,
         QgsProcessingParameterMultipleLayers,
+        QgsProcessingParameterEnum,
         QgsProcessingParameterExpression,
         QgsProcessingParameterField,
         QgsProcessingParameterNumber,
@@ -125,6 +129,10 @@ def build_model():
                                      defaultValue=3.0, minValue=0.1),
         QgsProcessingParameterNumber("MAX_EDGE", "Maximum edge length of the terrain (m)",
                                      QgsProcessingParameterNumber.Double, defaultValue=5.0, minValue=0.5),
+        # no default: wit:triangulateterrain's own (Triangle where installed, else CDT) on the machine it runs on
+        QgsProcessingParameterEnum("TRIANGULATOR", "Triangulator", options=QgsApplication.processingRegistry()
+                                   .algorithmById("wit:triangulateterrain").parameterDefinition("TRIANGULATOR")
+                                   .options(), optional=True),
         QgsProcessingParameterFile("SCHEMA_DIR", "Schema folder (with citygml3-all.xsd)",
                                    behavior=QgsProcessingParameterFile.Folder, optional=True),
     ]
@@ -156,7 +164,7 @@ def build_model():
           "CENTER": param("CENTER"), "RADIUS": param("RADIUS")}),
         ("TERRAIN", "wit:triangulateterrain", "4 Triangulate the terrain (TIN)",
          {"DEM": param("DEM"), "AREA": child("PREPARE", "AREA_OUT"), "BUILDINGS": child("PREPARE", "BUILDINGS_OUT"),
-          "ROADS": child("PREPARE", "ROADS_OUT"), "MAX_EDGE": param("MAX_EDGE"),
+          "ROADS": child("PREPARE", "ROADS_OUT"), "MAX_EDGE": param("MAX_EDGE"), "TRIANGULATOR": param("TRIANGULATOR"),
           "SPATIAL_INDEX": static(False)}),  # temporary files, read whole by the next steps
         ("EXTRUDE", "wit:extrudebuildings", "5 Extrude LoD1 buildings",
          {"BUILDINGS": child("PREPARE", "BUILDINGS_OUT"), "DEM": param("DEM"), "SPATIAL_INDEX": static(False),

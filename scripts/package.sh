@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # make package: dist/wit_citymodel-<version>.zip, installable with QGIS's "Install from ZIP".
-# Holds the plugin only (tracked files of the plugin folders + compiled translations);
+# Holds the plugin only (tracked files of the plugin folders, or every file but caches in a copy
+# without git, + compiled translations);
 # no tests, CI, scripts, benchmarks or outputs.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -15,8 +16,12 @@ INCLUDE = ["metadata.txt", "__init__.py", "plugin.py", "icon.svg", "LICENSE", "R
 version = configparser.ConfigParser()
 version.read("metadata.txt", encoding="utf-8")
 version = version["general"]["version"]
-tracked = subprocess.run(["git", "ls-files", "-z", "--", *INCLUDE], capture_output=True,
-                         check=True).stdout.decode().split("\0")
+listed = subprocess.run(["git", "ls-files", "-z", "--", *INCLUDE], capture_output=True)
+if listed.returncode == 0:  # a git checkout: its tracked files
+    tracked = listed.stdout.decode().split("\0")
+else:  # a copy without git (a source archive, the test chroots): every file but caches
+    tracked = [str(p) for entry in INCLUDE for p in ([Path(entry)] if Path(entry).is_file() else Path(entry).rglob("*"))
+               if "__pycache__" not in p.parts and p.suffix != ".pyc"]
 files = sorted({f for f in tracked if f and Path(f).is_file()} | {str(p) for p in Path("i18n").glob("*.qm")})
 dist = Path("dist")
 dist.mkdir(exist_ok=True)

@@ -7,6 +7,9 @@
 set -euo pipefail
 PG_VERSION="${WIT_PG_VERSION:-15}"
 ROLE=wit PASSWORD=wit DB=wit_test
+# Only the DSN goes to stdout (callers capture it): everything else the tools print goes to stderr
+# (pg_ctlcluster says "Removed stale pid file." on stdout after an unclean stop).
+exec 3>&1 1>&2
 log() { printf '[postgis] %s\n' "$*" >&2; }
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
 as_postgres() { if [ "$(id -u)" = 0 ]; then runuser -u postgres -- "$@"; else sudo -u postgres "$@"; fi; }
@@ -16,7 +19,7 @@ dsn() { printf 'postgresql://%s:%s@127.0.0.1:%s/%s' "$ROLE" "$PASSWORD" "$(port)
 # Fast path: everything is already up.
 if command -v psql >/dev/null && [ -n "$(port)" ] \
     && PGCONNECT_TIMEOUT=3 psql "$(dsn)" -XtAqc 'SELECT postgis_lib_version()' >/dev/null 2>&1; then
-    dsn; echo
+    { dsn; echo; } >&3
     exit 0
 fi
 
@@ -36,7 +39,7 @@ if [ -z "$(port)" ]; then
 fi
 if ! pg_lsclusters -h | awk -v v="$PG_VERSION" '$1 == v && $2 == "main" {print $4}' | grep -q online; then
     log "starting cluster $PG_VERSION/main"
-    as_root pg_ctlcluster "$PG_VERSION" main start
+    as_root pg_ctlcluster "$PG_VERSION" main start 3>&-  # the server must not hold the DSN pipe open
 fi
 for _ in $(seq 1 30); do
     pg_isready -q -h 127.0.0.1 -p "$(port)" && break
@@ -55,4 +58,4 @@ as_postgres psql -p "$(port)" -d "$DB" -XqAt -v ON_ERROR_STOP=1 \
 PGCONNECT_TIMEOUT=5 psql "$(dsn)" -XtAqc 'SELECT postgis_lib_version()' >/dev/null \
     || { log "cannot log in as $ROLE over TCP: check pg_hba.conf for host 127.0.0.1/32"; exit 1; }
 log "ready"
-dsn; echo
+{ dsn; echo; } >&3

@@ -1,14 +1,36 @@
 #!/usr/bin/env bash
-# The whole test suite (make test): set-up, then pytest with QGIS headless in a throwaway profile.
+# The test suite (make test): set-up, then pytest with QGIS headless in a throwaway profile.
+#   bash scripts/test.sh             the whole suite on this machine's QGIS, then the QGIS-facing tests
+#                                    (pytest marker qgis_facing) on QGIS 3.44 LTR in a Debian sid chroot
+#                                    (scripts/qgis-chroot.sh; WIT_TEST_CHROOT=0 leaves that out)
+#   bash scripts/test.sh ARGS...     pytest ARGS on this machine's QGIS only
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/setup.sh"
 source "$ROOT/scripts/env.sh"
 # The colour store's PostGIS tests use a real local server (installed and started here; they fail,
-# never skip, when it cannot start).
-bash "$ROOT/scripts/postgis.sh" >/dev/null || echo "[test] WARNING: no PostgreSQL + PostGIS server" >&2
+# never skip, when it cannot start). In the QGIS-version chroot the host's server is used
+# (WIT_TEST_POSTGIS_DSN): both share the network, and port 5432 is the host's.
+if [ -z "${WIT_TEST_POSTGIS_DSN:-}" ]; then
+    WIT_TEST_POSTGIS_DSN="$(bash "$ROOT/scripts/postgis.sh")" \
+        || echo "[test] WARNING: no PostgreSQL + PostGIS server" >&2
+    [ -z "$WIT_TEST_POSTGIS_DSN" ] || export WIT_TEST_POSTGIS_DSN
+fi
 QGIS_CUSTOM_CONFIG_PATH="$(mktemp -d)"
 export QGIS_CUSTOM_CONFIG_PATH
 trap 'rm -rf "$QGIS_CUSTOM_CONFIG_PATH"' EXIT
 cd "$ROOT"
-.venv/bin/python -m pytest "$@"
+QGIS_VERSION="$(/usr/bin/python3 -c 'from qgis.core import Qgis; print(Qgis.QGIS_VERSION)' 2>/dev/null)"
+if [ $# -gt 0 ] || [ "${WIT_TEST_CHROOT:-1}" = 0 ]; then
+    .venv/bin/python -m pytest "$@"
+    exit
+fi
+status=0
+start=$SECONDS
+.venv/bin/python -m pytest || status=$?
+host_seconds=$((SECONDS - start))
+start=$SECONDS
+bash scripts/qgis-chroot.sh test || status=$?
+printf '[test] QGIS %s (this machine, whole suite): %d s; QGIS-facing tests in the chroot (build included): %d s\n' \
+    "$QGIS_VERSION" "$host_seconds" "$((SECONDS - start))" >&2
+exit "$status"

@@ -5,7 +5,7 @@ report nothing useful. So test_terrain runs this file as a subprocess: the hypot
 here, and the parent asserts a clean exit. Before each example its inputs are written to the file
 named by ``--last`` so that a crash can be reproduced.
 
-Usage: python cdt_worker.py EXAMPLES SEED --last FILE
+Usage: python cdt_worker.py EXAMPLES SEED --last FILE [--triangulator KEY]
 """
 from __future__ import annotations
 
@@ -152,6 +152,7 @@ def main() -> int:
     parser.add_argument("examples", type=int)
     parser.add_argument("seed", type=int)
     parser.add_argument("--last", required=True)
+    parser.add_argument("--triangulator", type=int, default=None)
     args = parser.parse_args()
     faulthandler.enable()
     dem = hill_dem()
@@ -171,7 +172,7 @@ def main() -> int:
         r = [(f"R{k}", g) for k, g in enumerate(roads)]
         try:
             tin, _ = terrain.triangulate(area, b, r, dem, max_edge=max_edge, tolerance=0.5,
-                                         footprints_as_holes=holes)
+                                         footprints_as_holes=holes, triangulator=args.triangulator)
         except InputError as exc:
             assert str(exc), "an InputError must say what is wrong"
             outcome["rejected"] += 1

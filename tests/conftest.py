@@ -17,6 +17,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
 os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
 
+from osgeo import gdal
+
+_SESSION_GDAL_EXCEPTIONS = bool(gdal.GetUseExceptions())
+
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
@@ -87,15 +91,51 @@ def cancel_after_checks():
     return CancelAfter
 
 
+def _exception_modules() -> list:
+    """The GDAL modules whose exception state is one switch, in the order their handlers stack.
+
+    GDAL ≥ 3.7: ``gdal.UseExceptions()`` switches every module at once. Before, each module pushes its
+    own error handler (``UseExceptions``) and pops it (``DontUseExceptions``), only from the top of one
+    shared stack: switching gdal alone fails once something (QGIS 3.40's own Python, a plugin) has
+    turned ogr's or osr's on ("Cannot call gdal.DontUseExceptions() at that point since the stack of
+    error handlers is: osr ogr gdal"). So gdal, ogr and osr are switched together, on in this order,
+    off in the reverse.
+    """
+    from osgeo import gdal, ogr, osr
+
+    return [gdal] if int(gdal.VersionInfo()) >= 3070000 else [gdal, ogr, osr]
+
+
+def set_gdal_exceptions(on: bool) -> list:
+    """Turn GDAL exceptions on or off in every module; the modules switched, for ``restore``."""
+    modules = _exception_modules()
+    changed = [m for m in (modules if on else modules[::-1]) if bool(m.GetUseExceptions()) != on]
+    for module in changed:
+        module.UseExceptions() if on else module.DontUseExceptions()
+    return changed
+
+
+def restore_gdal_exceptions(changed: list, on: bool) -> None:
+    """Undo ``set_gdal_exceptions(on)`` that switched ``changed``, in the reverse order."""
+    for module in changed[::-1]:
+        module.DontUseExceptions() if on else module.UseExceptions()
+
+
 @pytest.fixture(params=[False, True], ids=["gdal-exceptions-off", "gdal-exceptions-on"])
 def gdal_exceptions(request):
     """Run with GDAL exceptions off (QGIS's default) and on (as some plugins and scripts set them)."""
-    from osgeo import gdal
-
-    before = gdal.GetUseExceptions()
-    gdal.UseExceptions() if request.param else gdal.DontUseExceptions()
+    changed = set_gdal_exceptions(request.param)
     yield request.param
-    gdal.UseExceptions() if before else gdal.DontUseExceptions()
+    restore_gdal_exceptions(changed, request.param)
+
+
+@pytest.fixture(autouse=True)
+def gdal_exceptions_as_found():
+    """Each test starts with GDAL's exception state as the session started: QGIS's own Python code may
+    switch it on for the whole process while a test runs (QGIS ≥ 3.40 does), which must not change
+    what the next tests see (seen: gdal_merge then wrote nothing)."""
+    yield
+    set_gdal_exceptions(_SESSION_GDAL_EXCEPTIONS)
 
 
 FOOTPRINT_WKT = "POLYGON((209002 543002,209010 543002,209010 543010,209002 543010,209002 543002))"
@@ -189,9 +229,10 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     return path
 
 
-def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False):
+def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False, query: str = ""):
     """Build the offline viewer of ``tileset_folder``, serve it and load it in headless Chromium
-    (viewer/browse.mjs); (the browser's report, the screenshot's (n, 3) RGB pixels)."""
+    (viewer/browse.mjs), the page's ``query`` appended (e.g. ``?range=3``: from afar); (the browser's
+    report, the screenshot's (n, 3) RGB pixels)."""
     import json
     import subprocess
 
@@ -207,6 +248,7 @@ def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False):
     try:
         url = server.stdout.readline().strip()
         assert url.startswith("http://127.0.0.1:")
+        url += query
         shot = tmp_path / "view.png"
         result = subprocess.run(["node", str(ROOT / "viewer" / "browse.mjs"), url, str(shot), "--timeout", "240"]
                                 + (["--click"] if click else []), capture_output=True, text=True, timeout=400)

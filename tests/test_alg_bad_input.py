@@ -9,6 +9,8 @@ from conftest import write_polygons
 from osgeo import gdal, osr
 from qgis.core import QgsProcessingException
 
+pytestmark = pytest.mark.qgis_facing
+
 
 def _raster(path, bands, x0=209000.0, y0=543000.0, size=20, pixel=1.0):
     ds = gdal.GetDriverByName("GTiff").Create(str(path), size, size, bands, gdal.GDT_Byte)
@@ -47,9 +49,11 @@ CASES = {
     "extrudebuildings: DEM elsewhere": ("wit:extrudebuildings", lambda i, o: {
         "BUILDINGS": i["footprints"], "DEM": i["far_dem"], "OUTPUT": str(o / "out.gpkg")}, "does not cover the area"),
     "wittexture: not an LoD1 layer": ("wit:wittexture", lambda i, o: {
-        "ORTHO": i["rgb"], "LOD1": i["footprints"], "OUTPUT": str(o / "out")}, "has no layer 'lod1_faces'"),
+        "ORTHO": i["rgb"], "LOD1": i["footprints"], "OUTPUT": str(o / "out")},
+        r"Layer 'buildings' in .*plain.gpkg lacks the field\(s\) .* of the LoD1 faces \(wit:extrudebuildings\)"),
     "writecitygml: not an LoD1 layer": ("wit:writecitygml", lambda i, o: {
-        "LOD1": i["footprints"], "OUTPUT": str(o / "out.gml")}, "has no layer 'lod1_faces'"),
+        "LOD1": i["footprints"], "OUTPUT": str(o / "out.gml")},
+        r"Layer 'buildings' in .*plain.gpkg lacks the field\(s\) .* of the LoD1 faces \(wit:extrudebuildings\)"),
     "buildcolorstore: not RGB": ("wit:buildcolorstore", lambda i, o: {
         "INPUT": i["gray"], "OUTPUT": str(o / "out.gpkg")}, "is not an RGB orthoimage"),
     "qualitymetrics: nothing to measure": ("wit:qualitymetrics", lambda i, o: {

@@ -9,6 +9,8 @@ from pathlib import Path
 import pytest
 from qgis.core import QgsProcessingException, QgsVectorLayer
 
+pytestmark = pytest.mark.qgis_facing
+
 
 def test_validate_reports_table13_rows_and_result_values(tmp_path, shared_dir, run_algorithm):
     examples = shared_dir / "schemas" / "examples"

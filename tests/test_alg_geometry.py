@@ -6,6 +6,8 @@ from qgis.core import QgsProcessingException, QgsVectorLayer
 
 from wit_plugin.sample import SampleConfig, generate_sample
 
+pytestmark = pytest.mark.qgis_facing
+
 
 @pytest.fixture(scope="module")
 def sample(tmp_path_factory):

@@ -8,11 +8,14 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pyproj
 import pytest
 from osgeo import gdal, ogr, osr
 from qgis.core import QgsProcessingException
 
 from wit_plugin import model
+
+pytestmark = pytest.mark.qgis_facing
 
 ORIGIN = (209000.0, 543000.0)
 SQUARE = "POLYGON((209002 543002,209010 543002,209010 543010,209002 543010,209002 543002))"
@@ -247,15 +250,15 @@ def _refused(run_algorithm, algorithm: str, parameters: dict, message: str, data
     ("wit:triangulateterrain", "AREA"), ("wit:writecitygml", "LOD1"), ("wit:qualitymetrics", "SOURCE_BUILDINGS"),
     ("wit:citymodel", "BUILDINGS")])
 def test_a_layer_of_the_wrong_geometry_type_is_refused(algorithm, parameter, data, tmp_path, run_algorithm):
-    """Points given as buildings (or polygons as road centre lines): one message, naming both types."""
+    """Points given as buildings or roads (centre lines or road polygons): one message, naming both types."""
     parameters = INPUTS[algorithm](data)
-    wrong = data["buildings"] if parameter == "ROADS" else data["points"]
+    wrong = data["points"]
     parameters[parameter] = wrong
     for name, kind in DESTINATIONS[algorithm].items():
         parameters[name] = str(tmp_path / "out" / (name if kind == "folder" else f"{name}.dat"))
     message = _refused(run_algorithm, algorithm, parameters, "expected", data, tmp_path / "out")
-    found, expected = ("polygons", "lines") if parameter == "ROADS" else ("points", "polygons")
-    assert f"has {found}" in message and f"expected {expected}" in message, message
+    expected = "lines or polygons" if parameter == "ROADS" else "polygons"
+    assert "has points" in message and f"expected {expected}." in message, message
     assert Path(wrong.split("|")[0]).name in message
 
 
@@ -464,14 +467,16 @@ def _dem(path: Path, epsg: int | None) -> str:
 
 
 @pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])
-def test_a_dem_in_another_crs_is_named_as_a_crs_mismatch(algorithm, data, tmp_path, run_algorithm):
+def test_a_dem_in_another_crs_is_judged_in_its_own_crs(algorithm, data, tmp_path, run_algorithm):
+    """A DEM in EPSG:4326 is reprojected, never refused for its CRS (issue 21): this one stops at 127.1°E,
+    150 m west of the buildings, and the message says so in its own degrees."""
     dem = _dem(data["folder"] / "dem4326.tif", 4326)
     parameters = {"BUILDINGS": data["buildings"], "DEM": dem, "OUTPUT": str(tmp_path / "out" / "o.gpkg")}
     if algorithm == "wit:triangulateterrain":
         parameters["AREA"] = data["area"]
-    message = _refused(run_algorithm, algorithm, parameters, "a CRS mismatch", data, tmp_path / "out")
-    assert "dem4326.tif is in WGS 84 (EPSG:4326) but the layers are in" in message and "EPSG:5186" in message
-    assert "does not cover" not in message
+    message = _refused(run_algorithm, algorithm, parameters, "does not cover the area needed", data, tmp_path / "out")
+    assert "The DEM dem4326.tif (extent x 127.000000–127.100000, y 37.500000–37.600000 in EPSG:4326)" in message
+    assert "in EPSG:5186, x 127.10" in message and "° to the east" in message and "mismatch" not in message
 
 
 @pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])
@@ -482,8 +487,11 @@ def test_a_dem_without_crs_is_assumed_in_the_layers_crs_with_a_warning(algorithm
         parameters["AREA"] = data["area"]
     result, warnings = run_logged(algorithm, parameters)
     assert Path(result["OUTPUT"]).is_file()
+    # EPSG:5186's name as this PROJ's EPSG database spells it ("Korea 2000 / …", "KGD2002 / …" in newer ones)
+    name = pyproj.CRS("EPSG:5186").name
+    assert name.endswith(" / Central Belt 2010")
     assert any("nocrs.tif has no coordinate reference system: it is assumed to be in the layers' CRS, "
-               "Korea 2000 / Central Belt 2010 (EPSG:5186)" in w for w in warnings), warnings
+               f"{name} (EPSG:5186)" in w for w in warnings), warnings
 
 
 @pytest.mark.parametrize("declaration", ["ldid", "cpg"])

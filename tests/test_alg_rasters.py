@@ -11,6 +11,8 @@ import pytest
 from osgeo import gdal, osr
 from qgis.core import QgsProcessingException, QgsProcessingFeedback, QgsVectorLayer
 
+pytestmark = pytest.mark.qgis_facing
+
 
 def _unreferenced_tif(path, width=200, height=250, value=100):
     ds = gdal.GetDriverByName("GTiff").Create(str(path), width, height, 3, gdal.GDT_Byte)

@@ -15,6 +15,8 @@ from wit_plugin import mapsheet
 from wit_plugin.vector_io import read_layer
 from wit_plugin.vectors import transform
 
+pytestmark = pytest.mark.qgis_facing
+
 
 def test_draws_the_tiles_of_a_district_from_the_given_layers(run_algorithm, shared_dir, suseo_buildings, tmp_path):
     roads = juso_roads(shared_dir)

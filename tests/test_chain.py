@@ -14,6 +14,8 @@ from qgis.core import QgsVectorLayer
 from conftest import ensure_wit_provider
 from wit_plugin.sample import SampleConfig, generate_sample
 
+pytestmark = pytest.mark.qgis_facing
+
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "core": "http://www.opengis.net/citygml/3.0",
       "app": "http://www.opengis.net/citygml/appearance/3.0", "dem": "http://www.opengis.net/citygml/relief/3.0",
       "tran": "http://www.opengis.net/citygml/transportation/3.0", "gml": "http://www.opengis.net/gml/3.2",

@@ -4,6 +4,7 @@ request, and nothing left behind when a run fails."""
 from __future__ import annotations
 
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -169,3 +170,24 @@ def test_district_by_name_and_the_whole_chain_result(sample, tmp_path):
     assert report.valid and report.buildings > 0 and report.metrics
     assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude",
                                     "texture", "citygml", "3dtiles", "validate", "metrics"]
+
+
+def test_the_chain_writes_the_3d_tiles_web_profile_on_request(sample, tmp_path):
+    import pygltflib
+
+    report = run_city_model(_inputs(sample), _options(area=StudyArea.circle(*SUSEO, 150.0), tiles3d_web=True),
+                            tmp_path / "city")
+    tiles = sorted((Path(report.output) / "3dtiles").rglob("*.glb"))
+    assert report.valid and tiles
+    for path in tiles:
+        gltf = pygltflib.GLTF2().load_binary(str(path))
+        assert {"EXT_meshopt_compression", "KHR_mesh_quantization"} <= set(gltf.extensionsRequired), path
+
+
+def test_the_web_profile_without_meshoptimizer_stops_before_anything_is_written(sample, tmp_path, monkeypatch):
+    from wit_plugin.errors import MissingDependencyError
+
+    monkeypatch.setitem(sys.modules, "meshoptimizer", None)  # as if it were not installed
+    with pytest.raises(MissingDependencyError, match=r'pip install .*"meshoptimizer==0.2.30a0"'):
+        run_city_model(_inputs(sample), _options(tiles3d_web=True), tmp_path / "city")
+    assert not (tmp_path / "city").exists() or not any((tmp_path / "city").iterdir())

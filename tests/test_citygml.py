@@ -197,7 +197,18 @@ def test_counts_and_report(written):
     assert report.groups == 2 and report.group_members == 2
     assert report.envelope == pytest.approx((208990, 543110, 9.5, 209050, 543140, 18.6))
     assert _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/gml:lowerCorner/text()") == ["208990.000 543110.000 9.500"]
-    assert _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/@srsName") == ["http://www.opengis.net/def/crs/EPSG/0/5186"]
+    assert _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/@srsName") == ["EPSG:5186"]  # easting first
+
+
+def test_gdal_reads_the_written_coordinates_as_written(written, tmp_path):
+    """QGIS opens model.gml through GDAL's GML reader, which reads an EPSG URN or URL in EPSG's axis order
+    (northing first for EPSG:5186) and the short form EPSG:n easting first: the model lands where it is."""
+    _, out, _, _ = written
+    copy = Path(shutil.copy(out, tmp_path / "city.gml"))  # GDAL writes a .gfs beside what it reads
+    ds = gdal.OpenEx(str(copy), gdal.OF_VECTOR)
+    xmin, xmax, ymin, ymax = ds.GetLayerByName("Road").GetExtent()
+    assert (xmin, ymin) == pytest.approx((208990, 543110), abs=50) and xmax < 300000 < ymax
+    del ds
 
 
 def test_building_content(written):
@@ -307,7 +318,7 @@ def test_input_errors(written, tmp_path):
     inputs, _, _, _ = written
     with pytest.raises(InputError, match="does not exist"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=str(tmp_path / "missing.gpkg")), str(tmp_path / "x.gml"))
-    with pytest.raises(InputError, match="no layer 'lod1_faces'"):
+    with pytest.raises(InputError, match=r"lacks the field\(s\) .*wit_face.* of the LoD1 faces \(wit:extrudebuildings\)"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=inputs.roads), str(tmp_path / "x.gml"))
     with pytest.raises(InputError, match="EPSG:5186, not EPSG:5179"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=inputs.lod1), str(tmp_path / "x.gml"), srs_name="EPSG:5179")
@@ -344,9 +355,15 @@ def test_cancel_leaves_no_output(written, tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_srs_uri():
-    assert citygml.srs_uri_of("epsg:5186") == "http://www.opengis.net/def/crs/EPSG/0/5186"
-    assert citygml.srs_uri_of("urn:ogc:def:crs:EPSG::5186") == "urn:ogc:def:crs:EPSG::5186"
+def test_the_srs_name_says_easting_first_as_the_coordinates_are_written():
+    """EPSG:5186's axis order is northing, easting: its URN and URL forms would make GDAL (and the
+    validator) read our easting-first coordinates swapped; the short form is read easting first."""
+    for form in ("epsg:5186", "EPSG:5186", "urn:ogc:def:crs:EPSG::5186", "urn:ogc:def:crs:EPSG:9.8.15:5186",
+                 "http://www.opengis.net/def/crs/EPSG/0/5186", "https://www.opengis.net/def/crs/EPSG/0/5186"):
+        assert citygml.srs_name_of(form) == "EPSG:5186", form
+    assert citygml.srs_name_of("urn:adv:crs:ETRS89_UTM32*DE_DHHN92_NH") == "urn:adv:crs:ETRS89_UTM32*DE_DHHN92_NH"
+    with pytest.raises(InputError, match="neither EPSG:<code> nor a CRS URI/URN"):
+        citygml.srs_name_of("Korea 2000")
 
 
 def test_raw_polygon_markup_is_what_lxml_would_write():

@@ -17,7 +17,7 @@ from conftest import ROOT
 
 HANGUL = re.compile("[\uac00-\ud7a3]")
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.qgis_facing]
 
 
 @pytest.fixture(scope="module")

@@ -34,9 +34,21 @@ def test_road_name_address_layer_uses_floors_and_basement():
 
 def test_ngii_digital_map_building_layer_uses_bflr_co():
     rule = _rule(NGII, storey_height=3.3)
-    assert recognise(NGII).label == "NGII digital map building layer"
+    assert recognise(NGII).label == "NGII digital map buildings (N3A_B0010000)"
     assert _height(rule, {"BFLR_CO": "12"}) == (39.6, "BFLR_CO × 3.3 m")
     assert rule.floors_field == "BFLR_CO"
+
+
+@pytest.mark.parametrize("fields", [["UFID", "명칭", "구분", "종류", "용도", "주기", "층수", "측량방법"], ["층수", "용도"]])
+def test_ngii_digital_map_buildings_as_shipped_use_their_korean_floor_field(fields):
+    """N3A_B0010000 as NGII ships it: Korean field names (층수 = floors above ground)."""
+    rule = _rule(fields, storey_height=3.0)
+    assert recognise(fields).label == "NGII digital map buildings (N3A_B0010000, Korean field names)"
+    assert [(s.kind, s.name, s.layer) for s in rule.sources] == [
+        (FLOORS, "층수", "NGII digital map buildings (N3A_B0010000, Korean field names)")]
+    assert _height(rule, {"층수": 4}) == (12.0, "층수 × 3 m")
+    assert _height(rule, {"층수": None}) == (3.0, "default 3 m")
+    assert rule.floors_field == "층수"
 
 
 def test_building_integrated_information_prefers_measured_height_then_floors():

@@ -300,7 +300,8 @@ def test_geometry_input_errors(shifted, tmp_path):
     sources = shifted[0]
     with pytest.raises(InputError, match="does not exist"):
         metrics.geometry_metrics(str(tmp_path / "none.gml"), sources)
-    with pytest.raises(InputError, match="no layer 'lod1_faces'"):
+    with pytest.raises(InputError, match=r"Layer 'buildings' .* lacks the field\(s\) wit_face of the LoD1 faces "
+                                         r"\(wit:extrudebuildings\)"):
         metrics.geometry_metrics(sources, sources)
     bad = tmp_path / "bad.gml"
     bad.write_text("<core:CityModel xmlns:core='http://www.opengis.net/citygml/3.0'><oops></core:CityModel>")

@@ -15,6 +15,8 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS, MODELS
 
 from conftest import ROOT
 
+pytestmark = pytest.mark.qgis_facing
+
 EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
                 "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics", "wit:citymodel",
                 "wit:export3dtiles"}

@@ -202,7 +202,7 @@ def test_a_district_by_name_gives_its_sheets(shared_dir, tmp_path):
     assert manifest["files"]["dem"] is None and not (tmp_path / "out" / "dem_5186.tif").exists()
 
 
-def _osm_roads(path: Path, epsg: int, geoms: np.ndarray) -> Path:
+def _osm_roads(path: Path, epsg: int, geoms: np.ndarray, highway: str = "residential") -> Path:
     """An OpenStreetMap-style road layer (``highway``, no width) in a new folder."""
     path.parent.mkdir()
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
@@ -212,7 +212,7 @@ def _osm_roads(path: Path, epsg: int, geoms: np.ndarray) -> Path:
     layer.CreateField(ogr.FieldDefn("highway", ogr.OFTString))
     for geom in geoms:
         feature = ogr.Feature(layer.GetLayerDefn())
-        feature.SetField("highway", "residential")
+        feature.SetField("highway", highway)
         feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geom)))
         layer.CreateFeature(feature)
     del layer, ds
@@ -243,26 +243,37 @@ def test_whole_extent_and_road_polygons_of_another_schema(tmp_path, shared_dir, 
     assert result.counts == {"buildings": 0, "roads": len(polygons), "tiles": len(result.sheets)}
 
 
-def test_roads_without_width_get_the_class_or_default_width_with_a_warning(tmp_path):
+@pytest.mark.parametrize("highway,width,warned", [("residential", 6.5, False), ("construction", 6.0, True)])
+def test_roads_without_width_get_the_class_or_default_width_with_a_warning(tmp_path, highway, width, warned):
+    """OpenStreetMap lines without width or lanes: the width of their highway class (roads.OSM_CLASS_WIDTHS),
+    else the default 6 m with a warning."""
     path = _osm_roads(tmp_path / "in" / "osm_roads.gpkg", 5186, shapely.from_wkt(
-        ["LINESTRING(209000 543000,209300 543000)", "POINT(209100 543100)"]))
+        ["LINESTRING(209000 543000,209300 543000)", "POINT(209100 543100)"]), highway)
 
     class Recorder(Feedback):
-        warnings: list[str] = []
+        def __init__(self):
+            self.warnings, self.infos = [], []
 
         def warning(self, message):
             self.warnings.append(message)
+
+        def info(self, message):
+            self.infos.append(message)
 
     feedback = Recorder()
     result = draw_from_layers(tmp_path / "out", GivenLayers(roads=str(path)),
                               SampleConfig(ortho_pixel_size=1.0, with_dem=False), feedback)
     assert "roads: 1 of 2 feature(s) not drawn (no usable line or polygon)." in feedback.warnings
-    assert any("1 of 1 centre line(s) have no width (ROAD_BT)" in w and "6 m" in w for w in feedback.warnings)
+    defaulted = [w for w in feedback.warnings if "1 of 1 centre line(s) have no width, lane count or known class" in w]
+    assert len(defaulted) == warned and all("default width 6 m" in w for w in defaulted)
+    source = "default" if warned else f"highway={highway}"
+    assert f"Road width rule: OpenStreetMap roads: highway class default → default 6 m; 1 from {source}" in feedback.infos
     geo = georeference_sheets([str(t) for t in result.ortho_tiles], tmp_path / "geo", RASTER_CRS, fmt="VRT")
     tiles = [(g.output, np.ones(3)) for g in geo]
     asphalt = _chroma(_PALETTE[ASPHALT])
-    road = _pixels(tiles, shapely.box(209100.0, 542997.1, 209200.0, 543002.9))  # 6 m wide
-    beside = [_pixels(tiles, shapely.box(209100.0, 543000.0 + s * 3.1, 209200.0, 543000.0 + s * 5.0))
+    half = width / 2
+    road = _pixels(tiles, shapely.box(209100.0, 543000.0 - half + 0.1, 209200.0, 543000.0 + half - 0.1))
+    beside = [_pixels(tiles, shapely.box(209100.0, 543000.0 + s * (half + 0.1), 209200.0, 543000.0 + s * 5.0))
               for s in (-1, 1)]
     assert len(road) >= 500 and np.abs(_chroma(road) - asphalt).max() < 0.012
     assert all(np.abs(_chroma(b) - asphalt).sum(axis=1).min() > 0.03 for b in beside)

@@ -11,7 +11,7 @@ import pytest
 import shapely
 from osgeo import ogr, osr
 
-from wit_plugin import model, terrain
+from wit_plugin import model, terrain, triangulators
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
 
@@ -47,11 +47,16 @@ def assert_edge_in_mesh(tin, p, q, edges):
         assert (min(u, v), max(u, v)) in edges, f"edge {p}–{q} is not a union of mesh edges"
 
 
+BACKENDS = pytest.mark.parametrize("triangulator", [triangulators.TRIANGLE, triangulators.CDT],
+                                   ids=["triangle", "cdt"])
+
+
+@BACKENDS
 @pytest.mark.parametrize("holes", [True, False])
-def test_every_building_and_road_edge_is_in_the_mesh(holes):
+def test_every_building_and_road_edge_is_in_the_mesh(holes, triangulator):
     dem = hill_dem()
     tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=5.0, tolerance=0.5,
-                                     footprints_as_holes=holes)
+                                     footprints_as_holes=holes, triangulator=triangulator)
     check_mesh(tin, dem, holes)
     edges = mesh_edges(tin)
     for _, poly in BUILDINGS:
@@ -80,7 +85,8 @@ def _dense_error(dem, tin, n=12):
     return np.abs(z - points[..., 2]).max()
 
 
-def test_vertical_error_is_within_tolerance_on_a_sharp_hill():
+@BACKENDS
+def test_vertical_error_is_within_tolerance_on_a_sharp_hill(triangulator):
     # 1 m cells, a 40 m hill with σ ≈ 4 m: far too sharp for 30 m triangles without refinement
     centres = np.arange(200) + 0.5
     x, y = np.meshgrid(centres, centres[::-1])
@@ -89,11 +95,12 @@ def test_vertical_error_is_within_tolerance_on_a_sharp_hill():
     building = [("BLD_H", shapely.box(95, 60, 110, 75))]
 
     coarse, coarse_stats = terrain.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25,
-                                               max_iterations=0)
+                                               max_iterations=0, triangulator=triangulator)
     assert _dense_error(dem, coarse) > 1.0  # the hill is badly missed without refinement
     assert coarse_stats.max_vertical_error >= _dense_error(dem, coarse) - 1e-9  # measured, not guessed
 
-    tin, stats = terrain.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25)
+    tin, stats = terrain.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25,
+                                     triangulator=triangulator)
     dense = _dense_error(dem, tin, n=16)
     assert stats.refinement_iterations > 0
     assert stats.max_vertical_error <= 0.25
@@ -103,11 +110,13 @@ def test_vertical_error_is_within_tolerance_on_a_sharp_hill():
                                rtol=0, atol=1e-9)
 
 
-def test_holes_and_constrained_footprints_are_labelled():
+@BACKENDS
+def test_holes_and_constrained_footprints_are_labelled(triangulator):
     dem = hill_dem()
     footprint_area = sum(g.area for _, g in BUILDINGS)
     for holes in (True, False):
-        tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=8.0, footprints_as_holes=holes)
+        tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=8.0, footprints_as_holes=holes,
+                                         triangulator=triangulator)
         xy = tin.vertices[:, :2][tin.triangles]
         areas = 0.5 * np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
         centroids = xy.mean(axis=1)
@@ -143,14 +152,16 @@ def test_bad_input_is_an_input_error():
         terrain.triangulate(AREA, [("BLD_X", shapely.box(-10, -10, 130, 130))], [], dem)
 
 
-def test_messy_input_never_crashes_triangle(tmp_path):
+@BACKENDS
+def test_messy_input_never_crashes_the_triangulator(tmp_path, triangulator):
     """Random invalid, overlapping, duplicated, near-coincident polygons: a valid mesh or InputError.
 
-    Runs in a subprocess: a segfault in ``triangle`` fails this test instead of killing pytest.
+    Runs in a subprocess: a segfault in the library fails this test instead of killing pytest.
     """
     last = tmp_path / "last_example.txt"
     proc = subprocess.run([sys.executable, str(Path(__file__).with_name("cdt_worker.py")), "200", "20250407",
-                           "--last", str(last)], capture_output=True, text=True, timeout=600, check=False)
+                           "--last", str(last), "--triangulator", str(triangulator)],
+                          capture_output=True, text=True, timeout=900, check=False)
     detail = f"stdout:\n{proc.stdout[-3000:]}\nstderr:\n{proc.stderr[-6000:]}"
     if proc.returncode < 0:
         pytest.fail(f"triangulation crashed with signal {-proc.returncode} on:\n{last.read_text()}\n{detail}")
@@ -281,9 +292,11 @@ def test_long_edges_are_fixed_by_refining_patches_only(monkeypatch):
     x, y = np.meshgrid(centres, centres[::-1])
     plane = Dem(20.0 + 0.03 * x - 0.02 * y, (-60.0, 2.0, 0.0, 180.0, 0.0, -2.0))
     patches = []
-    refine = terrain._refine_patch
-    monkeypatch.setattr(terrain, "_refine_patch", lambda *a: patches.append(len(a[2])) or refine(*a))
-    tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, plane, max_edge=5.0)
+    refine = triangulators.TriangleBackend._refine_patch
+    monkeypatch.setattr(triangulators.TriangleBackend, "_refine_patch",
+                        staticmethod(lambda *a: patches.append(len(a[2])) or refine(*a)))
+    tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, plane, max_edge=5.0,
+                                     triangulator=triangulators.TRIANGLE)
     assert patches and max(patches) < 0.2 * stats.triangles  # patches, not the whole mesh
     assert stats.refinement_iterations == len(patches)
     check_mesh(tin, plane, True)  # conforming, constraints kept, exact cover

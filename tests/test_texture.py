@@ -395,7 +395,8 @@ def test_bad_parameters(scene: dict, tmp_path: Path, config: TextureConfig, mess
 def test_bad_inputs(scene: dict, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="nothing to texture"):
         texture_model(scene["ortho"], None, None, str(tmp_path / "tex"))
-    with pytest.raises(InputError, match="has no layer 'lod1_faces'"):
+    with pytest.raises(InputError, match=r"Layer 'tin' in .* lacks the field\(s\) wit_id, wit_face, wit_face_no of the "
+                                         r"LoD1 faces \(wit:extrudebuildings\)"):
         texture_model(scene["ortho"], scene["tin"], None, str(tmp_path / "tex"))
     with pytest.raises(InputError, match="orthoimage .*missing.tif does not exist"):
         texture_model(str(tmp_path / "missing.tif"), scene["lod1"], None, str(tmp_path / "tex"))

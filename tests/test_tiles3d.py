@@ -20,6 +20,7 @@ from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.tiles3d import TilesetConfig, export_tileset
+from wit_plugin.tiles3d.check import check_tileset, read_glb
 from wit_plugin.tiles3d.geo import Georeference, gltf_to_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -65,25 +66,49 @@ def _tiles(tile: dict, world: np.ndarray, parent: dict | None = None):
         yield from _tiles(child, matrix, tile)
 
 
+def _view_bytes(gltf: pygltflib.GLTF2, blob: bytes, number: int) -> bytes:
+    """A buffer view's bytes, decoded when the web profile compressed it (EXT_meshopt_compression)."""
+    view = gltf.bufferViews[number]
+    meshopt = (view.extensions or {}).get("EXT_meshopt_compression")
+    if meshopt is None:
+        return blob[view.byteOffset or 0:(view.byteOffset or 0) + view.byteLength]
+    import meshoptimizer
+
+    data = blob[meshopt["byteOffset"]:meshopt["byteOffset"] + meshopt["byteLength"]]
+    if meshopt["mode"] == "ATTRIBUTES":
+        return meshoptimizer.decode_vertex_buffer(meshopt["count"], meshopt["byteStride"], data).tobytes()
+    indices = meshoptimizer.decode_index_buffer(meshopt["count"], 4, data)
+    return indices.astype(np.uint16 if meshopt["byteStride"] == 2 else np.uint32).tobytes()
+
+
 def _positions(path: Path) -> dict[str, np.ndarray]:
-    """POSITION and _FEATURE_ID_0 (or -1) of every primitive of a .glb, and the materials' image URIs."""
+    """POSITION (dequantized, in the tile's frame) and _FEATURE_ID_0 (or -1) of every primitive of a .glb,
+    its triangles' corners, the document and its binary chunk; reads both profiles."""
     gltf = pygltflib.GLTF2().load_binary(str(path))
     blob = gltf.binary_blob()
 
     def read(index: int, width: int) -> np.ndarray:
         accessor = gltf.accessors[index]
         view = gltf.bufferViews[accessor.bufferView]
-        dtype = {5126: np.float32, 5125: np.uint32, 5123: np.uint16}[accessor.componentType]
-        return np.frombuffer(blob, dtype=dtype, count=accessor.count * width,
-                             offset=view.byteOffset + (accessor.byteOffset or 0)).reshape(accessor.count, width)
+        dtype = np.dtype({5126: np.float32, 5125: np.uint32, 5123: np.uint16, 5120: np.int8}[accessor.componentType])
+        data = _view_bytes(gltf, blob, accessor.bufferView)
+        values = np.ndarray((accessor.count, width), dtype, buffer=data, offset=accessor.byteOffset or 0,
+                            strides=(view.byteStride or dtype.itemsize * width, dtype.itemsize)).astype(np.float64)
+        if accessor.normalized:
+            values = np.maximum(values / np.iinfo(dtype).max, -1.0)
+        return values
 
-    xyz, feature = [], []
+    node = gltf.nodes[0]
+    scale, offset = np.array(node.scale or [1.0] * 3), np.array(node.translation or [0.0] * 3)
+    xyz, feature, corners = [], [], []
     for primitive in gltf.meshes[0].primitives:
-        points = read(primitive.attributes.POSITION, 3).astype(np.float64)
+        points = read(primitive.attributes.POSITION, 3) * scale + offset
         xyz.append(points)
+        corners.append(points[read(primitive.indices, 1)[:, 0].astype(np.int64)].reshape(-1, 3, 3))
         fid = getattr(primitive.attributes, "_FEATURE_ID_0", None)
         feature.append(read(fid, 1)[:, 0].astype(np.int64) if fid is not None else np.full(len(points), -1))
-    return {"xyz": np.concatenate(xyz), "feature": np.concatenate(feature), "gltf": gltf, "blob": blob}
+    return {"xyz": np.concatenate(xyz), "feature": np.concatenate(feature), "corners": corners, "gltf": gltf,
+            "blob": blob}
 
 
 def _property_strings(gltf: pygltflib.GLTF2, blob: bytes, name: str) -> list[str]:
@@ -140,10 +165,35 @@ def test_tileset_structure(chain):
                       h.min(), h.max()]
             assert _inside(points, region)
     assert levels == {"0", "1", "2"}  # 128 m leaves over a 400 m square: a root, 4 tiles, 16 leaves
+    check = check_tileset(chain["folder"])  # what the official 3D Tiles validator checks, ours
+    assert check.problems == [] and check.tiles == len(tiles) and check.property_tables >= len(leaves) // 2
+
+
+def test_a_layer_without_floor_values_gives_complete_property_tables(chain, tmp_path):
+    """Issue 22: the official validator rejected tiles whose buildings had no storeys at all ("The property
+    table does not define property wit_storeys_below"): every table now holds every numeric property."""
+    lod1 = tmp_path / "lod1.gpkg"
+    gdal.VectorTranslate(str(lod1), chain["lod1"])
+    ds = ogr.Open(str(lod1), 1)
+    ds.ExecuteSQL(f"UPDATE {model.LOD1_LAYER} SET {model.STOREYS_ABOVE} = NULL, {model.STOREYS_BELOW} = NULL")
+    ds = None
+    out = tmp_path / "3dtiles"
+    export_tileset(str(lod1), chain["tin"], chain["textures"], str(out), config=TilesetConfig(leaf_size=128.0))
+    check = check_tileset(out)
+    assert check.problems == [] and check.property_tables > 0
+    for path in out.rglob("*.glb"):
+        gltf, blob = read_glb(path.read_bytes())
+        for table in gltf.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTables", []):
+            assert {model.STOREYS_ABOVE, model.STOREYS_BELOW, model.HEIGHT} <= set(table["properties"])
 
 
 def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):
-    document = json.loads((chain["folder"] / "tileset.json").read_text(encoding="utf-8"))
+    _check_round_trip(chain, chain["folder"])
+
+
+def _check_round_trip(chain: dict, folder: Path) -> None:
+    """Every full-detail vertex lies within 1 cm of the TIN's or its building's faces' corners."""
+    document = json.loads((folder / "tileset.json").read_text(encoding="utf-8"))
     georef = Georeference(CRS)
     ds = ogr.Open(chain["tin"])
     tin = np.array([p for f in ds.GetLayer() for p in f.GetGeometryRef().GetGeometryRef(0).GetPoints()])
@@ -158,7 +208,7 @@ def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):
     for tile, world, _ in _tiles(document["root"], np.eye(4)):
         if tile.get("children"):
             continue
-        content = _positions(chain["folder"] / tile["content"]["uri"])
+        content = _positions(folder / tile["content"]["uri"])
         xyz = gltf_to_model(georef, world, content["xyz"])
         ground = content["feature"] < 0
         nearest = tin_tree.query_nearest(shapely.points(xyz[ground, :2]), all_matches=False)[1]
@@ -246,7 +296,8 @@ def test_bad_inputs_and_outputs_are_refused_before_anything_is_written(chain, tm
         export_tileset(lod1, tin, textures, str(tmp_path / "b"), crs="EPSG:4326")
     with pytest.raises(InputError, match="EPSG:5186"):
         export_tileset(lod1, tin, textures, str(tmp_path / "c"), crs="EPSG:5179")
-    with pytest.raises(InputError, match="has no layer 'lod1_faces'"):
+    with pytest.raises(InputError, match=r"Layer 'tin' .* lacks the field\(s\) wit_id, wit_face, wit_face_no, wit_height "
+                                         r"of the LoD1 faces \(wit:extrudebuildings\)"):
         export_tileset(tin, None, None, str(tmp_path / "d"))
     assert not any((tmp_path / n).exists() for n in "abcd")
 
@@ -274,32 +325,82 @@ def test_terrain_only_and_a_rerun_replaces_the_tileset(chain, tmp_path):
     assert second.tiles == 1 and [p.name for p in (out / "tiles").iterdir()] == ["0"]
 
 
-def test_gui_run_loads_the_results_as_a_group_with_3d_renderers(chain):
-    """Processing's own post-processing (what the GUI runs after an algorithm) loads the queued layers."""
+@pytest.mark.qgis_facing
+def test_gui_run_loads_the_results_as_a_group_with_3d_renderers(chain, monkeypatch):
+    """Processing's own post-processing (what the GUI runs after an algorithm) loads the queued layers:
+    the LoD1 buildings and the TIN, and from QGIS 3.34 on (tiled-scene layers) the tileset too, each with
+    the 3D renderer that shows it in a 3D map view."""
+    from qgis.core import Qgis, QgsProject
+
+    tiled_scenes = Qgis.QGIS_VERSION_INT >= 33400
+    project = QgsProject()
+    try:
+        _check_gui_loading(chain, monkeypatch, project, tiled_scenes)
+    finally:
+        project.clear()  # its layers go now, not after QGIS has shut down (that segfaulted at exit)
+
+
+def _check_gui_loading(chain, monkeypatch, project, tiled_scenes: bool) -> None:
     from processing.gui.Postprocessing import handleAlgorithmResults
     from qgis._3d import QgsVectorLayer3DRenderer
-    from qgis.core import QgsAbstract3DSymbol, QgsApplication, QgsProcessingContext, QgsProcessingFeedback, QgsProject
-
+    from qgis.core import (
+        QgsAbstract3DSymbol,
+        QgsApplication,
+        QgsProcessingContext,
+        QgsProcessingFeedback,
+    )
+    from qgis.PyQt import sip
     from wit_citymodel.processing_provider.load_results import load_results
 
-    project = QgsProject()
     context = QgsProcessingContext()
     context.setProject(project)
     names = load_results(context, lod1=chain["lod1"], tin=chain["tin"],
                          tileset=str(chain["folder"] / "tileset.json"))
-    assert names == ["LoD1 buildings", "Terrain (TIN)"]  # QGIS 3.22: no tiled-scene layer before 3.34
+    assert names == ["LoD1 buildings", "Terrain (TIN)"] + (["3D Tiles"] if tiled_scenes else [])
     algorithm = QgsApplication.processingRegistry().algorithmById("wit:export3dtiles")
-    assert handleAlgorithmResults(algorithm, context, QgsProcessingFeedback(), showResults=True)
+    # no layer tree view here (QGIS 3.44's handler would pass pytest-qgis's mock iface's to C++)
+    monkeypatch.setattr("processing.gui.Postprocessing.iface", None, raising=False)
+    assert handleAlgorithmResults(algorithm, context, QgsProcessingFeedback())  # 3.44 has no showResults
     group = project.layerTreeRoot().findGroup("WIT city model")
     assert group is not None and [n.name() for n in group.findLayers()] == names
     buildings = project.mapLayersByName("LoD1 buildings")[0]
     assert buildings.featureCount() == chain["buildings"]  # one footprint per building
     renderer = buildings.renderer3D()
-    assert isinstance(renderer, QgsVectorLayer3DRenderer)
+    assert renderer is not None and renderer.type() == "vector"
+    renderer = sip.cast(renderer, QgsVectorLayer3DRenderer)  # 3.44's bindings return the base class
     extrusion = renderer.symbol().dataDefinedProperties().property(QgsAbstract3DSymbol.PropertyExtrusionHeight)
     assert extrusion.field() == model.HEIGHT
     terrain = project.mapLayersByName("Terrain (TIN)")[0]
     assert terrain.featureCount() == chain["triangles"] and terrain.renderer3D() is not None
+    if tiled_scenes:
+        from qgis._3d import QgsTiledSceneLayer3DRenderer
+
+        tileset = project.mapLayersByName("3D Tiles")[0]
+        assert tileset.isValid() and tileset.renderer3D() is not None
+        assert tileset.renderer3D().type() == QgsTiledSceneLayer3DRenderer().type()
+        picture = _render_2d(tileset, buildings.extent(), buildings.crs())
+        assert (picture != 255).any(axis=-1).mean() > 0.2, "the tileset draws (almost) nothing in 2D"
+
+
+def _render_2d(layer, extent, crs, size: int = 256) -> np.ndarray:
+    """``layer`` drawn on a white 2D map of ``extent`` (in ``crs``): its (size, size, 3) RGB pixels."""
+    from qgis.core import QgsMapRendererSequentialJob, QgsMapSettings
+    from qgis.PyQt.QtCore import QSize
+    from qgis.PyQt.QtGui import QColor, QImage
+
+    settings = QgsMapSettings()
+    settings.setLayers([layer])
+    settings.setDestinationCrs(crs)
+    settings.setExtent(extent)
+    settings.setOutputSize(QSize(size, size))
+    settings.setBackgroundColor(QColor(255, 255, 255))
+    job = QgsMapRendererSequentialJob(settings)
+    job.start()
+    job.waitForFinished()
+    image = job.renderedImage().convertToFormat(QImage.Format.Format_RGB888)
+    row_bytes = image.bytesPerLine()
+    data = np.frombuffer(image.constBits().asstring(row_bytes * size), dtype=np.uint8).reshape(size, row_bytes)
+    return data[:, :size * 3].reshape(size, size, 3)
 
 
 def test_a_leaf_without_triangles_gets_an_empty_patch():
@@ -313,3 +414,101 @@ def test_a_leaf_without_triangles_gets_an_empty_patch():
     patch = leaf_patch(empty, (0.0, 0.0, 64.0, 64.0), 4, 8, None)
     assert np.isnan(patch.heights).all() and patch.heights.shape == (5, 5)
     assert patch.image.shape == (8, 8, 3) and (patch.image == NO_COLOUR).all()
+
+
+@pytest.fixture(scope="module")
+def web(chain):
+    """The same tileset in the web profile, through Processing."""
+    import processing
+
+    result = processing.run("wit:export3dtiles", {"LOD1": chain["lod1"], "TIN": chain["tin"],
+                                                  "TEXTURES": chain["textures"], "LEAF_SIZE": 128.0,
+                                                  "WEB_PROFILE": True, "OUTPUT": str(chain["out"] / "3dtiles-web")})
+    return Path(result["OUTPUT"])
+
+
+def test_web_profile_passes_the_khronos_gltf_validator_and_is_smaller(chain, web):
+    result = subprocess.run(["node", str(VIEWER / "validate-gltf.mjs"), str(web)], capture_output=True, text=True,
+                            timeout=600)
+    summary = json.loads(result.stdout)
+    assert summary["files"] == chain["tiles"]["TILES"]
+    assert summary["errors"] == 0, json.dumps(summary["failures"], ensure_ascii=False)[:3000]
+    assert summary["warnings"] == 0, summary["codes"]
+    default = {p.relative_to(chain["folder"]): p for p in chain["folder"].rglob("*") if p.is_file()}
+    compressed = {p.relative_to(web): p for p in web.rglob("*") if p.is_file()}
+    assert default.keys() == compressed.keys()  # the same tiles and images
+    for name, path in default.items():
+        if name.suffix != ".glb" and name.name != "tileset.json":
+            assert path.read_bytes() == compressed[name].read_bytes(), name  # images copied as they are
+    glb = [(p.stat().st_size, compressed[n].stat().st_size) for n, p in default.items() if n.suffix == ".glb"]
+    assert sum(b for _, b in glb) < 0.7 * sum(a for a, _ in glb)  # 0.44 on the 1 km sample (README)
+    for name in (n for n in compressed if n.suffix == ".glb"):
+        gltf = pygltflib.GLTF2().load_binary(str(compressed[name]))
+        assert {"EXT_meshopt_compression", "KHR_mesh_quantization"} <= set(gltf.extensionsRequired)
+        assert all(v.buffer == 1 for v in gltf.bufferViews if v.extensions)  # geometry only in the fallback
+        assert gltf.buffers[1].extensions["EXT_meshopt_compression"]["fallback"] is True
+    document = json.loads((web / "tileset.json").read_text(encoding="utf-8"))
+    assert document == json.loads((chain["folder"] / "tileset.json").read_text(encoding="utf-8"))
+
+
+def test_web_profile_keeps_every_triangle_and_building_within_a_centimetre(chain, web):
+    _check_round_trip(chain, web)
+    for path in chain["folder"].rglob("*.glb"):
+        plain, small = _positions(path), _positions(web / path.relative_to(chain["folder"]))
+        assert [len(c) for c in small["corners"]] == [len(c) for c in plain["corners"]]  # same triangles per primitive
+        _same_buildings(plain, small)
+        step = (small["gltf"].nodes[0].scale or [0.0])[0]  # no scale: float positions
+        for before, after in zip(plain["corners"], small["corners"]):  # reordered for the vertex cache
+            assert _matched(before, after, max(0.01, 1.5 * step))
+
+
+def _matched(before: np.ndarray, after: np.ndarray, tolerance: float) -> bool:
+    """Whether two lists of triangles (t, 3, 3) are alike up to their order (meshopt's index codec also
+    rotates a triangle's corners, keeping its winding), each corner within ``tolerance``: the triangles'
+    centroids and normals (twice their areas, which rotation keeps and a flipped winding negates), each
+    coordinate and a random mix of them, agree once sorted (sorting moves no value by more than the
+    largest difference of a pairing)."""
+    def shape(t: np.ndarray) -> np.ndarray:
+        return np.column_stack([t.mean(axis=1), np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])])
+
+    a, b = shape(before), shape(after)
+    side = max(np.abs(before).max(), 1.0)  # a normal's error: twice the side times the corners' error
+    limit = np.array([tolerance] * 3 + [8 * side * tolerance] * 3)
+    mix = np.random.default_rng(0).random(6) / limit
+    return len(a) == len(b) and bool((np.abs(np.sort(a, axis=0) - np.sort(b, axis=0)) <= limit).all()) \
+        and np.abs(np.sort(a @ mix) - np.sort(b @ mix)).max() <= 6
+
+
+def _same_buildings(plain: dict, small: dict) -> None:
+    assert _property_strings(small["gltf"], small["blob"], "wit_id") == \
+        _property_strings(plain["gltf"], plain["blob"], "wit_id")
+
+
+def test_web_profile_in_headless_chromium_shows_the_model_and_a_buildings_attributes(web, tmp_path):
+    report, picture = view_in_chromium(web, tmp_path, click=True)
+    drawn = np.abs(picture - picture[0]).sum(axis=1) > 30
+    assert drawn.mean() > 0.3 and picture[drawn].std(axis=0).mean() > 20
+    assert report["info"] and report["info"]["rows"]["wit_id"].startswith("BLD_")
+
+
+def test_compress_glb_quantizes_within_half_a_step_and_keeps_the_triangles(tmp_path):
+    from wit_plugin.tiles3d.glb import GlbBuilder
+    from wit_plugin.tiles3d.web import compress_glb
+
+    rng = np.random.default_rng(3)
+    walls, roofs = rng.random((300, 3, 3)) * [256.0, 40.0, 256.0], rng.random((200, 3, 3)) * 256.0
+    uv, feature = rng.random((200, 3, 2)), np.arange(300) % 7
+    builder = GlbBuilder()
+    builder.triangles(walls, builder.plain_material((200, 200, 200), lit=True), feature=feature, normals=True)
+    builder.triangles(roofs, builder.photo_material(data=b"\xff\xd8", name="roof"), uv)
+    plain = builder.to_bytes()
+    folder = tmp_path
+    (folder / "plain.glb").write_bytes(plain)
+    (folder / "web.glb").write_bytes(compress_glb(plain))
+    before, after = _positions(folder / "plain.glb"), _positions(folder / "web.glb")
+    step = after["gltf"].nodes[0].scale[0]
+    assert step == pytest.approx(256.0 / 65535, rel=1e-3)
+    for old, new in zip(before["corners"], after["corners"]):  # the same triangles, each corner within half a step
+        assert _matched(old, new, step / 2 + 1e-6)
+    assert sorted(after["feature"][after["feature"] >= 0].tolist()) == \
+        sorted(before["feature"][before["feature"] >= 0].tolist())

@@ -203,6 +203,119 @@ def test_faults_in_degrees_are_found(name, srs_name, schema_dir, tmp_path):
     assert words.lower() in next(i for i in report.issues if i.check == check).message.lower()  # "0.125 m" too
 
 
+# -- projected CRSs whose EPSG order is northing first (the Korean belts): the srsName's form decides -------
+PROJECTED = {  # srsName -> the axis order the file is written in, as each form is read
+    "EPSG:5186": "east north",  # the short form: easting first (GDAL's reading; what wit:writecitygml writes)
+    "urn:ogc:def:crs:EPSG::5186": "north east",  # EPSG's order for EPSG:5186: X north, Y east
+    "http://www.opengis.net/def/crs/EPSG/0/5186": "north east",
+}
+
+
+def _projected(src: Path, dest: Path, srs_name: str, order: str) -> Path:
+    """``src`` (ETRS89 / UTM 32N) moved to Korea (EPSG:5186) shape for shape, in ``order``; lines unchanged."""
+    def convert(match: re.Match) -> str:
+        values = np.array(match.group(3).split(), dtype=float).reshape(-1, 3)
+        east, north = values[:, 0] - 458870.0 + 209000.0, values[:, 1] - 5438340.0 + 543100.0
+        first, second = (east, north) if order == "east north" else (north, east)
+        text = " ".join(f"{a:.3f} {b:.3f} {h:.3f}" for a, b, h in zip(first, second, values[:, 2]))
+        return match.group(1) + text + "\n" * match.group(3).count("\n") + match.group(4)
+
+    text = _POSITION_TEXT.sub(convert, src.read_text(encoding="utf-8"))
+    dest.parent.mkdir(exist_ok=True)
+    dest.write_text(re.sub(r'srsName="[^"]*"', f'srsName="{srs_name}"', text), encoding="utf-8")
+    return dest
+
+
+@pytest.mark.parametrize("srs_name", sorted(PROJECTED))
+@pytest.mark.parametrize("name", ["Building_LOD1-EPSG25832.gml", "Building_LOD2-EPSG25832.gml",
+                                  "handmade_LOD1_textured_building_TIN_group.gml"])
+def test_examples_in_a_northing_first_crs_are_valid_in_each_form(name, srs_name, schema_dir, tmp_path):
+    path = _with_texture(_projected(schema_dir / "examples" / name, tmp_path / "korea" / name, srs_name,
+                                    PROJECTED[srs_name]), tmp_path)
+    report = _one(path, schema_dir)
+    assert report.issues == [] and report.valid
+
+
+@pytest.mark.parametrize("srs_name", ["http://www.opengis.net/def/crs/EPSG/0/5186", "urn:ogc:def:crs:EPSG::5186"])
+def test_easting_first_under_a_northing_first_urn_or_url_is_a_mirror_image(srs_name, schema_dir, tmp_path):
+    """What wit:writecitygml wrote before (the URL form, easting first): GDAL reads such a file with x and y
+    swapped, so every solid is inside out there; the message says how the file reads the other way."""
+    name = "Building_LOD1-EPSG25832.gml"
+    path = _with_texture(_projected(schema_dir / "examples" / name, tmp_path / "korea" / name, srs_name, "east north"),
+                         tmp_path)
+    report = _one(path, schema_dir)
+    [issue] = _errors(report)
+    assert issue.check == "solid-orientation" and "is inside out" in issue.message
+    assert (f"unless the coordinates are written easting first: {srs_name} is read northing first, and read the "
+            "other way the solid points outwards") in issue.message
+
+
+def _jefferson_like(path: Path, srs_name: str, order: str, outward: bool) -> Path:
+    """An LoD1 building near the Jefferson Building (Washington, DC) in degrees, built the way OGC's
+    ``JeffersonBuilding_CityGML3.0_LOD1_with_xAL3_CommonTypes.gml`` builds its solid: the footprint ring,
+    counter-clockwise seen from above, as the ground face, the roof its reverse, walls rising along the ring
+    — which points every face inwards (``outward`` reverses them all)."""
+    lon = np.array([-77.00541, -77.00385, -77.00385, -77.00541, -77.00541])
+    lat = np.array([38.88800, 38.88800, 38.88926, 38.88926, 38.88800])  # counter-clockwise, lon/lat
+    ring = [(x, y) for x, y in zip(lon, lat)]
+
+    def face(points: list) -> str:
+        points = points[::-1] if outward else points
+        coords = [(a, b) if order == "lon lat" else (b, a) for a, b, _ in points]
+        text = " ".join(f"{a:.7f} {b:.7f} {h:.2f}" for (a, b), (_, _, h) in zip(coords, points))
+        return (f"<gml:surfaceMember><gml:Polygon><gml:exterior><gml:LinearRing><gml:posList>{text}</gml:posList>"
+                "</gml:LinearRing></gml:exterior></gml:Polygon></gml:surfaceMember>")
+
+    h = 9.31
+    faces = [face([(x, y, 0.0) for x, y in ring]), face([(x, y, h) for x, y in ring[::-1]])]
+    for (x0, y0), (x1, y1) in zip(ring, ring[1:]):
+        faces.append(face([(x0, y0, 0.0), (x0, y0, h), (x1, y1, h), (x1, y1, 0.0), (x0, y0, 0.0)]))
+    path.write_text(f"""<?xml version="1.0" encoding="UTF-8"?>
+<CityModel xmlns="http://www.opengis.net/citygml/3.0" xmlns:gml="http://www.opengis.net/gml/3.2"
+    xmlns:bldg="http://www.opengis.net/citygml/building/3.0">
+  <gml:boundedBy><gml:Envelope srsName="{srs_name}" srsDimension="3">
+    <gml:lowerCorner>{'-77.00541 38.888 0' if order == 'lon lat' else '38.888 -77.00541 0'}</gml:lowerCorner>
+    <gml:upperCorner>{'-77.00385 38.88926 9.31' if order == 'lon lat' else '38.88926 -77.00385 9.31'}</gml:upperCorner>
+  </gml:Envelope></gml:boundedBy>
+  <cityObjectMember><bldg:Building gml:id="jefferson"><lod1Solid><gml:Solid gml:id="jefferson_solid">
+    <gml:exterior><gml:Shell>{''.join(faces)}</gml:Shell></gml:exterior>
+  </gml:Solid></lod1Solid></bldg:Building></cityObjectMember>
+</CityModel>
+""", encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize(("srs_name", "order"), [("EPSG:4979", "lon lat"), ("urn:ogc:def:crs:EPSG::4979", "lat lon"),
+                                                 ("http://www.opengis.net/def/crs/EPSG/0/4979", "lat lon")])
+def test_a_solid_built_as_the_jefferson_example_is_inside_out_in_its_own_axis_order(srs_name, order, schema_dir,
+                                                                                   tmp_path):
+    """OGC's Jefferson example (srsName "EPSG:4979", longitude first: it lies in Washington, DC) is reported
+    inside out: it is, read as it is written (checked by hand: projected to UTM 18N its signed volume is
+    −124,799 m³, every face inwards). Only read latitude first — at 77° S — would it point outwards. The
+    same construction is inside out in each srsName form read in its own order; reversed, it is valid."""
+    inverted = _one(_jefferson_like(tmp_path / "inverted.gml", srs_name, order, outward=False), schema_dir)
+    [issue] = _errors(inverted)
+    assert issue.check == "solid-orientation" and issue.gml_id == "jefferson_solid"
+    volume = float(re.search(r"signed volume (-[\d.]+) m³", issue.message).group(1))
+    east = pyproj.Geod(ellps="WGS84").inv(-77.00541, 38.888, -77.00385, 38.888)[2]
+    north = pyproj.Geod(ellps="WGS84").inv(-77.00541, 38.888, -77.00541, 38.88926)[2]
+    assert volume == pytest.approx(-east * north * 9.31, rel=1e-3)
+    other = "latitude first" if order == "lon lat" else "longitude first"
+    assert f"unless the coordinates are written {other}" in issue.message
+    outward = _one(_jefferson_like(tmp_path / "outward.gml", srs_name, order, outward=True), schema_dir)
+    assert outward.valid and _errors(outward) == []
+
+
+def test_the_3d_tiles_georeference_reads_model_coordinates_easting_first():
+    """The 3D Tiles export reads the GeoPackage layers (GIS order, easting first) as the CityGML's
+    "EPSG:n" says: Suseo's model coordinates land at Suseo, not at the swapped place."""
+    from wit_plugin.tiles3d.geo import Georeference
+
+    ecef = Georeference("EPSG:5186").ecef(np.array([[209020.9, 543132.8, 0.0]]))
+    lon, lat, _ = pyproj.Transformer.from_crs("EPSG:4978", "EPSG:4979", always_xy=True).transform(*ecef[0])
+    assert (lon, lat) == pytest.approx((127.1020, 37.4876), abs=1e-3)
+
+
 def test_longitude_first_despite_the_crs_axis_order_is_read_as_written(schema_dir, tmp_path):
     """Korea's longitudes (127°) cannot be latitudes: such a file is read longitude first, with a warning."""
     path = _geographic(schema_dir / "examples" / "Building_LOD1-EPSG25832.gml", tmp_path / "b.gml",
@@ -431,8 +544,23 @@ def test_failed_download_leaves_no_cache(tmp_path):
     assert not (tmp_path / schemas.CACHE_SUBDIR).exists() and not list(tmp_path.glob(".wit-schemas-*"))
 
 
-def test_schema_compiled_once(schema_dir):
-    assert schemas.load_schema(schema_dir) is schemas.load_schema(Path(str(schema_dir) + "/"))
+@pytest.mark.qgis_facing  # what SpatiaLite does inside QGIS; crashed QGIS 3.44 (libxml2 2.15)
+@pytest.mark.parametrize("streaming", [True, False], ids=["libxml2-streaming", "lxml-fallback"])
+def test_validation_survives_libxml2_cleanup_between_runs(schema_dir, monkeypatch, streaming):
+    """SpatiaLite calls libxml2's xmlCleanupParser when a connection closes (GDAL and QGIS open them):
+    that frees the schema built-in types, so no compiled schema may be kept from one validation to the
+    next (a kept one reported "Internal error" for every element, or segfaulted QGIS)."""
+    from wit_plugin.citygml.validation import xsd
+
+    if not streaming:
+        monkeypatch.setattr(xsd, "_compiled", lambda folder: None)
+    example = schema_dir / "examples" / "Building_LOD2-EPSG25832.gml"
+    assert _one(example, schema_dir).valid
+    xsd._libxml2().xmlCleanupParser()
+    report = _one(example, schema_dir)
+    assert report.valid, [i.message for i in report.issues][:5]
+    invalid = _one(schema_dir / "examples" / "INVALID_handmade_LOD1_4_errors.gml", schema_dir)
+    assert len([i for i in invalid.issues if i.check == "xsd" and i.severity == "error"]) == 4
 
 
 # -- streaming: long runs of triangles and texture entries, ids as hashes -------------------------

@@ -1,6 +1,7 @@
 // Open the viewer in headless Chromium (Debian's /usr/bin/chromium, driven by playwright-core), wait
 // until the tileset is loaded, take a screenshot, optionally click a building and measure frames per
-// second. Prints one JSON object. Used by the tests and benchmarks/bench_3dtiles.py.
+// second. Prints one JSON object (with the bytes and requests of the tileset's files until the first view was
+// loaded: firstViewBytes, firstViewRequests). Used by the tests and benchmarks/bench_3dtiles.py.
 // Usage: node browse.mjs URL SCREENSHOT.png [--click] [--fps SECONDS] [--timeout SECONDS] [--size WxH]
 import { chromium } from "playwright-core";
 
@@ -25,7 +26,15 @@ try {
   const page = await browser.newPage({ viewport: { width, height } });
   page.on("console", (message) => { if (message.type() === "error") result.consoleErrors.push(message.text()); });
   page.on("pageerror", (error) => result.pageErrors.push(String(error)));
-  page.on("response", (response) => { if (response.status() >= 400) result.httpErrors.push(`${response.status()} ${response.url()}`); });
+  let tilesetBytes = 0;  // bytes of the tileset's files (JSON, glTF, images) received so far, and their number
+  let tilesetRequests = 0;
+  page.on("response", (response) => {
+    if (response.status() >= 400) result.httpErrors.push(`${response.status()} ${response.url()}`);
+    if (new URL(response.url()).pathname.includes("/3dtiles/")) {
+      tilesetRequests += 1;
+      tilesetBytes += Number(response.headers()["content-length"] || 0);
+    }
+  });
   page.on("requestfailed", (request) => result.failedRequests.push(`${request.url()} ${request.failure()?.errorText}`));
   page.on("request", (request) => {
     const host = new URL(request.url()).hostname;
@@ -41,11 +50,12 @@ try {
   await page.waitForFunction(() => window.witViewer && window.witViewer.state !== "loading", null,
                              { timeout, polling: 200 });
   result.navigationSeconds = (Date.now() - started) / 1000;
+  Object.assign(result, { firstViewBytes: tilesetBytes, firstViewRequests: tilesetRequests });
   Object.assign(result, await page.evaluate(() => ({ state: witViewer.state, loadSeconds: witViewer.loadSeconds, loadedTiles: witViewer.loadedTiles,
                                                      viewerErrors: witViewer.errors })));
   result.loaded = result.state === "ready";
   await page.waitForTimeout(500);  // a few frames after the last tile
-  await page.screenshot({ path: screenshot });
+  await page.screenshot({ path: screenshot, timeout });  // software WebGL on a loaded machine: slow frames
   if (rest.includes("--fps")) {
     result.fps = await page.evaluate((seconds) => witViewer.measureFps(seconds), Number(option("--fps", "5")));
   }
@@ -56,13 +66,13 @@ try {
       const named = hits.filter((hit) => hit[2]);  // prefer a building with a (Korean) name
       const [x, y] = (named.length ? named : hits)[0];
       await page.mouse.click(x, y);
-      await page.waitForSelector("#info:not([hidden])", { timeout: 10000 });
+      await page.waitForSelector("#info:not([hidden])", { timeout: Math.min(timeout, 120000) });
       result.info = await page.evaluate(() => ({
         title: document.getElementById("info-title").textContent,
         rows: Object.fromEntries([...document.querySelectorAll("#info-table tr")].map(
           (row) => [row.cells[0].textContent, row.cells[1].textContent])),
       }));
-      await page.screenshot({ path: screenshot.replace(/\.png$/, "-click.png") });
+      await page.screenshot({ path: screenshot.replace(/\.png$/, "-click.png"), timeout });
     }
   }
 } catch (error) {

@@ -6,10 +6,15 @@ seconds in both wit:wittexture and wit:writecitygml. GDAL's Arrow stream (GDAL �
 over whole batches as numpy arrays, for any vector format and for SQL results (ordered or
 filtered reads); ring coordinates are then unpacked from the WKB with numpy, without shapely
 objects for the common case of triangles, the sibling of ``gpkg_bulk``'s writer.
+
+Every Arrow read of the core goes through ``arrow_ready``: GDAL 3.6's Python Arrow reader crashes the
+process (a segmentation fault, no exception) on a field name that is not valid UTF-8 — Korean names
+of a CP949 shapefile read without recoding, as under QGIS, which sets ``SHAPE_ENCODING=""``. Such
+layers (and GDAL < 3.6) take the feature API, which gives the same columns.
 """
 from __future__ import annotations
 
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 import shapely
@@ -23,13 +28,46 @@ _WKB_TRIANGLE = np.dtype([("byte_order", "u1"), ("type", "<u4"), ("rings", "<u4"
 _POLYGON_Z_TYPES = (1003, 0x80000003)  # ISO and old-style (25D) WKB type codes of PolygonZ
 
 
+def is_utf8(name: str) -> bool:
+    """A name as GDAL's bindings give it is valid UTF-8 (bytes that are not come as surrogate escapes)."""
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def arrow_ready(layer: ogr.Layer) -> bool:
+    """GDAL's Arrow reader can take ``layer``: GDAL ≥ 3.6, and every column it hands over has a UTF-8 name
+    (the fields not ignored, the FID and the geometry columns)."""
+    if not hasattr(layer, "GetArrowStreamAsNumPy"):
+        return False
+    defn = layer.GetLayerDefn()
+    names = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount()) if not defn.GetFieldDefn(i).IsIgnored()]
+    names += [defn.GetGeomFieldDefn(i).GetName() for i in range(defn.GetGeomFieldCount())]
+    return all(is_utf8(n) for n in names + [layer.GetFIDColumn()])
+
+
+def ignore_fields(layer: ogr.Layer, names: list[str]) -> None:
+    """``SetIgnoredFields`` for any names: those that are not UTF-8 are passed as their own bytes, or, by
+    bindings that take text only, left read (a few more columns; ``arrow_ready`` then says no)."""
+    try:
+        layer.SetIgnoredFields([n if is_utf8(n) else n.encode("utf-8", "surrogateescape") for n in names])
+    except TypeError:
+        layer.SetIgnoredFields([n for n in names if is_utf8(n)])
+
+
 def batches(layer: ogr.Layer, size: int = BATCH, fid: bool = False) -> Iterator[dict[str, np.ndarray]]:
     """The features of ``layer`` (a table, or the result of ``ExecuteSQL``) as column → array batches.
 
     The geometry column is keyed ``"geometry"`` (WKB, None for no geometry) and, with ``fid``, the
     feature ids ``"fid"``; attribute fields by name; a field with NULLs is a
     ``numpy.ma.MaskedArray``; text comes as bytes. Ignored fields (``SetIgnoredFields``) are left out.
+    Through GDAL's Arrow reader when ``arrow_ready``, else the feature API (``feature_batches``).
     """
+    if not arrow_ready(layer):
+        yield from feature_batches(layer, size, fid)
+        return
     names = {layer.GetGeometryColumn() or "wkb_geometry": "geometry"}
     if fid:
         names[layer.GetFIDColumn() or "OGC_FID"] = "fid"
@@ -38,11 +76,45 @@ def batches(layer: ogr.Layer, size: int = BATCH, fid: bool = False) -> Iterator[
         yield {names.get(name, name): column for name, column in batch.items()}
 
 
+_NUMPY_TYPES = {ogr.OFTInteger: np.int64, ogr.OFTInteger64: np.int64, ogr.OFTReal: np.float64}
+
+
+def feature_batches(layer: ogr.Layer, size: int = BATCH, fid: bool = False) -> Iterator[dict[str, np.ndarray]]:
+    """``batches`` through the feature API: the same keys and kinds of columns (masked where NULL,
+    numbers as numbers, everything else as the bytes of its text); geometries as an object array of
+    ISO WKB (None where missing)."""
+    defn = layer.GetLayerDefn()
+    fields = [(i, defn.GetFieldDefn(i)) for i in range(defn.GetFieldCount()) if not defn.GetFieldDefn(i).IsIgnored()]
+    layer.ResetReading()
+    while True:
+        rows = []
+        while len(rows) < size and (feature := layer.GetNextFeature()) is not None:
+            geom = feature.GetGeometryRef()
+            rows.append((feature.GetFID(), None if geom is None else bytes(geom.ExportToIsoWkb()),
+                         [None if not feature.IsFieldSetAndNotNull(i) else
+                          feature.GetField(i) if fd.GetType() in _NUMPY_TYPES else
+                          feature.GetFieldAsString(i).encode("utf-8", "surrogateescape") for i, fd in fields]))
+        if not rows:
+            return
+        batch: dict[str, np.ndarray] = {"geometry": np.array([r[1] for r in rows] + [None], dtype=object)[:-1]}
+        if fid:
+            batch["fid"] = np.array([r[0] for r in rows], dtype=np.int64)
+        for k, (_, fd) in enumerate(fields):
+            values = [r[2][k] for r in rows]
+            missing = np.array([v is None for v in values])
+            kind = _NUMPY_TYPES.get(fd.GetType())
+            filled = [(0 if kind else b"") if v is None else v for v in values]
+            batch[fd.GetName()] = np.ma.MaskedArray(np.array(filled, dtype=kind or bytes), mask=missing)
+        yield batch
+        if len(rows) < size:
+            return
+
+
 def texts(column: np.ndarray) -> list[str]:
     """A text or integer column as Python strings, as OGR's ``GetFieldAsString`` gives them ('' for NULL)."""
     values = column.tolist()  # masked entries become None
     if column.dtype.kind == "S":
-        return [v.decode("utf-8") if v is not None else "" for v in values]
+        return [v.decode("utf-8", "replace") if v is not None else "" for v in values]
     return ["" if v is None else str(v) for v in values]
 
 

@@ -9,6 +9,10 @@ Inside a cell the bilinear surface is a quadratic along any straight segment, an
 along the grid lines through the cell centres; ``deviation_range`` uses this to find the exact
 extremes of the surface along segments, which the refinement (terrain) and the minimum base
 height (extrude) rely on instead of guessing from a few samples.
+
+A DEM in another CRS than the layers' is reprojected on the fly, window by window, onto a grid of
+its own cell size in the layers' CRS (bilinear, ``Dem._open_reprojected``); the surface sampled,
+and the one the terrain's tolerance is measured against, is then the bilinear surface of that grid.
 """
 from __future__ import annotations
 
@@ -17,11 +21,24 @@ from pathlib import Path
 
 import numpy as np
 import pyproj
+import shapely
 from osgeo import gdal
 
+from .arrays import ragged_indices
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .gdal_env import open_raster, read_window
+from .raster_crs import (
+    aligned,
+    cell_size,
+    crs_code,
+    crs_name,
+    foreign_crs,
+    raster_crs,
+    raster_extent,
+    transform_geometry,
+    warp,
+)
 
 #: values at or below this are NoData in files that declare no NoData value (SPEC §4)
 NODATA_THRESHOLD = -1000.0
@@ -67,32 +84,84 @@ class Dem:
 
     @classmethod
     def open(cls, path: str | Path, bounds: Bounds | None = None, margin_cells: int = 4,
-             feedback: Feedback = SILENT) -> Dem:
-        """Read band 1 of ``path``: only the window covering ``bounds`` (plus a margin), else all.
+             feedback: Feedback = SILENT, crs: str | pyproj.CRS | None = None) -> Dem:
+        """Band 1 of ``path``: only the window covering ``bounds`` (plus a margin), else all.
 
-        Raises ``InputError`` if the file cannot be read or does not cover ``bounds``.
+        ``crs``: the layers' CRS, in which ``bounds`` are given and the heights are sampled. A DEM in
+        another CRS is reprojected on the fly (``_open_reprojected``); one without a CRS is taken to
+        be in ``crs``, with a warning. Raises ``InputError`` if the file cannot be read or does not
+        cover ``bounds``.
         """
         ds = open_raster(path, "DEM")
+        source = reprojection(path, ds, crs, feedback)
+        if source is not None:
+            return cls._open_reprojected(ds, path, source, pyproj.CRS.from_user_input(crs), bounds, margin_cells,
+                                         feedback)
         band = ds.GetRasterBand(1)
         gt = ds.GetGeoTransform()
         cols, rows = ds.RasterXSize, ds.RasterYSize
         c0, r0, c1, r1 = 0, 0, cols, rows
         if bounds is not None:
             ext = raster_extent(gt, cols, rows)
-            if not (ext[0] <= bounds[0] and ext[1] <= bounds[1] and bounds[2] <= ext[2] and bounds[3] <= ext[3]):
+            short = _short_of(ext, bounds)
+            if short:
                 raise InputError(
                     f"The DEM {Path(path).name} (extent {_fmt(ext)}) does not cover the area needed "
-                    f"({_fmt(bounds)}). Use a DEM that covers the study area, in the same CRS.")
-            us = [(x - gt[0]) / gt[1] for x in (bounds[0], bounds[2])]
-            vs = [(y - gt[3]) / gt[5] for y in (bounds[1], bounds[3])]
-            c0 = max(0, math.floor(min(us)) - margin_cells)
-            c1 = min(cols, math.ceil(max(us)) + margin_cells)
-            r0 = max(0, math.floor(min(vs)) - margin_cells)
-            r1 = min(rows, math.ceil(max(vs)) + margin_cells)
+                    f"({_fmt(bounds)}): it stops short by {shortfall(short)}. Use a DEM that covers the study area.")
+            c0, r0, c1, r1 = _window(gt, cols, rows, bounds, margin_cells)
         data = read_window(band, c0, r0, c1 - c0, r1 - r0, f"the DEM {path}")
         window_gt = (gt[0] + c0 * gt[1], gt[1], gt[2], gt[3] + r0 * gt[5], gt[4], gt[5])
         return cls(data, window_gt, band.GetNoDataValue(),
                    open_edges=(c0 > 0, c1 < cols, r0 > 0, r1 < rows), feedback=feedback)
+
+    @classmethod
+    def _open_reprojected(cls, ds: gdal.Dataset, path: str | Path, source: pyproj.CRS, target: pyproj.CRS,
+                          bounds: Bounds | None, margin_cells: int, feedback: Feedback) -> Dem:
+        """The DEM reprojected to ``target`` over ``bounds``: a grid of the DEM's cell size in metres, aligned
+        on its multiples (so tiles share it), whose every cell centre is the bilinear height of the source
+        DEM at that point (GDAL's warper, each centre transformed exactly by PROJ, four source cells). The
+        source window's NoData is filled first, as in the DEM's own CRS; heights are not changed (the
+        DEM's vertical datum is left alone); nothing is written to disk."""
+        name = Path(path).name
+        gt = ds.GetGeoTransform()
+        cols, rows = ds.RasterXSize, ds.RasterYSize
+        extent = raster_extent(gt, cols, rows)
+        size = cell_size(ds, source, target)
+        if bounds is None:
+            bounds = transform_geometry(shapely.box(*extent), source, target).bounds
+        else:
+            needed = transform_geometry(shapely.box(*bounds), target, source).bounds
+            short = _short_of(extent, needed)
+            if short:
+                degrees = source.is_geographic
+                raise InputError(
+                    f"The DEM {name} (extent {_fmt(extent, degrees)} in {crs_code(source)}) does not cover the area "
+                    f"needed ({_fmt(bounds)} in {crs_code(target)}, {_fmt(needed, degrees)} in the DEM's CRS): it "
+                    f"stops short by {shortfall(short, degrees)}. Use a DEM that covers the study area.")
+        grid = aligned(bounds, size, margin_cells)
+        x0, y1 = grid[0], grid[3]
+        reach = transform_geometry(shapely.box(*grid), target, source, size).bounds
+        c0, r0, c1, r1 = _window(gt, cols, rows, reach, 2)
+        if c1 <= c0 or r1 <= r0:
+            raise InputError(f"The DEM {name} does not meet the area needed ({_fmt(bounds)} in {crs_code(target)}).")
+        band = ds.GetRasterBand(1)
+        window_gt = (gt[0] + c0 * gt[1], gt[1], 0.0, gt[3] + r0 * gt[5], 0.0, gt[5])
+        filled = cls(read_window(band, c0, r0, c1 - c0, r1 - r0, f"the DEM {path}"), window_gt,
+                     band.GetNoDataValue(), feedback=feedback)
+        mem = gdal.GetDriverByName("MEM").Create("", c1 - c0, r1 - r0, 1, gdal.GDT_Float64)
+        mem.SetGeoTransform(window_gt)
+        mem.SetProjection(source.to_wkt())
+        mem.GetRasterBand(1).WriteArray(filled.values)
+        warped = warp(mem, source, target, grid, size, output_type=gdal.GDT_Float64, nodata=math.nan)
+        values = read_window(warped, 0, 0, warped.RasterXSize, warped.RasterYSize, f"the DEM {path} reprojected")
+        beyond = ~np.isfinite(values)  # cells whose centre lies past the DEM's edge (in the margin)
+        if beyond.all():
+            raise InputError(f"The DEM {name} does not meet the area needed ({_fmt(bounds)} in {crs_code(target)}).")
+        if beyond.any():
+            values = _fill_from_neighbours(values, beyond)
+        dem = cls(values, (x0, size, 0.0, y1, 0.0, -size), math.nan, open_edges=(True, True, True, True))
+        dem.nodata_cells = filled.nodata_cells  # the source's cells, as counted in its CRS
+        return dem
 
     @property
     def extent(self) -> Bounds:
@@ -114,7 +183,7 @@ class Dem:
             k = int(np.flatnonzero(bad)[0])
             px, py = (np.broadcast_to(a, u.shape).ravel()[k] for a in (x, y))
             raise InputError(f"{int(bad.sum())} point(s) lie outside the DEM (usable extent {_fmt(self.extent)}), "
-                             f"e.g. ({px:.3f}, {py:.3f}). Use a DEM that covers the study area, in the same CRS.")
+                             f"e.g. ({px:.3f}, {py:.3f}). Use a DEM that covers the study area.")
         return u, v
 
     def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -269,67 +338,48 @@ class Dem:
         return np.minimum.reduceat(lo, starts), np.maximum.reduceat(hi, starts)
 
 
-def check_crs(path: str | Path, crs: str | pyproj.CRS | None, feedback: Feedback = SILENT) -> None:
-    """Refuse a DEM in another CRS than the layers' ``crs``, named as a CRS mismatch (not as a DEM that
-    misses the area); warn when the DEM has no CRS, saying what is assumed."""
+def reprojection(path: str | Path, ds: gdal.Dataset, crs: str | pyproj.CRS | None,
+                 feedback: Feedback = SILENT) -> pyproj.CRS | None:
+    """The DEM's own CRS when it is another than the layers' ``crs`` and must be reprojected on the fly;
+    None when it is in ``crs`` (or there is no ``crs`` to compare with). A DEM without a CRS is taken to
+    be in ``crs``, with a warning that says so."""
     if not crs:
-        return  # the layers have no CRS: nothing to compare with
-    layers_crs = pyproj.CRS.from_user_input(crs)
-    try:
-        ds = gdal.Open(str(path))
-    except RuntimeError:
-        ds = None
-    if ds is None:
-        return  # Dem.open names the problem
-    wkt = ds.GetProjection()
-    name = Path(path).name
-    if not wkt:
-        feedback.warning(f"The DEM {name} has no coordinate reference system: it is assumed to be in the "
-                         f"layers' CRS, {_crs_name(layers_crs)}. If it is not, assign its CRS first "
-                         "(Raster ▸ Projections ▸ Assign Projection).")
-        return
-    dem_crs = pyproj.CRS.from_wkt(wkt)
-    if not _same_place(dem_crs, layers_crs, ds):
-        raise InputError(f"The DEM {name} is in {_crs_name(dem_crs)} but the layers are in {_crs_name(layers_crs)}: "
-                         f"a CRS mismatch. Reproject the DEM to {_crs_name(layers_crs)} first (Raster ▸ Projections "
-                         "▸ Warp (Reproject), bilinear resampling).")
+        return None  # the layers have no CRS: nothing to compare with
+    if raster_crs(ds) is None:
+        feedback.warning(f"The DEM {Path(path).name} has no coordinate reference system: it is assumed to be in the "
+                         f"layers' CRS, {crs_name(pyproj.CRS.from_user_input(crs))}. If it is not, assign its CRS "
+                         "first (Raster ▸ Projections ▸ Assign Projection).")
+        return None
+    return foreign_crs(ds, crs)
 
 
-def _same_place(dem_crs: pyproj.CRS, layers_crs: pyproj.CRS, ds: gdal.Dataset) -> bool:
-    """Whether the DEM's corner coordinates name the same places in both CRSs (within 0.5 m): real DEMs
-    describe EPSG:5186 as a custom "Transverse Mercator" on a "GRS80 ELLIPSOID" datum, which is no mismatch."""
-    if dem_crs.equals(layers_crs, ignore_axis_order=True):
-        return True
-    x0, y0, x1, y1 = raster_extent(ds.GetGeoTransform(), ds.RasterXSize, ds.RasterYSize)
-    xs, ys = np.array([x0, x1, x0, x1]), np.array([y0, y0, y1, y1])
-    with np.errstate(invalid="ignore"):
-        tx, ty = pyproj.Transformer.from_crs(dem_crs, layers_crs, always_xy=True).transform(xs, ys)
-    shift = np.hypot(np.asarray(tx) - xs, np.asarray(ty) - ys)
-    return bool(np.all(np.isfinite(shift)) and shift.max() < 0.5)
+def _short_of(extent: Bounds, needed: Bounds) -> dict[str, float]:
+    """By how much (CRS units) ``extent`` falls short of ``needed`` on each side that it does."""
+    beyond = {"west": extent[0] - needed[0], "south": extent[1] - needed[1], "east": needed[2] - extent[2],
+              "north": needed[3] - extent[3]}
+    return {side: amount for side, amount in beyond.items() if amount > 0}
 
 
-def _crs_name(crs: pyproj.CRS) -> str:
-    code = crs.to_authority(min_confidence=90)
-    return f"{crs.name} ({':'.join(code)})" if code else crs.name
+def shortfall(short: dict[str, float], degrees: bool = False) -> str:
+    """e.g. "12.5 m to the east" or "0.001234° to the north, 0.000500° to the west"."""
+    return ", ".join(f"{amount:,.6f}° to the {side}" if degrees else f"{amount:,.1f} m to the {side}"
+                     for side, amount in short.items())
 
 
-def raster_extent(gt: tuple[float, ...], cols: int, rows: int) -> Bounds:
-    """xmin, ymin, xmax, ymax of a north-up raster."""
-    xs = (gt[0], gt[0] + cols * gt[1])
-    ys = (gt[3], gt[3] + rows * gt[5])
-    return min(xs), min(ys), max(xs), max(ys)
+def _window(gt: tuple[float, ...], cols: int, rows: int, bounds: Bounds, margin_cells: int) -> tuple[int, int, int, int]:
+    """The cells (c0, r0, c1, r1; ends excluded) covering ``bounds`` plus a margin, within the raster."""
+    us = [(x - gt[0]) / gt[1] for x in (bounds[0], bounds[2])]
+    vs = [(y - gt[3]) / gt[5] for y in (bounds[1], bounds[3])]
+    c0 = max(0, math.floor(min(us)) - margin_cells)
+    c1 = min(cols, math.ceil(max(us)) + margin_cells)
+    r0 = max(0, math.floor(min(vs)) - margin_cells)
+    r1 = min(rows, math.ceil(max(vs)) + margin_cells)
+    return c0, r0, c1, r1
 
 
-def _fmt(b: Bounds) -> str:
-    return f"x {b[0]:.1f}–{b[2]:.1f}, y {b[1]:.1f}–{b[3]:.1f}"
-
-
-def ragged_indices(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For ragged groups of ``counts`` items: each item's group index and its index within it."""
-    counts = np.asarray(counts, dtype=np.int64)
-    owner = np.repeat(np.arange(len(counts)), counts)
-    starts = np.cumsum(counts) - counts
-    return owner, np.arange(len(owner)) - starts[owner]
+def _fmt(b: Bounds, degrees: bool = False) -> str:
+    d = 6 if degrees else 1
+    return f"x {b[0]:.{d}f}–{b[2]:.{d}f}, y {b[1]:.{d}f}–{b[3]:.{d}f}"
 
 
 def _crossings(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,40 +1,73 @@
 """Optional Python dependencies: which are missing, and how to install them into QGIS's Python.
 
-QGIS ships numpy, GDAL, lxml and pyproj but not ``triangle`` nor (on many systems) shapely 2.
+QGIS ships numpy, GDAL, lxml and pyproj but not ``pythoncdt``, ``triangle`` nor (on many systems) shapely 2.
 The plugin must load without them; the algorithms that need them call ``require`` first.
 """
 from __future__ import annotations
 
 import importlib
+import re
 import sys
 
 from .errors import MissingDependencyError
 
-#: import name -> (pip requirement, minimum major version or None)
-REQUIREMENTS: dict[str, tuple[str, int | None]] = {
-    "shapely": ("shapely>=2", 2),
-    "triangle": ("triangle", None),
-    "lxml": ("lxml", None),
-    "pyproj": ("pyproj", None),
-    "distributed": ("dask[distributed]", None),
-    "pygltflib": ("pygltflib>=1.16", 1),
+#: import name -> pip requirement; its ``>=`` bound is the minimum release that ``missing`` checks
+REQUIREMENTS: dict[str, str] = {
+    "shapely": "shapely>=2",
+    "triangle": "triangle",
+    "pythoncdt": "pythoncdt>=2.0.2",
+    "lxml": "lxml",
+    "pyproj": "pyproj",
+    "distributed": "dask[distributed]",
+    "pygltflib": "pygltflib>=1.16",
+    "meshoptimizer": "meshoptimizer==0.2.30a0",  # the 3D Tiles web profile only
 }
+
+#: what the code uses of a module, checked by feature: distribution builds may report no usable
+#: version (Debian's shapely says "0+unknown"), so the version alone cannot decide
+FEATURES: dict[str, tuple[str, ...]] = {
+    "shapely": ("from_wkb", "to_wkb", "make_valid", "STRtree", "geos_version"),  # the shapely 2 API
+}
+
+
+def release(version: str) -> tuple[int, ...] | None:
+    """The release numbers of a PEP 440 version ("2.1.0rc1" -> (2, 1, 0)), or None when it says nothing:
+    unparsable, or only a placeholder such as "0+unknown" or "0.0.0" (builds without version metadata)."""
+    match = re.match(r"\s*v?(?:\d+!)?(\d+(?:\.\d+)*)", version or "")
+    if not match:
+        return None
+    numbers = tuple(int(part) for part in match.group(1).split("."))
+    return None if not any(numbers) else numbers
+
+
+def _satisfied(name: str, module: object, minimum: tuple[int, ...] | None) -> bool:
+    """``module`` has what the code uses: the features of ``FEATURES`` and, when its version says
+    something, at least ``minimum`` (a pre-release of the minimum counts as it)."""
+    if not all(hasattr(module, feature) for feature in FEATURES.get(name, ())):
+        return False
+    if minimum is None:
+        return True
+    found = release(str(getattr(module, "__version__", "")))
+    if found is None:
+        return True  # the version says nothing: the module imports and has the features
+    width = max(len(found), len(minimum))
+    return found + (0,) * (width - len(found)) >= minimum + (0,) * (width - len(minimum))
 
 
 def missing(modules: tuple[str, ...] | list[str]) -> list[str]:
     """The pip requirements among ``modules`` that are absent or too old."""
     result = []
     for name in modules:
-        requirement, major = REQUIREMENTS.get(name, (name, None))
+        requirement = REQUIREMENTS.get(name, name)
+        bound = requirement.partition(">=")[2]
+        minimum = release(bound) if bound else None
         try:
             module = importlib.import_module(name)
         except ImportError:
             result.append(requirement)
             continue
-        if major is not None:
-            version = getattr(module, "__version__", "0")
-            if int(version.split(".")[0]) < major:
-                result.append(requirement)
+        if not _satisfied(name, module, minimum):
+            result.append(requirement)
     return result
 
 
@@ -55,7 +88,8 @@ def install_hint(requirements: list[str], problem: str | None = None) -> str:
         f"--break-system-packages {no_binary}{quoted}\n"
         f"  Windows (OSGeo4W / QGIS installer): open the 'OSGeo4W Shell' and run: python -m pip install {quoted}\n"
         f"  macOS (QGIS.app): /Applications/QGIS.app/Contents/MacOS/bin/python3 -m pip install --user {quoted}\n"
-        "Note: 'triangle' is free for non-commercial use only (licence of J. R. Shewchuk's Triangle)."
+        "Note: 'triangle' is free for non-commercial use only (licence of J. R. Shewchuk's Triangle); "
+        "'pythoncdt' (MPL-2.0) is the terrain triangulator for commercial use."
     )
 
 

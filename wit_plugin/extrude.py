@@ -35,7 +35,7 @@ from osgeo import ogr
 from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
-from .dem import Dem, check_crs
+from .dem import Dem
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .gpkg_bulk import write_layer
@@ -237,8 +237,7 @@ def run(vectors: str | Path, dem_path: str | Path, output: str | Path, heights: 
     geoms = [g for g in layer.geoms if g is not None and not g.is_empty]
     if not geoms:
         raise InputError(f"{vectors} has no building footprints.")
-    check_crs(dem_path, layer.crs, feedback)
-    dem = Dem.open(dem_path, tuple(shapely.total_bounds(geoms)), feedback=feedback)
+    dem = Dem.open(dem_path, tuple(shapely.total_bounds(geoms)), feedback=feedback, crs=layer.crs)
     ids = layer.columns.get(WIT_ID) or [None] * len(layer)
     rows = [{name: column[k] for name, column in layer.columns.items()} for k in range(len(layer))]
     solids, stats = extrude(list(zip(ids, layer.geoms, rows)), dem, rule, base, feedback.scaled(0, 80))

@@ -18,18 +18,31 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import pyproj
+import shapely
 from osgeo import gdal, ogr, osr
+from shapely.geometry.base import BaseGeometry
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, atomic_files, ensure_writable_dir
-from .gdal_env import open_raster, quiet_gdal
+from .gdal_env import open_raster, quiet_gdal, thread_config
 from .mapsheet import find_sheet_in_name, projected_envelope
+from .raster_crs import (
+    aligned,
+    cell_size,
+    crs_code,
+    foreign_crs,
+    raster_extent,
+    transform_geometry,
+    warp,
+)
 
 OK, SKIPPED, FAILED = "ok", "skipped", "failed"
 FORMATS = {"GTiff": ".tif", "VRT": ".vrt"}
 TIF_SUFFIXES = (".tif", ".tiff")
 INDEX_LAYER = "footprints"
+WARPED_SUFFIX = ".warped.vrt"  # beside <sheet>.vrt: a TIF in another CRS, reprojected as it is read
 _LISTED = 10  # inputs whose reasons are listed when none could be georeferenced
 #: columns of the footprint index (SheetResult attributes), shared with the Processing glue
 INDEX_FIELDS = (("sheet", str), ("scale", int), ("source", str), ("status", str), ("reason", str), ("output", str))
@@ -158,17 +171,26 @@ def _write_vrt(src: gdal.Dataset, source: str, target: Path, final_dir: Path, ul
         vrt, message = None, str(exc)
     if vrt is None:
         return message or "GDAL could not build the VRT"
-    root = ET.fromstring(vrt.GetMetadata("xml:VRT")[0])
+    xml = vrt.GetMetadata("xml:VRT")[0]
     vrt = None
-    try:
-        href, relative = Path(os.path.relpath(os.path.abspath(source), os.path.abspath(final_dir))).as_posix(), "1"
-    except ValueError:  # another drive on Windows: no relative path exists
-        href, relative = os.path.abspath(source), "0"
-    for element in root.iter("SourceFilename"):
+    _write_vrt_xml(xml, source, target, final_dir)
+    return ""
+
+
+def _write_vrt_xml(xml: str, source: str, target: Path, final_dir: Path | None) -> None:
+    """Write a VRT whose source is ``source``: by a path relative to ``final_dir`` (where the VRT will
+    live), or absolute when there is none or no relative path exists (another drive on Windows)."""
+    root = ET.fromstring(xml)
+    href, relative = os.path.abspath(source), "0"
+    if final_dir is not None:
+        try:
+            href, relative = Path(os.path.relpath(os.path.abspath(source), os.path.abspath(final_dir))).as_posix(), "1"
+        except ValueError:
+            pass
+    for element in (*root.iter("SourceFilename"), *root.iter("SourceDataset")):
         element.text = href
         element.set("relativeToVRT", relative)
     target.write_text(ET.tostring(root, encoding="unicode"), encoding="utf-8")
-    return ""
 
 
 def georeference_sheets(inputs: Sequence[str], output_dir: str | os.PathLike, target_crs: str = "EPSG:5186",
@@ -219,6 +241,10 @@ def _process(result: SheetResult, staging: Path, out_dir: Path, target_crs: str,
     if src is None:
         _fail(result, message, feedback)
         return
+    own = _own_crs(src, target_crs)
+    if own is not None:
+        _reprojected(result, src, own, staging, out_dir, target_crs, fmt, feedback)
+        return
     xmin, ymin, xmax, ymax = result.bounds
     ullr = [xmin, ymax, xmax, ymin]
     try:
@@ -236,6 +262,66 @@ def _process(result: SheetResult, staging: Path, out_dir: Path, target_crs: str,
     feedback.info(f"{Path(result.source).name}: sheet {result.sheet} (1:{result.scale:,}) → {target.name}, "
                   f"{src.RasterXSize}×{src.RasterYSize} px of "
                   f"{(xmax - xmin) / src.RasterXSize:.4f} × {(ymax - ymin) / src.RasterYSize:.4f} m")
+
+
+def _own_crs(src: gdal.Dataset, target_crs: str) -> pyproj.CRS | None:
+    """The CRS of a TIF that carries its own georeference in another CRS than the target, else None (its
+    sheet number then places it: pixels aligned with the target CRS's axes, SPEC §3)."""
+    return foreign_crs(src, target_crs) if src.GetGeoTransform(can_return_null=True) is not None else None
+
+
+def sheet_footprint(path: str, sheet_bounds: tuple[float, float, float, float], target_crs: str) -> BaseGeometry:
+    """Where ``path`` has pixels in the target CRS: its own georeference reprojected when it carries one in
+    another CRS, else ``sheet_bounds`` (its sheet's envelope + margin)."""
+    src, _ = _open(path)
+    own = _own_crs(src, target_crs) if src is not None else None
+    if own is None:
+        return shapely.box(*sheet_bounds)
+    return transform_geometry(shapely.box(*raster_extent(src.GetGeoTransform(), src.RasterXSize, src.RasterYSize)),
+                              own, target_crs)
+
+
+def _reprojected(result: SheetResult, src: gdal.Dataset, own: pyproj.CRS, staging: Path, out_dir: Path,
+                 target_crs: str, fmt: str, feedback: Feedback) -> None:
+    """A TIF georeferenced in another CRS, reprojected from its own georeference (bilinear, its pixel size in
+    metres, on a grid aligned to multiples of it): a warped VRT of the untouched pixels whose coverage is
+    the mask of a 3-band VRT beside it (``<sheet>.vrt``), or a GeoTIFF with that mask."""
+    target = staging / Path(result.output).name
+    warped_file = staging / f"{Path(result.output).stem}{WARPED_SUFFIX}"
+    size = cell_size(src, own, target_crs)
+    footprint = transform_geometry(shapely.box(*raster_extent(src.GetGeoTransform(), src.RasterXSize,
+                                                              src.RasterYSize)), own, target_crs)
+    bounds = aligned(footprint.bounds, size)
+    try:
+        warped = warp(src, own, pyproj.CRS.from_user_input(target_crs), bounds, size, fmt="VRT", exact=False,
+                      alpha=True)
+        _write_vrt_xml(warped.GetMetadata("xml:VRT")[0], result.source, warped_file, None)
+        bands = list(range(1, warped.RasterCount))
+        warped = None
+        with quiet_gdal():
+            masked = gdal.Translate(str(target) if fmt == "VRT" else "", str(warped_file), format="VRT",
+                                    bandList=bands, maskBand=len(bands) + 1)
+            reason = gdal.GetLastErrorMsg()
+        if masked is None:
+            raise InputError(reason or "GDAL could not build the VRT")
+        if fmt == "GTiff":
+            with thread_config(GDAL_TIFF_INTERNAL_MASK="YES"):  # the mask inside the file, no .msk beside it
+                error = _write_geotiff(masked, target, None, None, feedback)
+            masked = None
+            warped_file.unlink()
+            if error:
+                raise InputError(error)
+        else:
+            masked = None
+            _write_vrt_xml(warped_file.read_text(encoding="utf-8"), result.source, warped_file, out_dir)
+    except (InputError, OSError, RuntimeError) as exc:
+        target.unlink(missing_ok=True)
+        warped_file.unlink(missing_ok=True)
+        _fail(result, str(exc), feedback)
+        return
+    result.status, result.bounds = OK, bounds
+    feedback.info(f"{Path(result.source).name}: sheet {result.sheet} carries its own georeference in "
+                  f"{crs_code(own)}: reprojected to {target_crs} (bilinear, {size:g} m pixels) → {target.name}")
 
 
 def _fail(result: SheetResult, reason: str, feedback: Feedback) -> None:

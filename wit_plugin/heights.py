@@ -12,7 +12,9 @@ layer                                                  height (m)               
 =====================================================  ==========================  ==================
 road-name-address buildings ``TL_SPBD_BULD`` (juso)    –                           ``GRO_FLO_CO``
 NGII digital map / national base map buildings         –                           ``BFLR_CO``
-(``N3A_B0010000``, ``TN_BULD``)
+(``N3A_B0010000``, ``TN_BULD``; coded fields)
+NGII digital map buildings ``N3A_B0010000`` as NGII    –                           ``층수``
+ships them (Korean field names 층수, 용도, 종류, 명칭)
 GIS building-integrated information ``AL_D010``        ``A16`` (높이)               ``A26`` (지상층수)
 (GIS건물통합정보, vworld; fields ``A0``…``A28``)
 OpenStreetMap (GeoJSON, GeoPackage, osm2pgsql, …)      ``height``                  ``building:levels``
@@ -21,7 +23,9 @@ Korean-named exports                                   ``높이``               
 =====================================================  ==========================  ==================
 
 Below-ground storeys: ``UND_FLO_CO`` (juso), ``A27`` (AL_D010). OpenStreetMap heights may carry a
-unit (``"12 m"``, ``"40 ft"``, ``40'``); other height fields are numbers in metres.
+unit (``"12 m"``, ``"40 ft"``, ``40'``); other height fields are numbers in metres. The NGII field
+names follow the digital map's rule (수치지형도 작성 작업 및 성과에 관한 규정, 별표 2: 층수 BFLR_CO,
+용도 BPRP_SE, 종류 BULD_SE, 명칭 BULD_NM).
 """
 from __future__ import annotations
 
@@ -65,7 +69,9 @@ class KnownLayer:
 KNOWN_LAYERS: tuple[KnownLayer, ...] = (
     KnownLayer("road-name-address building layer (TL_SPBD_BULD)", ("GRO_FLO_CO",), floors=("GRO_FLO_CO",),
                basement=("UND_FLO_CO",)),
-    KnownLayer("NGII digital map building layer", ("BFLR_CO",), floors=("BFLR_CO",)),
+    KnownLayer("NGII digital map buildings (N3A_B0010000)", ("BFLR_CO",), floors=("BFLR_CO",)),
+    KnownLayer("NGII digital map buildings (N3A_B0010000, Korean field names)", ("층수", "종류"), floors=("층수",)),
+    KnownLayer("NGII digital map buildings (N3A_B0010000, Korean field names)", ("층수", "용도"), floors=("층수",)),
     KnownLayer("GIS building-integrated information (AL_D010)", ("A0", "A1", "A16"), height=("A16",),
                floors=("A26",), basement=("A27",)),
     KnownLayer("OpenStreetMap buildings", ("height",), height=("height",),

@@ -1,4 +1,5 @@
-"""Which Python runs the core in another process (Dask workers, the 3D Tiles export beside validation).
+"""Which Python runs the core in another process (Dask workers, the 3D Tiles export beside validation),
+and which runs pip for QGIS's Python (``this_python``).
 
 Inside QGIS on Windows and macOS ``sys.executable`` is QGIS itself: starting it would open QGIS again.
 So a separate process always gets an explicit interpreter: the one configured, else the first Python
@@ -19,9 +20,15 @@ from .errors import InputError
 CORE_ROOT = Path(__file__).resolve().parents[1]  # the folder holding the package wit_plugin
 
 
+#: folders of packages the plugin put on ``sys.path`` (``installer.activate``): its processes need them too
+PACKAGE_FOLDERS: list[str] = []
+
+
 def core_env() -> dict:
-    """This process's environment with the core importable as ``wit_plugin``."""
-    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(CORE_ROOT), os.environ.get("PYTHONPATH")) if p))
+    """This process's environment with the core importable as ``wit_plugin``, and the packages the plugin
+    installed into the QGIS profile."""
+    paths = (str(CORE_ROOT), *PACKAGE_FOLDERS, os.environ.get("PYTHONPATH"))
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
 
 
 def core_python(configured: str | None, modules: tuple[str, ...], module: str) -> str:
@@ -35,12 +42,8 @@ def core_python(configured: str | None, modules: tuple[str, ...], module: str) -
             if problem:
                 raise InputError(f"The worker Python {candidate} cannot run the core: {problem}")
             return candidate
-    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
-    prefix = Path(sys.exec_prefix)
-    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
-                   shutil.which("python")]
     tried = []
-    for candidate in dict.fromkeys(c for c in candidates if c and Path(c).is_file()):
+    for candidate in _candidates():
         problem = _cannot_run(candidate, modules, module)
         if not problem:
             return candidate
@@ -48,6 +51,52 @@ def core_python(configured: str | None, modules: tuple[str, ...], module: str) -
     raise InputError("No Python imports the plugin's dependencies for a separate process ("
                      + "; ".join(tried or ["none found"]) + "). Set WORKER_PYTHON (or $WIT_WORKER_PYTHON) to one "
                      "that does, e.g. a virtual environment with the packages of requirements.txt.")
+
+
+def _candidates() -> list[str]:
+    """Pythons to try, in order: ``sys.executable`` when it is a Python, the one of QGIS's own prefix
+    (``bin/python3``, or ``python.exe`` on Windows), then ``python3`` / ``python`` on the PATH."""
+    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
+    prefix = Path(sys.exec_prefix)
+    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
+                   shutil.which("python")]
+    return list(dict.fromkeys(c for c in candidates if c and Path(c).is_file()))
+
+
+def this_python(configured: str | None = None) -> str:
+    """An interpreter of the very Python this process runs (same version, same installation), to run pip
+    for it: QGIS's own Python inside QGIS, never QGIS itself, nor another Python 3.X that happens to be
+    on the PATH (inside qgis_process ``sys.executable`` can be such a one, e.g. a pyenv shim). A
+    ``configured`` one wins and must be of the same version."""
+    ours = (f"{sys.version_info[0]}.{sys.version_info[1]}", _same_path(sys.base_prefix))
+    if configured and not (Path(configured).is_file() and os.access(configured, os.X_OK)):
+        raise InputError(f"The Python {configured} is not an executable file.")
+    tried = []
+    for candidate in [configured] if configured else _candidates():
+        found = _identity(candidate)
+        if found == ours or (configured and found[0] == ours[0]):
+            return candidate
+        tried.append(f"{candidate}: Python {found[0]} in {found[1]}")
+    raise InputError(f"No interpreter of QGIS's Python (Python {ours[0]} in {sys.base_prefix}) was found ("
+                     + "; ".join(tried or ["none found"]) + "). Give its path as the Python interpreter.")
+
+
+def _same_path(path: str) -> str:
+    return os.path.normcase(os.path.realpath(path))
+
+
+@functools.lru_cache(maxsize=16)
+def _identity(python: str) -> tuple[str, str]:
+    """``python``'s ("major.minor", installation prefix), or (why it does not run, "")."""
+    code = "import sys; print('%d.%d' % sys.version_info[:2]); print(sys.base_prefix)"
+    try:
+        result = subprocess.run([python, "-c", code], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return str(exc), ""
+    lines = result.stdout.splitlines()
+    if result.returncode != 0 or len(lines) < 2:
+        return result.stderr.strip() or "fails", ""
+    return lines[0], _same_path(lines[1])
 
 
 @functools.lru_cache(maxsize=16)

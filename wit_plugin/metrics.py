@@ -76,12 +76,14 @@ from lxml import etree
 from osgeo import gdal, ogr, osr
 
 from . import bulk_read, model
+from .arrays import ragged_indices
+from .citygml.validation.crs import frame_of
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
-from .dem import ragged_indices
 from .gdal_env import open_raster, read_window
-from .vector_io import FieldDef, OutputLayer, gdal_quiet, write_gpkg
+from .raster_crs import crs_name, foreign_crs, transform_geometry
+from .vector_io import FieldDef, OutputLayer, gdal_quiet, open_step_layer, split_source, write_gpkg
 
 METRICS_TABLE = "quality_metrics"
 BUILDINGS_LAYER = "quality_buildings"
@@ -481,7 +483,8 @@ def tile_footprints(footprints: str | Sequence[str]) -> tuple[list[tuple[float, 
     ``footprints`` is a vector file, a folder of georeferenced tiles, or a list of tile rasters.
     """
     if isinstance(footprints, (str, os.PathLike)):
-        path = Path(footprints)
+        path_text, name, _ = split_source(footprints)
+        path = Path(path_text)
         if path.is_dir():
             rasters = sorted(str(p) for p in path.iterdir() if p.suffix.lower() in (".tif", ".tiff", ".vrt"))
             if not rasters:
@@ -490,7 +493,7 @@ def tile_footprints(footprints: str | Sequence[str]) -> tuple[list[tuple[float, 
         vector = _open_vector(path)
         if vector is None or vector.GetLayerCount() == 0:
             return tile_footprints([str(path)])
-        layer = vector.GetLayerByName("footprints") or vector.GetLayer(0)
+        layer = vector.GetLayerByName(name or "footprints") or vector.GetLayer(0)
         has_status = layer.GetLayerDefn().GetFieldIndex("status") >= 0
         boxes = []
         for feature in layer:
@@ -688,11 +691,16 @@ def _gml_srs(path: str) -> str | None:
 
 
 def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding], str | None]:
-    """Buildings of a CityGML 3.0 file: per gml:id the solids' ground polygons and roof vertices (streamed)."""
+    """Buildings of a CityGML 3.0 file: per gml:id the solids' ground polygons and roof vertices (streamed).
+
+    Positions are turned easting (longitude) first when the srsName says they are written northing
+    (latitude) first: its URN or URL form for a CRS whose EPSG order is so (``validation.crs``).
+    """
     buildings: dict[str, _ModelBuilding] = {}
     size = max(os.path.getsize(path), 1)
     try:
         srs = _gml_srs(path)
+        order = [1, 0, 2] if srs and frame_of(srs).lat_axis == 0 else [0, 1, 2]
         with open(path, "rb") as fh:
             members = etree.iterparse(fh, events=("end",), huge_tree=True,
                                       tag=(_CORE + "cityObjectMember", _CORE + "appearanceMember"))
@@ -703,7 +711,7 @@ def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding],
                     faces = []
                     for solid in building.iter(_CORE + "lod1Solid"):
                         for polygon in solid.iter(_GML + "Polygon"):
-                            rings = [_poslist(r, gml_id) for r in polygon.iter(_GML + "LinearRing")]
+                            rings = [_poslist(r, gml_id)[:, order] for r in polygon.iter(_GML + "LinearRing")]
                             if rings:
                                 faces.append((*_polygon_3d(rings), None))
                     _add_solid(buildings.setdefault(gml_id, _ModelBuilding()), faces)
@@ -723,16 +731,8 @@ def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding],
 
 def _read_lod1(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding], osr.SpatialReference | None]:
     """Ground polygons and roof vertices per wit_id from the LoD1 faces layer (FACE_TYPE given)."""
-    ds = _open_vector(path)
-    layer = None if ds is None else ds.GetLayerByName(model.LOD1_LAYER)
-    if layer is None:
-        raise InputError(f"{path} has no layer '{model.LOD1_LAYER}': give the output of wit:extrudebuildings "
-                         "or the CityGML file.")
-    defn = layer.GetLayerDefn()
-    missing = [f for f in (model.WIT_ID, model.FACE_TYPE) if defn.GetFieldIndex(f) < 0]
-    if missing:
-        raise InputError(f"{path}: layer '{model.LOD1_LAYER}' lacks the field(s) {', '.join(missing)}; "
-                         "re-run wit:extrudebuildings.")
+    ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, model.LOD1_ROLE,
+                                   (model.WIT_ID, model.FACE_TYPE))
     faces: dict[str, list] = defaultdict(list)
     total = max(layer.GetFeatureCount(), 1)
     for k, feature in enumerate(layer):
@@ -755,16 +755,9 @@ def _read_lod1(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding]
     return buildings, srs.Clone() if srs else None
 
 
-def _read_sources(path: str, name: str) -> tuple[list[str], np.ndarray, osr.SpatialReference | None]:
-    ds = _open_vector(path)
-    layer = None
-    if ds is not None:
-        layer = ds.GetLayerByName(name) or (ds.GetLayer(0) if ds.GetLayerCount() == 1 else None)
-    if layer is None:
-        raise InputError(f"{path} has no layer '{name}': give the output of wit:preparevectors.")
-    if layer.GetLayerDefn().GetFieldIndex(model.WIT_ID) < 0:
-        raise InputError(f"{path}: the buildings have no '{model.WIT_ID}' field; give the output of "
-                         "wit:preparevectors, whose ids the model keeps.")
+def _read_sources(source: str) -> tuple[list[str], np.ndarray, osr.SpatialReference | None]:
+    ds, layer, _ = open_step_layer(source, model.PREPARED_BUILDINGS, model.PREPARED_BUILDINGS_ROLE,
+                                   (model.WIT_ID,))
     ids, wkbs = [], []
     for feature in layer:
         geometry = feature.GetGeometryRef()
@@ -839,16 +832,14 @@ def geometry_metrics(model_source: str, source_buildings: str, feedback: Feedbac
     """Compare the model's buildings with the 2D source footprints (Table 17; see the module docstring).
 
     ``model_source``: the CityGML file (``.gml``/``.xml``) or the LoD1 faces GeoPackage;
-    ``source_buildings``: the wit:preparevectors GeoPackage (layer ``buildings`` with ``wit_id``),
-    or one of its layers as ``file.gpkg|layername=…``.
+    ``source_buildings``: footprints with the ``wit_id`` of wit:preparevectors: its GeoPackage (layer
+    ``buildings``), one of its layers as ``file.gpkg|layername=…``, or a file of one such layer.
     """
     if not Path(model_source).is_file():
         raise InputError(f"The model {model_source} does not exist.")
-    source_path, _, options = str(source_buildings).partition("|")
-    if not Path(source_path).is_file():
+    if not Path(split_source(source_buildings)[0]).is_file():
         raise InputError(f"The source buildings {source_buildings} do not exist.")
-    layer_name = options.partition("layername=")[2].split("|")[0] or model.PREPARED_BUILDINGS
-    ids, sources, source_srs = _read_sources(source_path, layer_name)
+    ids, sources, source_srs = _read_sources(str(source_buildings))
     if not ids:
         raise InputError(f"{source_buildings} has no building footprints.")
     if len(set(ids)) != len(ids):
@@ -1105,6 +1096,19 @@ standard deviation of I. Seam step: mean |colour step| across tile borders insid
     path.write_text(page, encoding="utf-8")
 
 
+def _in_ortho_crs(footprints: shapely.Geometry, crs_wkt: str | None, ortho: str | None,
+                  feedback: Feedback) -> shapely.Geometry:
+    """The footprints in the ortho's CRS when it has another one: its own pixels are measured, never
+    resampled (a warp would smooth them and lower their sharpness)."""
+    if not ortho or not crs_wkt:
+        return footprints
+    source = foreign_crs(open_raster(ortho, "orthoimage"), crs_wkt)
+    if source is None:
+        return footprints
+    feedback.info(f"The orthoimage {Path(ortho).name} is in {crs_name(source)}: the footprints are reprojected to it.")
+    return transform_geometry(footprints, pyproj.CRS.from_wkt(crs_wkt), source, 1.0)
+
+
 def quality_report(output_csv: str, model_source: str | None = None, source_buildings: str | None = None,
                    textures: Sequence[str] | str | None = None, ortho: str | None = None,
                    mosaic: str | None = None, footprints: str | Sequence[str] | None = None,
@@ -1139,7 +1143,8 @@ def quality_report(output_csv: str, model_source: str | None = None, source_buil
     if geometry is not None:
         sources = [b.geometry for b in geometry.buildings if b.status != MODEL_ONLY and b.geometry is not None]
         if sources:
-            footprints_2d = shapely.multipolygons(shapely.get_parts(np.array(sources, dtype=object)))
+            footprints_2d = _in_ortho_crs(shapely.multipolygons(shapely.get_parts(np.array(sources, dtype=object))),
+                                          geometry.crs_wkt, ortho, feedback)
             area = tuple(footprints_2d.bounds)
     texture = texture_metrics(textures, ortho, area, footprints_2d, next_feedback()) if textures or ortho else None
     seam = seam_metrics(mosaic, footprints, next_feedback()) if mosaic else None

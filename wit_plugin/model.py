@@ -7,8 +7,10 @@ contract between ``preparevectors`` → ``triangulateterrain`` / ``extrudebuildi
 Stable ids (``wit_id``) derive from the source ids, so the same input gives the same
 CityGML ``gml:id`` on every run:
 
-* buildings: ``BLD_<BD_MGT_SN>`` (25-digit management number), else ``BLD_<SIG_CD>_<BUL_MAN_NO>``
-* roads: ``RD_<SIG_CD>_<RDS_MAN_NO>``
+* buildings: ``BLD_<BD_MGT_SN>`` (25-digit management number), else ``BLD_<SIG_CD>_<BUL_MAN_NO>``,
+  else ``BLD_<UFID>`` (the NGII digital map's feature id), else ``BLD_<osm_id>`` (OpenStreetMap)
+* roads: ``RD_<SIG_CD>_<RDS_MAN_NO>``, else ``RD_<UFID>``, else ``RD_<osm_id>``
+* else ``<prefix>_F<source FID>``; characters that cannot be in an XML name become ``_``
 * districts: ``EMD_<EMD_CD>``
 
 Every field the core derives is named ``wit_…``, so it never shadows a source attribute (an
@@ -21,12 +23,20 @@ WIT_ID = "wit_id"
 
 # -- wit:preparevectors outputs (Polygon layers, source attributes kept) ----------------------
 PREPARED_BUILDINGS = "buildings"
-PREPARED_ROADS = "roads"  # road polygons: centre lines buffered by ROAD_BT / 2
+PREPARED_ROADS = "roads"  # road polygons: centre lines buffered by their width / 2, or road surfaces as given
 PREPARED_DISTRICTS = "districts"
 FOREIGN_BUILDINGS = "foreign_buildings"  # tiles: neighbouring tiles' buildings crossing into this one
 STUDY_AREA = "study_area"  # the study-area polygon, so later steps need not be told it again
-ROAD_WIDTH = "wit_width_m"  # width used for the buffer
-ROAD_WIDTH_SOURCE = "wit_width_src"  # "ROAD_BT", a class default or "default"
+ROAD_WIDTH = "wit_width_m"  # width used for the buffer (NULL for a road surface given as a polygon)
+ROAD_WIDTH_SOURCE = "wit_width_src"  # the width field, "<field> × lane width", a class default, "default" or "surface"
+
+#: each step's output as messages name it (an input that lacks its fields names the step that makes them)
+PREPARED_BUILDINGS_ROLE = "prepared buildings (wit:preparevectors)"
+PREPARED_ROADS_ROLE = "prepared roads (wit:preparevectors)"
+PREPARED_DISTRICTS_ROLE = "prepared districts (wit:preparevectors)"
+LOD1_ROLE = "LoD1 faces (wit:extrudebuildings)"
+TIN_ROLE = "TIN (wit:triangulateterrain)"
+TEXCOORD_ROLE = "texture table (wit:wittexture)"
 
 # -- wit:triangulateterrain output (PolygonZ, one triangle per feature) -----------------------
 TIN_LAYER = "tin"

@@ -45,7 +45,7 @@ import numpy as np
 import shapely
 from osgeo import gdal, ogr
 
-from . import model
+from . import bulk_read, model
 from .errors import InputError, WitError
 from .feedback import SILENT, Feedback, LoggingFeedback
 from .fileio import atomic_file
@@ -170,7 +170,7 @@ def render_preview(lod1_gpkg: str, tin_gpkg: str | None, textures: str | None, o
 @contextlib.contextmanager
 def _open_layer(path: str, name: str, role: str, fields: tuple[str, ...]) -> Iterator[ogr.Layer]:
     ds, layer, present = open_step_layer(path, name, role, fields)
-    layer.SetIgnoredFields([f for f in present if f not in fields])
+    bulk_read.ignore_fields(layer, [f for f in present if f not in fields])
     try:
         yield layer
     finally:
@@ -200,8 +200,9 @@ def _read_columns(layer: ogr.Layer, fields: tuple[str, ...],
 
 def _batches(layer: ogr.Layer, fields: tuple[str, ...],
              size: int = 65536) -> Iterator[tuple[dict[str, np.ndarray], list[bytes | None]]]:
-    """Field columns and WKB geometries, batch by batch: GDAL's Arrow interface (3.6+), else a feature loop."""
-    if hasattr(layer, "GetArrowStreamAsNumPy"):
+    """Field columns and WKB geometries, batch by batch: GDAL's Arrow interface when it can take the layer
+    (``bulk_read.arrow_ready``), else a feature loop."""
+    if bulk_read.arrow_ready(layer):
         geom_name = layer.GetGeometryColumn() or "geom"
         for batch in layer.GetArrowStreamAsNumPy(options=["USE_MASKED_ARRAYS=NO"]):
             yield batch, [bytes(w) if w is not None else None for w in batch[geom_name]] if geom_name in batch else []
@@ -227,7 +228,7 @@ class _TexTable:
     def read(cls, folder: str, images: list[str]) -> _TexTable:
         path = Path(folder) / model.TEXCOORD_FILE
         fields = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
-        with _open_layer(str(path), model.TEXCOORD_TABLE, "texture table (wit:wittexture)", fields) as layer:
+        with _open_layer(str(path), model.TEXCOORD_TABLE, model.TEXCOORD_ROLE, fields) as layer:
             cols = _read_columns(layer, fields)
         try:
             uv, counts = parse_texcoords(cols[model.TEX_COORDS].tolist())
@@ -249,7 +250,7 @@ class _TexTable:
 
 def _read_lod1(path: str, table: _TexTable | None, report: PreviewReport) -> _Mesh:
     fields = (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER)
-    with _open_layer(path, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)", fields) as layer:
+    with _open_layer(path, model.LOD1_LAYER, model.LOD1_ROLE, fields) as layer:
         cols = _read_columns(layer, fields, lambda geoms: geoms)
     geoms, kind = cols[None], cols[model.FACE_TYPE]
     ok = ~shapely.is_missing(geoms) & (shapely.get_type_id(geoms) == 3)
@@ -296,7 +297,7 @@ def _wall_mesh(polygons: np.ndarray, building: np.ndarray) -> _Mesh:
 
 def _read_tin(path: str, table: _TexTable | None) -> _Mesh:
     fields = (model.TIN_TRIANGLE_ID, model.TIN_SURFACE)
-    with _open_layer(path, model.TIN_LAYER, "TIN (wit:triangulateterrain)", fields) as layer:
+    with _open_layer(path, model.TIN_LAYER, model.TIN_ROLE, fields) as layer:
         cols = _read_columns(layer, fields, triangle_vertices)
     ok = np.flatnonzero(np.isfinite(cols[None]).all(axis=(1, 2)))
     xyz = cols[None][ok]

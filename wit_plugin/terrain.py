@@ -27,11 +27,12 @@ from pathlib import Path
 import numpy as np
 import pyproj
 import shapely
-from osgeo import ogr
+from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
-from .dem import Dem, ragged_indices
-from .dem import check_crs as check_dem_crs
+from . import triangulators
+from .arrays import ragged_indices
+from .dem import Dem
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
@@ -48,26 +49,18 @@ from .model import (
     TIN_TRIANGLE_ID,
     WIT_ID,
 )
+from .triangulators import edge_pairs, triangle_edge_keys
 from .vector_io import FieldDef, VectorLayer, read_layer, read_prepared
+from .vectors import transform
 
 #: snapping grid for constraint coordinates (m): far below survey accuracy, far above float noise
 GRID = 0.001
 #: polygon parts narrower than this on average (m) are slivers and dropped
 MIN_WIDTH = 0.01
-#: Triangle's minimum angle (degrees). Kept tiny on purpose: what matters is that with any "q"
-#: Triangle keeps new vertices off constraint segments (its encroachment lens, here ~0.4 % of a
-#: segment's length wide), whereas without it refinement can put a vertex a rounding error away
-#: from a segment (a degenerate sliver, then duplicate vertices in the next pass). Larger angles
-#: cost a lot: 5° more than doubles the triangles of the 1 km demo, and thin faces such as
-#: digitising gaps between buildings fill with tiny triangles.
-MIN_ANGLE = 0.5
 DEGENERATE_AREA = 2e-6  # m² at mm precision; validators reject ≤ 1e-6
 ROUNDING = 1e-3  # m: the precision coordinates are written with
-#: first-pass area bound as a fraction of max_edge²: √3/4 ≈ 0.43 would fit an equilateral triangle,
-#: but Delaunay triangles of that area often have a longer edge (~40 % of them on a plain disc).
-#: At 0.25 well under 1 % do and one refinement pass fixes them; 0.3 needs two passes and ends
-#: with more triangles (measured on the 1 km demo, 5 m edges)
-AREA_FACTOR = 0.25
+#: the first pass's triangles are about this × max_edge² (Triangle's area bound), for the size estimate
+AREA_FACTOR = triangulators.AREA_FACTOR
 #: refuse meshes that would not fit in memory on an ordinary machine
 MAX_TRIANGLES = 30_000_000
 TERRAIN, ROAD, FOOTPRINT = range(3)  # indices into model.TIN_SURFACES
@@ -329,9 +322,15 @@ def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: S
         unique_keys = np.rint((world - origin) / grid).astype(np.int64)
     # a sliver keeps its seed (snap rounding can leave it cut off from its host after all) with its host's labels
     surface, feature = surface[host], feature[host]
+    # a hole seed outside the segments' convex hull marks nothing (the outside is not meshed anyway) and
+    # crashes Triangle: a face beyond the area's rim bounded by unmeshed faces only, found by the fuzz test
+    holes = seed_xy[~meshed] - origin
+    if len(holes):
+        hull = shapely.convex_hull(shapely.multipoints(unique_keys * grid))
+        holes = holes[shapely.contains_xy(hull, holes[:, 0], holes[:, 1])]
     return Constraints(
         origin=origin, vertices=unique_keys * grid, segments=segments,
-        holes=seed_xy[~meshed] - origin, regions=seed_xy[meshed] - origin,
+        holes=holes, regions=seed_xy[meshed] - origin,
         region_surface=surface[meshed], region_feature=feature[meshed], faces=faces, meshed=meshed,
         area=clean_area, footprints=footprints, roads=road_list, dropped=dropped)
 
@@ -486,60 +485,8 @@ def _longest_edges(xy: np.ndarray, tris: np.ndarray) -> np.ndarray:
     return np.sqrt(np.maximum(np.maximum(squared[0], squared[1]), squared[2]))
 
 
-def _edge_keys(edges: np.ndarray) -> np.ndarray:
-    """One int64 per undirected edge (vertex indices below 2³¹)."""
-    edges = np.sort(edges, axis=-1).astype(np.int64)
-    return (edges[..., 0] << 31) | edges[..., 1]
-
-
-def _edge_pairs(keys: np.ndarray) -> np.ndarray:
-    """The (k, 2) vertex pairs back from ``_edge_keys``."""
-    return np.column_stack([keys >> 31, keys & ((1 << 31) - 1)])
-
-
-def _triangle_edge_keys(tris: np.ndarray) -> np.ndarray:
-    """(m, 3) edge keys of each triangle."""
-    return _edge_keys(np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1))
-
-
 def _with_heights(dem: Dem, world: np.ndarray) -> np.ndarray:
     return np.column_stack([world, dem.sample(world[:, 0], world[:, 1])])
-
-
-def _patch(bad: np.ndarray, tris: np.ndarray, neighbours: np.ndarray | None) -> np.ndarray:
-    """Indices of the bad triangles and their edge neighbours: the part of the mesh to refine.
-
-    With the neighbours inside, every edge of a bad triangle that is not a constraint lies inside
-    the patch, where refinement may split it. ``neighbours``: Triangle's, when still valid.
-    """
-    if neighbours is not None:
-        near = neighbours[bad].ravel()
-        return np.union1d(np.flatnonzero(bad), near[near >= 0])
-    keys = _triangle_edge_keys(tris)
-    return np.flatnonzero(bad | np.isin(keys, keys[bad]).any(axis=1))
-
-
-def _refine_patch(triangle, xy: np.ndarray, tris: np.ndarray, attributes: np.ndarray, limits: np.ndarray,
-                  constrained: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Refine a patch of the mesh on its own: (new vertices, its new triangles, their attributes).
-
-    The patch's outline and the constrained edges in it are segments that may not be split
-    ("YY"), so the refined patch fits the untouched mesh around it exactly, and the constraint
-    pieces stay as they are. Re-running Triangle over the whole mesh for the ~1 % of triangles
-    that need it took longer than the first triangulation.
-    """
-    used, local = np.unique(tris, return_inverse=True)
-    keys, count = np.unique(_triangle_edge_keys(tris), return_counts=True)
-    outline_or_constrained = keys[(count == 1) | np.isin(keys, constrained)]
-    segments = np.searchsorted(used, _edge_pairs(outline_or_constrained))
-    out = triangle.triangulate({"vertices": xy[used], "segments": segments, "triangles": local.reshape(-1, 3),
-                                "triangle_attributes": attributes, "triangle_max_area": limits},
-                               f"prq{MIN_ANGLE}aYY")
-    if not np.array_equal(out["vertices"][:len(used)], xy[used]):
-        raise RuntimeError("Triangle renumbered the vertices of a refined patch.")
-    new_xy = out["vertices"][len(used):]
-    to_global = np.concatenate([used, np.arange(len(xy), len(xy) + len(new_xy))])
-    return new_xy, to_global[out["triangles"]], out["triangle_attributes"]
 
 
 def vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
@@ -592,8 +539,8 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
     """
     if not len(tris):
         return np.zeros(0)
-    unique, inverse = np.unique(_triangle_edge_keys(tris), return_inverse=True)
-    i, j = _edge_pairs(unique).T
+    unique, inverse = np.unique(triangle_edge_keys(tris), return_inverse=True)
+    i, j = edge_pairs(unique).T
     lo, hi = dem.deviation_range(xyz[i, 0], xyz[i, 1], xyz[i, 2], xyz[j, 0], xyz[j, 1], xyz[j, 2],
                                  ends_on_surface=True)
     error = np.maximum(-lo, hi)[inverse.ravel()].reshape(-1, 3).max(axis=1)
@@ -618,19 +565,21 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
 def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature], dem: Dem,
                 max_edge: float = 5.0, tolerance: float = 0.5, footprints_as_holes: bool = True,
                 max_iterations: int = 10, fixed_segments: bool = False, seam: Seam | None = None,
-                feedback: Feedback = SILENT) -> tuple[Tin, TinStats]:
+                feedback: Feedback = SILENT, triangulator: int | None = None) -> tuple[Tin, TinStats]:
     """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``.
 
+    ``triangulator``: a ``triangulators.BACKENDS`` key (None: Triangle where installed, else CDT); the
+    checks and the refinement they drive are the same whichever backend meshes.
     ``fixed_segments`` (tiles): every segment — the tile's border above all — is split beforehand by a
     rule of the segment alone (equal pieces ≤ ``max_edge``, then halved until the DEM is within
-    ``tolerance`` along it) and Triangle may add no point on any segment, so neighbouring tiles share
-    their border vertices exactly.
+    ``tolerance`` along it) and no Steiner point may go on any segment, so neighbouring tiles share
+    their border vertices exactly. A backend that never splits segments gets them split so always.
     """
-    require(["triangle"])
-    import triangle  # optional dependency: the plugin loads without it
-
+    backend = triangulators.backend(triangulator)
     if not max_edge > 0 or not tolerance > 0:
         raise InputError("Max edge length and vertical tolerance must be positive.")
+    require([backend.module])
+    feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")
     feedback.progress(0)
     cons = clean_constraints(area, buildings, roads, footprints_as_holes, seam=seam)
     estimate = cons.area.area / (AREA_FACTOR * max_edge ** 2)
@@ -645,34 +594,34 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
 
     if not len(cons.regions):
         raise InputError("Nothing is left to triangulate: building footprints cover the whole study area.")
-    vertices, segments = _split_long_segments(cons.vertices, cons.segments, max_edge)
-    fixed = "YY" if fixed_segments else ""
-    if fixed_segments:
-        vertices, segments = _split_for_dem(vertices, segments, dem, np.array(cons.origin, dtype=np.float64),
-                                            tolerance)
-    max_area = AREA_FACTOR * max_edge ** 2
-    pslg = {"vertices": vertices, "segments": segments, "segment_markers": np.ones(len(segments), dtype=np.int32),
-            "regions": np.column_stack([cons.regions, np.arange(1, len(cons.regions) + 1),
-                                        np.full(len(cons.regions), max_area)])}
-    if len(cons.holes):
-        pslg["holes"] = cons.holes
-    # the area bound both fixed and per region: snapping can pinch a face into parts that
-    # Triangle's flood fill from the one seed does not reach (labelled afterwards by _labels)
-    mesh = triangle.triangulate(pslg, f"pq{MIN_ANGLE}a{max_area!r}aAen{fixed}")
     origin = np.array(cons.origin, dtype=np.float64)
-    xy = xyz = np.empty((0, 2))
+    # tiles: the same pieces whichever backend meshes, so a resumed run's tiles meet those of an earlier one
+    piece = min(b.piece_length for b in triangulators.BACKENDS) if fixed_segments else backend.piece_length
+    # rounding to the millimetre before writing (snap_to_grid) lengthens an edge by up to 1.4 mm: the mesh keeps
+    # 2 mm below the limit, so the written TIN is within it
+    target = max_edge - 2 * ROUNDING if max_edge > 20 * ROUNDING else max_edge
+    vertices, segments = _split_long_segments(cons.vertices, cons.segments, piece * target)
+    fixed = fixed_segments or not backend.splits_segments
+    if fixed:
+        vertices, segments = _split_for_dem(vertices, segments, dem, origin, tolerance)
+    pslg = triangulators.Pslg(vertices, segments, cons.holes, cons.regions, _face_locator(cons))
+    mesh = backend.mesh(pslg, target, fixed)
+    xy = np.empty((0, 2))
+    xyz = np.empty((0, 3))
+    longest = error = np.empty(0)
     iterations = 0
-    while True:
-        if mesh is not None:  # a new mesh from Triangle: take it in
-            known = len(xy) if np.array_equal(mesh["vertices"][:len(xy)], xy) else 0  # refining keeps vertices
-            xy, tris, attributes = mesh["vertices"], mesh["triangles"], mesh["triangle_attributes"]
-            neighbours = mesh["neighbors"]
-            constrained = np.unique(_edge_keys(mesh["edges"][mesh["edge_markers"].ravel() == 1]))
-            xyz = np.vstack([xyz[:known].reshape(-1, 3), _with_heights(dem, xy[known:] + origin)])
-            longest = _longest_edges(xy, tris)
-            error = vertical_error(dem, xyz, tris, tolerance)
-            mesh = None
-        too_long = longest > max_edge * (1 + 1e-9)
+    while True:  # take the mesh in: heights of the new vertices, length and DEM error of the new triangles
+        known = len(xy) if np.array_equal(mesh.vertices[:len(xy)], xy) else 0  # refining keeps vertices
+        xy, tris = mesh.vertices, mesh.triangles
+        xyz = np.vstack([xyz[:known], _with_heights(dem, xy[known:] + origin)])
+        fresh = np.flatnonzero(mesh.origin < 0) if mesh.origin is not None and known else None
+        if fresh is None:
+            longest, error = _longest_edges(xy, tris), vertical_error(dem, xyz, tris, tolerance)
+        else:  # only the new triangles are measured
+            longest, error = longest[mesh.origin], error[mesh.origin]
+            longest[fresh] = _longest_edges(xy, tris[fresh])
+            error[fresh] = vertical_error(dem, xyz, tris[fresh], tolerance)
+        too_long = longest > target * (1 + 1e-9)
         too_far = error > tolerance
         feedback.info(f"Mesh pass {iterations}: {len(tris)} triangles, {int(too_long.sum())} with an edge over "
                       f"{max_edge:g} m, {int(too_far.sum())} more than {tolerance:g} m off the DEM.")
@@ -683,39 +632,23 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
         iterations += 1
         # error shrinks with the square of the size (area); at least halve what is too far off
         shrink = np.ones(len(tris))
-        shrink[too_long] = 0.9 * (max_edge / longest[too_long]) ** 2
+        shrink[too_long] = 0.9 * (target / longest[too_long]) ** 2
         shrink[too_far] = np.minimum(shrink[too_far], np.clip(0.8 * tolerance / error[too_far], 0.05, 0.5))
         bad = too_long | too_far
         limits = np.full(len(tris), -1.0)
         limits[bad] = shrink[bad] * _triangle_areas(xy, tris[bad])
-        if too_far.any():
-            # new vertices must go where the surface bends, wherever that leads: refine everything,
-            # splitting constraint pieces too (they carry the segment marker in the output)
-            pieces = _edge_pairs(constrained)
-            mesh = triangle.triangulate({"vertices": xy, "segments": pieces, "triangles": tris,
-                                         "segment_markers": np.ones(len(pieces), dtype=np.int32),
-                                         "triangle_attributes": attributes, "triangle_max_area": limits},
-                                        f"prq{MIN_ANGLE}aen{fixed}")
-            continue
-        patch = _patch(too_long, tris, neighbours)
-        new_xy, new_tris, new_attributes = _refine_patch(triangle, xy, tris[patch], attributes[patch], limits[patch],
-                                                         constrained)
-        kept = np.ones(len(tris), dtype=bool)
-        kept[patch] = False
-        xyz = np.vstack([xyz, _with_heights(dem, new_xy + origin)])
-        xy = np.vstack([xy, new_xy])
-        tris = np.vstack([tris[kept], new_tris])
-        attributes = np.vstack([attributes[kept], new_attributes])
-        longest = np.concatenate([longest[kept], _longest_edges(xy, new_tris)])
-        error = np.concatenate([error[kept], vertical_error(dem, xyz, new_tris, tolerance)])
-        neighbours = None
+        previous = len(tris)
+        mesh = backend.refine(mesh, pslg, limits, fixed, whole=bool(too_far.any()))
+        if len(mesh.triangles) == previous and np.array_equal(mesh.triangles, tris):
+            break  # no Steiner point could go where one is needed
+    tris = mesh.triangles
     max_error = max_vertical_error(dem, xyz, tris, error, tolerance)
     if too_long.any() or too_far.any():
         feedback.warning(f"After {iterations} refinement passes the mesh still has edges up to {longest.max():.2f} m "
                          f"and a vertical error up to {max_error:.3f} m.")
     feedback.info(f"Mesh: longest edge {longest.max():.2f} m, max vertical error {max_error:.3f} m.")
 
-    surface, feature = _labels(attributes[:, 0], xyz, tris, cons)
+    surface, feature = _labels(mesh.region, xyz, tris, cons)
     tin = Tin(xyz, tris, surface, feature, cons)
     counts = {name: int((surface == name).sum()) for name in TIN_SURFACES}
     used = int(np.count_nonzero(np.bincount(tris.ravel(), minlength=len(xyz))))  # some lie in holes
@@ -727,16 +660,87 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
     return tin, stats
 
 
+def _face_locator(cons: Constraints):
+    """``Pslg.locate`` for the faces of ``cons``: the region row of each (origin-relative) point, −1 in a
+    hole or outside the area, −2 in no face.
+
+    Points at least ``clear`` from every segment (the CDT backend's lattice) are looked up in a raster of
+    the faces with cells of ``clear`` / 0.75: the centre of a point's cell is then in the point's face,
+    and GDAL burns a cell with the face its centre lies in. Other points: point in polygon.
+    """
+    region_row = np.where(cons.meshed, np.cumsum(cons.meshed) - 1, -1)
+    faces = cons.faces.copy()
+    shapely.prepare(faces)  # point in polygon on an edge index: the terrain face has thousands of holes
+    tree = shapely.STRtree(faces)
+    origin = np.array(cons.origin, dtype=np.float64)
+    rasters: dict[float, tuple] = {}
+
+    def exact(world: np.ndarray) -> np.ndarray:
+        out = np.full(len(world), -2, dtype=np.int64)
+        point, face = tree.query(shapely.points(world))  # boxes only, then the prepared polygons
+        inside = shapely.contains_xy(faces[face], world[point, 0], world[point, 1])
+        out[point[inside]] = region_row[face[inside]]
+        return out
+
+    def locate(points: np.ndarray, clear: float = 0.0) -> np.ndarray:
+        if not len(points):
+            return np.full(0, -2, dtype=np.int64)
+        world = points + origin
+        if clear <= 0:
+            return exact(world)
+        if clear not in rasters:
+            rasters[clear] = _face_raster(faces, clear / 0.75)
+        grid, x0, y0, cell = rasters[clear]
+        if grid is None:
+            return exact(world)
+        col = np.floor((world[:, 0] - x0) / cell).astype(np.int64)
+        row = np.floor((y0 - world[:, 1]) / cell).astype(np.int64)
+        inside = (col >= 0) & (col < grid.shape[1]) & (row >= 0) & (row < grid.shape[0])
+        out = np.full(len(world), -2, dtype=np.int64)
+        face = grid[row[inside], col[inside]] - 1
+        out[np.flatnonzero(inside)[face >= 0]] = region_row[face[face >= 0]]
+        return out
+
+    return locate
+
+
+#: the face raster of ``_face_locator`` stays below this many cells (else point in polygon)
+MAX_FACE_CELLS = 40_000_000
+
+
+def _face_raster(faces: np.ndarray, cell: float) -> tuple:
+    """(grid of face index + 1, 0 outside every face; x0; y0; cell) or (None, …) when too big."""
+    xmin, ymin, xmax, ymax = shapely.total_bounds(faces)
+    cols, rows = math.ceil((xmax - xmin) / cell) + 1, math.ceil((ymax - ymin) / cell) + 1
+    if cols * rows > MAX_FACE_CELLS:
+        return None, 0.0, 0.0, cell
+    raster = gdal.GetDriverByName("MEM").Create("", cols, rows, 1, gdal.GDT_Int32)
+    raster.SetGeoTransform((xmin, cell, 0.0, ymax, 0.0, -cell))
+    frame = osr.SpatialReference()
+    frame.SetLocalCS("faces")  # the same on both sides: no transformation
+    raster.SetSpatialRef(frame)
+    source = ogr.GetDriverByName("Memory").CreateDataSource("")
+    layer = source.CreateLayer("faces", frame, geom_type=ogr.wkbPolygon)
+    layer.CreateField(ogr.FieldDefn("id", ogr.OFTInteger))
+    definition = layer.GetLayerDefn()
+    for k, wkb in enumerate(shapely.to_wkb(faces)):
+        feature = ogr.Feature(definition)
+        feature.SetField(0, k + 1)
+        feature.SetGeometry(ogr.CreateGeometryFromWkb(wkb))
+        layer.CreateFeature(feature)
+    gdal.RasterizeLayer(raster, [1], layer, options=["ATTRIBUTE=id"])
+    return raster.GetRasterBand(1).ReadAsArray(), xmin, ymax, cell
+
+
 def _areas_3d(xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
     """Area of each triangle in 3D."""
     a, b, c = xyz[tris[:, 0]], xyz[tris[:, 1]], xyz[tris[:, 2]]
     return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
 
 
-def _labels(attribute: np.ndarray, xyz: np.ndarray, tris: np.ndarray,
+def _labels(region: np.ndarray, xyz: np.ndarray, tris: np.ndarray,
             cons: Constraints) -> tuple[np.ndarray, np.ndarray]:
-    """Surface name and feature id per triangle from the region it was grown from."""
-    region = np.rint(attribute).astype(np.int64) - 1
+    """Surface name and feature id per triangle from its region (a row of ``cons.regions``, −1: none)."""
     unseeded = region < 0
     surface = np.empty(len(tris), dtype=object)
     feature = np.empty(len(tris), dtype=object)
@@ -753,21 +757,122 @@ def _labels(attribute: np.ndarray, xyz: np.ndarray, tris: np.ndarray,
 # -- files -------------------------------------------------------------------------------------
 
 
+def snap_to_grid(tin: Tin, dem: Dem, max_passes: int = 8) -> Tin:
+    """The TIN with its vertices on the model's millimetre grid, as they are written, and still watertight.
+
+    The one place where coordinates are rounded: road and relief triangles (and neighbouring tiles)
+    then write a shared vertex with the same digits. Vertices that round to the same point become one
+    (the triangles between them vanish; no crack, both sides lose them); heights are the DEM's at the
+    rounded points. A triangle left without area (three points in a row to the millimetre) or turned
+    over by rounding is taken out by splitting the triangle across its longest edge at its third
+    corner, so the ground keeps no T-junction; at the rim or a footprint it is simply dropped.
+    Vertex indices are kept (a merged vertex points to the first of its group).
+    """
+    steps = np.rint(tin.vertices[:, :2] / ROUNDING).astype(np.int64)
+    low = steps.min(axis=0) if len(steps) else np.zeros(2, dtype=np.int64)
+    _, first, inverse = np.unique((steps[:, 0] - low[0]) * (1 << 32) + (steps[:, 1] - low[1]),
+                                  return_index=True, return_inverse=True)
+    xyz = _with_heights(dem, steps * ROUNDING)
+    tris = first[inverse.ravel()][tin.triangles]
+    surface, feature = tin.surface, tin.feature_id
+    alive = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 2] != tris[:, 0])
+    tris, surface, feature = tris[alive], surface[alive], feature[alive]
+    return _mend_flat(xyz, tris, surface, feature, tin.constraints, max_passes)
+
+
+def _key(a: int, b: int) -> int:
+    """``triangulators.edge_keys`` of one edge, in plain integers."""
+    return (min(a, b) << 31) | max(a, b)
+
+
+def _flat(xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Triangles without area at the model's precision, or turned over."""
+    return (_areas_3d(xyz, tris) <= DEGENERATE_AREA) | (_triangle_areas(xyz, tris) <= 0)
+
+
+def _mend_flat(xyz: np.ndarray, tris: np.ndarray, surface: np.ndarray, feature: np.ndarray, cons: Constraints,
+               max_passes: int) -> Tin:
+    """Remove the flat (or turned) triangles; each one's neighbour across its longest edge a–c is split in two
+    at the flat one's third corner b, which lies on (or a rounding beyond) a–c. New triangles that are flat
+    in turn are mended in the next pass. The few edges looked for are found among all in one vectorised
+    search; the new triangles are searched one by one."""
+    keys = triangle_edge_keys(tris).ravel()
+    todo = list(np.flatnonzero(_flat(xyz, tris)))
+    wanted = np.unique(keys.reshape(-1, 3)[todo]) if todo else np.empty(0, dtype=np.int64)
+    at = np.minimum(np.searchsorted(wanted, keys), max(len(wanted) - 1, 0))
+    owners: dict[int, list[int]] = {}
+    for r in np.flatnonzero(wanted[at] == keys) if len(wanted) else []:
+        owners.setdefault(int(keys[r]), []).append(int(r) // 3)
+    rows = [tris]
+    labels = [(surface, feature)]
+    removed = np.zeros(len(tris), dtype=bool)
+    extra: list[list[int]] = []  # new triangles (3 corners, the row their labels come from)
+    extra_at: dict[int, list[int]] = {}  # edge key → rows of the new triangles with that edge
+
+    def triangle(k: int) -> np.ndarray:
+        return tris[k] if k < len(tris) else np.array(extra[k - len(tris)][:3])
+
+    def across(k: int, key: int) -> int | None:
+        found = owners[key] if key in owners else [int(r) // 3 for r in np.flatnonzero(keys == key)]
+        found = found + extra_at.get(key, [])
+        live = [r for r in found if r != k and not (removed[r] if r < len(tris) else extra[r - len(tris)][4])]
+        return live[0] if live else None
+
+    for _ in range(max_passes):
+        if not todo:
+            break
+        made = len(extra)
+        for k in todo:
+            if k < len(tris) and removed[k] or k >= len(tris) and extra[k - len(tris)][4]:
+                continue
+            corners = triangle(k)
+            lengths = [np.hypot(*(xyz[corners[(i + 1) % 3], :2] - xyz[corners[i], :2])) for i in range(3)]
+            i = int(np.argmax(lengths))
+            a, c, b = int(corners[i]), int(corners[(i + 1) % 3]), int(corners[(i + 2) % 3])
+            n = across(k, _key(a, c))
+            for r in (k, n):
+                if r is None:
+                    continue
+                if r < len(tris):
+                    removed[r] = True
+                else:
+                    extra[r - len(tris)][4] = True
+            if n is not None:  # the neighbour runs c → a; at b it becomes c → b → d and b → a → d
+                d = next(int(v) for v in triangle(n) if v != a and v != c)
+                source = n if n < len(tris) else extra[n - len(tris)][3]
+                for corners_new in ((c, b, d), (b, a, d)):
+                    extra.append([*corners_new, source, False])
+                    u, v, w = corners_new
+                    for edge in (_key(u, v), _key(v, w), _key(w, u)):
+                        extra_at.setdefault(edge, []).append(len(tris) + len(extra) - 1)
+        new = np.array([e[:3] for e in extra[made:]], dtype=tris.dtype).reshape(-1, 3)
+        todo = [len(tris) + made + int(k) for k in np.flatnonzero(_flat(xyz, new))] if len(new) else []
+    keep = ~removed
+    if extra:
+        alive = np.array([not e[4] for e in extra])
+        new = np.array([e[:3] for e in extra], dtype=tris.dtype)[alive]
+        source = np.array([e[3] for e in extra])[alive]
+        rows.append(new)
+        labels.append((surface[source], feature[source]))
+    return Tin(xyz, np.vstack([rows[0][keep], *rows[1:]]),
+               np.concatenate([labels[0][0][keep], *[lab[0] for lab in labels[1:]]]),
+               np.concatenate([labels[0][1][keep], *[lab[1] for lab in labels[1:]]]), cons)
+
+
 def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, spatial_index: bool = True,
               feedback: Feedback = SILENT) -> int:
     """Write the TIN as PolygonZ triangles (layer ``model.TIN_LAYER``), one feature per triangle.
 
-    Slivers that could lose their area once rounded to the model's precision (mm; CityGML is
-    written in mm) are left out: rounding moves each corner by up to 0.5 mm, which changes the area
-    by up to about 1 mm × the longest edge, so a triangle is kept only when its area exceeds that
-    margin. The dropped ones cover no visible ground, and written out they could be degenerate
-    (a validator rejects them). ``tri_id`` keeps the mesh's numbering. Returns the number written.
+    Give it a TIN on the millimetre grid (``snap_to_grid``): it is written as it is, and only a triangle
+    that would be degenerate at that precision (none after ``snap_to_grid``) is left out, with a count.
+    ``tri_id`` keeps the mesh's numbering. Returns the number written.
     """
-    corners = tin.vertices[tin.triangles]
-    longest = np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=2).max(axis=1)
-    kept = np.flatnonzero(_areas_3d(tin.vertices, tin.triangles) > DEGENERATE_AREA + ROUNDING * longest)
+    grid = np.round(tin.vertices / ROUNDING) * ROUNDING
+    kept = np.flatnonzero((_areas_3d(grid, tin.triangles) > DEGENERATE_AREA)
+                          & (_triangle_areas(grid, tin.triangles) > 0))
     if len(kept) < len(tin.triangles):
-        feedback.info(f"{len(tin.triangles) - len(kept)} sliver triangle(s) narrower than about 2 mm not written.")
+        feedback.warning(f"{len(tin.triangles) - len(kept)} triangle(s) without area at millimetre precision "
+                         "not written.")
     triangles = tin.vertices[tin.triangles[kept]]
     fields = [FieldDef(TIN_TRIANGLE_ID, ogr.OFTInteger), FieldDef(TIN_SURFACE, ogr.OFTString),
               FieldDef(TIN_FEATURE_ID, ogr.OFTString)]
@@ -806,7 +911,8 @@ def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
 def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
         area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
         footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT,
-        foreign: str | Path | None = None, fixed_segments: bool = False, seam: Seam | None = None) -> TinStats:
+        foreign: str | Path | None = None, fixed_segments: bool = False, seam: Seam | None = None,
+        triangulator: int | None = None) -> TinStats:
     """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
@@ -814,6 +920,7 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
     grown to hold the footprints that cross its edge (``covering_area``). Tiles: ``foreign`` are the
     neighbouring tiles' buildings that cross into this one (footprints here, but they do not grow the
     area), and ``fixed_segments`` makes the border match the neighbours' (see ``triangulate``).
+    ``triangulator``: a ``triangulators.BACKENDS`` key (None: the default).
     """
     refuse_overlap([(output, False)], [dem_path, buildings, roads, foreign,
                                        None if isinstance(area, BaseGeometry) else area])
@@ -831,14 +938,23 @@ def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | 
         crs = next(iter(layers.values())).crs if layers else None
     if crs is None:
         raise InputError("Give the study area as a layer (or a constraint layer) so the TIN's CRS is known.")
+    for layer in layers.values():  # any layer: its geometries in the TIN's CRS
+        if not layer.crs.equals(crs):
+            layer.geoms = transform(layer.geoms, layer.crs, crs)
     if "buildings" in layers:
         area = covering_area(area, layers["buildings"].geoms, feedback)
-    check_dem_crs(dem_path, crs, feedback)
-    dem = Dem.open(dem_path, area.bounds, feedback=feedback)
+    dem = Dem.open(dem_path, area.bounds, feedback=feedback, crs=crs)
     footprints = [f for kind in ("buildings", "foreign") if kind in layers for f in features(layers[kind])]
     tin, stats = triangulate(area, footprints, features(layers["roads"]) if "roads" in layers else [], dem,
                              max_edge, tolerance, footprints_as_holes, fixed_segments=fixed_segments, seam=seam,
-                             feedback=feedback.scaled(0, 80))
+                             feedback=feedback.scaled(0, 80), triangulator=triangulator)
+    tin = snap_to_grid(tin, dem)  # what is written is measured: edges can grow by up to 1.4 mm
+    stats.max_edge = float(_longest_edges(tin.vertices[:, :2], tin.triangles).max())
+    error = vertical_error(dem, tin.vertices, tin.triangles, tolerance)
+    stats.max_vertical_error = max_vertical_error(dem, tin.vertices, tin.triangles, error, tolerance)
+    if stats.max_vertical_error > tolerance:  # rounding to the millimetre moved a vertex by up to 0.7 mm
+        feedback.warning(f"On the millimetre grid the TIN departs from the DEM by up to "
+                         f"{stats.max_vertical_error:.3f} m, over the vertical tolerance of {tolerance:g} m.")
     stats.triangles = write_tin(output, tin, crs, spatial_index, feedback.scaled(80, 100))
     feedback.info("TIN: " + ", ".join(f"{k} {v}" for k, v in stats.as_dict().items()))
     feedback.progress(100)

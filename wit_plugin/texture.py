@@ -1,7 +1,8 @@
 """Texture roofs, terrain and roads from the merged orthoimage (``wit:wittexture``, SPEC §5 items 1, 3, 4).
 
 Inputs follow ``model``: the LoD1 faces layer (``lod1_faces``), the TIN layer (``tin``) and the
-merged orthoimage (north-up RGB GeoTIFF in the same CRS). Outputs, in ``output_dir`` (the texture
+merged orthoimage (north-up RGB GeoTIFF; in another CRS than the layers', the window over them
+is reprojected as it is read, bilinear, ``_Ortho.reproject_to``). Outputs, in ``output_dir`` (the texture
 folder): JPEG or PNG images and ``texcoords.gpkg`` holding the attribute table ``texcoords``
 (one row per textured ring, ``model.TEX_*`` columns, image names relative to the folder).
 
@@ -65,6 +66,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 import numpy as np
+import pyproj
 import shapely
 from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
@@ -77,7 +79,15 @@ from .gc_pause import collector_paused
 from .gdal_env import capped_block_cache, open_raster, read_window
 from .gpkg_bulk import BulkTable
 from .numtext import ring_texts
-from .vector_io import FieldDef
+from .raster_crs import (
+    aligned,
+    cell_size,
+    crs_name,
+    foreign_crs,
+    transform_geometry,
+    warp,
+)
+from .vector_io import FieldDef, open_layer, open_step_layer, split_source
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
 TEXCOORDS_FILE = model.TEXCOORD_FILE
@@ -211,16 +221,17 @@ def texture_model(
         if lod1_gpkg:
             roofs = _Layer(lod1_gpkg, model.LOD1_LAYER, model.FACE_TYPE,
                            (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER), (ROOF_TARGET,),
-                           "wit:extrudebuildings")
+                           model.LOD1_ROLE)
             stack.callback(roofs.close)
             untextured.update({k: roofs.count((k,)) for k in ("wall", "ground")})
         if tin_gpkg:
             tin = _Layer(tin_gpkg, model.TIN_LAYER, model.TIN_SURFACE,
                          (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), TEXTURED_TIN_SURFACES,
-                         "wit:triangulateterrain")
+                         model.TIN_ROLE)
             stack.callback(tin.close)
             untextured["footprint"] = tin.count(("footprint",))
         layers = [layer for layer in (roofs, tin) if layer is not None]
+        image.reproject_to(layers, feedback)
         for layer in layers:
             image.check_covers(layer, extent=coverage is None)
         inside = _Inside(coverage, untextured)
@@ -313,25 +324,9 @@ class _Layer:
     """A textured layer: the faces of the given kinds, read in bulk tile by tile (``tiles``)."""
 
     def __init__(self, path: str, name: str, kind_field: str, fields: tuple[str, ...], kinds: tuple[str, ...],
-                 producer: str):
-        self.path, self.name, self.kind_field, self.kinds = path, name, kind_field, kinds
-        try:
-            self._ds = ogr.Open(str(path))
-        except RuntimeError as exc:
-            raise InputError(f"Cannot open {path} as a vector file: {exc}") from exc
-        if self._ds is None:
-            raise InputError(f"Cannot open {path} as a vector file: {gdal.GetLastErrorMsg() or 'unknown format'}.")
-        self.layer = self._ds.GetLayerByName(name)
-        if self.layer is None:
-            names = [self._ds.GetLayer(i).GetName() for i in range(self._ds.GetLayerCount())]
-            raise InputError(f"{path} has no layer {name!r} (it has: {', '.join(names) or 'none'}): "
-                             f"use the output of {producer}.")
-        defn = self.layer.GetLayerDefn()
-        self._fields = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
-        lacking = [f for f in fields if f not in self._fields]
-        if lacking:
-            raise InputError(f"Layer {name!r} in {path} lacks the field(s) {', '.join(lacking)}: "
-                             f"use the output of {producer}.")
+                 role: str):
+        self._ds, self.layer, self._fields = open_step_layer(path, name, role, fields)
+        self.path, self.name, self.kind_field, self.kinds = split_source(path)[0], self.layer.GetName(), kind_field, kinds
         xmin, xmax, ymin, ymax = self.layer.GetExtent()
         self.extent = (xmin, ymin, xmax, ymax)
         srs = self.layer.GetSpatialRef()
@@ -396,10 +391,9 @@ class _Layer:
         Each pass reads through a handle of its own: GDAL allows one Arrow stream per layer at a time, and
         the previous pass's may outlive it (a profiler, e.g. Dask's, keeps the frames it samples for a moment).
         """
-        ds = ogr.Open(str(self.path))
-        layer = ds.GetLayerByName(self.name)
+        ds, layer, _ = open_layer(self.path, self.name)
         layer.SetAttributeFilter(self._where(self.kinds))
-        layer.SetIgnoredFields([f for f in self._fields if f not in columns])
+        bulk_read.ignore_fields(layer, [f for f in self._fields if f not in columns])
         start = 0
         try:
             for batch in bulk_read.batches(layer, fid=True):
@@ -416,7 +410,7 @@ class _Layer:
                                      "the unmodified output of the previous step.")
                 yield np.ascontiguousarray(points[:, :2]), counts, batch
         finally:
-            layer = ds = None
+            del layer, ds
 
 
 @dataclass(frozen=True)
@@ -434,6 +428,8 @@ class _Ortho:
     def __init__(self, path: str, config: TextureConfig):
         self.path, self.scale = path, config.scale
         self.ds = open_raster(path, "orthoimage")
+        self.footprint: BaseGeometry | None = None  # where a reprojected ortho has pixels
+        self.source: gdal.Dataset | None = None  # the file behind a reprojected ortho's warped VRT
         ds = self.ds
         if ds.RasterCount < 3 or any(ds.GetRasterBand(b).DataType != gdal.GDT_Byte for b in (1, 2, 3)):
             raise InputError(f"The orthoimage {path} must be RGB with 8-bit bands (it has {ds.RasterCount} band(s)): "
@@ -442,16 +438,39 @@ class _Ortho:
         if gt is None or gt[2] or gt[4] or gt[5] >= 0:
             raise InputError(f"The orthoimage {path} is not georeferenced north-up: georeference it "
                              "(wit:georeferencemapsheets) and merge it (wit:mergetiles) first.")
-        self.x0, self.px, self.y0, self.py = gt[0], gt[1], gt[3], -gt[5]
-        self.width, self.height = ds.RasterXSize, ds.RasterYSize
-        self.extent = (self.x0, self.y0 - self.height * self.py, self.x0 + self.width * self.px, self.y0)
-        self.step = max(1, round(1.0 / config.scale))
-        self.texel_size = max(self.px, self.py) / config.scale
+        self._grid(ds)
         wkt = ds.GetProjection()
         self.srs = osr.SpatialReference(wkt) if wkt else None
 
+    def _grid(self, ds: gdal.Dataset) -> None:
+        gt = ds.GetGeoTransform()
+        self.x0, self.px, self.y0, self.py = gt[0], gt[1], gt[3], -gt[5]
+        self.width, self.height = ds.RasterXSize, ds.RasterYSize
+        self.extent = (self.x0, self.y0 - self.height * self.py, self.x0 + self.width * self.px, self.y0)
+        self.step = max(1, round(1.0 / self.scale))
+        self.texel_size = max(self.px, self.py) / self.scale
+
+    def reproject_to(self, layers: list[_Layer], feedback: Feedback) -> None:
+        """An ortho in another CRS than the layers': read from then on through a warped VRT (in memory,
+        bilinear, its pixel size in metres) over the layers' extent, so only the pixels needed are warped."""
+        wkt = next((layer.srs.ExportToWkt() for layer in layers if layer.srs is not None), None)
+        source = foreign_crs(self.ds, wkt) if wkt else None
+        if source is None:
+            return
+        target = pyproj.CRS.from_wkt(wkt)
+        size = cell_size(self.ds, source, target)
+        self.footprint = transform_geometry(shapely.box(*self.extent), source, target)
+        boxes = [layer.extent for layer in layers]
+        needed = (min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes), max(b[3] for b in boxes))
+        self.source, self.ds = self.ds, warp(self.ds, source, target, aligned(needed, size, 8), size, fmt="VRT",
+                                             exact=False)
+        self._grid(self.ds)
+        self.srs = osr.SpatialReference(wkt)
+        feedback.info(f"The orthoimage {Path(self.path).name} is in {crs_name(source)}: its pixels over the layers are "
+                      f"reprojected as they are read to {crs_name(target)} (bilinear, {size:g} m pixels).")
+
     def close(self) -> None:
-        self.ds = None
+        self.ds = self.source = None
 
     def check_covers(self, layer: _Layer, extent: bool = True) -> None:
         """Refuse a layer whose CRS differs or (``extent``) whose extent reaches beyond the ortho."""
@@ -462,8 +481,9 @@ class _Ortho:
         if not extent:
             return
         lx0, ly0, lx1, ly1 = layer.extent
-        ox0, oy0, ox1, oy1 = self.extent
-        if lx0 < ox0 or ly0 < oy0 or lx1 > ox1 or ly1 > oy1:
+        ox0, oy0, ox1, oy1 = self.footprint.bounds if self.footprint is not None else self.extent
+        if lx0 < ox0 or ly0 < oy0 or lx1 > ox1 or ly1 > oy1 or (
+                self.footprint is not None and not self.footprint.contains(shapely.box(*layer.extent))):
             raise InputError(
                 f"Layer {layer.name!r} in {layer.path} reaches beyond the orthoimage, whose pixels are needed for "
                 f"every textured surface: layer x {lx0:.2f}–{lx1:.2f}, y {ly0:.2f}–{ly1:.2f}; ortho x "

@@ -12,15 +12,16 @@ import codecs
 import contextlib
 import os
 import struct
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator, Sequence
 
 import numpy as np
 import pyproj
 import shapely
 from osgeo import gdal, ogr, osr
 
+from . import bulk_read
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import sidecar, vector_file_problem
@@ -65,7 +66,7 @@ class VectorLayer:
     def __len__(self) -> int:
         return len(self.geoms)
 
-    def take(self, index: Sequence[int] | np.ndarray) -> "VectorLayer":
+    def take(self, index: Sequence[int] | np.ndarray) -> VectorLayer:
         """The features at ``index`` (in that order), sharing field definitions."""
         index = np.asarray(index, dtype=int)
         return VectorLayer(self.path, self.name, self.geoms[index], self.fids[index], self.fields,
@@ -129,7 +130,8 @@ def _codec(name: str) -> str | None:
 
 
 def _dbf_text_sample(dbf: Path) -> tuple[int, bytes]:
-    """The DBF language-driver byte and the concatenated bytes of its character fields (a sample)."""
+    """The DBF language-driver byte and the text to sniff: its field names and the bytes of its
+    character fields (a sample), one per line."""
     with open(dbf, "rb") as fh:
         header = fh.read(32)
         if len(header) < 32:
@@ -137,17 +139,18 @@ def _dbf_text_sample(dbf: Path) -> tuple[int, bytes]:
         n_records, header_len, record_len = struct.unpack("<IHH", header[4:12])
         ldid = header[29]
         descriptors = fh.read(max(header_len - 32, 0))
-        spans, offset = [], 1  # byte 0 of a record is the deletion flag
+        names, spans, offset = [], [], 1  # byte 0 of a record is the deletion flag
         for i in range(0, len(descriptors) - 31, 32):
             if descriptors[i] == 0x0D:
                 break
+            names.append(descriptors[i:i + 11].split(b"\0")[0])
             width = descriptors[i + 16]
             if descriptors[i + 11:i + 12] == b"C":
                 spans.append((offset, offset + width))
             offset += width
         fh.seek(header_len)
         data = fh.read(min(n_records * record_len, DBF_SAMPLE_BYTES))
-    chunks = []
+    chunks = names
     for start in range(0, len(data) - record_len + 1, record_len) if record_len else ():
         chunks += [data[start + a:start + b].rstrip(b" \x00") for a, b in spans]
     return ldid, b"\n".join(chunks)
@@ -165,6 +168,15 @@ def _decodes(sample: bytes, codec: str) -> bool:
 LDID_CODECS = {0x01: "cp437", 0x02: "cp850", 0x03: "cp1252", 0x57: "latin-1", 0x64: "cp852", 0x78: "cp950",
                0x79: "cp949", 0x7A: "gbk", 0x7B: "cp932", 0xC8: "cp1250", 0xC9: "cp1251"}
 KOREAN_CODECS = ("cp949", "euc_kr", "johab", "utf-8")
+#: Python codec → the name GDAL's ENCODING option (CPLRecode: iconv) knows, where upper case is not it.
+#: EUC-KR is read as CP949, its superset: a file declared EUC-KR may hold syllables only CP949 has (똠).
+GDAL_ENCODINGS = {"euc_kr": "CP949", "utf-8": "UTF-8", "iso8859-1": "ISO-8859-1"}
+
+
+def gdal_encoding(name: str) -> str:
+    """The encoding name to give GDAL's ``ENCODING`` open option for an encoding name or Python codec."""
+    codec = _codec(name) or name
+    return GDAL_ENCODINGS.get(codec, codec.upper().replace("_", "-"))
 
 
 def _looks_korean(sample: bytes) -> bool:
@@ -181,14 +193,17 @@ def _looks_korean(sample: bytes) -> bool:
 
 
 def shapefile_encoding(path: str | os.PathLike, feedback: Feedback = SILENT) -> str | None:
-    """The encoding to force when opening a shapefile, or None to let GDAL use what the file declares.
+    """The encoding to open a shapefile with (GDAL's ``ENCODING`` option), or None when its text is ASCII.
 
-    A declaration (``.cpg``, or a non-zero DBF language-driver byte) is trusted when its codec
-    decodes the text and, for a non-Korean codec, the text is not Korean CP949: some tools write
-    CP949 text under an ISO-8859-1 or Windows-1252 declaration, which decodes into mojibake without
-    an error; that is read as CP949 with a warning. Otherwise the text is sniffed: pure ASCII needs
-    nothing, valid UTF-8 is UTF-8, valid CP949 is CP949 (the Korean national data), else GDAL's
-    default (ISO-8859-1) with a warning.
+    Always explicit for non-ASCII text: QGIS sets ``SHAPE_ENCODING=""`` (no recoding), under which
+    GDAL would hand over the raw bytes and ignore the ``.cpg``, and GDAL 3.6's Arrow reader crashes
+    on field names that are not UTF-8 (Korean names in CP949). The field names and a sample of the
+    text decide: a declaration (``.cpg``, or a non-zero DBF language-driver byte) is trusted when its
+    codec decodes them and, for a non-Korean codec, they are not Korean CP949: some tools write
+    CP949 text under an ISO-8859-1 or Windows-1252 declaration, which decodes into mojibake
+    without an error; that is read as CP949 with a warning. Otherwise the text is sniffed: valid
+    UTF-8 is UTF-8, valid CP949 is CP949 (the Korean national data), else ISO-8859-1 (GDAL's
+    default) with a warning.
     """
     shp = Path(path)
     dbf = sidecar(shp, ".dbf")
@@ -203,25 +218,26 @@ def shapefile_encoding(path: str | os.PathLike, feedback: Feedback = SILENT) -> 
         text = cpg.read_text("ascii", errors="replace").strip()
         declared, origin = _codec(text), f"its .cpg file says {text}"
     elif ldid != 0:
-        declared, origin = _codec(LDID_CODECS.get(ldid, "")), f"its .dbf language driver (LDID 0x{ldid:02X}) says"
-        if declared is None:
-            return None  # a code page we do not know: GDAL maps it
-        origin = f"{origin} {declared}"
+        declared = _codec(LDID_CODECS.get(ldid, ""))
+        origin = (f"its .dbf language driver (LDID 0x{ldid:02X}) says {declared}" if declared else
+                  f"its .dbf language driver (LDID 0x{ldid:02X}) names a code page this reader does not know")
     if declared and _decodes(sample, declared):
         if declared in KOREAN_CODECS or not _looks_korean(sample):
-            return None
+            return gdal_encoding(declared)
         feedback.warning(f"{shp.name}: {origin}, but its text is Korean (CP949): read as CP949. "
                          "Set the encoding parameter to choose another.")
         return "CP949"
     for candidate in ("UTF-8", "CP949"):
         if _decodes(sample, candidate):
             if origin:
-                feedback.warning(f"{shp.name}: {origin}, which does not decode its text; read as {candidate}. "
-                                 "Set the encoding parameter to choose another.")
+                feedback.warning(f"{shp.name}: {origin}{', which does not decode its text' if declared else ''}; "
+                                 f"read as {candidate}. Set the encoding parameter to choose another.")
             return candidate
-    feedback.warning(f"{shp.name}: text is neither UTF-8 nor CP949 and no encoding is declared; "
-                     "set the encoding parameter if names look garbled.")
-    return None
+    said = (f", and {origin}, which does not decode it" if declared else f" ({origin})" if origin else
+            ", and no encoding is declared")
+    feedback.warning(f"{shp.name}: its text is neither UTF-8 nor CP949{said}; read as ISO-8859-1: set the encoding "
+                     "parameter if names look garbled.")
+    return "ISO-8859-1"
 
 
 def _crs_of(lyr: ogr.Layer, path: str, crs: str | None) -> pyproj.CRS:
@@ -243,17 +259,31 @@ def _crs_of(lyr: ogr.Layer, path: str, crs: str | None) -> pyproj.CRS:
         raise InputError(f"Unknown source CRS {crs!r}: {exc}") from exc
 
 
-def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
-               feedback: Feedback = SILENT) -> tuple[gdal.Dataset, ogr.Layer, str | None]:
-    """Open a vector source with the right text encoding; return the dataset (keep it alive), layer, encoding.
-
-    ``path`` may be a QGIS-style source, ``file.gpkg|layername=buildings``.
-    """
-    path, _, options_text = str(path).partition("|")
+def split_source(source: str | os.PathLike) -> tuple[str, str | None, int | None]:
+    """``file.gpkg|layername=x`` (or ``|layerid=n``, as QGIS writes sources) → (file, layer name, layer index)."""
+    path, _, options_text = str(source).partition("|")
+    name, index = None, None
     for option in options_text.split("|"):
         key, _, value = option.partition("=")
-        if key == "layername" and layer is None:
-            layer = value
+        if key == "layername" and value:
+            name = value
+        elif key == "layerid" and value.strip().isdigit():
+            index = int(value)
+    return path, name, index
+
+
+def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
+               feedback: Feedback = SILENT, preferred: str | None = None) -> tuple[gdal.Dataset, ogr.Layer, str | None]:
+    """Open a vector source with the right text encoding; return the dataset (keep it alive), layer, encoding.
+
+    ``path`` may be a QGIS-style source, ``file.gpkg|layername=buildings`` (or ``|layerid=1``).
+    Without a layer named, a file's only layer is taken; a file with several takes ``preferred``
+    (the name the step that writes such files gives it) if it has it, else its first layer when no
+    name is preferred. Shapefiles with non-ASCII text are always opened with an explicit encoding
+    (``shapefile_encoding``).
+    """
+    path, named, index = split_source(path)
+    layer = layer or named
     if not Path(path).exists():
         raise InputError(f"Input file {path} does not exist.")
     problem = vector_file_problem(path)
@@ -267,7 +297,7 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     elif encoding and not is_shp:
         feedback.warning(f"{Path(path).name}: the encoding parameter applies to shapefiles only; ignored.")
         encoding = None
-    options = [f"ENCODING={encoding}"] if is_shp and encoding else []
+    options = [f"ENCODING={gdal_encoding(encoding)}"] if is_shp and encoding else []
     with gdal_quiet():
         try:
             ds = gdal.OpenEx(path, gdal.OF_VECTOR, open_options=options)
@@ -275,42 +305,55 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
             raise InputError(f"Cannot open {path} as a vector layer: {exc}") from exc
     if ds is None:
         raise InputError(f"Cannot open {path} as a vector layer.")
-    if layer is None:
-        if ds.GetLayerCount() == 0:
-            raise InputError(f"{path} contains no layers.")
+    names = [ds.GetLayer(i).GetName() for i in range(ds.GetLayerCount())]
+    lyr, problem = None, None
+    if not names:
+        problem = f"{path} contains no layers."
+    elif layer is not None:
+        lyr = ds.GetLayerByName(layer)
+        problem = None if lyr is not None else f"{path} has no layer {layer!r}; it has: {', '.join(names)}."
+    elif index is not None:
+        lyr = ds.GetLayer(index) if index < len(names) else None
+        problem = None if lyr is not None else \
+            f"{path} has no layer number {index}; it has {len(names)}: {', '.join(names)}."
+    elif len(names) == 1 or preferred is None:
         lyr = ds.GetLayer(0)
     else:
-        lyr = ds.GetLayerByName(layer)
-        if lyr is None:
-            names = [ds.GetLayer(i).GetName() for i in range(ds.GetLayerCount())]
-            raise InputError(f"{path} has no layer {layer!r}; it has: {', '.join(names)}.")
-    return ds, lyr, encoding
+        lyr = ds.GetLayerByName(preferred)
+        problem = None if lyr is not None else (
+            f"{path} has no layer {preferred!r} and holds {len(names)} layers ({', '.join(names)}): "
+            f"name the one to use, as {Path(path).name}|layername=<name>.")
+    if problem:
+        ds = None  # closed now, not whenever the traceback that holds this frame goes
+        raise InputError(problem)
+    return ds, lyr, gdal_encoding(encoding) if encoding else None
 
 
-def open_step_layer(path: str, name: str, role: str, fields: Sequence[str] = ()
+def field_names(layer: ogr.Layer) -> list[str]:
+    """The layer's field names as GDAL gives them (names that are not UTF-8 carry surrogate escapes)."""
+    defn = layer.GetLayerDefn()
+    return [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
+
+
+def open_step_layer(source: str, name: str, role: str, fields: Sequence[str] = ()
                     ) -> tuple[gdal.Dataset, ogr.Layer, list[str]]:
-    """Layer ``name`` that another step wrote into ``path``, checked for ``fields``.
+    """A step's input: the layer of ``source`` (``file|layername=x``, a file's only layer, or its layer
+    ``name`` — the one the step that makes such layers writes), checked for ``fields``.
 
     Returns the dataset (keep it alive while using the layer), the layer and its field names;
-    every problem is an ``InputError`` that names the step (``role``) to re-run.
+    every problem is an ``InputError`` that names the step (``role``) that makes such layers.
     """
+    path = split_source(source)[0]
     if not Path(path).is_file():
         raise InputError(f"The {role} file {path} does not exist.")
-    try:
-        ds = ogr.Open(str(path), 0)
-    except RuntimeError as exc:
-        raise InputError(f"Cannot open the {role} file {path}: {exc}") from exc
-    if ds is None:
-        raise InputError(f"Cannot open the {role} file {path} as a vector dataset.")
-    layer = ds.GetLayerByName(name)
-    if layer is None:
-        raise InputError(f"{path} has no layer '{name}': give the {role} output.")
-    defn = layer.GetLayerDefn()
-    present = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
+    ds, layer, _ = open_layer(source, preferred=name)
+    present = field_names(layer)
     missing = [f for f in fields if f not in present]
     if missing:
-        raise InputError(f"Layer '{name}' in {path} lacks the field(s) {', '.join(missing)}: "
-                         f"re-create it with the current {role}.")
+        problem = (f"Layer '{layer.GetName()}' in {path} lacks the field(s) {', '.join(missing)} of the {role}: "
+                   "give that step's output (made again with this version if it came from an older one).")
+        layer = ds = None  # closed now, not whenever the traceback that holds this frame goes
+        raise InputError(problem)
     return ds, layer, present
 
 
@@ -338,13 +381,13 @@ def layer_extent(path: str | os.PathLike, target: pyproj.CRS, layer: str | None 
 
 def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedback = SILENT,
                   **options) -> VectorLayer:
-    """A step's input layer: ``file.gpkg|layername=x`` as given, or a bare file with the model's layer name.
+    """A step's input layer: ``file.gpkg|layername=x`` as given, a file's only layer, or the model's layer
+    name in a file of several (see ``open_layer``).
 
     Geometries with an infinite or NaN coordinate (never in a layer wit:preparevectors wrote) become
     None with a warning, so the step counts them as skipped instead of meshing or extruding them.
     """
-    explicit = "layername=" in str(source).partition("|")[2]
-    layer = read_layer(source, None if explicit else default_layer, feedback=feedback, **options)
+    layer = read_layer(source, feedback=feedback, preferred=default_layer, **options)
     bad = non_finite(layer.geoms)
     if bad.any():
         layer.geoms[bad] = None
@@ -354,7 +397,8 @@ def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedb
 
 def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
                crs: str | None = None, bbox: tuple[float, float, float, float] | None = None,
-               bbox_crs: pyproj.CRS | None = None, feedback: Feedback = SILENT) -> VectorLayer:
+               bbox_crs: pyproj.CRS | None = None, feedback: Feedback = SILENT,
+               preferred: str | None = None) -> VectorLayer:
     """Read features, optionally only those whose envelope meets ``bbox`` (given in ``bbox_crs``).
 
     The bounding-box filter lets GDAL skip everything far from the study area (its spatial index
@@ -362,16 +406,22 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     infinite or NaN coordinate, which no filter can place, are read too (``non_finite``). Unclosed rings
     (OGR passes them through, e.g. from a hand-written shapefile) are closed here and counted per
     feature in ``unclosed_rings``; geometries nothing can read become None. ``crs`` is the source
-    CRS for a layer that declares none (no .prj).
+    CRS for a layer that declares none (no .prj). ``layer``/``preferred``: see ``open_layer``.
     """
-    ds, lyr, encoding = open_layer(path, layer, encoding, feedback)
+    ds, lyr, encoding = open_layer(path, layer, encoding, feedback, preferred)
     source_crs = _crs_of(lyr, str(path), crs)
     if bbox is not None and bbox_crs is not None and not bbox_crs.equals(source_crs):
         to_source = pyproj.Transformer.from_crs(bbox_crs, source_crs, always_xy=True)
         bbox = to_source.transform_bounds(*bbox, densify_pts=21)
     defn = lyr.GetLayerDefn()
-    fields = [FieldDef(fd.GetName(), fd.GetType(), fd.GetSubType(), fd.GetWidth(), fd.GetPrecision())
-              for fd in (defn.GetFieldDefn(i) for i in range(defn.GetFieldCount()))]
+    raw_names = field_names(lyr)
+    fields = [FieldDef(_decoded(name), fd.GetType(), fd.GetSubType(), fd.GetWidth(), fd.GetPrecision())
+              for name, fd in zip(raw_names, (defn.GetFieldDefn(i) for i in range(defn.GetFieldCount())))]
+    undecoded = [name for name in raw_names if not bulk_read.is_utf8(name)]
+    if undecoded:
+        feedback.warning(f"{Path(split_source(path)[0]).name}: {len(undecoded)} field name(s) are not UTF-8 "
+                         f"(read as {', '.join(f.name for f in fields if f.name not in raw_names)}); the layer is read "
+                         "feature by feature.")
     if bbox is not None:
         lyr.SetSpatialFilterRect(*bbox)
     with gdal_quiet():
@@ -380,8 +430,8 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
             read = set(fids)
             # on a handle of its own: GDAL allows one Arrow stream per layer at a time, and the first one may
             # outlive its reading (a profiler, e.g. Dask's, keeps the frames it samples for a moment)
-            scan_ds, scan_lyr, _ = open_layer(path, layer, encoding, feedback)
-            for fid in _non_finite_fids(scan_lyr, fields):
+            scan_ds, scan_lyr, _ = open_layer(path, layer, encoding, feedback, preferred)
+            for fid in _non_finite_fids(scan_lyr, raw_names):
                 if fid not in read:
                     _append_feature(lyr.GetFeature(fid), fields, columns, wkbs, fids)
             del scan_lyr, scan_ds
@@ -404,17 +454,16 @@ def _read_rows(lyr: ogr.Layer, fields: list[FieldDef],
     """Attribute columns (Python values, text as str), WKB and FIDs of the layer's (filtered) features.
 
     GDAL's Arrow interface (3.6+) reads whole batches into numpy, about ten times faster than
-    one call per field and feature; older GDAL takes the feature loop.
+    one call per field and feature; older GDAL, and field names that are not UTF-8 (on which GDAL
+    3.6's Arrow reader crashes: ``bulk_read.arrow_ready``), take the feature loop.
     """
     total = max(lyr.GetFeatureCount(force=0), 1)
     columns: dict[str, list] = {f.name: [] for f in fields}
     wkbs: list[bytes | None] = []
     fids: list[int] = []
-    arrow = getattr(lyr, "GetArrowStreamAsNumPy", None)
-    stream = arrow(options=["USE_MASKED_ARRAYS=YES"]) if arrow else None
-    if stream is not None:
+    if bulk_read.arrow_ready(lyr):
         fid_name, geom_name = lyr.GetFIDColumn() or "OGC_FID", lyr.GetGeometryColumn() or "wkb_geometry"
-        for batch in stream:
+        for batch in lyr.GetArrowStreamAsNumPy(options=["USE_MASKED_ARRAYS=YES"]):
             feedback.check_canceled()
             fids += batch[fid_name].tolist()
             wkbs += [bytes(w) if w is not None else None for w in batch[geom_name]]
@@ -430,10 +479,20 @@ def _read_rows(lyr: ogr.Layer, fields: list[FieldDef],
     return columns, wkbs, fids
 
 
+def _decoded(text: str) -> str:
+    """Text GDAL handed over undecoded (not UTF-8: the bindings escape such bytes as surrogates) decoded as
+    CP949 when it is that, else as Latin-1; UTF-8 text as it is."""
+    if bulk_read.is_utf8(text):
+        return text
+    raw = text.encode("utf-8", "surrogateescape")
+    return raw.decode("cp949") if _decodes(raw, "cp949") else raw.decode("latin-1")
+
+
 def _append_feature(feat: ogr.Feature, fields: list[FieldDef], columns: dict[str, list], wkbs: list[bytes | None],
                     fids: list[int]) -> None:
     for j, f in enumerate(fields):
-        columns[f.name].append(feat.GetField(j))
+        value = feat.GetField(j)
+        columns[f.name].append(_decoded(value) if isinstance(value, str) else value)
     geom = feat.GetGeometryRef()
     wkbs.append(bytes(geom.ExportToIsoWkb()) if geom is not None and not geom.IsEmpty() else None)
     fids.append(feat.GetFID())
@@ -447,25 +506,16 @@ def non_finite(geoms: np.ndarray) -> np.ndarray:
     return out
 
 
-def _non_finite_fids(lyr: ogr.Layer, fields: list[FieldDef]) -> list[int]:
+def _non_finite_fids(lyr: ogr.Layer, names: list[str]) -> list[int]:
     """FIDs of the layer's features with an infinite or NaN coordinate, from one geometry-only pass
-    without the spatial filter (the Arrow reader when GDAL has it)."""
+    without the spatial filter (``names``: the layer's fields, all ignored)."""
     lyr.SetSpatialFilter(None)
-    lyr.SetIgnoredFields([f.name for f in fields])
+    bulk_read.ignore_fields(lyr, names)
     try:
-        arrow = getattr(lyr, "GetArrowStreamAsNumPy", None)
-        stream = arrow(options=["USE_MASKED_ARRAYS=YES"]) if arrow else None
-        if stream is None:
-            batches = [(feat.GetFID(), feat.GetGeometryRef()) for feat in lyr]
-            fids = np.array([fid for fid, _ in batches], dtype=np.int64)
-            wkbs = [bytes(g.ExportToIsoWkb()) if g is not None else None for _, g in batches]
-            return fids[non_finite(shapely.from_wkb(np.array(wkbs, dtype=object), on_invalid="ignore"))].tolist()
-        fid_name, geom_name = lyr.GetFIDColumn() or "OGC_FID", lyr.GetGeometryColumn() or "wkb_geometry"
         found = []
-        for batch in stream:
-            wkbs = np.array([bytes(w) if w is not None else None for w in batch[geom_name]], dtype=object)
-            bad = non_finite(shapely.from_wkb(wkbs, on_invalid="ignore"))
-            found += np.asarray(batch[fid_name])[bad].tolist()
+        for batch in bulk_read.batches(lyr, fid=True):
+            wkbs = np.array([bytes(w) if w is not None else None for w in batch["geometry"]] + [None], dtype=object)
+            found += np.asarray(batch["fid"])[non_finite(shapely.from_wkb(wkbs[:-1], on_invalid="ignore"))].tolist()
         return found
     finally:
         lyr.SetIgnoredFields([])

@@ -33,18 +33,22 @@ Decisions (SPEC §4):
   earlier one (stacked copies) is dropped as ``duplicate``, one copy kept. The same id on
   different footprints is two buildings: both are kept, the later ones with ``_2``, ``_3``… on
   their ``wit_id`` (ids stay unique, as CityGML's gml:id must), and a warning counts them.
-* **Roads**: centre lines are simplified (DP keeps every section's end points, so the network
-  stays connected), then buffered by width / 2 with round caps and joins (a gap-free surface at
-  junctions and bends, which the TIN needs). Width = ``ROAD_BT`` when > 0, else a class default
-  (``ROAD_CLASS_WIDTHS``), else ``default_road_width``. Features with the same id are merged. At
-  junctions the buffers overlap; each point goes to the widest road covering it (ties: smaller
-  id), so road polygons tile the road area without overlaps. ``road_area`` gives the dissolved area.
+* **Roads**: road polygons (the NGII road boundary ``N3A_A0010000``, any polygon layer) are the road
+  surfaces as they are: repaired and cut to the study area like districts, not simplified. Centre
+  lines are simplified (DP keeps every section's end points, so the network stays connected), then
+  buffered by width / 2 with round caps and joins (a gap-free surface at junctions and bends, which
+  the TIN needs). The width comes from the layer's rule (``roads``: its width field, else its lane
+  count × lane width, else its class default, else ``default_road_width``), logged with its counts.
+  Features with the same id are merged. At junctions the buffers overlap; each point goes to the
+  widest road covering it (ties: smaller id), so road polygons tile the road area without
+  overlaps. A layer may hold both kinds. ``road_area`` gives the dissolved area.
 """
 from __future__ import annotations
 
 import csv
 import math
 import os
+import re
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Protocol, Sequence
@@ -58,6 +62,8 @@ from . import model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, refuse_overlap
+from .roads import WidthRule
+from .roads import widths as road_widths_of
 from .vector_io import (BUILDING_FIELDS, DISTRICT_FIELDS, ROAD_FIELDS, FieldDef, OutputLayer, VectorLayer,
                         keep_source_fields, non_finite, read_layer, write_gpkg)
 
@@ -69,10 +75,6 @@ OVERLAP_TOLERANCE = 1e-4  # m²: growth of an overlap between two polygons that 
 NODING_BATCH = 2000  # polygons noded together (see _arcs)
 CIRCLE_QUAD_SEGS = 64  # 256-gon: at most 0.08 m inside a 1 km circle
 ROAD_QUAD_SEGS = 4
-# ROA_CLS_SE (도로구간 구분) → width in m when ROAD_BT is missing or 0: 1 고속도로 (expressway,
-# 4 lanes + shoulders), 2 대로 (≥ 40 m by the road-name-address rules), 3 로 (12–40 m: lower
-# bound). 4 길 and unknown classes use ``PrepareConfig.default_road_width``.
-ROAD_CLASS_WIDTHS = {"1": 25.0, "2": 40.0, "3": 12.0}
 STATS_TABLE = "stats"
 DROPPED_TABLE = "dropped"
 
@@ -634,7 +636,7 @@ def _id_part(value: object) -> str | None:
         if not math.isfinite(value):
             return None
         value = int(value) if value.is_integer() else value
-    text = str(value).strip()
+    text = re.sub(r"[^\w.\-]", "_", str(value).strip())  # an id part stays part of an XML name (gml:id)
     return text or None
 
 
@@ -671,23 +673,19 @@ def unique_ids(ids: Sequence[str], skip: np.ndarray | None = None) -> list[str]:
 
 # -- roads --------------------------------------------------------------------------------------
 
-def road_widths(layer: VectorLayer, default_width: float) -> tuple[np.ndarray, list[str]]:
-    """Width per road (ROAD_BT when > 0, else its class default, else ``default_width``) and its source."""
-    fmap = layer.field_map(["ROAD_BT", "ROA_CLS_SE"])
-    widths, sources = np.empty(len(layer)), []
-    for i in range(len(layer)):
-        bt = layer.columns[fmap["ROAD_BT"]][i] if "ROAD_BT" in fmap else None
-        try:
-            bt = float(bt)
-        except (TypeError, ValueError):
-            bt = 0.0
-        if bt > 0 and math.isfinite(bt):
-            widths[i] = bt
-            sources.append("ROAD_BT")
-        else:
-            cls = _id_part(layer.columns[fmap["ROA_CLS_SE"]][i]) if "ROA_CLS_SE" in fmap else None
-            widths[i] = ROAD_CLASS_WIDTHS.get(cls or "", default_width)
-            sources.append("default")
+def road_widths(layer: VectorLayer, default_width: float, feedback: Feedback = SILENT) -> tuple[np.ndarray, list[str]]:
+    """Width per centre line and its source, by the layer's rule (``roads.WidthRule``: its width field,
+    else lanes × lane width, else its class default, else ``default_width``); the rule is logged, and
+    defaults are a warning with the count."""
+    rule = WidthRule.of([f.name for f in layer.fields], default_width)
+    widths, sources = road_widths_of(layer.columns, len(layer), rule)
+    counts: dict[str, int] = {}
+    for source in sources:
+        counts[source] = counts.get(source, 0) + 1
+    feedback.info(f"Road width rule: {rule.describe()}; " + ", ".join(f"{n} from {k}" for k, n in counts.items()))
+    if counts.get("default"):
+        feedback.warning(f"roads: {counts['default']} of {len(sources)} centre line(s) have no width, lane count or "
+                         f"known class: buffered with the default width {default_width:g} m.")
     return widths, sources
 
 
@@ -763,7 +761,8 @@ def _read(path: str, kind: str, expected: Sequence[str], target: pyproj.CRS, con
     """Read the features near ``area`` (all when None), report missing fields, reproject."""
     layer = read_layer(path, encoding=config.encoding, crs=config.source_crs,
                        bbox=area.bounds if area is not None else None, bbox_crs=target, feedback=feedback)
-    layer.field_map(expected, feedback)
+    if layer.field_map(expected):  # a road-name-address layer: name what it lacks (other schemas lack them all)
+        layer.field_map(expected, feedback)
     feedback.info(f"{kind}: {len(layer)} features read from {path} (CRS {layer.crs.name}, "
                   f"encoding {layer.encoding or 'as declared'})")
     layer.geoms = transform(layer.geoms, layer.crs, target)
@@ -840,18 +839,60 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
     return _Prepared(name, out, [ids[i] for i in keep]), stats
 
 
+#: road ids: juso road sections share one (merged), NGII's feature id UFID, OpenStreetMap's osm_id
+ROAD_KEYS = [("SIG_CD", "RDS_MAN_NO"), ("UFID",), ("osm_id",)]
+
+
 def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfig,
                 dropped: list[DroppedFeature], feedback: Feedback) -> tuple[_Prepared, LayerStats]:
-    """Centre lines → simplified → buffered by width/2 → clipped → junction overlaps removed."""
+    """Road polygons as the road surfaces they are (``_polygon_layer``, not simplified, cut to the area),
+    centre lines (and anything else, dropped as ``wrong_type``) through ``_road_lines``; one layer."""
+    surface = np.isin(shapely.get_type_id(layer.geoms), (3, 6))
+    parts = []
+    if surface.any():
+        polygons = layer.take(np.flatnonzero(surface))
+        feedback.info(f"roads: {len(polygons)} road polygon(s) of {Path(layer.path).name} are road surfaces as "
+                      "they are (repaired, cut to the study area, not simplified).")
+        prep, stats = _polygon_layer(polygons, model.PREPARED_ROADS, "RD", ROAD_KEYS, area, 0.0, True, config,
+                                     dropped, feedback)
+        prep.extra_fields = _ROAD_EXTRA
+        prep.extra_columns = {model.ROAD_WIDTH: [None] * len(prep.ids),
+                              model.ROAD_WIDTH_SOURCE: ["surface"] * len(prep.ids)}
+        parts.append((prep, stats))
+    if not surface.all() or not parts:  # an empty layer too: its stats say so
+        parts.append(_road_lines(layer.take(np.flatnonzero(~surface)), area, config, dropped, feedback))
+    if len(parts) == 1:
+        return parts[0]
+    (a, sa), (b, sb) = parts
+    merged = VectorLayer(a.layer.path, a.layer.name, np.concatenate([a.layer.geoms, b.layer.geoms]),
+                         np.concatenate([a.layer.fids, b.layer.fids]), a.layer.fields,
+                         {k: a.layer.columns[k] + b.layer.columns[k] for k in a.layer.columns}, a.layer.crs,
+                         a.layer.encoding, np.concatenate([a.layer.unclosed_rings, b.layer.unclosed_rings]))
+    stats = LayerStats(sa.layer, sa.features_in + sb.features_in, sa.features_out + sb.features_out,
+                       sa.outside_area + sb.outside_area,
+                       {k: sa.repaired.get(k, 0) + sb.repaired.get(k, 0) for k in REPAIR_KINDS},
+                       {k: sa.dropped.get(k, 0) + sb.dropped.get(k, 0) for k in DROP_REASONS if k in sa.dropped
+                        or k in sb.dropped}, sa.vertices_in + sb.vertices_in, sa.vertices_out + sb.vertices_out,
+                       sa.arcs_kept + sb.arcs_kept)
+    columns = {k: a.extra_columns[k] + b.extra_columns[k] for k in a.extra_columns}
+    return _Prepared(a.name, merged, unique_ids(a.ids + b.ids), _ROAD_EXTRA, columns), stats
+
+
+_ROAD_EXTRA = [FieldDef(model.ROAD_WIDTH, ogr.OFTReal), FieldDef(model.ROAD_WIDTH_SOURCE, ogr.OFTString)]
+
+
+def _road_lines(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfig,
+                dropped: list[DroppedFeature], feedback: Feedback) -> tuple[_Prepared, LayerStats]:
+    """Centre lines → simplified → buffered by width/2 (``roads.WidthRule``) → clipped → junction overlaps removed."""
     name = model.PREPARED_ROADS
-    ids = source_ids(layer, "RD", [("SIG_CD", "RDS_MAN_NO")])  # sections of one road share it: merged below
+    ids = source_ids(layer, "RD", ROAD_KEYS)  # sections of one road share it: merged below
     stats = LayerStats(name, len(layer), 0, 0, vertices_in=vertex_count(layer.geoms))
     g = layer.geoms
     reasons = np.full(len(g), None, dtype=object)
     reasons[shapely.is_missing(g) | shapely.is_empty(g)] = "no_geometry"
-    reasons[(reasons == None) & non_finite(g)] = "non_finite"  # noqa: E711
-    reasons[(reasons == None) & ~np.isin(shapely.get_type_id(g), (1, 5))] = "wrong_type"  # noqa: E711
-    live = reasons == None  # noqa: E711
+    reasons[(reasons == None) & non_finite(g)] = "non_finite"
+    reasons[(reasons == None) & ~np.isin(shapely.get_type_id(g), (1, 5))] = "wrong_type"
+    live = reasons == None
     layer.geoms = g.copy()
     layer.geoms[live] = shapely.remove_repeated_points(g[live], REPEATED_POINT_TOLERANCE)
     stats.repaired = dict.fromkeys(REPAIR_KINDS, 0)
@@ -864,7 +905,7 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
     keep = keep[inside]
     roads, ids = _dissolve_by_id(layer.take(keep), [ids[i] for i in keep])
     roads.geoms = shapely.simplify(roads.geoms, config.road_tolerance, preserve_topology=False)
-    widths, sources = road_widths(roads, config.default_road_width)
+    widths, sources = road_widths(roads, config.default_road_width, feedback)
     feedback.check_canceled()
     polys = shapely.buffer(roads.geoms, widths / 2, quad_segs=ROAD_QUAD_SEGS, cap_style="round", join_style="round")
     polys = polygonal(shapely.intersection(polys, area))
@@ -878,9 +919,8 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
     out = roads.take(ok)
     out.geoms = orient(polys[ok])[0]
     stats.features_out, stats.vertices_out = len(out), vertex_count(out.geoms)
-    extra = [FieldDef(model.ROAD_WIDTH, ogr.OFTReal), FieldDef(model.ROAD_WIDTH_SOURCE, ogr.OFTString)]
     columns = {model.ROAD_WIDTH: [float(widths[i]) for i in ok], model.ROAD_WIDTH_SOURCE: [sources[i] for i in ok]}
-    return _Prepared(name, out, [ids[i] for i in ok], extra, columns), stats
+    return _Prepared(name, out, [ids[i] for i in ok], _ROAD_EXTRA, columns), stats
 
 
 def _reasons(stats: LayerStats) -> str:
@@ -939,7 +979,7 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
         reach = polygon.buffer(config.context_margin) if config.context_margin > 0 else polygon
         layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config, reach, feedback.scaled(10, 30))
         results.append(_polygon_layer(layer, model.PREPARED_BUILDINGS, "BLD",
-                                      [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO")], polygon,
+                                      [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO"), ("UFID",), ("osm_id",)], polygon,
                                       config.building_tolerance, False, config, dropped, feedback.scaled(30, 70)))
     if roads:
         feedback.check_canceled()

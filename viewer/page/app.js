@@ -1,7 +1,8 @@
 // Offline viewer of the WIT City Model tileset: CesiumJS with no imagery, no Ion, no network but this
-// server. ?tileset=URL overrides the tileset (default 3dtiles/tileset.json beside the page).
+// server. ?tileset=URL overrides the tileset (default 3dtiles/tileset.json beside the page); ?range=R sets the
+// first view's distance in radii of the tileset's bounding sphere (default 1.2; larger: zoomed out).
 // window.witViewer tells the tests and the benchmark what happened: state (loading, ready, error),
-// errors, seconds until the first view was fully loaded, and measureFps().
+// errors, seconds until the first view was fully loaded, the tileset's bytes fetched until then, and measureFps().
 "use strict";
 const witViewer = (window.witViewer = { state: "loading", errors: [], loadSeconds: null, tileset: null });
 const status = document.getElementById("status");
@@ -32,6 +33,7 @@ function showProperties(feature) {
 }
 
 async function main() {
+  performance.setResourceTimingBufferSize(100000);  // CesiumJS alone fetches more than the default 250
   const viewer = new Cesium.Viewer("map", {
     baseLayer: false, baseLayerPicker: false, geocoder: false, sceneModePicker: false, navigationHelpButton: false,
     animation: false, timeline: false, fullscreenButton: false, infoBox: false, selectionIndicator: false,
@@ -43,7 +45,9 @@ async function main() {
   scene.globe.depthTestAgainstTerrain = false;
   scene.skyAtmosphere.show = true;
   scene.fog.enabled = false;
-  const url = new URLSearchParams(location.search).get("tileset") || "3dtiles/tileset.json";
+  const query = new URLSearchParams(location.search);
+  const url = query.get("tileset") || "3dtiles/tileset.json";
+  const range = Number(query.get("range")) || 1.2;  // camera distance in radii of the tileset's bounding sphere
   const started = performance.now();
   const tileset = await Cesium.Cesium3DTileset.fromUrl(url, { maximumScreenSpaceError: 16 });
   witViewer.tileset = tileset;
@@ -51,7 +55,7 @@ async function main() {
   tileset.tileFailed.addEventListener((error) => fail(`tile ${error.url}: ${error.message}`));
   const radius = tileset.boundingSphere.radius;
   await viewer.zoomTo(tileset, new Cesium.HeadingPitchRange(Cesium.Math.toRadians(-30), Cesium.Math.toRadians(-35),
-                                                             radius * 1.2));
+                                                             radius * range));
   // Ready: tiles have loaded, none is pending for this view, and two frames have been drawn since.
   let loadedTiles = 0;
   let settledFrames = 0;

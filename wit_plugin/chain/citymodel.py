@@ -44,6 +44,7 @@ from ..mosaic import merge_tiles
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
 from ..interpreter import core_env, core_python
 from ..tiles3d import TILESET_FILE
+from ..tiles3d.web import require_web_profile
 from ..vector_io import read_prepared
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
 from ..tiles.job import TileJob
@@ -82,6 +83,7 @@ class ChainOptions:
     margin: float = 50.0  # the NGII orthoimages' margin around their sheet
     max_edge: float = 5.0
     tolerance: float = 0.5
+    triangulator: int | None = None  # triangulators.BACKENDS key; None: Triangle where installed, else CDT
     texture_scale: float = 1.0
     heights: HeightOptions = field(default_factory=HeightOptions)
     outside_ortho: str = "fail"  # or "untextured"
@@ -90,6 +92,7 @@ class ChainOptions:
     keep_work: bool = False  # keep the intermediate files as <output>/work
     metrics: bool = True
     tiles3d: bool = True  # write the 3D Tiles 1.1 tileset (<output>/3dtiles) for viewers
+    tiles3d_web: bool = False  # its web profile: compressed geometry for browsers (QGIS cannot read it)
     encoding: str | None = None  # of shapefile inputs, when their declaration is wrong
     tile: TileJob | None = None  # one tile of a tiled run (wit_plugin.tiles)
 
@@ -177,6 +180,8 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     """Run the whole chain into ``output_dir`` (model.gml + textures, validation.html, metrics, steps.json)."""
     if options.outside_ortho not in OUTSIDE_ORTHO_CHOICES:
         raise InputError(f"Surfaces outside the orthoimage: choose one of {', '.join(OUTSIDE_ORTHO_CHOICES)}.")
+    if options.tiles3d and options.tiles3d_web:
+        require_web_profile()
     started = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     clock = _Clock(feedback)
@@ -241,7 +246,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         tin = str(work / "tin.gpkg")
         tin_stats = terrain.run(inputs.dem, layers.buildings, layers.roads, tin, layers.study, options.max_edge,
                                 options.tolerance, spatial_index=options.keep_work, feedback=fb,
-                                foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam)
+                                foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam,
+                                triangulator=options.triangulator)
 
     with clock.step("extrude") as fb:  # a tile that owns no building: terrain and roads only
         lod1 = str(work / "lod1.gpkg") if layers.buildings else None
@@ -262,9 +268,10 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
                                 str(gml), srs_name=options.target_crs, feedback=fb)
 
     tileset = str(staging / TILESET_DIR / TILESET_FILE) if options.tiles3d else None
-    beside = clock.beside("3dtiles", [core_python(None, TILES3D_MODULES, "wit_plugin.tiles3d"), "-m",
+    modules = TILES3D_MODULES + (("meshoptimizer",) if options.tiles3d_web else ())
+    beside = clock.beside("3dtiles", [core_python(None, modules, "wit_plugin.tiles3d"), "-m",
                                       "wit_plugin.tiles3d", lod1 or "", tin, textures, str(staging / TILESET_DIR),
-                                      "--crs", options.target_crs]) \
+                                      "--crs", options.target_crs] + (["--web"] if options.tiles3d_web else [])) \
         if options.tiles3d else nullcontext(lambda: None)
     with beside as tileset_done:  # the tileset is written beside validation and metrics
         with clock.step("validate") as fb:

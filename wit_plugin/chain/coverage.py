@@ -1,8 +1,9 @@
 """Do the DEM and the orthoimage sheets cover the area? Answered in seconds, before the heavy steps.
 
-The orthoimage sheets are judged from their file names alone (the NGII sheet number gives the
-footprint, as ``wit:georeferencemapsheets`` computes it), so nothing is georeferenced or merged
-before the answer; what is missing is named as the sheet numbers that would cover it. The DEM is
+The orthoimage sheets are judged from their file names (the NGII sheet number gives the
+footprint, as ``wit:georeferencemapsheets`` computes it) — or, for a TIF that carries its own
+georeference in another CRS, from that georeference reprojected — so nothing is georeferenced or
+merged before the answer; what is missing is named as the sheet numbers that would cover it. The DEM is
 judged by its extent and by the share of NoData cells under the area.
 """
 from __future__ import annotations
@@ -17,15 +18,27 @@ import shapely
 from osgeo import gdal
 from shapely.geometry.base import BaseGeometry
 
-from ..dem import NODATA_THRESHOLD, check_crs, raster_extent
+from ..dem import NODATA_THRESHOLD, reprojection, shortfall
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
+from ..gdal_env import open_raster, read_window
+from ..georef import sheet_footprint
 from ..mapsheet import MapSheet, find_sheet_in_name, projected_envelope, sheets_covering
+from ..raster_crs import (
+    cell_size,
+    crs_code,
+    crs_name,
+    raster_extent,
+    transform_geometry,
+)
 
 #: NoData under more than this share of the area is an error (filling it would invent the terrain)
 MAX_DEM_NODATA_SHARE = 0.05
 #: uncovered slivers below this area (m²) are rounding, not a missing sheet
 MIN_GAP_AREA = 0.01
+#: sheets farther than this (m) from the area are judged by their number alone (a sheet georeferenced in
+#: another CRS lies within tens of metres of its number's envelope)
+NEAR_SHEET = 1000.0
 
 
 @dataclass
@@ -72,15 +85,23 @@ def require_sheet_names(files: list[str]) -> None:
 
 def ortho_coverage(files: list[str], area: BaseGeometry, target_crs: str, source_crs: str = "EPSG:4737",
                    margin: float = 50.0) -> OrthoCoverage:
-    """Split ``files`` into the sheets that meet ``area`` and the rest; find what none covers."""
+    """Split ``files`` into the sheets that meet ``area`` and the rest; find what none covers.
+
+    Only the files whose sheet lies near the area are opened (to see whether they carry their own
+    georeference in another CRS): a folder of a whole city's sheets is judged in seconds.
+    """
     used, unused, unnamed = [], [], []
+    xmin, ymin, xmax, ymax = area.bounds
+    near = shapely.box(xmin - NEAR_SHEET, ymin - NEAR_SHEET, xmax + NEAR_SHEET, ymax + NEAR_SHEET)
     for path in files:
         try:
             sheet = find_sheet_in_name(Path(path).name)
         except InputError as exc:
             unnamed.append((path, str(exc)))
             continue
-        footprint = shapely.box(*projected_envelope(sheet, target_crs, source_crs, margin))
+        envelope = projected_envelope(sheet, target_crs, source_crs, margin)
+        footprint = sheet_footprint(path, envelope, target_crs) if near.intersects(shapely.box(*envelope)) \
+            else shapely.box(*envelope)
         (used if footprint.intersects(area) and footprint.intersection(area).area > 0 else unused).append(
             SheetFile(path, sheet, footprint))
     report = OrthoCoverage(used, unused, unnamed)
@@ -126,46 +147,59 @@ def require_ortho(coverage: OrthoCoverage, untextured_ok: bool, feedback: Feedba
     feedback.warning(f"{what} Surfaces there are left untextured.")
 
 
-def require_dem(dem_path: str, area: BaseGeometry, target_crs: str, feedback: Feedback = SILENT) -> None:
+def require_dem(dem_path: str, area: BaseGeometry, target_crs: str, feedback: Feedback = SILENT,
+                max_cells: int = 4_000_000) -> None:
     """Refuse a DEM that does not cover ``area`` (naming by how much, on which side) or has NoData under
-    more than ``MAX_DEM_NODATA_SHARE`` of it; warn about smaller NoData patches (they are filled)."""
-    check_crs(dem_path, target_crs, feedback)
+    more than ``MAX_DEM_NODATA_SHARE`` of it; warn about smaller NoData patches (they are filled).
+
+    A DEM in another CRS is judged in its own CRS, against the area reprojected there (it is
+    reprojected on the fly by the steps that read it). The NoData share is read from at most
+    ``max_cells`` cells (every n-th cell of a bigger window: an estimate, said so).
+    """
     name = Path(dem_path).name
-    try:
-        ds = gdal.Open(str(dem_path))
-    except RuntimeError as exc:
-        raise InputError(f"Cannot open the DEM {dem_path}: {exc}") from exc
-    if ds is None:
-        raise InputError(f"Cannot open the DEM {dem_path}: {gdal.GetLastErrorMsg() or 'not a raster'}")
+    ds = open_raster(dem_path, "DEM")
+    source = reprojection(dem_path, ds, target_crs, feedback)
+    degrees = bool(source is not None and source.is_geographic)
+    region = area if source is None else transform_geometry(area, target_crs, source)
+    where = "" if source is None else f" in its CRS, {crs_code(source)}"
     gt = ds.GetGeoTransform()
     extent = raster_extent(gt, ds.RasterXSize, ds.RasterYSize)
-    xmin, ymin, xmax, ymax = area.bounds
+    # the area's box, as the steps read the DEM (in the DEM's CRS: that box reprojected)
+    box = area.envelope if source is None else transform_geometry(area.envelope, target_crs, source)
+    xmin, ymin, xmax, ymax = box.bounds
     beyond = {"west": extent[0] - xmin, "south": extent[1] - ymin, "east": xmax - extent[2], "north": ymax - extent[3]}
-    short = {side: metres for side, metres in beyond.items() if metres > 0}
+    short = {side: amount for side, amount in beyond.items() if amount > 0}
     if short:
-        sides = ", ".join(f"{metres:,.1f} m to the {side}" for side, metres in short.items())
-        raise InputError(f"The DEM {name} (x {extent[0]:.1f}–{extent[2]:.1f}, y {extent[1]:.1f}–{extent[3]:.1f}) "
-                         f"does not cover the area (x {xmin:.1f}–{xmax:.1f}, y {ymin:.1f}–{ymax:.1f}): it stops "
-                         f"short by {sides}. Use a DEM that covers the area, or a smaller area.")
+        d = 6 if degrees else 1
+        sides = shortfall(short, degrees)
+        also = "" if source is None else f" (the area's box in {crs_code(pyproj.CRS(target_crs))}, reprojected)"
+        raise InputError(f"The DEM {name} (x {extent[0]:.{d}f}–{extent[2]:.{d}f}, y {extent[1]:.{d}f}–{extent[3]:.{d}f}"
+                         f"{where}) does not cover the area (x {xmin:.{d}f}–{xmax:.{d}f}, y {ymin:.{d}f}–{ymax:.{d}f}"
+                         f"{also}): it stops short by {sides}. Use a DEM that covers the area, or a smaller area.")
+    if source is not None:
+        feedback.info(f"The DEM {name} is in {crs_name(source)}: it is reprojected on the fly to "
+                      f"{crs_name(pyproj.CRS(target_crs))} (bilinear, cells of {cell_size(ds, source, target_crs):g} m).")
     band = ds.GetRasterBand(1)
     c0, c1 = (int(np.floor((x - gt[0]) / gt[1])) for x in (xmin, xmax))
     r0, r1 = (int(np.floor((y - gt[3]) / gt[5])) for y in (ymax, ymin))
     c0, r0 = max(c0, 0), max(r0, 0)
     c1, r1 = min(c1, ds.RasterXSize - 1), min(r1, ds.RasterYSize - 1)
-    values = band.ReadAsArray(c0, r0, c1 - c0 + 1, r1 - r0 + 1)
-    if values is None:
-        raise InputError(f"Cannot read the DEM {name}: {gdal.GetLastErrorMsg() or 'read error'}")
+    step = max(1, int(np.ceil(np.sqrt((c1 - c0 + 1) * (r1 - r0 + 1) / max_cells))))
+    cols, rows = np.arange(c0, c1 + 1, step), np.arange(r0, r1 + 1, step)
+    values = read_window(band, c0, r0, c1 - c0 + 1, r1 - r0 + 1, f"the DEM {dem_path}", buf_xsize=len(cols),
+                         buf_ysize=len(rows), resample_alg=gdal.GRIORA_NearestNeighbour)
     nodata = band.GetNoDataValue()
     missing = ~np.isfinite(values) | ((values == nodata) if nodata is not None else (values <= NODATA_THRESHOLD))
     if not missing.any():
         return
-    cols, rows = np.meshgrid(np.arange(c0, c1 + 1) + 0.5, np.arange(r0, r1 + 1) + 0.5)
-    under = shapely.contains_xy(area, gt[0] + cols * gt[1], gt[3] + rows * gt[5])
+    u, v = np.meshgrid(cols + 0.5 * step, rows + 0.5 * step)
+    under = shapely.contains_xy(region, gt[0] + u * gt[1], gt[3] + v * gt[5])
     share = (missing & under).sum() / max(under.sum(), 1)
-    cells = int((missing & under).sum())
+    cells = int((missing & under).sum()) * step * step
+    about = "about " if step > 1 else ""
     if share > MAX_DEM_NODATA_SHARE:
-        raise InputError(f"The DEM {name} has NoData under {share:.0%} of the area ({cells} cells): its terrain "
+        raise InputError(f"The DEM {name} has NoData under {share:.0%} of the area ({about}{cells} cells): its terrain "
                          "would be invented. Use a DEM with data over the area.")
     if cells:
-        feedback.warning(f"The DEM {name} has {cells} NoData cell(s) under the area ({share:.1%}); they are filled "
-                         "from their neighbours.")
+        feedback.warning(f"The DEM {name} has {about}{cells} NoData cell(s) under the area ({share:.1%}); they are "
+                         "filled from their neighbours.")

@@ -172,13 +172,11 @@ def _entry_point_xsd() -> str:
 
 
 def load_schema(schema_dir: Path) -> etree.XMLSchema:
-    """The compiled ``citygml3-all.xsd`` of ``schema_dir`` (compiled once per folder, ~0.1 s)."""
-    return _compile(str(Path(schema_dir).resolve()))
-
-
-@functools.lru_cache(maxsize=4)
-def _compile(folder: str) -> etree.XMLSchema:
-    entry = Path(folder) / ENTRY_POINT
+    """The compiled ``citygml3-all.xsd`` of ``schema_dir`` (~0.1-0.5 s), compiled for each use: a schema
+    kept for the process breaks once something calls libxml2's ``xmlCleanupParser`` (SpatiaLite does, in
+    QGIS), see ``validation.xsd._compiled``."""
+    entry = Path(schema_dir).resolve() / ENTRY_POINT
+    folder = entry.parent
     if not entry.is_file():
         raise InputError(f"{entry} not found: set SCHEMA_DIR to a folder containing the CityGML 3.0 schemas.")
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False)

@@ -34,7 +34,7 @@ from .validation.xsd import (
     StreamingValidation,
     describe,
     fallback_errors,
-    streaming_schema,
+    streaming_available,
     whole_document_errors,
 )
 
@@ -62,7 +62,7 @@ def validate_files(paths: Sequence[str], schema_dir: Path, feedback: Feedback = 
     files = [Path(p) for p in paths]
     for path in files:
         _check_readable(path)
-    if streaming_schema(schema_dir) is None:
+    if not streaming_available(schema_dir):
         load_schema(schema_dir)  # lxml's compile names what is wrong with the folder (or serves the fallback)
     known = schema_namespaces(schema_dir)
     total = sum(p.stat().st_size for p in files) or 1

@@ -53,7 +53,7 @@ from ..fileio import atomic_file
 from ..gc_pause import collector_paused
 from ..numtext import ring_texts
 from .schemas import CITYGML_MODULES
-from ..vector_io import open_step_layer
+from ..vector_io import open_step_layer, split_source
 
 APPEARANCE_THEME = "rgbTexture"
 DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-address data
@@ -113,7 +113,7 @@ class WriteReport:
 def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186",
                   feedback: Feedback = SILENT, copy_textures: bool = True) -> WriteReport:
     """Write the CityGML 3.0 model to ``output`` (atomically); see the module docstring."""
-    srs_uri = srs_uri_of(srs_name)
+    srs_uri = srs_name_of(srs_name)
     report = WriteReport()
     out = Path(output)
     with contextlib.ExitStack() as stack:
@@ -122,15 +122,15 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         def layer(path: str | None, *args: Any, **kwargs: Any) -> _Layer | None:
             return stack.enter_context(_Layer.open(path, *args, **kwargs)) if path else None
 
-        lod1 = layer(inputs.lod1, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
+        lod1 = layer(inputs.lod1, model.LOD1_LAYER, model.LOD1_ROLE,
                      (model.WIT_ID, model.FACE_NUMBER, model.FACE_TYPE), geometry_z=True)
-        tin = layer(inputs.tin, model.TIN_LAYER, "TIN (wit:triangulateterrain)",
+        tin = layer(inputs.tin, model.TIN_LAYER, model.TIN_ROLE,
                     (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), geometry_z=True)
-        roads = layer(inputs.roads, model.PREPARED_ROADS, "prepared roads (wit:preparevectors)", (model.WIT_ID,))
-        districts = layer(inputs.districts, model.PREPARED_DISTRICTS, "prepared districts (wit:preparevectors)",
+        roads = layer(inputs.roads, model.PREPARED_ROADS, model.PREPARED_ROADS_ROLE, (model.WIT_ID,))
+        districts = layer(inputs.districts, model.PREPARED_DISTRICTS, model.PREPARED_DISTRICTS_ROLE,
                           (model.WIT_ID,))
         texcoords = layer(inputs.textures and str(Path(inputs.textures) / model.TEXCOORD_FILE), model.TEXCOORD_TABLE,
-                          "texture table (wit:wittexture)",
+                          model.TEXCOORD_ROLE,
                           (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS))
         if (lod1 is None or lod1.count() == 0) and (tin is None or inputs.lod1):
             raise InputError(f"{inputs.lod1} has no building faces: run wit:extrudebuildings on a non-empty area.")
@@ -170,12 +170,22 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
     return report
 
 
-def srs_uri_of(srs_name: str) -> str:
-    """``EPSG:n`` → the OGC http URI; URIs and URNs are passed through unchanged."""
+_ONE_EPSG_CODE = re.compile(r"(?i)(?:EPSG:|urn:ogc:def:crs:EPSG:[\d.]*:|https?://www\.opengis\.net/def/crs/EPSG/[\d.]+/)"
+                            r"(\d+)")
+
+
+def srs_name_of(srs_name: str) -> str:
+    """The ``srsName`` written for the target CRS: ``EPSG:n`` for an EPSG CRS in any form.
+
+    Coordinates are written as the layers hold them, easting (longitude) first. That is what the
+    short form means to readers (GDAL's GML reader, the validator: ``citygml.validation.crs``); the
+    URN and URL forms mean EPSG's axis order, northing first for the Korean belts (EPSG:5186), so
+    GDAL would read a URL-named model with x and y swapped. Other CRS URIs and URNs pass unchanged.
+    """
     name = srs_name.strip()
-    match = re.fullmatch(r"(?i)EPSG:(\d+)", name)
+    match = _ONE_EPSG_CODE.fullmatch(name)
     if match:
-        return f"http://www.opengis.net/def/crs/EPSG/0/{match.group(1)}"
+        return f"EPSG:{match.group(1)}"
     if re.match(r"(?i)(https?://|urn:)\S+$", name):
         return name
     raise InputError(f"CRS '{srs_name}' is neither EPSG:<code> nor a CRS URI/URN (e.g. EPSG:5186).")
@@ -194,8 +204,9 @@ class _Layer:
     def open(cls, path: str, name: str, role: str, fields: Iterable[str],
              geometry_z: bool = False) -> Iterator["_Layer"]:
         ds, layer, _ = open_step_layer(path, name, role, fields)
+        path, name = split_source(path)[0], layer.GetName()
         if geometry_z and not ogr.GT_HasZ(layer.GetGeomType()):
-            raise InputError(f"Layer '{name}' in {path} has no Z coordinates: re-create it with the {role}.")
+            raise InputError(f"Layer '{name}' in {path} has no Z coordinates: give the output of the {role}.")
         yield cls(ds, layer, path, name)
 
     def count(self) -> int:
@@ -257,7 +268,7 @@ def _envelope(layers: list[_Layer]) -> tuple[float, ...] | None:
     for source in layers:
         layer = source.layer
         # all but one field: GDAL 3.6's GPKG Arrow reader returns empty geometries when every field is ignored
-        layer.SetIgnoredFields([name for _, name, _ in source.fields()[1:]])
+        bulk_read.ignore_fields(layer, [name for _, name, _ in source.fields()[1:]])
         try:
             for batch in bulk_read.batches(layer, _BULK):
                 wkb = batch["geometry"]

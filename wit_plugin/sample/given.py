@@ -10,7 +10,7 @@ EPSG:5186. They are drawn as follows:
   Shadows use the height the layer gives (``heights`` recognises the common fields), else the
   default.
 * Road centre lines are buffered as wit:preparevectors buffers them: width from
-  ``vectors.road_widths`` (ROAD_BT, else the class default, else 6 m), round caps and joins.
+  ``vectors.road_widths`` (the layer's width field, lanes or class, else 6 m: ``roads``), round caps and joins.
   Road polygons are drawn as they are.
 * Yards around buildings and sidewalks along roads are paved; the rest is lawn, forest or bare soil.
 
@@ -282,11 +282,7 @@ def _roads(roads: VectorLayer, feedback: Feedback) -> tuple[np.ndarray, np.ndarr
     skipped = len(roads) - len(line) - len(polygon)
     if skipped:
         feedback.warning(f"roads: {skipped} of {len(roads)} feature(s) not drawn (no usable line or polygon).")
-    widths, sources = road_widths(roads.take(line), PrepareConfig.default_road_width)
-    defaulted = sources.count("default")
-    if defaulted:
-        feedback.warning(f"roads: {defaulted} of {len(line)} centre line(s) have no width (ROAD_BT): drawn with "
-                         f"the width of their class (ROA_CLS_SE) or {PrepareConfig.default_road_width:g} m.")
+    widths, _ = road_widths(roads.take(line), PrepareConfig.default_road_width, feedback)
     buffered = shapely.buffer(geoms[line], widths / 2, quad_segs=ROAD_QUAD_SEGS, cap_style="round",
                               join_style="round")
     areas = repair_polygons(geoms[polygon], roads.unclosed_rings[polygon], min_area=0.0).geoms

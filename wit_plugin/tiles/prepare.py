@@ -15,14 +15,12 @@ from pathlib import Path
 import numpy as np
 import pyproj
 import shapely
-from osgeo import ogr
 from shapely.geometry.base import BaseGeometry
 
 from .. import model
-from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
-from ..vector_io import OutputLayer, read_prepared, write_gpkg
+from ..vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
 from .plan import TileOwner
 
@@ -82,10 +80,7 @@ def prepare_tile_buildings(buildings: str, tile_area: BaseGeometry, owner: TileO
 
 def area_of_layer(path: str, target_crs: str) -> BaseGeometry:
     """The box of a layer's extent in ``target_crs`` ("everything the buildings layer covers")."""
-    ds = ogr.Open(str(path).split("|")[0])
-    if ds is None:
-        raise InputError(f"Cannot open {path} as a vector layer.")
-    layer = ds.GetLayer(0)
+    _ds, layer, _ = open_layer(path)  # the dataset outlives the layer
     xmin, xmax, ymin, ymax = layer.GetExtent()
     srs = layer.GetSpatialRef()
     source = pyproj.CRS.from_wkt(srs.ExportToWkt()) if srs is not None else pyproj.CRS.from_user_input(target_crs)

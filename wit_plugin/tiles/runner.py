@@ -27,17 +27,18 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from .. import triangulators
 from ..chain import ChainInputs, ChainOptions
 from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
-from ..chain.coverage import require_sheet_names
+from ..chain.coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 from ..deps import require
 from ..errors import CanceledError, InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import core_env, core_python
-from ..tiles3d.combine import TILE_TILESET, write_run_tileset
-from ..tiles3d.groups import GROUP_SCALE, group_of, write_group_contents
+from ..tiles3d.combine import TILE_TILESET, tile_areas, write_run_tileset
+from ..tiles3d.web import require_web_profile
 from ..vector_io import read_layer
 from ..vectors import StudyArea, repair_polygons, transform
 from .index import (
@@ -77,12 +78,13 @@ class TilesReport:
         return sum(r.get("buildings") or 0 for r in self.rows)
 
 
-WORKER_MODULES = ("distributed", "numpy", "shapely", "triangle", "pyproj", "lxml", "osgeo")
+WORKER_MODULES = ("distributed", "numpy", "shapely", "pyproj", "lxml", "osgeo")
 
 
-def worker_python(configured: str | None = None) -> str:
-    """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask)."""
-    return core_python(configured, WORKER_MODULES, "wit_plugin.tiles.worker")
+def worker_python(configured: str | None = None, triangulator: str = "pythoncdt") -> str:
+    """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask and the
+    triangulation library ``triangulator``)."""
+    return core_python(configured, (*WORKER_MODULES, triangulator), "wit_plugin.tiles.worker")
 
 
 def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
@@ -111,10 +113,12 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
         "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area),
         "target_crs": options.target_crs, "sheet_crs": options.sheet_crs, "margin": options.margin,
         "max_edge": options.max_edge, "tolerance": options.tolerance, "texture_scale": options.texture_scale,
+        "triangulator": triangulators.backend(options.triangulator).key,  # one for all tiles: the seams match
         "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
         "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir, "tiles3d": options.tiles3d,
+        "tiles3d_web": options.tiles3d_web,
         "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
@@ -210,7 +214,12 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     start = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     require_sheet_names(list_tifs(inputs.ortho))
+    if options.tiles3d and options.tiles3d_web:
+        require_web_profile()
     polygon = area_polygon(area, inputs, options.target_crs, options.encoding)
+    require_dem(inputs.dem, polygon, options.target_crs, feedback)  # in seconds, before any worker starts
+    require_ortho(ortho_coverage(list_tifs(inputs.ortho), polygon, options.target_crs, options.sheet_crs,
+                                 options.margin), options.outside_ortho == "untextured", feedback)
     tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
     previous = read_index(output)
     write_index(output, tiles, options.target_crs, previous)
@@ -225,7 +234,9 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                             (str(output / CONTEXT_FILE) if context else None, context)) for t in todo}
     rows = {sheet: row for sheet, row in previous.items() if sheet in {t.sheet for t in tiles}}
     if todo:
-        python = worker_python(python)
+        backend = triangulators.backend(options.triangulator)
+        feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")
+        python = worker_python(python, backend.module)
         workers = workers or os.cpu_count() or 1
         feedback.info(f"Dask: {'scheduler ' + scheduler if scheduler else f'LocalCluster of {workers} worker(s)'}"
                       f"{'' if scheduler else ', Python ' + python}.")
@@ -247,24 +258,19 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         raise InputError(f"No tile could be built ({len(failed)} failed, {report.count(EMPTY)} empty): {reasons}")
     if options.tiles3d:
         modelled = {r["sheet"]: Path(r["gml"]).parent.as_posix() for r in report.rows if r["status"] in (DONE, EMPTY)}
-        groups: dict[str, list[str]] = {}
-        for sheet in modelled:
-            groups.setdefault(group_of(sheet, scale, options.sheet_crs), []).append(sheet)
-        tile_polygons = {t.sheet: t.polygon for t in tiles}
-        areas = {name: shapely.intersection(polygon, shapely.union_all([tile_polygons[s] for s in sheets]))
-                 for name, sheets in groups.items()}
-        feedback.info(f"3D Tiles: the coarse terrain of {len(groups)} group(s) of tiles (1:{GROUP_SCALE[scale]:,} "
-                      "sheets).")
-        contents = write_group_contents(output, areas, inputs.dem, list_tifs(inputs.ortho), options.target_crs,
-                                        options.sheet_crs, options.margin, feedback)
-        report.tileset, combined = write_run_tileset(
-            output, modelled.values(), {name: [modelled[s] for s in sheets] for name, sheets in groups.items()},
-            contents)
-        if combined < len(modelled):
-            feedback.warning(f"{len(modelled) - combined} tile(s) have no 3D Tiles and are not in {report.tileset}.")
-        if None in contents.values():
-            feedback.warning(f"{list(contents.values()).count(None)} group(s) of tiles have no coarse terrain (the DEM "
-                             "or the orthoimage does not cover them): their tiles show from afar one by one.")
+        feedback.info("3D Tiles: the groups above the tiles (coarse terrain and largest buildings).")
+        written = write_run_tileset(output, modelled, tile_areas({t.sheet: t.polygon for t in tiles}, polygon),
+                                    inputs.dem, list_tifs(inputs.ortho), options.target_crs, options.sheet_crs,
+                                    options.margin, feedback, web=options.tiles3d_web)
+        report.tileset = written.path
+        feedback.info(f"3D Tiles: {written.groups} group(s) on {written.levels} level(s) over {written.tiles} tiles, "
+                      f"{written.buildings} buildings in the groups; the run's tileset.json {written.root_bytes:,} "
+                      f"bytes, the largest tileset file {written.largest_file_bytes:,} bytes.")
+        if written.tiles < len(modelled):
+            feedback.warning(f"{len(modelled) - written.tiles} tile(s) have no 3D Tiles and are not in {report.tileset}.")
+        if written.without_terrain:
+            feedback.warning(f"{written.without_terrain} group(s) of tiles have no coarse terrain (the DEM or the "
+                             "orthoimage does not cover them): from afar they show their buildings only.")
     feedback.info(f"Tiles: {report.count(DONE)} done, {len(failed)} failed, {report.count(EMPTY)} empty, "
                   f"{report.buildings} buildings, {report.seconds:.1f} s."
                   + (f" 3D Tiles: {report.tileset}" if report.tileset else ""))

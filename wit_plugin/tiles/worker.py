@@ -54,9 +54,10 @@ def run_tile(spec: dict) -> dict:
         area=StudyArea.polygon(job.area(spec["target_crs"]), spec["target_crs"]),
         target_crs=spec["target_crs"], sheet_crs=spec["sheet_crs"], margin=spec["margin"],
         max_edge=spec["max_edge"], tolerance=spec["tolerance"], texture_scale=spec["texture_scale"],
+        triangulator=spec["triangulator"],
         heights=HeightOptions(**spec["heights"]), outside_ortho=spec["outside_ortho"],
         schema_dir=spec["schema_dir"], schema_cache=spec["schema_cache"], metrics=False,
-        tiles3d=spec["tiles3d"], encoding=spec["encoding"], tile=job)
+        tiles3d=spec["tiles3d"], tiles3d_web=spec["tiles3d_web"], encoding=spec["encoding"], tile=job)
     row = {"sheet": sheet, "buildings": 0, "triangles": 0, "gml": None, "error": None}
     try:
         report = run_city_model(ChainInputs(**spec["inputs"]), options, folder,

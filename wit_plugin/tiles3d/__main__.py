@@ -9,7 +9,7 @@ from dataclasses import asdict
 
 from ..errors import WitError
 from ..feedback import LoggingFeedback
-from .tileset import export_tileset
+from .tileset import TilesetConfig, export_tileset
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -19,10 +19,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("textures")
     parser.add_argument("output")
     parser.add_argument("--crs", default="EPSG:5186")
+    parser.add_argument("--web", action="store_true", help="the web profile (quantized, meshopt-compressed)")
     args = parser.parse_args(argv)
     try:
         report = export_tileset(args.lod1 or None, args.tin or None, args.textures or None, args.output, args.crs,
-                                LoggingFeedback())
+                                LoggingFeedback(), TilesetConfig(web=args.web))
     except WitError as exc:
         print(str(exc), file=sys.stderr)
         return 2

@@ -98,9 +98,7 @@ def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: floa
         texels = np.flatnonzero(image == number)
         corners = tri[texels]
         uv = (triangles.uv[corners] * w[texels, :, None]).sum(axis=1)
-        chain = textures.levels(number)
-        level = min(_mip_level(triangles, number, chain[0].shape, step), len(chain) - 1)
-        pixels = chain[level]
+        pixels = textures.level(number, _mip_level(triangles, number, textures.shape(number), step))
         h, wd = pixels.shape[:2]
         col = np.clip((uv[:, 0] * wd).astype(np.int64), 0, wd - 1)
         row = np.clip(((1.0 - uv[:, 1]) * h).astype(np.int64), 0, h - 1)  # texture-table v grows upwards

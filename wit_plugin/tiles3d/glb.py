@@ -8,7 +8,10 @@ them, or embedded (the coarse terrain's own image).
 
 Building metadata follows the 3D Tiles 1.1 glTF extensions: each building primitive has a
 ``_FEATURE_ID_0`` vertex attribute (``EXT_mesh_features``) indexing the rows of one property table
-(``EXT_structural_metadata``, class ``building``); a NULL is the property's ``noData`` value.
+(``EXT_structural_metadata``, class ``building``); a NULL is the property's ``noData`` value. Every
+numeric property of the class is in every table (the official 3D Tiles validator rejects a table
+without one); a text property that is empty in every row is left out (its values would be a buffer
+view of 0 bytes, which glTF forbids) and reads as the class's ``default``, the empty string.
 """
 from __future__ import annotations
 
@@ -141,8 +144,8 @@ class GlbBuilder:
         table: dict = {"class": class_name, "count": count, "properties": {}}
         for name, values in columns.items():
             spec = properties[name]
-            if all(v is None or v == "" for v in values):
-                continue  # a property left out of a table is no data for every row (and no empty buffer view)
+            if spec["type"] == "STRING" and all(v is None or v == "" for v in values):
+                continue  # no empty buffer view: the class gives the text's ``default`` (``metadata``)
             if spec["type"] == "STRING":
                 encoded = [(v if v is not None else "").encode("utf-8") for v in values]
                 offsets = np.concatenate([[0], np.cumsum([len(e) for e in encoded])]).astype(np.uint32)

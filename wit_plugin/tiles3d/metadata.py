@@ -4,7 +4,10 @@ One class, ``building``, with a property per field of the LoD1 layer except the 
 (``face``, ``face_no``): the chain's own (``wit_id``, ``height``, ``height_src``, storeys, ``base_z``)
 and every source attribute kept by wit:extrudebuildings (e.g. ``BULD_NM``, the building's name, in
 Korean). OGR strings → STRING (UTF-8), integers → INT32 / INT64, reals → FLOAT64, anything else → its
-text. A NULL is stored as the property's ``noData`` value (the empty string for text).
+text. A NULL is stored as the property's ``noData`` value (the empty string for text). No property
+is ``required``; every tile's table holds every numeric property, and a text property is left out of
+a tile's table only when it is empty for all its buildings: it then reads as its ``default``, the
+empty string (3D Tiles 1.1 metadata: a missing or noData value reads as the ``default``).
 """
 from __future__ import annotations
 
@@ -51,7 +54,7 @@ def building_schema(fields: list[tuple[str, int]]) -> dict:
         elif kind == ogr.OFTReal:
             spec.update(type="SCALAR", componentType="FLOAT64", noData=FLOAT_NO_DATA)
         else:
-            spec.update(type="STRING", noData="")
+            spec.update(type="STRING", noData="", default="")
         if name in DESCRIPTIONS:
             spec["description"] = DESCRIPTIONS[name]
         key = property_id(name)
@@ -59,7 +62,7 @@ def building_schema(fields: list[tuple[str, int]]) -> dict:
             key += "_"
         properties[key] = spec
     if property_id(model.WIT_ID) not in properties:  # the id is there whatever the layer holds
-        properties[property_id(model.WIT_ID)] = {"name": model.WIT_ID, "type": "STRING", "noData": "",
+        properties[property_id(model.WIT_ID)] = {"name": model.WIT_ID, "type": "STRING", "noData": "", "default": "",
                                                  "description": DESCRIPTIONS[model.WIT_ID]}
     return {"id": SCHEMA_ID, "classes": {BUILDING_CLASS: {"name": "Building", "properties": properties}}}
 

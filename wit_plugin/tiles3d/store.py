@@ -8,12 +8,15 @@ the model (the inputs need no spatial index of their own, and are never written 
   larger of footprint diagonal and height, to keep the largest ones in coarse tiles) and its
   attributes (JSON, every field of the LoD1 layer but the per-face ones).
 * ``face``: roof and wall faces (WKB), joined to their building; ``tex_roof`` their texture rows.
-* ``tri``: TIN triangles (9 float64), with the leaf of their centroid; ``spill`` lists the other
-  leaves a triangle's extent reaches (a leaf's coarse terrain is sampled from its own triangles and
-  those), a few per cent of them; ``tex_tri`` their texture rows (image number, 3 uv pairs).
+* ``tri_block``: TIN triangles in blocks, one row per leaf of their centroids and batch read (ids,
+  surfaces, corners as 9 float64, image numbers, 3 uv pairs: columns of numbers in one blob each);
+  ``spill_block`` the same for the triangles whose extent reaches another leaf (a leaf's coarse
+  terrain is sampled from its own triangles and those), a few per cent of them, by that leaf;
+  ``tex_block`` the texture table's triangle rows, one block per batch read, sorted by id.
 
-Batches are read as columns (GDAL's Arrow interface where it exists) and written with one
-``executemany`` each; no spatial index is built (an R-tree insert per triangle cost more than all the rest).
+Batches are read as columns (GDAL's Arrow interface where it exists); triangles are written and read
+in blocks (a row per triangle cost more, in and out, than all the rest of their staging), the
+buildings' rows with one ``executemany`` per batch; no spatial index is built.
 """
 from __future__ import annotations
 
@@ -28,7 +31,7 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import model
+from .. import bulk_read, model
 from ..errors import InputError
 from ..feedback import Feedback
 from ..meshes import parse_texcoords, triangle_vertices
@@ -78,7 +81,8 @@ def morton(col: np.ndarray, row: np.ndarray) -> np.ndarray:
     """Interleave the bits of column (even bits) and row (odd bits), 20 bits each."""
     code = np.zeros(np.shape(col), dtype=np.int64)
     col, row = np.asarray(col, dtype=np.int64), np.asarray(row, dtype=np.int64)
-    for bit in range(20):
+    bits = min(20, int(max(col.max(), row.max())).bit_length()) if code.size else 0  # the higher bits are 0
+    for bit in range(bits):
         code |= ((col >> bit) & 1) << (2 * bit) | ((row >> bit) & 1) << (2 * bit + 1)
     return code
 
@@ -119,9 +123,9 @@ class Store:
             CREATE TABLE face (wit_id TEXT, face_no INTEGER, kind INTEGER, wkb BLOB);
             CREATE TABLE tex_roof (wit_id TEXT, face_no INTEGER, image INTEGER, uv BLOB,
                                    PRIMARY KEY (wit_id, face_no)) WITHOUT ROWID;
-            CREATE TABLE tri (id INTEGER PRIMARY KEY, leaf INTEGER, surface INTEGER, xyz BLOB);
-            CREATE TABLE spill (leaf INTEGER, tri INTEGER);
-            CREATE TABLE tex_tri (tri_id INTEGER PRIMARY KEY, image INTEGER, uv BLOB);
+            CREATE TABLE tri_block (leaf INTEGER, ids BLOB, surface BLOB, xyz BLOB, image BLOB, uv BLOB);
+            CREATE TABLE spill_block (leaf INTEGER, own BLOB, surface BLOB, xyz BLOB, image BLOB, uv BLOB);
+            CREATE TABLE tex_block (first INTEGER, last INTEGER, ids BLOB, image BLOB, uv BLOB);
         """)
         self.images: list[str] = []
         self.fields: list[tuple[str, int]] = []  # building attributes: (name, OGR field type)
@@ -135,41 +139,48 @@ class Store:
     def add_textures(self, folder: str, feedback: Feedback) -> None:
         path = Path(folder) / model.TEXCOORD_FILE
         fields = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
-        ds, layer, _ = open_step_layer(str(path), model.TEXCOORD_TABLE, "texture table (wit:wittexture)", fields)
+        ds, layer, _ = open_step_layer(str(path), model.TEXCOORD_TABLE, model.TEXCOORD_ROLE, fields)
         numbers: dict[str, int] = {}
         for batch in _column_batches(layer, fields):
             feedback.check_canceled()
             try:
-                uv, counts = parse_texcoords(_texts(batch[model.TEX_COORDS]))
+                uv, counts = _texcoords(batch[model.TEX_COORDS])
             except ValueError:
                 raise InputError(f"The texture table {path} has malformed texture coordinates: "
                                  "re-run wit:wittexture.") from None
             uv = uv.astype(np.float32)
             starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            names, image = np.unique(_texts(batch[model.TEX_IMAGE]), return_inverse=True)
-            image = np.array([numbers.setdefault(name, len(numbers)) for name in names.tolist()], dtype=np.int64)[image]
-            target = np.array(_texts(batch[model.TEX_TARGET]), dtype=object)
-            roof = np.flatnonzero(target == "roof")
-            features = np.array(_texts(batch[model.TEX_FEATURE]), dtype=object)
+            names, image = _unique_texts(batch[model.TEX_IMAGE])
+            image = np.array([numbers.setdefault(name, len(numbers)) for name in names], dtype=np.int64)[image]
+            kinds, target = _unique_texts(batch[model.TEX_TARGET])
+            is_roof = np.isin(target, [k for k, kind in enumerate(kinds) if kind == "roof"])
+            roof = np.flatnonzero(is_roof)
+            features = np.asarray(batch[model.TEX_FEATURE])
+            faces = batch[model.TEX_FACE][roof].tolist()
             self.db.executemany("INSERT OR REPLACE INTO tex_roof VALUES (?, ?, ?, ?)", [
-                (features[i], int(batch[model.TEX_FACE][i] or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
-                for i in roof.tolist()])
-            tri = np.flatnonzero((target != "roof") & (counts == 4))
+                (feature, int(face or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
+                for feature, face, i in zip(_texts(features[roof]), faces, roof.tolist())])
+            tri = np.flatnonzero(~is_roof & (counts == 4))
             try:
                 ids = features[tri].astype(np.int64)
             except ValueError:
                 raise InputError(f"The texture table {path} names a TIN triangle by a non-numeric id: "
                                  "re-run wit:wittexture.") from None
-            corners = uv[starts[tri][:, None] + np.arange(3)].reshape(len(tri), 6)
-            self.db.executemany("INSERT OR REPLACE INTO tex_tri VALUES (?, ?, ?)",
-                                zip(ids.tolist(), image[tri].tolist(), map(bytes, corners)))
+            if len(ids):  # sorted by id; of a repeated id the last row counts (as the roofs' rows)
+                order = np.argsort(ids, kind="stable")
+                last = np.append(ids[order][1:] != ids[order][:-1], True)
+                order = order[last]
+                corners = uv[starts[tri[order]][:, None] + np.arange(3)]
+                self.db.execute("INSERT INTO tex_block VALUES (?, ?, ?, ?, ?)", (
+                    int(ids[order[0]]), int(ids[order[-1]]), ids[order].tobytes(), image[tri[order]].tobytes(),
+                    np.ascontiguousarray(corners, dtype=np.float32).tobytes()))
         del layer, ds
         self.images = sorted(numbers, key=numbers.get)
         self.db.executemany("INSERT INTO image VALUES (?, ?)", [(n, name) for name, n in numbers.items()])
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
         """Buildings from their ground faces, then their roof and wall faces; returns the building count."""
-        ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
+        ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, model.LOD1_ROLE,
                                        (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.HEIGHT))
         defn = layer.GetLayerDefn()
         kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
@@ -196,8 +207,8 @@ class Store:
             feedback.check_canceled()
             kinds = [FACE_KINDS[k] for k in _texts(batch[model.FACE_TYPE])]
             self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?)", [
-                row for row in zip(_texts(batch[model.WIT_ID]), batch[model.FACE_NUMBER].tolist(), kinds, batch[None])
-                if row[3]])
+                row for row in zip(_texts(batch[model.WIT_ID]), batch[model.FACE_NUMBER].tolist(), kinds,
+                                   map(_blob, batch[None])) if row[3]])
         del layer, ds
         self.db.execute("CREATE INDEX face_building ON face (wit_id)")
         self.orphan_faces = self.db.execute(
@@ -213,43 +224,70 @@ class Store:
                             [(r[0], int(leaf), r[3], r[4]) for r, leaf in zip(rows, leaves.tolist())])
 
     def add_triangles(self, path: str, grid: Grid, feedback: Feedback) -> int:
-        ds, layer, _ = open_step_layer(path, model.TIN_LAYER, "TIN (wit:triangulateterrain)",
+        ds, layer, _ = open_step_layer(path, model.TIN_LAYER, model.TIN_ROLE,
                                        (model.TIN_TRIANGLE_ID, model.TIN_SURFACE))
-        total = 0
+        seen = []
         for batch in _column_batches(layer, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE), geometry=True):
             feedback.check_canceled()
-            xyz = triangle_vertices(shapely.from_wkb(np.array(batch[None], dtype=object), on_invalid="ignore"))
+            xyz = _triangle_corners(batch[None])
             ok = np.isfinite(xyz).all(axis=(1, 2))
             ids = np.asarray(batch[model.TIN_TRIANGLE_ID], dtype=np.int64)[ok]
-            names, surface = np.unique(_texts(batch[model.TIN_SURFACE]), return_inverse=True)
-            surface = np.array([SURFACES.get(name, 0) for name in names.tolist()], dtype=np.int64)[surface][ok]
-            xyz = xyz[ok]
+            names, surface = _unique_texts(batch[model.TIN_SURFACE])
+            surface = np.array([SURFACES.get(name, 0) for name in names], dtype=np.int8)[surface][ok]
+            xyz = np.ascontiguousarray(xyz[ok])
+            if not len(ids):
+                continue
+            seen.append(ids)
+            image, uv = self._triangle_textures(ids)
             centre = xyz.mean(axis=1)
             own = grid.leaf_codes(centre[:, 0], centre[:, 1])
-            try:
-                self.db.executemany("INSERT INTO tri VALUES (?, ?, ?, ?)", zip(
-                    ids.tolist(), own.tolist(), surface.tolist(), map(bytes, xyz.reshape(-1, 9))))
-            except sqlite3.IntegrityError:
-                raise InputError(f"The TIN {path} repeats triangle ids ({model.TIN_TRIANGLE_ID}): "
-                                 "re-run wit:triangulateterrain.") from None
+            columns = (surface, xyz, image, uv)
+            order = np.argsort(own, kind="stable")
+            leaves, first = np.unique(own[order], return_index=True)
+            self.db.executemany("INSERT INTO tri_block VALUES (?, ?, ?, ?, ?, ?)", [
+                (int(leaf), ids[part].tobytes(), *(c[part].tobytes() for c in columns))
+                for leaf, part in zip(leaves.tolist(), np.split(order, first[1:]))])
             lo, hi = xyz.min(axis=1), xyz.max(axis=1)
             spills = set()
             for x, y in ((lo[:, 0], lo[:, 1]), (hi[:, 0], lo[:, 1]), (lo[:, 0], hi[:, 1]), (hi[:, 0], hi[:, 1])):
                 other = grid.leaf_codes(x, y)
                 crossing = np.flatnonzero(other != own)
-                spills.update(zip(other[crossing].tolist(), ids[crossing].tolist()))
-            self.db.executemany("INSERT INTO spill VALUES (?, ?)", spills)
-            total += len(ids)
+                spills.update(zip(other[crossing].tolist(), crossing.tolist()))
+            if spills:
+                pairs = np.array(list(spills), dtype=np.int64)
+                order = np.argsort(pairs[:, 0], kind="stable")
+                leaves, first = np.unique(pairs[order, 0], return_index=True)
+                self.db.executemany("INSERT INTO spill_block VALUES (?, ?, ?, ?, ?, ?)", [
+                    (int(leaf), own[pairs[part, 1]].tobytes(), *(c[pairs[part, 1]].tobytes() for c in columns))
+                    for leaf, part in zip(leaves.tolist(), np.split(order, first[1:]))])
         del layer, ds
-        self.db.execute("CREATE INDEX tri_leaf ON tri (leaf)")
-        self.db.execute("CREATE INDEX spill_leaf ON spill (leaf)")
-        return total
+        everything = np.concatenate(seen) if seen else np.zeros(0, dtype=np.int64)
+        if len(np.unique(everything)) < len(everything):
+            raise InputError(f"The TIN {path} repeats triangle ids ({model.TIN_TRIANGLE_ID}): "
+                             "re-run wit:triangulateterrain.")
+        self.db.execute("CREATE INDEX tri_block_leaf ON tri_block (leaf)")
+        self.db.execute("CREATE INDEX spill_block_leaf ON spill_block (leaf)")
+        return len(everything)
+
+    def _triangle_textures(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Image number (-1: none) and uv (3 pairs) of the triangles ``ids``, from the texture blocks
+        whose id range meets theirs (a later block's row counts over an earlier one's)."""
+        image, uv = np.full(len(ids), -1, dtype=np.int64), np.zeros((len(ids), 3, 2), dtype=np.float32)
+        for block_ids, block_image, block_uv in self.db.execute(
+                "SELECT ids, image, uv FROM tex_block WHERE first <= ? AND last >= ? ORDER BY rowid",
+                (int(ids.max()), int(ids.min()))):
+            known = np.frombuffer(block_ids, dtype=np.int64)
+            where = np.minimum(np.searchsorted(known, ids), len(known) - 1)
+            hit = known[where] == ids
+            image[hit] = np.frombuffer(block_image, dtype=np.int64)[where[hit]]
+            uv[hit] = np.frombuffer(block_uv, dtype=np.float32).reshape(-1, 3, 2)[where[hit]]
+        return image, uv
 
     # --- reading -----------------------------------------------------------------------------
 
     def leaves(self) -> set[int]:
         """Codes of the leaves holding anything."""
-        rows = self.db.execute("SELECT DISTINCT leaf FROM building UNION SELECT DISTINCT leaf FROM tri")
+        rows = self.db.execute("SELECT DISTINCT leaf FROM building UNION SELECT DISTINCT leaf FROM tri_block")
         return {leaf for (leaf,) in rows}
 
     def buildings(self, first: int, end: int, min_size: float = 0.0, limit: int = -1) -> BuildingRows:
@@ -284,33 +322,36 @@ class Store:
         return float(row[0]) if row and row[0] is not None else 0.0
 
     def triangles(self, leaf: int) -> TriangleRows:
-        """The leaf's TIN triangles and those of its neighbours reaching into it (``leaf`` tells which)."""
-        columns = "t.leaf, t.surface, t.xyz, x.image, x.uv"
-        rows = self.db.execute(
-            f"SELECT {columns} FROM tri t LEFT JOIN tex_tri x ON x.tri_id = t.id WHERE t.leaf = ? UNION ALL "
-            f"SELECT {columns} FROM spill s JOIN tri t ON t.id = s.tri LEFT JOIN tex_tri x ON x.tri_id = t.id "
-            "WHERE s.leaf = ?", (leaf, leaf)).fetchall()
-        n = len(rows)
-        xyz = np.frombuffer(b"".join(r[2] for r in rows), dtype=np.float64).reshape(n, 3, 3)
-        uv = np.zeros((n, 3, 2), np.float32)
-        textured = [i for i, r in enumerate(rows) if r[4] is not None]
-        if textured:
-            uv[textured] = np.frombuffer(b"".join(rows[i][4] for i in textured), dtype=np.float32).reshape(-1, 3, 2)
-        return TriangleRows(xyz, np.array([r[1] for r in rows], dtype=np.int8),
-                            np.array([-1 if r[3] is None else r[3] for r in rows], dtype=np.int64), uv,
-                            np.array([r[0] for r in rows], dtype=np.int64))
+        """The leaf's TIN triangles (by id) and those of its neighbours reaching into it (``leaf`` tells which)."""
+        own = self.db.execute("SELECT ids, surface, xyz, image, uv FROM tri_block WHERE leaf = ? ORDER BY rowid",
+                              (leaf,)).fetchall()
+        spill = self.db.execute("SELECT own, surface, xyz, image, uv FROM spill_block WHERE leaf = ? ORDER BY rowid",
+                                (leaf,)).fetchall()
+        ids = np.frombuffer(b"".join(r[0] for r in own), dtype=np.int64)
+        order = np.concatenate([np.argsort(ids, kind="stable"), len(ids) + np.arange(
+            sum(len(r[0]) for r in spill) // 8)]).astype(np.int64)
+        rows = own + spill
+
+        def column(k: int, dtype, shape: tuple[int, ...] = ()) -> np.ndarray:
+            return np.frombuffer(b"".join(r[k] for r in rows), dtype=dtype).reshape((-1, *shape))[order]
+
+        leaves = np.concatenate([np.full(len(ids), leaf, dtype=np.int64), np.frombuffer(
+            b"".join(r[0] for r in spill), dtype=np.int64)])[order]
+        return TriangleRows(column(2, np.float64, (3, 3)), column(1, np.int8), column(3, np.int64),
+                            column(4, np.float32, (3, 2)), leaves)
 
 
 def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = False) -> Iterator[dict]:
     """Batches of columns (numpy arrays; key None: the ISO WKB geometries), through GDAL's Arrow
-    interface when it has one, else a feature loop. Text may come as bytes: see ``_texts``."""
-    if hasattr(layer, "GetArrowStreamAsNumPy"):
+    interface when it can take the layer (``bulk_read.arrow_ready``), else a feature loop. Text may
+    come as bytes: see ``_texts``."""
+    if bulk_read.arrow_ready(layer):
         geom_name = layer.GetGeometryColumn() or "geom"
         options = ["USE_MASKED_ARRAYS=NO", f"MAX_FEATURES_IN_BATCH={BATCH}", "INCLUDE_FID=NO"]
         for batch in layer.GetArrowStreamAsNumPy(options=options):
             columns = {f: batch[f] for f in fields}
             if geometry:
-                columns[None] = [bytes(w) if w is not None else None for w in batch[geom_name]]
+                columns[None] = batch[geom_name]
             yield columns
         return
     rows: list[list] = []
@@ -327,8 +368,55 @@ def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = 
 def _as_columns(rows: list[list], fields: tuple[str, ...], geometry: bool) -> dict:
     columns: dict = {f: np.array([r[k] for r in rows], dtype=object) for k, f in enumerate(fields)}
     if geometry:
-        columns[None] = [r[-1] for r in rows]
+        columns[None] = np.array([r[-1] for r in rows] + [None], dtype=object)[:-1]
     return columns
+
+
+def _blob(wkb) -> bytes | None:
+    return None if wkb is None else bytes(wkb)
+
+
+#: a triangle as GDAL writes it in ISO WKB: little-endian Polygon Z, one ring of four points
+_TRIANGLE_WKB = bytes([1, 0xEB, 3, 0, 0, 1, 0, 0, 0, 4, 0, 0, 0])
+
+
+def _triangle_corners(wkbs: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) corners of triangle polygons (NaN for anything else). Read straight from the WKB
+    bytes when every row is a plain triangle of the same layout (the TIN's), else through shapely."""
+    if wkbs.dtype.kind == "V" and wkbs.dtype.itemsize == len(_TRIANGLE_WKB) + 96 and len(wkbs):
+        raw = np.frombuffer(wkbs.tobytes(), dtype=np.uint8).reshape(len(wkbs), -1)
+        if (raw[:, :len(_TRIANGLE_WKB)] == np.frombuffer(_TRIANGLE_WKB, dtype=np.uint8)).all():
+            points = raw[:, len(_TRIANGLE_WKB):].copy().view("<f8").reshape(len(wkbs), 4, 3)
+            return points[:, :3].astype(np.float64)
+    geometries = shapely.from_wkb(np.array([_blob(w) for w in wkbs], dtype=object), on_invalid="ignore")
+    return triangle_vertices(geometries)
+
+
+def _unique_texts(column: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """The distinct texts of a column (decoded) and each row's index into them."""
+    values = np.asarray(column)
+    if values.dtype == object:
+        values = np.array(_texts(values))
+    names, inverse = np.unique(values, return_inverse=True)
+    return _texts(names), inverse
+
+
+def _texcoords(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``parse_texcoords`` for a column; Arrow's fixed-width byte strings are parsed as one block
+    (numbers and each row's count of them found with numpy, no Python loop per row)."""
+    values = np.asarray(column)
+    if values.dtype.kind != "S" or not len(values):
+        return parse_texcoords(_texts(values))
+    chars = np.full((len(values), values.dtype.itemsize + 1), 32, dtype=np.uint8)  # a blank after each row
+    chars[:, :-1] = np.frombuffer(values.tobytes(), dtype=np.uint8).reshape(len(values), -1)
+    blank = chars <= 32  # spaces and the NULs that pad a row to the column's width
+    chars[blank] = 32
+    starts = ~blank & np.concatenate([np.ones((len(chars), 1), dtype=bool), blank[:, :-1]], axis=1)
+    counts = starts.sum(axis=1)
+    flat = np.fromstring(chars.tobytes(), sep=" ") if counts.any() else np.zeros(0)
+    if len(flat) != counts.sum() or np.any(counts % 2):
+        raise ValueError("malformed texture coordinates")
+    return flat.reshape(-1, 2), counts // 2
 
 
 def _texts(column: np.ndarray) -> list[str]:

@@ -4,8 +4,9 @@ Full-detail tiles reference the atlases and ground images of ``wit:wittexture`` 
 files, same texture coordinates: nothing is re-cut). Coarser tiles reference mip level k of the same
 atlas (``<image>_mip<k>.<ext>``, the texture step's naming): taken from the texture folder when it
 wrote its mip chain, else computed with ``texture.mip_chain`` (the same box filter) and written
-here. Texture coordinates are relative, so they hold for every level. Decoded levels are kept for
-a few images only (sampling the coarse terrain's images), so memory does not grow with the model.
+here. Texture coordinates are relative, so they hold for every level. Each image is decoded once
+while its smaller levels stay cached (they serve the coarse terrain's sampling and the mip files);
+the cache is bounded in bytes, so memory does not grow with the model.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from ..errors import InputError
 from ..texture import mip_chain
 
 TEXTURE_DIR = "textures"
-_CACHED_IMAGES = 3
+_CACHE_BYTES = 96 * 2 ** 20
 
 
 def encode_image(pixels: np.ndarray, fmt: str = "JPEG", quality: int = 85) -> bytes:
@@ -44,14 +45,16 @@ def encode_image(pixels: np.ndarray, fmt: str = "JPEG", quality: int = 85) -> by
 
 
 def read_rgb(path: Path) -> np.ndarray:
-    """An image file as rows × columns × 3 uint8 (grey repeated, alpha dropped)."""
+    """An image file as rows × columns × 3 uint8 (grey repeated, alpha dropped), read pixel-interleaved."""
     ds = gdal.Open(str(path))
     if ds is None:
         raise InputError(f"Cannot read the texture image {path}: re-run wit:wittexture.")
-    pixels = ds.ReadAsArray()
-    pixels = pixels[None] if pixels.ndim == 2 else pixels
-    pixels = np.repeat(pixels, 3, axis=0) if len(pixels) == 1 else pixels[:3]
-    return np.ascontiguousarray(np.moveaxis(pixels, 0, -1).astype(np.uint8))
+    bands = min(ds.RasterCount, 3) if ds.RasterCount != 2 else 1
+    pixels = ds.ReadAsArray(band_list=list(range(1, bands + 1)), interleave="pixel")
+    pixels = pixels.reshape(pixels.shape[0], pixels.shape[1], -1)
+    if pixels.shape[2] == 1:
+        pixels = np.repeat(pixels, 3, axis=2)
+    return np.ascontiguousarray(pixels, dtype=np.uint8)
 
 
 class TextureSet:
@@ -61,7 +64,8 @@ class TextureSet:
         self.folder, self.names, self.output = folder, names, output / TEXTURE_DIR
         self.quality = jpeg_quality
         self.written: dict[str, int] = {}  # file name → bytes
-        self._levels: OrderedDict[int, list[np.ndarray]] = OrderedDict()
+        self._mips: OrderedDict[int, list[np.ndarray]] = OrderedDict()  # levels 1… of each image, by use
+        self._full: tuple[int, np.ndarray] | None = None  # the last level 0 asked for
 
     def uri(self, number: int, level: int = 0) -> str:
         """Relative URI (from the tileset's root) of image ``number`` at mip ``level``, written on first use."""
@@ -77,18 +81,36 @@ class TextureSet:
             elif level == 0:
                 raise InputError(f"The texture image {source} is missing: re-run wit:wittexture.")
             else:
-                chain = self.levels(number)
                 fmt = "PNG" if ext.lower() == "png" else "JPEG"
-                target.write_bytes(encode_image(chain[min(level, len(chain) - 1)], fmt, self.quality))
+                target.write_bytes(encode_image(self.level(number, level), fmt, self.quality))
             self.written[file] = target.stat().st_size
         return f"{TEXTURE_DIR}/{file}"
 
-    def levels(self, number: int) -> list[np.ndarray]:
-        """Decoded mip chain of image ``number`` (a few kept, least recently used dropped)."""
-        if number in self._levels:
-            self._levels.move_to_end(number)
+    def shape(self, number: int) -> tuple[int, int]:
+        """Rows and columns of image ``number`` (read from its header, not decoded)."""
+        path = self.folder / self.names[number]
+        ds = gdal.Open(str(path))
+        if ds is None:
+            raise InputError(f"Cannot read the texture image {path}: re-run wit:wittexture.")
+        return ds.RasterYSize, ds.RasterXSize
+
+    def level(self, number: int, level: int) -> np.ndarray:
+        """Mip ``level`` of image ``number`` (the last level when the chain is shorter), decoded.
+
+        The image is decoded and its chain computed once while its smaller levels stay cached (a
+        quarter of the image and less, least recently used dropped beyond ``_CACHE_BYTES``); level 0
+        is kept for the last image only, so memory does not grow with the model."""
+        if level <= 0:
+            if self._full is None or self._full[0] != number:
+                self._full = number, read_rgb(self.folder / self.names[number])
+            return self._full[1]
+        if number in self._mips:
+            self._mips.move_to_end(number)
         else:
-            self._levels[number] = mip_chain(read_rgb(self.folder / self.names[number]))
-            while len(self._levels) > _CACHED_IMAGES:
-                self._levels.popitem(last=False)
-        return self._levels[number]
+            chain = mip_chain(self._full[1] if self._full and self._full[0] == number
+                              else read_rgb(self.folder / self.names[number]))
+            self._mips[number] = chain[1:]
+            while len(self._mips) > 1 and sum(a.nbytes for c in self._mips.values() for a in c) > _CACHE_BYTES:
+                self._mips.popitem(last=False)
+        mips = self._mips[number]
+        return mips[min(level, len(mips)) - 1] if mips else self.level(number, 0)

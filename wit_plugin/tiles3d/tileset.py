@@ -50,6 +50,7 @@ from .glb import GlbBuilder
 from .metadata import BUILDING_CLASS, building_schema, property_columns
 from .store import FACE_KINDS, Grid, Store
 from .textures import TextureSet, encode_image
+from .web import compress_tiles, require_web_profile
 
 TILESET_FILE = "tileset.json"
 TILE_DIR = "tiles"
@@ -70,6 +71,8 @@ class TilesetConfig:
     building_budget: int = 3000
     """Most buildings in an upper tile."""
     jpeg_quality: int = 85
+    web: bool = False
+    """Web profile (``web``): quantized, meshopt-compressed geometry for browsers; QGIS cannot read it."""
 
 
 @dataclass
@@ -115,10 +118,12 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
             or config.leaf_size <= 0 or config.building_budget < 1:
         raise InputError(f"Tileset settings out of range: {config}.")
     out = _check_output(Path(output), [p for p in (lod1, tin, textures) if p])
+    if config.web:
+        require_web_profile()
     georef = Georeference(crs)
-    for path, layer in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
+    for path, layer, role in ((lod1, model.LOD1_LAYER, model.LOD1_ROLE), (tin, model.TIN_LAYER, model.TIN_ROLE)):
         if path:
-            _check_crs(path, layer, georef)
+            _check_crs(path, layer, role, georef)
     report = TilesetReport(output=str(out), tileset=str(out / TILESET_FILE))
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=".wit-stage-", dir=out.parent) as stage_dir, \
@@ -150,6 +155,10 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
             if root is None:
                 raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
             root.json["transform"] = column_major(root.frame)
+            if config.web:
+                web_start = time.perf_counter()
+                compress_tiles(folder, feedback)
+                report.seconds["web"] = round(time.perf_counter() - web_start, 3)
             report.geometric_error = root.error
             side = grid.size * (1 << grid.depth)
             document = {"asset": {"version": "1.1", "generator": "WIT City Model (wit:export3dtiles)"},
@@ -181,8 +190,8 @@ def _check_output(out: Path, inputs: list[str]) -> Path:
     return out
 
 
-def _check_crs(path: str, layer_name: str, georef: Georeference) -> None:
-    ds, layer, _ = open_step_layer(path, layer_name, f"layer '{layer_name}'")
+def _check_crs(path: str, layer_name: str, role: str, georef: Georeference) -> None:
+    ds, layer, _ = open_step_layer(path, layer_name, role)
     srs = layer.GetSpatialRef()
     if srs is not None:
         wanted = osr.SpatialReference()
@@ -195,9 +204,9 @@ def _check_crs(path: str, layer_name: str, georef: Georeference) -> None:
 
 def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, float]:
     boxes = []
-    for path, name in ((lod1, model.LOD1_LAYER), (tin, model.TIN_LAYER)):
+    for path, name, role in ((lod1, model.LOD1_LAYER, model.LOD1_ROLE), (tin, model.TIN_LAYER, model.TIN_ROLE)):
         if path:
-            ds, layer, _ = open_step_layer(path, name, f"layer '{name}'")
+            ds, layer, _ = open_step_layer(path, name, role)
             if layer.GetFeatureCount() > 0:
                 xmin, xmax, ymin, ymax = layer.GetExtent()
                 boxes.append((xmin, ymin, xmax, ymax))
@@ -206,6 +215,17 @@ def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, flo
         raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
     a = np.array(boxes)
     return float(a[:, 0].min()), float(a[:, 1].min()), float(a[:, 2].max()), float(a[:, 3].max())
+
+
+def _distinct_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of ``points`` (n, 3) and each row's index into them (each point is then
+    transformed once: transforms are per point, so the results are the same)."""
+    points = np.ascontiguousarray(points)
+    if not len(points):
+        return points, np.zeros(0, dtype=np.int64)
+    _, first, inverse = np.unique(points.view(np.dtype((np.void, points.itemsize * 3))).ravel(),
+                                  return_index=True, return_inverse=True)
+    return points[first], inverse
 
 
 def _face_up(xyz: np.ndarray, *others: np.ndarray) -> None:
@@ -258,15 +278,16 @@ class _Writer:
         xyz, uv, image = triangles.xyz[own].copy(), triangles.uv[own].astype(np.float64), triangles.image[own]
         _face_up(xyz, uv)
         uv[:, :, 1] = 1.0 - uv[:, :, 1]  # texture table: v up; glTF: v down
+        points, inverse = _distinct_points(xyz.reshape(-1, 3))  # a TIN vertex is a corner of ~6 triangles
+        local = self.georef.local(frame, points)[inverse].reshape(-1, 3, 3)
         for number in np.unique(image).tolist():
             mine = image == number
             if number >= 0:
                 material = glb.photo_material(uri="../../" + self.textures.uri(number), name=self.store.images[number])
-                glb.triangles(self.georef.local(frame, xyz[mine].reshape(-1, 3)).reshape(-1, 3, 3), material, uv[mine])
+                glb.triangles(local[mine], material, uv[mine])
             else:
-                glb.triangles(self.georef.local(frame, xyz[mine].reshape(-1, 3)).reshape(-1, 3, 3),
-                              glb.plain_material(GROUND_RGB, lit=False, name="ground"))
-        corners.append(xyz.reshape(-1, 3))
+                glb.triangles(local[mine], glb.plain_material(GROUND_RGB, lit=False, name="ground"))
+        corners.append(points)
         patch = leaf_patch(triangles, rect, self.config.grid_cells, self.config.image_size // 2,
                            self.textures if self.textures.folder else None)
         return self._finish(level, col, row, glb, frame, corners, [], 0.0, patch)

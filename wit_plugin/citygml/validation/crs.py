@@ -1,4 +1,4 @@
-"""The units of a geometry's CRS, so that metre tolerances mean metres in any CRS.
+"""The units and axis order of a geometry's CRS, so that metre tolerances mean metres in any CRS.
 
 The geometric checks (vertex matching, planarity, areas, volumes) compare distances with
 tolerances in metres. Coordinates in a projected CRS are metres (or feet: scaled); coordinates in
@@ -6,9 +6,17 @@ a geographic CRS are degrees, where 0.001 would be 100 m. A ``Frame`` turns the 
 solid or triangle into local metres around its first vertex: east, north and up, scaled by the
 metres per degree of the ellipsoid at that latitude (the error over a 1 km feature is below a
 millimetre, and the frame stays right-handed whatever the CRS's axis order).
+
+Axis order, as GDAL's GML reader reads it: the short form ``EPSG:n`` is longitude (easting) first;
+the URN (``urn:ogc:def:crs:EPSG::n``) and URL (``http://www.opengis.net/def/crs/EPSG/0/n``) forms
+follow EPSG's order — latitude first for EPSG:4326, 4979 and 6697 (Japan's PLATEAU), northing
+first for the Korean belts (EPSG:5185–5188) and 5179. A solid read in the wrong order is a mirror
+image: every face points inwards. Writers disagree about these CRSs, so such a finding says how
+the file would read in the other order.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import re
@@ -28,10 +36,22 @@ class Frame:
     name: str | None
     geographic: bool = False
     scale: tuple[float, float, float] = (1.0, 1.0, 1.0)  # metres per unit of x, y, z (not geographic)
-    lat_axis: int = 1  # geographic: the axis holding latitude (0: lat/lon order, 1: lon/lat order)
+    lat_axis: int = 1  # the axis holding latitude / northing (0: lat/lon, northing first; 1: lon/lat, easting first)
     semi_major: float = 6378137.0
     flattening: float = 1 / 298.257222101
     assumed: str | None = None  # what was assumed for a CRS that is not known offline (for a warning)
+    disputed: bool = False  # EPSG's order is north first: files of this CRS are written both ways
+
+    @property
+    def order(self) -> str:
+        """How the file's coordinates are read, for messages: e.g. "longitude first"."""
+        first = ("latitude" if self.geographic else "northing") if self.lat_axis == 0 else (
+            "longitude" if self.geographic else "easting")
+        return f"{first} first"
+
+    @property
+    def other_order(self) -> str:
+        return self.swapped().order
 
     @property
     def decimals(self) -> int:
@@ -40,7 +60,7 @@ class Frame:
 
     def swapped(self) -> Frame:
         """The same CRS read in the other horizontal axis order."""
-        return Frame(self.name, True, self.scale, 1 - self.lat_axis, self.semi_major, self.flattening, self.assumed)
+        return dataclasses.replace(self, lat_axis=1 - self.lat_axis)
 
     def metres_per_unit(self, origins: np.ndarray) -> np.ndarray:
         """(n, 3) metres per unit of each axis at each origin (n, 3), in the CRS's axis order."""
@@ -59,11 +79,11 @@ class Frame:
     def to_local(self, points: np.ndarray, origin: np.ndarray, per_unit: np.ndarray) -> np.ndarray:
         """``points`` (…, 3) as east/north/up metres from ``origin`` (3,), given ``metres_per_unit`` there."""
         local = (points - origin) * per_unit
-        return local[..., [1, 0, 2]] if self.geographic and self.lat_axis == 0 else local
+        return local[..., [1, 0, 2]] if self.lat_axis == 0 else local
 
     def from_local(self, local: np.ndarray, origin: np.ndarray, per_unit: np.ndarray) -> np.ndarray:
         """Inverse of ``to_local`` (for positions named in messages)."""
-        if self.geographic and self.lat_axis == 0:
+        if self.lat_axis == 0:
             local = local[..., [1, 0, 2]]
         return local / per_unit + origin
 
@@ -97,15 +117,16 @@ def _frame_of_name(srs_name: str) -> Frame:
     except pyproj.exceptions.CRSError:
         return Frame(srs_name, assumed=f"EPSG:{codes[0]} is not in the PROJ database")
     axes = list(horizontal.axis_info) + (list(vertical.axis_info) if vertical is not None else [])
+    north_first = axes[0].direction == "north"  # EPSG's order
+    # "EPSG:n" is longitude / easting first by GIS custom (GDAL's GML reader); URNs and URLs follow EPSG's order
+    lat_axis = 0 if north_first and not _SHORT_FORM.match(srs_name) else 1
     if horizontal.is_geographic:
-        # "EPSG:4326" is longitude first by GIS custom (as WFS servers read it); URNs and URLs follow EPSG's order
-        lat_axis = 1 if _SHORT_FORM.match(srs_name) or axes[0].direction != "north" else 0
         ellipsoid = horizontal.ellipsoid
         height = axes[2].unit_conversion_factor if len(axes) > 2 else 1.0
         return Frame(srs_name, True, (1.0, 1.0, height), lat_axis, ellipsoid.semi_major_metre,
-                     1 / ellipsoid.inverse_flattening if ellipsoid.inverse_flattening else 0.0)
+                     1 / ellipsoid.inverse_flattening if ellipsoid.inverse_flattening else 0.0, disputed=north_first)
     factors = [a.unit_conversion_factor or 1.0 for a in axes] + [1.0] * 3
-    return Frame(srs_name, scale=(factors[0], factors[1], factors[2]))
+    return Frame(srs_name, scale=(factors[0], factors[1], factors[2]), lat_axis=lat_axis, disputed=north_first)
 
 
 def _is_adv_projected(srs_name: str) -> bool:

@@ -69,7 +69,7 @@ def to_local(points: np.ndarray, owner: np.ndarray, frames: list[Frame], origins
              per_unit: np.ndarray) -> np.ndarray:
     """East/north/up metres of ``points`` from the origin of their owner (a solid or triangle)."""
     local = (points - origins[owner]) * per_unit[owner]
-    lat_first = np.fromiter((f.geographic and f.lat_axis == 0 for f in frames), dtype=bool, count=len(frames))
+    lat_first = np.fromiter((f.lat_axis == 0 for f in frames), dtype=bool, count=len(frames))
     if lat_first.any():
         rows = lat_first[owner]
         local[rows] = local[rows][:, [1, 0, 2]]
@@ -311,8 +311,13 @@ class SolidCheck:
     def _outward(self, s: int, solid: Where) -> None:
         vol, sid = self.volume[s], solid.gml_id
         if vol < 0:
+            frame = self.frames[s]
+            hint = "" if not frame.disputed else (
+                f" — unless the coordinates are written {frame.other_order}: {frame.name} is read {frame.order}, and "
+                "read the other way the solid points outwards; then give the srsName that says so (EPSG:n for "
+                "longitude/easting first, its URN or URL for EPSG's order)")
             self.issues.add("solid-orientation", solid.line, sid, f"Solid {sid or ''} is inside out: all faces point "
-                            f"inwards (signed volume {vol:.3f} m³); reverse the vertex order of every face.")
+                            f"inwards (signed volume {vol:.3f} m³); reverse the vertex order of every face{hint}.")
         elif vol <= self.tol ** 3:
             self.issues.add("solid-closed", solid.line, sid, f"Solid {sid or ''} encloses no volume.")
 

@@ -68,6 +68,7 @@ _SIGNATURES = {
     "xmlSchemaSetValidStructuredErrors": (None, [ctypes.c_void_p, _ERROR_HANDLER, ctypes.c_void_p]),
     "xmlSchemaValidateFile": (ctypes.c_int, [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_int]),
     "xmlSchemaFreeValidCtxt": (None, [ctypes.c_void_p]),
+    "xmlSchemaFree": (None, [ctypes.c_void_p]),
     "xmlSetStructuredErrorFunc": (None, [ctypes.c_void_p, _ERROR_HANDLER]),
     "xmlSetGenericErrorFunc": (None, [ctypes.c_void_p, _GENERIC_HANDLER]),
 }
@@ -101,17 +102,24 @@ def _candidates():
             yield found
 
 
-def streaming_schema(schema_dir: Path) -> int | None:
-    """libxml2's compiled schema of ``schema_dir`` for the streaming validator, or None (no libxml2, no schema)."""
-    return _compiled(str(Path(schema_dir).resolve()))
+def streaming_available(schema_dir: Path) -> bool:
+    """Whether libxml2 can be loaded for the streaming validator and ``schema_dir`` has the entry point."""
+    return _libxml2() is not None and (Path(schema_dir) / ENTRY_POINT).is_file()
 
 
-@functools.lru_cache(maxsize=4)
 def _compiled(folder: str) -> int | None:
-    """libxml2's compiled schema of ``folder`` (kept for the process, like lxml's), or None."""
+    """libxml2's compiled schema of ``folder``, or None (no libxml2, no schema); free it with ``xmlSchemaFree``.
+
+    Compiled for each file and freed when its validation ends, never kept for the process: whatever in
+    the process calls libxml2's ``xmlCleanupParser`` (SpatiaLite does, each time GDAL or QGIS closes a
+    SpatiaLite connection) frees the built-in types a compiled schema points to, and a schema kept from
+    before then reports "Internal error" for every element or crashes QGIS (seen with libxml2 2.15,
+    QGIS 3.44).
+    """
     lib = _libxml2()
     if lib is None or not (Path(folder) / ENTRY_POINT).is_file():
         return None
+    lib.xmlInitParser()  # again: a cleanup may have happened since
     parser = lib.xmlSchemaNewParserCtxt(os.fsencode(Path(folder) / ENTRY_POINT))
     if not parser:
         return None
@@ -122,11 +130,12 @@ def _compiled(folder: str) -> int | None:
 
 
 class StreamingValidation:
-    """libxml2's streaming XSD validation of one file, in a background thread (``start``, then ``errors``)."""
+    """libxml2's streaming XSD validation of one file, in a background thread (``start``, then ``errors``),
+    with its own compiled schema, freed when the thread ends (a cancelled run leaves the thread to finish)."""
 
     def __init__(self, path: Path, schema_dir: Path, enabled: bool = True):
         self.path = path
-        self.schema = streaming_schema(schema_dir) if enabled else None
+        self.schema = _compiled(str(Path(schema_dir).resolve())) if enabled else None
         self.found: list[SchemaError] = []
         self.more = 0  # errors beyond _MAX_KEPT
         self.code: int | None = None
@@ -156,6 +165,7 @@ class StreamingValidation:
             self.code = lib.xmlSchemaValidateFile(ctxt, path, 0)
         finally:
             lib.xmlSchemaFreeValidCtxt(ctxt)
+            lib.xmlSchemaFree(self.schema)
 
     def _on_error(self, _data, error) -> None:
         e = error.contents
