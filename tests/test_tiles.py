@@ -403,10 +403,8 @@ def test_a_tiled_run_in_the_3d_tiles_web_profile_compresses_every_tile_and_group
         assert {"EXT_meshopt_compression", "KHR_mesh_quantization"} <= set(gltf.extensionsRequired), path
 
 
-def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
-    """A DEM with a hole (-9999) under the eastern sliver tile: 1 % of the run's area, which the check
-    before the cluster lets through with a warning (a DEM or orthoimage that misses the area is refused
-    there: test_reproject), but all of that tile's: it fails with the reason, the others are built."""
+def _holed_dem(sample, tmp_path: Path) -> Path:
+    """The sample's DEM with a hole (-9999) under the eastern sliver tile 377090321 (1:1,000) of AREA."""
     from osgeo import gdal
 
     holed = tmp_path / "dem_holed.tif"
@@ -418,6 +416,14 @@ def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
     band = ds.GetRasterBand(1)
     band.WriteArray(np.full((r1 - r0, c1 - c0), -9999.0, dtype=np.float32), c0, r0)
     ds = band = None
+    return holed
+
+
+def test_a_failing_tile_is_recorded_and_the_others_go_on(sample, tmp_path):
+    """A DEM with a hole (-9999) under the eastern sliver tile: 1 % of the run's area, which the check
+    before the cluster lets through with a warning (a DEM or orthoimage that misses the area is refused
+    there: test_reproject), but all of that tile's: it fails with the reason, the others are built."""
+    holed = _holed_dem(sample, tmp_path)
     report = run_tiles(_inputs(sample, dem=str(holed)), _options(), tmp_path / "out", AREA, scale=1000, workers=2)
     failed = [r for r in report.rows if r["status"] == "failed"]
     assert [r["sheet"] for r in failed] == ["377090321"] and report.count("done") >= 1
@@ -721,17 +727,14 @@ def test_citymodeltiles_through_processing_never_relaunches_qgis(run_algorithm, 
 @pytest.mark.qgis_facing
 def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_run(run_algorithm, sample, local_run,
                                                                                     tmp_path):
-    """A DEM that covers half the area: qgis_process exits non-zero with the count and the first reasons, the
-    tiles done stay; through Processing on the same folder the same error (the tiles done are not built
-    again); with the whole DEM the run ends complete, building only the tiles that had failed."""
-    from osgeo import gdal
+    """A DEM with a hole under one tile (the check before the cluster lets it through: 1 % of the area):
+    qgis_process exits non-zero with the count and the first reasons, the tiles done stay; through
+    Processing on the same folder the same error (the tiles done are not built again); with the whole DEM
+    the run ends complete, building only the tile that had failed."""
     from qgis.core import QgsProcessingException
 
-    ds = gdal.Open(str(sample.dem))
-    half = tmp_path / "dem_west.tif"
-    gdal.Translate(str(half), ds, srcWin=[0, 0, ds.RasterXSize // 2 + 8, ds.RasterYSize])
     out = tmp_path / "out"
-    parameters = dict(_parameters(sample, out), DEM=str(half))
+    parameters = dict(_parameters(sample, out), DEM=str(_holed_dem(sample, tmp_path)))
     args = [str(ROOT / "scripts" / "qgis-process"), "run", "wit:citymodeltiles"]
     for name, value in parameters.items():
         args += [f"--{name}={item}" for item in (value if isinstance(value, list) else [value])]
@@ -743,7 +746,7 @@ def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_ru
     log = result.stdout + result.stderr
     assert result.returncode != 0 and failed and done, log[-3000:]
     assert f"{len(failed)} of {len(index)} tile(s) failed. First reasons: {failed[0]}: " in log, log[-3000:]
-    assert "does not cover the area" in log and "Traceback" not in log
+    assert failed == ["377090321"] and "has NoData under 100% of the area" in log and "Traceback" not in log
     assert not any((out / "tiles" / s).exists() for s in failed)
     with pytest.raises(QgsProcessingException, match=rf"^{len(failed)} of {len(index)} tile\(s\) failed\. "):
         run_algorithm("wit:citymodeltiles", parameters)
