@@ -83,7 +83,7 @@ def _inputs(paths: dict):
     return buildings, terrain.features(buildings), terrain.features(roads)
 
 
-def terrain_clock() -> "_Clock":
+def terrain_clock() -> _Clock:
     """A clock splitting the terrain step as Table 20 does: mesh generation, DEM mapping, writing."""
     import triangle
 

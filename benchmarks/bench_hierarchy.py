@@ -207,8 +207,8 @@ def main() -> int:
     from wit_plugin.tiles.index import read_index
     from wit_plugin.tiles.plan import tile_of
     from wit_plugin.tiles.prepare import area_of_layer
-    from wit_plugin.tiles3d.combine import tile_areas
     from wit_plugin.tiles3d.check import check_tileset
+    from wit_plugin.tiles3d.combine import tile_areas
 
     if args.district:
         name, run = "district", OUT / "tiles" / "district-run"

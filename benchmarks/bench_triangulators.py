@@ -60,6 +60,8 @@ def child_area(key: int) -> dict:
 
 
 def run_tiles_case(key: int, tiles: int) -> dict:
+    import shapely
+
     from benchmarks.bench_tiles import OUT as TILES_OUT
     from benchmarks.bench_tiles import blocks
     from wit_plugin import triangulators
@@ -68,8 +70,6 @@ def run_tiles_case(key: int, tiles: int) -> dict:
     from wit_plugin.tiles.plan import tile_of
     from wit_plugin.tiles.runner import run_tiles
     from wit_plugin.vectors import StudyArea
-
-    import shapely
 
     folder = TILES_OUT / "sample"
     if not (folder / "sample_manifest.json").is_file():  # the same sample as bench_tiles.py

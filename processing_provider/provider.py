@@ -7,10 +7,10 @@ from .citymodel import CityModel
 from .citymodeltiles import CityModelTiles
 from .colorstore_algorithms import BuildColorStore, QueryColorStore
 from .export3dtiles import Export3DTiles
+from .extrudebuildings import ExtrudeBuildings
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
 from .installdependencies import InstallDependencies
-from .extrudebuildings import ExtrudeBuildings
 from .mergetiles import MergeTiles
 from .preparevectors import PrepareVectors
 from .qualitymetrics import QualityMetrics

@@ -49,7 +49,6 @@ def ensure_wit_provider():
     Looked up on every use: a plugin test's unload() removes (and deletes) the provider.
     """
     from qgis.core import QgsApplication
-
     from wit_citymodel.processing_provider.provider import WitProvider
 
     registry = QgsApplication.processingRegistry()

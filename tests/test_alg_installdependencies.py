@@ -227,7 +227,6 @@ def test_an_algorithm_lacking_a_package_says_how_to_install_and_the_gui_offers_t
     import processing
     from qgis.core import QgsApplication, QgsProcessingException
     from qgis.PyQt.QtWidgets import QPushButton
-
     from wit_citymodel import plugin as plugin_module
 
     opened = []

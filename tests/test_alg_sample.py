@@ -7,10 +7,10 @@ import json
 import pyproj
 import pytest
 import shapely
-from qgis.core import QgsProcessingException
-
 from conftest import juso_roads
+from qgis.core import QgsProcessingException
 from test_sample_given import snapshot
+
 from wit_plugin import mapsheet
 from wit_plugin.vector_io import read_layer
 from wit_plugin.vectors import transform

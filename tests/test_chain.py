@@ -7,11 +7,11 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from conftest import ensure_wit_provider
 from lxml import etree
 from osgeo import ogr
 from qgis.core import QgsVectorLayer
 
-from conftest import ensure_wit_provider
 from wit_plugin.sample import SampleConfig, generate_sample
 
 pytestmark = pytest.mark.qgis_facing

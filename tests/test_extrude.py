@@ -10,9 +10,9 @@ import shapely
 from osgeo import ogr
 
 from wit_plugin import extrude, heights, model
-from wit_plugin.heights import HeightOptions
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
+from wit_plugin.heights import HeightOptions
 
 
 def plane_dem(a=0.1, b=-0.05, c=50.0):

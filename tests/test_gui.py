@@ -12,7 +12,6 @@ import shutil
 import subprocess
 
 import pytest
-
 from conftest import ROOT
 
 HANGUL = re.compile("[\uac00-\ud7a3]")

@@ -11,9 +11,9 @@ import subprocess
 from collections import Counter
 
 import pytest
+from conftest import ROOT, ensure_wit_provider
 from lxml import etree
 
-from conftest import ROOT, ensure_wit_provider
 from wit_plugin.sample import SampleConfig, generate_sample
 
 pytestmark = [pytest.mark.slow, pytest.mark.qgis_facing]

@@ -6,14 +6,12 @@ import sys
 import textwrap
 
 import pytest
-from qgis.core import QgsApplication
-
 import wit_citymodel
+from conftest import ROOT
+from qgis.core import QgsApplication
 from wit_citymodel import plugin as plugin_module
 from wit_citymodel.processing_provider.base import tr
 from wit_citymodel.processing_provider.provider import ALGORITHMS, MODELS
-
-from conftest import ROOT
 
 pytestmark = pytest.mark.qgis_facing
 

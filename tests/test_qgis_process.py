@@ -7,9 +7,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from osgeo import gdal, ogr, osr
-
 from conftest import ROOT
+from osgeo import gdal, ogr, osr
 
 pytestmark = pytest.mark.qgis_facing
 
@@ -127,9 +126,8 @@ def test_georeference_without_the_footprint_index(tmp_path, profile):
 def test_sample_drawn_from_real_roads_then_the_whole_chain_headless(tmp_path, profile, shared_dir, suseo_buildings):
     """500 m around Suseo: tiles and DEM drawn from the real Gangnam roads and footprints, then
     wit:citymodel on them with those roads: the coverage check passes and the whole model is valid."""
-    from test_sample_given import snapshot
-
     from conftest import juso_roads
+    from test_sample_given import snapshot
 
     roads = juso_roads(shared_dir)
     districts = roads.with_name("TL_SCCO_EMD.shp")

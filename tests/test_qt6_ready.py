@@ -6,7 +6,6 @@ from __future__ import annotations
 import configparser
 
 import pytest
-
 from conftest import ROOT
 from qt6_scan import plugin_sources, scan_plugin, scan_source
 
@@ -102,7 +101,6 @@ def test_compat_enums_are_the_ones_this_qgis_takes():
         QgsProcessingParameterFile,
         QgsProcessingParameterNumber,
     )
-
     from wit_citymodel.processing_provider.qgis_compat import (
         FileBehavior,
         NumberType,

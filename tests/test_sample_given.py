@@ -11,10 +11,10 @@ import numpy as np
 import pyproj
 import pytest
 import shapely
+from conftest import juso_roads
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from conftest import juso_roads
 from wit_plugin import mapsheet
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import CanceledError, InputError

@@ -18,9 +18,9 @@ import pygltflib
 import pyproj
 import pytest
 import shapely
+from conftest import view_in_chromium
 from lxml import etree
 
-from conftest import view_in_chromium
 from wit_plugin import triangulators
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import CanceledError

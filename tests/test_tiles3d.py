@@ -12,9 +12,9 @@ import numpy as np
 import pygltflib
 import pytest
 import shapely
+from conftest import ensure_wit_provider, view_in_chromium
 from osgeo import gdal, ogr
 
-from conftest import ensure_wit_provider, view_in_chromium
 from wit_plugin import model
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback

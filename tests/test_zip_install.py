@@ -15,7 +15,6 @@ import subprocess
 import zipfile
 
 import pytest
-
 from conftest import ROOT
 
 pytestmark = [pytest.mark.slow, pytest.mark.zip_install, pytest.mark.qgis_facing]

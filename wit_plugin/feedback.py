@@ -31,7 +31,7 @@ class Feedback:
         if self.is_canceled():
             raise CanceledError("Cancelled by the user.")
 
-    def scaled(self, start: float, end: float) -> "Feedback":
+    def scaled(self, start: float, end: float) -> Feedback:
         """A feedback whose 0–100 maps onto ``start``–``end`` of this one (for sub-steps)."""
         return _ScaledFeedback(self, start, end)
 

@@ -30,16 +30,16 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 from osgeo import gdal, gdal_array, osr
 
 from .errors import InputError, WitError
-from .gdal_env import capped_block_cache, open_raster, read_window
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
+from .gdal_env import capped_block_cache, open_raster, read_window
 from .tone import ToneSolver, is_elevation
 
 MODES = ("feather", "overwrite")

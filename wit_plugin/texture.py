@@ -60,10 +60,11 @@ from __future__ import annotations
 
 import contextlib
 import math
+from collections.abc import Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Callable
 
 import numpy as np
 import pyproj
@@ -304,7 +305,7 @@ class _Rings:
         first = self.starts[:-1]
         return np.hstack([np.minimum.reduceat(self.xy, first), np.maximum.reduceat(self.xy, first)])
 
-    def take(self, index: np.ndarray) -> "_Rings":
+    def take(self, index: np.ndarray) -> _Rings:
         """The rings at ``index``, in that order."""
         counts = self.starts[1:][index] - self.starts[:-1][index]
         starts = np.concatenate([[0], np.cumsum(counts)])
@@ -312,7 +313,7 @@ class _Rings:
         return _Rings(self.targets[index], self.features[index], self.faces[index], self.xy[points], starts)
 
     @staticmethod
-    def concat(parts: list["_Rings"]) -> "_Rings":
+    def concat(parts: list[_Rings]) -> _Rings:
         if not parts:
             return _Rings(*(np.empty(0, dtype=object),) * 3, np.empty((0, 2)), np.zeros(1, dtype=np.int64))
         counts = np.concatenate([np.diff(part.starts) for part in parts])

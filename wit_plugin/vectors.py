@@ -49,9 +49,10 @@ import csv
 import math
 import os
 import re
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Protocol, Sequence
+from typing import Protocol
 
 import numpy as np
 import pyproj
@@ -64,8 +65,18 @@ from .feedback import SILENT, Feedback
 from .fileio import atomic_file, refuse_overlap
 from .roads import WidthRule
 from .roads import widths as road_widths_of
-from .vector_io import (BUILDING_FIELDS, DISTRICT_FIELDS, ROAD_FIELDS, FieldDef, OutputLayer, VectorLayer,
-                        keep_source_fields, non_finite, read_layer, write_gpkg)
+from .vector_io import (
+    BUILDING_FIELDS,
+    DISTRICT_FIELDS,
+    ROAD_FIELDS,
+    FieldDef,
+    OutputLayer,
+    VectorLayer,
+    keep_source_fields,
+    non_finite,
+    read_layer,
+    write_gpkg,
+)
 
 REPAIR_KINDS = ("unclosed_ring", "orientation", "repeated_vertex", "invalid", "multipart", "sliver_part")
 DROP_REASONS = ("no_geometry", "non_finite", "wrong_type", "collapsed", "too_small", "thin", "covered", "duplicate")
@@ -96,26 +107,26 @@ class StudyArea:
     name_field: str | None = None
 
     @classmethod
-    def circle(cls, x: float, y: float, radius: float, crs: str = "EPSG:4326") -> "StudyArea":
+    def circle(cls, x: float, y: float, radius: float, crs: str = "EPSG:4326") -> StudyArea:
         """Centre (lon/lat by default, or x/y in ``crs``) and radius in metres of the target CRS."""
         if not (radius > 0 and math.isfinite(radius)):
             raise InputError(f"The study-area radius must be a positive number of metres, not {radius}.")
         return cls("circle", x=float(x), y=float(y), radius=float(radius), crs=crs)
 
     @classmethod
-    def polygon(cls, geometry: shapely.Geometry | str, crs: str) -> "StudyArea":
+    def polygon(cls, geometry: shapely.Geometry | str, crs: str) -> StudyArea:
         """A polygon (or its WKT) in ``crs``: a bounding box, a map-sheet tile."""
         wkt = geometry if isinstance(geometry, str) else shapely.to_wkt(geometry)
         return cls("polygon", wkt=wkt, crs=crs)
 
     @classmethod
-    def from_layer(cls, path: str | os.PathLike, layer: str | None = None, crs: str | None = None) -> "StudyArea":
+    def from_layer(cls, path: str | os.PathLike, layer: str | None = None, crs: str | None = None) -> StudyArea:
         """The union of a polygon layer's features."""
         return cls("layer", path=str(path), layer=layer, crs=crs)
 
     @classmethod
     def from_district_code(cls, code: str | int, code_field: str | None = None,
-                           name_field: str | None = None) -> "StudyArea":
+                           name_field: str | None = None) -> StudyArea:
         """A legal dong by its code (EMD_CD, 8 digits) or its name, looked up in the district layer.
 
         ``code_field`` / ``name_field`` name the fields of a district layer of another schema.
@@ -736,7 +747,7 @@ class _Prepared:
     ids: list[str]
     extra_fields: list[FieldDef] = field(default_factory=list)
     extra_columns: dict[str, list] = field(default_factory=dict)
-    foreign: "_Prepared | None" = None  # tiles: the neighbours' buildings that cross into the area
+    foreign: _Prepared | None = None  # tiles: the neighbours' buildings that cross into the area
 
 
 def _check_config(config: PrepareConfig) -> pyproj.CRS:

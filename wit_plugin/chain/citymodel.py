@@ -30,7 +30,6 @@ from pathlib import Path
 from shapely.geometry.base import BaseGeometry
 
 from .. import extrude, model, terrain
-from ..terrain import Seam
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
@@ -39,16 +38,17 @@ from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..heights import HeightOptions
+from ..interpreter import core_env, core_python
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
+from ..terrain import Seam
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
-from ..interpreter import core_env, core_python
+from ..tiles.job import TileJob
+from ..tiles.prepare import clip_context, prepare_tile_buildings
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
 from ..vector_io import read_prepared
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
-from ..tiles.job import TileJob
-from ..tiles.prepare import clip_context, prepare_tile_buildings
 from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")

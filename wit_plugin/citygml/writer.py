@@ -34,11 +34,12 @@ import re
 import shutil
 import sqlite3
 import tempfile
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from itertools import chain, groupby, islice
 from operator import itemgetter
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable
 from xml.sax.saxutils import escape
 
 import numpy as np
@@ -52,8 +53,8 @@ from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
 from ..gc_pause import collector_paused
 from ..numtext import ring_texts
-from .schemas import CITYGML_MODULES
 from ..vector_io import open_step_layer, split_source
+from .schemas import CITYGML_MODULES
 
 APPEARANCE_THEME = "rgbTexture"
 DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-address data
@@ -202,7 +203,7 @@ class _Layer:
     @classmethod
     @contextlib.contextmanager
     def open(cls, path: str, name: str, role: str, fields: Iterable[str],
-             geometry_z: bool = False) -> Iterator["_Layer"]:
+             geometry_z: bool = False) -> Iterator[_Layer]:
         ds, layer, _ = open_step_layer(path, name, role, fields)
         path, name = split_source(path)[0], layer.GetName()
         if geometry_z and not ogr.GT_HasZ(layer.GetGeomType()):
@@ -349,7 +350,7 @@ def _tri_ids(column: np.ndarray) -> list[str]:
     return [f"tri_{value}" for value in values]
 
 
-def _tin_triangles(tin: "_Layer", where: str, order: tuple[str, ...]
+def _tin_triangles(tin: _Layer, where: str, order: tuple[str, ...]
                    ) -> Iterator[tuple[list[str], list[str], dict[str, np.ndarray]]]:
     """Batches of the TIN triangles matching ``where`` in ``order``: (ids ``tri_<n>``, posList texts, the batch).
 
@@ -437,7 +438,7 @@ class _Membership:
         self.db = sqlite3.connect(Path(self.tmp.name) / "members.sqlite")
         self.db.execute("CREATE TABLE m (district INTEGER, building TEXT)")
 
-    def __enter__(self) -> "_Membership":
+    def __enter__(self) -> _Membership:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -502,7 +503,7 @@ class _Writer:
 
     @classmethod
     @contextlib.contextmanager
-    def document(cls, fh: Any, srs_uri: str, report: WriteReport, progress: _Progress) -> Iterator["_Writer"]:
+    def document(cls, fh: Any, srs_uri: str, report: WriteReport, progress: _Progress) -> Iterator[_Writer]:
         """The CityModel with its envelope; members are written inside the ``with`` block."""
         locations = " ".join(f"{NS[p]} {CITYGML_MODULES[NS[p]]}"
                              for p in ("core", "bldg", "con", "tran", "dem", "app", "gen", "grp"))

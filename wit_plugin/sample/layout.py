@@ -431,7 +431,7 @@ class _Quad:
         self.la = 0.5 * (np.linalg.norm(q[1] - q[0]) + np.linalg.norm(q[2] - q[3]))
         self.lb = 0.5 * (np.linalg.norm(q[3] - q[0]) + np.linalg.norm(q[2] - q[1]))
 
-    def rolled(self, r: int) -> "_Quad":
+    def rolled(self, r: int) -> _Quad:
         """The same quad with its corners renumbered so that side ``r`` becomes side 0."""
         return _Quad(np.roll(self.q, -r, axis=0))
 

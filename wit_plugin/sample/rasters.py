@@ -20,11 +20,18 @@ import shapely
 from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
-from ..feedback import Feedback, SILENT
+from ..feedback import SILENT, Feedback
 from ..gdal_env import read_window
-from .layout import (GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS,
-                            CityLayout, footprints)
-
+from .layout import (
+    GROUND_BARE,
+    GROUND_FOREST,
+    GROUND_LANE,
+    GROUND_LAWN,
+    GROUND_PARKING,
+    PITCHED_ROOFS,
+    CityLayout,
+    footprints,
+)
 
 NO_DATA_HOLE = -9999.0
 SUSEO_STATION_5186 = (209020.888, 543132.772)

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import datetime
 import struct
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
