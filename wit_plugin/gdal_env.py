@@ -86,8 +86,9 @@ def open_raster(path: str | os.PathLike, what: str = "raster") -> gdal.Dataset:
     """Open the input raster ``path`` read-only without writing beside it, or raise ``InputError``.
 
     Refused: a missing or empty file, GDAL's failure to open it, an open that succeeded with
-    errors (a damaged header), and a GeoTIFF whose pixel data runs past the end of the file. An existing ``.aux.xml`` is still read (it may hold the
-    georeferencing or NoData); nothing is ever written to it.
+    errors (a damaged header), and a GeoTIFF whose pixel data runs past the end of the file. An
+    existing ``.aux.xml`` is still read (it may hold the georeferencing or NoData); nothing is ever
+    written to it.
     """
     path = str(path)
     if not path.startswith("/vsi") and not os.path.isdir(path):

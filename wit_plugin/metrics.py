@@ -81,9 +81,9 @@ from .citygml.validation.crs import frame_of
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file
-from .gdal_env import open_raster, read_window
+from .gdal_env import open_raster, quiet_gdal, read_window
 from .raster_crs import crs_name, foreign_crs, transform_geometry
-from .vector_io import FieldDef, OutputLayer, gdal_quiet, open_step_layer, split_source, write_gpkg
+from .vector_io import FieldDef, OutputLayer, open_step_layer, split_source, write_gpkg
 
 METRICS_TABLE = "quality_metrics"
 BUILDINGS_LAYER = "quality_buildings"
@@ -245,7 +245,7 @@ def _image_stats(gray: np.ndarray, mask: np.ndarray | None) -> _Stats:
 
 def _open_vector(path: str | os.PathLike) -> ogr.DataSource | None:
     """The OGR data source, or None if GDAL cannot read it as vector data (with or without UseExceptions)."""
-    with gdal_quiet():
+    with quiet_gdal():
         try:
             return ogr.Open(str(path))
         except RuntimeError:
@@ -326,7 +326,7 @@ class _Burner:
     def mask(self, width: int, height: int, gt: tuple[float, ...]) -> np.ndarray:
         target = gdal.GetDriverByName("MEM").Create("", width, height, 1, gdal.GDT_Byte)
         target.SetGeoTransform(gt)
-        with gdal_quiet():  # "no spatial reference on layer": both sides share one, as intended
+        with quiet_gdal():  # "no spatial reference on layer": both sides share one, as intended
             gdal.RasterizeLayer(target, [1], self._layer, burn_values=[1])
         return read_window(target, 0, 0, width, height, "the rasterised polygons (in memory)").astype(bool)
 

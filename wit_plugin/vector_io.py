@@ -12,7 +12,7 @@ import codecs
 import contextlib
 import os
 import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,11 +25,12 @@ from . import bulk_read
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import sidecar, vector_file_problem
+from .gdal_env import quiet_gdal
 
 DBF_SAMPLE_BYTES = 4 << 20  # sniff the encoding from the first 4 MiB of records
 
-# Expected fields of the road-name-address layers (paper Tables 2–4 with the names the real
-# files use, SPEC §4: BUL_ENG_NM, EQB_MAN_SN, NTFC_DE, EMD_CD). Missing ones are reported.
+# Expected fields of the road-name-address layers (paper Tables 2–4, with the names the real
+# files use where they differ: BUL_ENG_NM, EQB_MAN_SN, NTFC_DE, EMD_CD). Missing ones are reported.
 BUILDING_FIELDS = ("BD_MGT_SN", "BUL_MAN_NO", "SIG_CD", "RN_CD", "RDS_MAN_NO", "BSI_INT_SN", "EQB_MAN_SN",
                    "BULD_SE_CD", "BULD_MNNM", "BUL_ENG_NM", "BULD_NM_DC", "BDTYP_CD", "BUL_DPN_SE",
                    "POS_BUL_NM", "EMD_CD", "GRO_FLO_CO", "UND_FLO_CO")
@@ -47,6 +48,16 @@ class FieldDef:
     subtype: int = ogr.OFSTNone
     width: int = 0
     precision: int = 0
+
+
+def create_fields(layer: ogr.Layer, fields: Sequence[FieldDef]) -> None:
+    """Add ``fields`` to a new OGR layer with their types, subtypes, widths and precisions."""
+    for fd in fields:
+        defn = ogr.FieldDefn(fd.name, fd.type)
+        defn.SetSubType(fd.subtype)
+        defn.SetWidth(fd.width)
+        defn.SetPrecision(fd.precision)
+        layer.CreateField(defn)
 
 
 @dataclass
@@ -107,16 +118,6 @@ def keep_source_fields(source: Sequence[FieldDef], own: Sequence[str], layer: st
         feedback.warning(f"{layer}: source fields renamed so they do not clash with the derived ones: "
                          f"{', '.join(renamed)}.")
     return kept
-
-
-@contextlib.contextmanager
-def gdal_quiet() -> Iterator[None]:
-    """Keep GDAL warnings (e.g. "Non closed ring detected") off stderr; we count such defects ourselves."""
-    gdal.PushErrorHandler("CPLQuietErrorHandler")
-    try:
-        yield
-    finally:
-        gdal.PopErrorHandler()
 
 
 def _codec(name: str) -> str | None:
@@ -298,7 +299,7 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
         feedback.warning(f"{Path(path).name}: the encoding parameter applies to shapefiles only; ignored.")
         encoding = None
     options = [f"ENCODING={gdal_encoding(encoding)}"] if is_shp and encoding else []
-    with gdal_quiet():
+    with quiet_gdal():
         try:
             ds = gdal.OpenEx(path, gdal.OF_VECTOR, open_options=options)
         except RuntimeError as exc:
@@ -368,7 +369,7 @@ def layer_extent(path: str | os.PathLike, target: pyproj.CRS, layer: str | None 
     source = _crs_of(lyr, str(path), crs)
     if lyr.GetFeatureCount() == 0:
         return None
-    with gdal_quiet():
+    with quiet_gdal():
         xmin, xmax, ymin, ymax = lyr.GetExtent()
     del lyr, ds
     bounds = pyproj.Transformer.from_crs(source, target, always_xy=True).transform_bounds(
@@ -424,7 +425,7 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
                          "feature by feature.")
     if bbox is not None:
         lyr.SetSpatialFilterRect(*bbox)
-    with gdal_quiet():
+    with quiet_gdal():
         columns, wkbs, fids = _read_rows(lyr, fields, feedback)
         if bbox is not None:  # the filter drops them unread: they would vanish uncounted
             read = set(fids)
@@ -569,7 +570,7 @@ def write_gpkg(path: str | os.PathLike, layers: Sequence[OutputLayer], crs: pypr
     srs = osr.SpatialReference()
     srs.ImportFromWkt(crs.to_wkt())
     srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
-    with gdal_quiet():
+    with quiet_gdal():
         try:
             ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
         except RuntimeError:
@@ -582,12 +583,7 @@ def write_gpkg(path: str | os.PathLike, layers: Sequence[OutputLayer], crs: pypr
         spatial = lay.geoms is not None
         lyr = ds.CreateLayer(lay.name, srs if spatial else None, ogr.wkbMultiPolygon if spatial else ogr.wkbNone,
                              options=["SPATIAL_INDEX=YES"] if spatial else [])
-        for fd in lay.fields:
-            defn = ogr.FieldDefn(fd.name, fd.type)
-            defn.SetSubType(fd.subtype)
-            defn.SetWidth(fd.width)
-            defn.SetPrecision(fd.precision)
-            lyr.CreateField(defn)
+        create_fields(lyr, lay.fields)
         n = len(lay.geoms) if spatial else len(next(iter(lay.columns.values()), []))
         wkbs = shapely.to_wkb(_as_multi(lay.geoms)) if spatial else None
         layer_defn = lyr.GetLayerDefn()
