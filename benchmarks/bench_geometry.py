@@ -76,7 +76,7 @@ def _study_area():
 
 def _inputs(paths: dict):
     from wit_plugin import model, terrain
-    from wit_plugin.vector_io import read_layer
+    from wit_plugin.io.vector_io import read_layer
 
     buildings = read_layer(paths["prepared"], model.PREPARED_BUILDINGS)
     roads = read_layer(paths["prepared"], model.PREPARED_ROADS)

@@ -45,7 +45,7 @@ def run_case(case: str, path: str) -> dict:
     from osgeo import gdal
 
     gdal.SetConfigOption("SHAPE_ENCODING", "")
-    from wit_plugin import bulk_read, vector_io
+    from wit_plugin.io import bulk_read, vector_io
 
     if case == "features":
         bulk_read.arrow_ready = lambda layer: False  # the fallback, as for non-UTF-8 names

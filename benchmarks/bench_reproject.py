@@ -74,7 +74,7 @@ def prepare_data() -> dict:
 
 def _area(prepared: str):
     from wit_plugin import model
-    from wit_plugin.vector_io import read_prepared
+    from wit_plugin.io.vector_io import read_prepared
 
     return read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
 

@@ -42,8 +42,8 @@ def make_layers(folder: str) -> dict:
     import shapely
     from pyproj import Transformer
 
+    from wit_plugin.io.vector_io import read_layer
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vector_io import read_layer
 
     districts = read_layer(JUSO / "TL_SCCO_EMD.shp")
     dong = districts.geoms[districts.columns["EMD_KOR_NM"].index("역삼동")]

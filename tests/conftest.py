@@ -194,8 +194,8 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     import shapely
     from osgeo import ogr, osr
 
+    from wit_plugin.io.vector_io import read_layer
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vector_io import read_layer
     from wit_plugin.vectors import road_widths, transform
 
     folder = tmp_path_factory.mktemp("suseo")

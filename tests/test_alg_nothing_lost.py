@@ -210,7 +210,7 @@ def test_links_to_an_input_are_refused(data, tmp_path, run_algorithm):
 def test_atomic_writes_refuse_to_replace_a_protected_input(tmp_path):
     """The core-level guard: whoever calls, a write inside ``protect`` never replaces an input."""
     from wit_plugin.errors import InputError
-    from wit_plugin.fileio import atomic_file, atomic_files, protect, refuse_overlap
+    from wit_plugin.io.fileio import atomic_file, atomic_files, protect, refuse_overlap
 
     source = tmp_path / "a.shp"
     source.write_bytes(b"shape")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from wit_plugin.errors import InputError
-from wit_plugin.fileio import atomic_file, atomic_files, ensure_writable_dir
+from wit_plugin.io.fileio import atomic_file, atomic_files, ensure_writable_dir
 
 
 def test_atomic_file_appears_only_on_success(tmp_path):

@@ -11,9 +11,10 @@ import shapely
 from ngii import shapefile_text
 from osgeo import ogr, osr
 
-from wit_plugin import model, vector_io, vectors
+from wit_plugin import model, vectors
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
+from wit_plugin.io import vector_io
 from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
 
 SUSEO_5179 = (964814.9, 1943225.0)

@@ -62,8 +62,9 @@ from osgeo import gdal, ogr, osr
 
 from .errors import InputError, MissingDependencyError, WitError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file
-from .gdal_env import capped_block_cache, open_raster, read_window
+from .gdal_env import capped_block_cache
+from .io.fileio import atomic_file
+from .io.raster_io import open_raster, read_window
 
 DEFAULT_TABLE = "color_cells"
 DEFAULT_TOLERANCE = 12.0

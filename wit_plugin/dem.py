@@ -27,7 +27,7 @@ from osgeo import gdal
 from .arrays import ragged_indices
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .gdal_env import open_raster, read_window
+from .io.raster_io import open_raster, read_window
 from .raster_crs import (
     aligned,
     cell_size,

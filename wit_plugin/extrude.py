@@ -38,8 +38,9 @@ from shapely.geometry.base import BaseGeometry
 from .dem import Dem
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .gpkg_bulk import write_layer
 from .heights import DEFAULT, HeightOptions, HeightRule, building_height
+from .io.gpkg_bulk import write_layer
+from .io.vector_io import FieldDef, keep_source_fields, read_prepared
 from .model import (
     BASE_Z,
     FACE_NUMBER,
@@ -54,7 +55,6 @@ from .model import (
     WIT_ID,
 )
 from .terrain import clean_polygons
-from .vector_io import FieldDef, keep_source_fields, read_prepared
 
 BASE_MODES = ("min", "median")
 

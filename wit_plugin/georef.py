@@ -25,8 +25,9 @@ from shapely.geometry.base import BaseGeometry
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file, atomic_files, ensure_writable_dir
-from .gdal_env import open_raster, quiet_gdal, thread_config
+from .gdal_env import quiet_gdal, thread_config
+from .io.fileio import atomic_file, atomic_files, ensure_writable_dir
+from .io.raster_io import open_raster
 from .mapsheet import find_sheet_in_name, projected_envelope
 from .raster_crs import (
     aligned,

@@ -75,15 +75,17 @@ import shapely
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from . import bulk_read, model
+from . import model
 from .arrays import ragged_indices
 from .citygml.validation.crs import frame_of
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file
-from .gdal_env import open_raster, quiet_gdal, read_window
+from .gdal_env import quiet_gdal
+from .io import bulk_read
+from .io.fileio import atomic_file
+from .io.raster_io import open_raster, read_window
+from .io.vector_io import FieldDef, OutputLayer, open_step_layer, split_source, write_gpkg
 from .raster_crs import crs_name, foreign_crs, transform_geometry
-from .vector_io import FieldDef, OutputLayer, open_step_layer, split_source, write_gpkg
 
 METRICS_TABLE = "quality_metrics"
 BUILDINGS_LAYER = "quality_buildings"

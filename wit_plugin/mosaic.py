@@ -38,8 +38,9 @@ from osgeo import gdal, gdal_array, osr
 
 from .errors import InputError, WitError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file
-from .gdal_env import capped_block_cache, open_raster, read_window
+from .gdal_env import capped_block_cache
+from .io.fileio import atomic_file
+from .io.raster_io import open_raster, read_window
 from .tone import ToneSolver, is_elevation
 
 MODES = ("feather", "overwrite")

@@ -45,14 +45,15 @@ import numpy as np
 import shapely
 from osgeo import gdal, ogr
 
-from . import bulk_read, model
+from . import model
 from .errors import InputError, WitError
 from .feedback import SILENT, Feedback, LoggingFeedback
-from .fileio import atomic_file
-from .gdal_env import open_raster, read_window
+from .io import bulk_read
+from .io.fileio import atomic_file
+from .io.raster_io import open_raster, read_window
+from .io.vector_io import open_step_layer
 from .meshes import fan_triangles, parse_texcoords, planar_triangles, triangle_vertices
 from .texture import mip_chain
-from .vector_io import open_step_layer
 
 SUPERSAMPLE = 2  # rendered at this multiple of the output size, then box-filtered down
 DISTANCE = 3.0  # camera distance in model radii (a field of view of about 35°)

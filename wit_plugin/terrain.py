@@ -36,8 +36,9 @@ from .dem import Dem
 from .deps import require
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import refuse_overlap
-from .gpkg_bulk import write_layer
+from .io.fileio import refuse_overlap
+from .io.gpkg_bulk import write_layer
+from .io.vector_io import FieldDef, VectorLayer, read_layer, read_prepared
 from .model import (
     FOREIGN_BUILDINGS,
     PREPARED_BUILDINGS,
@@ -50,7 +51,6 @@ from .model import (
     WIT_ID,
 )
 from .triangulators import edge_pairs, triangle_edge_keys
-from .vector_io import FieldDef, VectorLayer, read_layer, read_prepared
 from .vectors import transform
 
 #: snapping grid for constraint coordinates (m): far below survey accuracy, far above float noise

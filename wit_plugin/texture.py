@@ -72,13 +72,16 @@ import shapely
 from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
-from . import bulk_read, model
+from . import model
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_files
 from .gc_pause import collector_paused
-from .gdal_env import capped_block_cache, open_raster, read_window
-from .gpkg_bulk import BulkTable
+from .gdal_env import capped_block_cache
+from .io import bulk_read
+from .io.fileio import atomic_files
+from .io.gpkg_bulk import BulkTable
+from .io.raster_io import open_raster, read_window
+from .io.vector_io import FieldDef, open_layer, open_step_layer, split_source
 from .numtext import ring_texts
 from .raster_crs import (
     aligned,
@@ -88,7 +91,6 @@ from .raster_crs import (
     transform_geometry,
     warp,
 )
-from .vector_io import FieldDef, open_layer, open_step_layer, split_source
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
 TEXCOORDS_FILE = model.TEXCOORD_FILE

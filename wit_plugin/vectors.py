@@ -62,10 +62,8 @@ from osgeo import ogr
 from . import model
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file, refuse_overlap
-from .roads import WidthRule
-from .roads import widths as road_widths_of
-from .vector_io import (
+from .io.fileio import atomic_file, refuse_overlap
+from .io.vector_io import (
     BUILDING_FIELDS,
     DISTRICT_FIELDS,
     ROAD_FIELDS,
@@ -77,6 +75,8 @@ from .vector_io import (
     read_layer,
     write_gpkg,
 )
+from .roads import WidthRule
+from .roads import widths as road_widths_of
 
 REPAIR_KINDS = ("unclosed_ring", "orientation", "repeated_vertex", "invalid", "multipart", "sliver_part")
 DROP_REASONS = ("no_geometry", "non_finite", "wrong_type", "collapsed", "too_small", "thin", "covered", "duplicate")

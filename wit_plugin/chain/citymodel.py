@@ -35,10 +35,11 @@ from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import ensure_writable_dir
 from ..georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..heights import HeightOptions
 from ..interpreter import core_env, core_python
+from ..io.fileio import ensure_writable_dir
+from ..io.vector_io import read_prepared
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
 from ..terrain import Seam
@@ -47,7 +48,6 @@ from ..tiles.job import TileJob
 from ..tiles.prepare import clip_context, prepare_tile_buildings
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
-from ..vector_io import read_prepared
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
 from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 

@@ -47,13 +47,14 @@ import shapely
 from lxml import etree
 from osgeo import ogr
 
-from .. import bulk_read, model
+from .. import model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
 from ..gc_pause import collector_paused
+from ..io import bulk_read
+from ..io.fileio import atomic_file
+from ..io.vector_io import open_step_layer, split_source
 from ..numtext import ring_texts
-from ..vector_io import open_step_layer, split_source
 from .schemas import CITYGML_MODULES
 
 APPEARANCE_THEME = "rgbTexture"

@@ -21,7 +21,7 @@ from pyproj import Transformer
 from .. import mapsheet
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_files
+from ..io.fileio import atomic_files
 from .config import MANIFEST, SampleConfig, check_rasters
 from .given import DrawnSample, GivenLayers, draw_from_layers
 from .layout import CityLayout

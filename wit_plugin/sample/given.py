@@ -33,11 +33,11 @@ import shapely
 from .. import mapsheet
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_files, refuse_overlap, source_file
 from ..heights import HeightOptions, building_height
+from ..io.fileio import atomic_files, refuse_overlap, source_file
+from ..io.vector_io import VectorLayer, layer_extent, non_finite, read_layer
 from ..terrain import covering_area
 from ..tiles.plan import plan_tiles
-from ..vector_io import VectorLayer, layer_extent, non_finite, read_layer
 from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, StudyArea, polygonal, repair_polygons, road_widths, transform
 from .config import MANIFEST, SampleConfig, check_rasters
 from .layout import GROUND_LANE

@@ -21,7 +21,7 @@ from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
 from ..feedback import SILENT, Feedback
-from ..gdal_env import read_window
+from ..io.raster_io import read_window
 from .layout import (
     GROUND_BARE,
     GROUND_FOREST,

@@ -19,8 +19,8 @@ from shapely.geometry.base import BaseGeometry
 
 from .. import model
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
-from ..vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
+from ..io.fileio import atomic_file
+from ..io.vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
 from ..vectors import PrepareConfig, StudyArea, prepare_vectors
 from .plan import TileOwner
 

@@ -21,11 +21,11 @@ import pyproj
 import shapely
 from osgeo import gdal, ogr, osr
 
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..gdal_env import quiet_gdal
 from . import bulk_read
-from .errors import InputError
-from .feedback import SILENT, Feedback
 from .fileio import sidecar, vector_file_problem
-from .gdal_env import quiet_gdal
 
 DBF_SAMPLE_BYTES = 4 << 20  # sniff the encoding from the first 4 MiB of records
 

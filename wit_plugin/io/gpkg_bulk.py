@@ -29,10 +29,10 @@ import pyproj
 import shapely
 from osgeo import gdal, ogr, osr
 
-from .errors import InputError
-from .feedback import SILENT, Feedback
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..gdal_env import quiet_gdal
 from .fileio import atomic_file
-from .gdal_env import quiet_gdal
 from .vector_io import FieldDef, create_fields
 
 #: GeoPackage geometry header: "GP", version 0, flags (little-endian, XY envelope), srs_id, envelope
