@@ -5,7 +5,7 @@ Data: the generated sample around Suseo station (``wit_plugin.sample``: about 5,
 and cached under ``out/bench/geometry_data``. Each case then runs in its own child process so
 that its peak RSS (``ru_maxrss``) is its own:
 
-* ``terrain``: ``terrain.triangulate`` with the defaults (max edge 5 m, tolerance 0.5 m, footprints
+* ``terrain``: ``terrain.mesh.triangulate`` with the defaults (max edge 5 m, tolerance 0.5 m, footprints
   as holes); the time inside is split into *mesh* (cleaning the constraints and every Triangle
   call) and *DEM mapping* (reading the DEM window, bilinear Z of every vertex, the exact vertical
   error measure that drives refinement), then writing the TIN GeoPackage;
@@ -137,13 +137,13 @@ def case_terrain(paths: dict) -> dict:
     clock = terrain_clock()
     start = time.perf_counter()
     dem = Dem.open(paths["dem"], area.bounds)
-    tin, stats = terrain.triangulate(area, footprints, roads, dem)
+    tin, stats = terrain.mesh.triangulate(area, footprints, roads, dem)
     together = time.perf_counter() - start
     start = time.perf_counter()
-    terrain.write_tin(OUT / "geometry_tin.gpkg", tin, buildings.crs)
+    terrain.output.write_tin(OUT / "geometry_tin.gpkg", tin, buildings.crs)
     write = time.perf_counter() - start
     start = time.perf_counter()
-    terrain.write_tin(OUT / "geometry_tin_noindex.gpkg", tin, buildings.crs, spatial_index=False)
+    terrain.output.write_tin(OUT / "geometry_tin_noindex.gpkg", tin, buildings.crs, spatial_index=False)
     write_no_index = time.perf_counter() - start
     np.savez(DATA / "tin.npz", vertices=tin.vertices, triangles=tin.triangles)
     return {"mesh_s": clock.seconds.get("mesh", 0.0), "dem_mapping_s": clock.seconds.get("dem_mapping", 0.0),
@@ -165,7 +165,7 @@ def case_mesh_only(paths: dict) -> dict:
     cx, cy = (x1 - x0 + 2) / 2, (y1 - y0 + 2) / 2  # 4 x 4 cells: the area lies between the cell centres
     flat = Dem(np.zeros((4, 4)), (x0 - 1 - cx, cx, 0.0, y1 + 1 + cy, 0.0, -cy))
     start = time.perf_counter()
-    _, stats = terrain.triangulate(area, footprints, roads, flat)
+    _, stats = terrain.mesh.triangulate(area, footprints, roads, flat)
     return {"seconds": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb(), "triangles": stats.triangles,
             "refinement_iterations": stats.refinement_iterations}
 
@@ -184,7 +184,8 @@ def case_dem_only(paths: dict) -> dict:
     dem = Dem.open(paths["dem"], area.bounds)
     z = dem.sample(vertices[:, 0], vertices[:, 1])
     xyz = np.column_stack([vertices[:, :2], z])
-    max_error = terrain.max_vertical_error(dem, xyz, triangles, terrain.vertical_error(dem, xyz, triangles, 0.5), 0.5)
+    error = terrain.mesh.vertical_error(dem, xyz, triangles, 0.5)
+    max_error = terrain.mesh.max_vertical_error(dem, xyz, triangles, error, 0.5)
     return {"seconds": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb(), "vertices": len(vertices),
             "max_vertical_error": max_error, "nodata_filled": dem.nodata_cells}
 

@@ -94,7 +94,7 @@ def run_case(case: str, kind: str, paths: dict) -> dict:
     elif case == "terrain":
         stats = terrain.run(paths["dem"], f"{prepared}|layername={model.PREPARED_BUILDINGS}",
                             f"{prepared}|layername={model.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg", area,
-                            spatial_index=False)
+                            terrain.TerrainConfig(spatial_index=False))
         result = {"triangles": stats.triangles, "max_vertical_error": stats.max_vertical_error}
     elif case == "extrude":
         stats = extrude.run(f"{prepared}|layername={model.PREPARED_BUILDINGS}", paths["dem"],

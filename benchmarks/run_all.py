@@ -162,7 +162,8 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         clock = terrain_clock()
         start = time.perf_counter()
         stats = terrain.run(p["dem"], p["prepared"], p["prepared"], p["tin"],
-                            f"{p['prepared']}|layername={model.STUDY_AREA}", spatial_index=False)  # as wit:citymodel
+                            f"{p['prepared']}|layername={model.STUDY_AREA}",
+                            terrain.TerrainConfig(spatial_index=False))  # as wit:citymodel
         seconds = time.perf_counter() - start
         split = {k: round(v, 3) for k, v in clock.seconds.items()}
         split["other"] = round(seconds - sum(clock.seconds.values()), 3)  # reading the layers, bookkeeping

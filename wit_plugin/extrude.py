@@ -54,7 +54,7 @@ from .model import (
     STOREYS_BELOW,
     WIT_ID,
 )
-from .terrain import clean_polygons
+from .terrain.constraints import clean_polygons
 
 BASE_MODES = ("min", "median")
 

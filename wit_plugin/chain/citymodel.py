@@ -42,7 +42,7 @@ from ..io.fileio import ensure_writable_dir
 from ..io.vector_io import read_prepared
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
-from ..terrain import Seam
+from ..terrain.constraints import Seam
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
 from ..tiles.job import TileJob
 from ..tiles.prepare import clip_context, prepare_tile_buildings
@@ -244,10 +244,10 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("terrain") as fb:
         tin = str(work / "tin.gpkg")
-        tin_stats = terrain.run(inputs.dem, layers.buildings, layers.roads, tin, layers.study, options.max_edge,
-                                options.tolerance, spatial_index=options.keep_work, feedback=fb,
-                                foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam,
-                                triangulator=options.triangulator)
+        config = terrain.TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
+                                       triangulator=options.triangulator)
+        tile_context = terrain.TileContext(layers.foreign, layers.seam) if options.tile is not None else None
+        tin_stats = terrain.run(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config, fb, tile_context)
 
     with clock.step("extrude") as fb:  # a tile that owns no building: terrain and roads only
         lod1 = str(work / "lod1.gpkg") if layers.buildings else None
