@@ -19,7 +19,7 @@ Reads the step outputs named in ``model`` (LoD1 faces, optionally the TIN and th
   per pixel; shading is deferred, once per visible pixel.
 * **Shading**: texture coordinates are interpolated perspective-correctly and sampled bilinearly
   from the mip level matching each triangle's texel-to-pixel ratio (levels built with
-  ``texture.mip_chain``, images read once and cached); untextured surfaces get a flat colour
+  ``texture.images.mip_chain``, images read once and cached); untextured surfaces get a flat colour
   (walls beige, a little lighter or darker per building; terrain green-grey, roads dark grey).
   Lambert shading from a sun 65° clockwise of the camera: strong on walls, mild on roofs and
   terrain; building outlines (depth or building changes) are darkened a little, distance adds
@@ -53,7 +53,7 @@ from .io.fileio import atomic_file
 from .io.raster_io import open_raster, read_window
 from .io.vector_io import open_step_layer
 from .meshes import fan_triangles, parse_texcoords, planar_triangles, triangle_vertices
-from .texture import mip_chain
+from .texture.images import mip_chain
 
 SUPERSAMPLE = 2  # rendered at this multiple of the output size, then box-filtered down
 DISTANCE = 3.0  # camera distance in model radii (a field of view of about 35°)
