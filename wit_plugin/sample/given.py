@@ -40,7 +40,7 @@ from ..terrain import covering_area
 from ..tiles.plan import plan_tiles
 from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, StudyArea, polygonal, repair_polygons, road_widths, transform
 from .config import MANIFEST, SampleConfig, check_rasters
-from .layout import GROUND_LANE
+from .gangnam import GROUND_LANE
 from .ortho import DEM_NAME, ORTHO_DIR, RASTER_CRS, render_tiles, sheet_envelopes, write_sample_dem
 from .rasters import NATURAL, SIDEWALK, Terrain, assemble_scene, grouped, roof_styles, street_trees
 
@@ -79,12 +79,13 @@ class DrawnSample:
     tile_gains: dict[str, list[float]] = field(default_factory=dict)
 
 
-def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: SampleConfig = SampleConfig(),
+def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: SampleConfig | None = None,
                      feedback: Feedback = SILENT) -> DrawnSample:
     """Render the ortho tiles (and the DEM) for ``layers`` into ``output_dir``, with a manifest.
 
     Nothing appears in ``output_dir`` unless every file is complete; the given layers are read only.
     """
+    config = config or SampleConfig()
     check_rasters(config)
     if not (layers.buildings or layers.roads):
         raise InputError("Give a building or a road layer to draw the orthoimage from.")
