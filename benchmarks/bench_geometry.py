@@ -12,7 +12,7 @@ that its peak RSS (``ru_maxrss``) is its own:
 * ``mesh_only``: the same with a flat DEM, so no vertical refinement (the DEM code still runs,
   on a trivial grid, so this is an upper bound of the mesh alone);
 * ``dem_only``: reading the DEM and mapping the final TIN's vertices and error, alone;
-* ``extrude``: ``extrude.run`` (base heights, solids, writing the LoD1 GeoPackage).
+* ``extrude``: ``extrude.extrude_buildings`` (base heights, solids, writing the LoD1 GeoPackage).
 
 The paper (Table 20) gives mesh 6.5 s and DEM mapping 8 s for its 1 km area (15 s in all, with
 0.5 s loading). Our goal: mesh + DEM mapping ≤ 1.5 s. Prints a table; writes
@@ -197,7 +197,7 @@ def case_extrude(paths: dict) -> dict:
     clock = _Clock()
     clock.wrap(extrude, "write_solids", "write")
     start = time.perf_counter()
-    stats = extrude.run(paths["prepared"], paths["dem"], OUT / "geometry_lod1.gpkg")
+    stats = extrude.extrude_buildings(paths["prepared"], paths["dem"], OUT / "geometry_lod1.gpkg")
     seconds = time.perf_counter() - start
     return {"seconds": seconds, "write_s": clock.seconds["write"], "build_s": seconds - clock.seconds["write"],
             "peak_rss_mb": peak_rss_mb(), "stats": stats.as_dict()}

@@ -161,9 +161,9 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
 
         clock = terrain_clock()
         start = time.perf_counter()
-        stats = terrain.run(p["dem"], p["prepared"], p["prepared"], p["tin"],
-                            f"{p['prepared']}|layername={model.STUDY_AREA}",
-                            terrain.TerrainConfig(spatial_index=False))  # as wit:citymodel
+        stats = terrain.triangulate_terrain(p["dem"], p["prepared"], p["prepared"], p["tin"],
+                                            f"{p['prepared']}|layername={model.STUDY_AREA}",
+                                            terrain.TerrainConfig(spatial_index=False))  # as wit:citymodel
         seconds = time.perf_counter() - start
         split = {k: round(v, 3) for k, v in clock.seconds.items()}
         split["other"] = round(seconds - sum(clock.seconds.values()), 3)  # reading the layers, bookkeeping
@@ -173,7 +173,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         from wit_plugin import extrude
 
         start = time.perf_counter()
-        stats = extrude.run(p["prepared"], p["dem"], p["lod1"], spatial_index=False)
+        stats = extrude.extrude_buildings(p["prepared"], p["dem"], p["lod1"], spatial_index=False)
         seconds = time.perf_counter() - start
         info = stats.as_dict()
     elif step == "texture":

@@ -75,13 +75,13 @@ class TriangulateTerrain(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
-        from ..wit_plugin.terrain import TerrainConfig, run
+        from ..wit_plugin.terrain import TerrainConfig, triangulate_terrain
 
         def source(name):
             return self.vector_source(parameters, name, context, feedback)
 
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        stats = run(
+        stats = triangulate_terrain(
             self.parameterAsRasterLayer(parameters, self.DEM, context).source(),
             source(self.BUILDINGS), source(self.ROADS), output, source(self.AREA),
             TerrainConfig(

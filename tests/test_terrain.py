@@ -193,7 +193,8 @@ def test_run_on_the_seoul_dem_writes_a_tin(tmp_path, shared_dir):
     _write_prepared(prepared, buildings, roads)
     area = shapely.Point(*suseo).buffer(150, quad_segs=16)
     out = tmp_path / "tin.gpkg"
-    stats = terrain.run(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out, area)
+    stats = terrain.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
+                                                        area)
     assert stats.max_edge <= 5.0 * (1 + 1e-9) and stats.max_vertical_error <= 0.5
     ds = ogr.Open(str(out))
     lyr = ds.GetLayerByName(model.TIN_LAYER)
@@ -227,8 +228,8 @@ def test_cancel_leaves_no_output(tmp_path, shared_dir):
     _write_prepared(prepared, [("BLD_A", shapely.box(*(suseo - 5), *(suseo + 5)))], [])
     out = tmp_path / "tin.gpkg"
     with pytest.raises(CanceledError):
-        terrain.run(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
-                    shapely.Point(*suseo).buffer(50), feedback=CancelAtOnce())
+        terrain.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
+                                    shapely.Point(*suseo).buffer(50), feedback=CancelAtOnce())
     assert not list(tmp_path.glob("*tin*")) and not list(tmp_path.glob(".tin*"))
 
 
@@ -318,8 +319,8 @@ def test_terrain_covers_buildings_that_cross_the_rim(tmp_path, shared_dir):
     prepared = tmp_path / "prepared.gpkg"
     _write_prepared(prepared, [("BLD_X", crossing), ("BLD_I", inside), ("BLD_O", outside)], [])
     out = tmp_path / "tin.gpkg"
-    terrain.run(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, None, out, area,
-                terrain.TerrainConfig(max_edge=10.0, footprints_as_holes=False))
+    terrain.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, None, out, area,
+                                terrain.TerrainConfig(max_edge=10.0, footprints_as_holes=False))
     ds = ogr.Open(str(out))
     triangles = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToIsoWkb())) for f in ds.GetLayer(model.TIN_LAYER)]
     covered = shapely.union_all(shapely.force_2d(np.array(triangles, dtype=object)), grid_size=1e-3)

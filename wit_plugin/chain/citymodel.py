@@ -247,12 +247,13 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         config = terrain.TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
                                        triangulator=options.triangulator)
         tile_context = terrain.TileContext(layers.foreign, layers.seam) if options.tile is not None else None
-        tin_stats = terrain.run(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config, fb, tile_context)
+        tin_stats = terrain.triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
+                                                fb, tile_context)
 
     with clock.step("extrude") as fb:  # a tile that owns no building: terrain and roads only
         lod1 = str(work / "lod1.gpkg") if layers.buildings else None
-        lod1_stats = extrude.run(layers.buildings, inputs.dem, lod1, options.heights,
-                                 spatial_index=options.keep_work, feedback=fb) if lod1 else None
+        lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
+                                               spatial_index=options.keep_work, feedback=fb) if lod1 else None
 
     with clock.step("texture") as fb:
         textures = str(work / "textures")

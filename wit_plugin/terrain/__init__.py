@@ -84,9 +84,9 @@ def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
     return grown
 
 
-def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
-        area: BaseGeometry | str | Path, config: TerrainConfig | None = None, feedback: Feedback = SILENT,
-        tile: TileContext | None = None) -> TinStats:
+def triangulate_terrain(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None,
+                        output: str | Path, area: BaseGeometry | str | Path, config: TerrainConfig | None = None,
+                        feedback: Feedback = SILENT, tile: TileContext | None = None) -> TinStats:
     """wit:triangulateterrain: read the constraint layers and the DEM, mesh, write the TIN GeoPackage.
 
     ``buildings`` / ``roads`` are prepared layers (``file.gpkg|layername=…``, or the prepared
