@@ -1,4 +1,4 @@
-"""Streaming CityGML 3.0 writer: the core of ``wit:writecitygml`` (SPEC §6).
+"""Streaming CityGML 3.0 writer: the core of ``wit:writecitygml``.
 
 Reads the step outputs named in ``model`` (LoD1 faces, TIN, prepared roads and districts, the
 texture table) and writes one ``core:CityModel``, element by element, with constant memory in
@@ -54,6 +54,7 @@ from ..fileio import atomic_file
 from ..gc_pause import collector_paused
 from ..numtext import ring_texts
 from ..vector_io import open_step_layer, split_source
+from .namespaces import APP, BLDG, CON, CORE, DEM, GEN, GML, GML_ID, GRP, TRAN, URIS, XLINK, XSI
 from .schemas import CITYGML_MODULES
 
 APPEARANCE_THEME = "rgbTexture"
@@ -61,21 +62,9 @@ DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-ad
 RELIEF_ID, TIN_RELIEF_ID, TIN_SURFACE_ID = "DEM_relief", "DEM_tin", "DEM_tin_surface"
 RELIEF_LOD, ROAD_LOD_PROPERTY = "1", "lod2MultiSurface"
 
-NS = {
-    "core": "http://www.opengis.net/citygml/3.0",
-    "bldg": "http://www.opengis.net/citygml/building/3.0",
-    "con": "http://www.opengis.net/citygml/construction/3.0",
-    "tran": "http://www.opengis.net/citygml/transportation/3.0",
-    "dem": "http://www.opengis.net/citygml/relief/3.0",
-    "app": "http://www.opengis.net/citygml/appearance/3.0",
-    "gen": "http://www.opengis.net/citygml/generics/3.0",
-    "grp": "http://www.opengis.net/citygml/cityobjectgroup/3.0",
-    "gml": "http://www.opengis.net/gml/3.2",
-    "xlink": "http://www.w3.org/1999/xlink",
-    "xsi": "http://www.w3.org/2001/XMLSchema-instance",
-}
-CORE, BLDG, CON, TRAN, DEM, APP, GEN, GRP, GML, XLINK, XSI = ("{%s}" % NS[p] for p in NS)
-GML_ID = GML + "id"
+NS = {prefix: URIS[prefix] for prefix in ("core", "bldg", "con", "tran", "dem", "app", "gen", "grp", "gml", "xlink",
+                                          "xsi")}
+"""The namespaces the model declares on its root (those of the modules it uses)."""
 
 # characters XML 1.0 cannot carry (C0 controls except tab/LF/CR, lone surrogates, U+FFFE/U+FFFF)
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")

@@ -21,14 +21,13 @@ from typing import NamedTuple
 import numpy as np
 from lxml import etree
 
+from ..namespaces import GML_ID, HREF
 from .crs import Frame, frame_of, metre_axes
 from .geometry import SolidBatch, SolidCheck, Where, triangle_areas
 from .ids import IdStore, hashes
 from .names import (
     APP,
     GML,
-    GML_ID,
-    HREF,
     NAMESPACES,
     POSITIONS,
     A,

@@ -63,7 +63,8 @@ class Stream:
         self.raw = RawCounts()
 
     def parts(self, chunk_bytes: int | None = None) -> Iterator[tuple[etree._Element, int]]:
-        """Yield (parent, n): the first n children of ``parent`` are finished; they go when the next part is asked for."""
+        """Yield (parent, n): the first n children of ``parent`` are finished; they go when the next part is
+        asked for."""
         size = chunk_bytes or CHUNK_BYTES
         with open(self.path, "rb") as stream:
             while True:
