@@ -17,9 +17,9 @@ import numpy as np
 import pyproj
 import pytest
 
+from wit_plugin.citygml import reader as streaming
 from wit_plugin.citygml import schemas, validate
 from wit_plugin.citygml.validation import ids as id_store
-from wit_plugin.citygml.validation import stream as streaming
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
@@ -746,7 +746,8 @@ def test_without_libxml2_for_ctypes_lxml_reports_the_same_schema_errors_without_
 
 def _one_by_one(monkeypatch) -> None:
     """Make every check take its element-by-element path."""
-    from wit_plugin.citygml.validation import checks, stream
+    from wit_plugin.citygml import reader as stream
+    from wit_plugin.citygml.validation import checks
 
     monkeypatch.setattr(checks, "_numbers", lambda texts, expected: None)  # triangles and solids one by one
     monkeypatch.setattr(checks, "_UNEVEN_LISTS", lambda part: [True])  # texture lists one by one

@@ -22,6 +22,7 @@ import numpy as np
 from lxml import etree
 
 from ..namespaces import GML_ID, HREF
+from ..reader import RawCounts
 from .crs import Frame, frame_of, metre_axes
 from .geometry import SolidBatch, SolidCheck, Where, triangle_areas
 from .ids import IdStore, hashes
@@ -38,7 +39,6 @@ from .names import (
     qname,
     remove_keep_tail,
 )
-from .stream import RawCounts
 
 _NON_NUMBER = re.compile(r"[^0-9eE+\-. \t\r\n]")
 _REMOTE = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]+://")
