@@ -151,7 +151,7 @@ def test_texture_folder_masks_islands_with_texcoords(tmp_path):
 
 
 def test_ortho_is_streamed_like_in_memory(tmp_path, monkeypatch):
-    monkeypatch.setattr(metrics, "_BLOCK_PIXELS", 300 * 97)  # blocks of 97 rows: block joins are exercised
+    monkeypatch.setattr(metrics.texture, "_BLOCK_PIXELS", 300 * 97)  # blocks of 97 rows: block joins are exercised
     rng = np.random.default_rng(7)
     data = rng.integers(0, 256, (3, 1100, 300)).astype(np.uint8)
     data[:, 600:650, 100:180] = 0  # NoData hole
@@ -365,7 +365,7 @@ def test_seam_step_overwrite_vs_feather(tmp_path):
     merge_tiles(tiles, feather, mode="feather", gain=True)
     index = tmp_path / "footprints.gpkg"
     georef.write_footprint_index(
-        [georef.SheetResult(t, "0", 5000, georef.OK, "", t, metrics._raster_bounds(t)[0]) for t in tiles]
+        [georef.SheetResult(t, "0", 5000, georef.OK, "", t, metrics.seam._raster_bounds(t)[0]) for t in tiles]
         + [georef.SheetResult("skipped.tif")], index)
     hard = metrics.seam_metrics(overwrite, str(index))
     soft = metrics.seam_metrics(feather, tiles)
