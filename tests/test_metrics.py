@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import math
 from itertools import pairwise
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from osgeo import gdal, ogr, osr
 
 from wit_plugin import extrude, georef, metrics, model
 from wit_plugin.area import StudyArea
+from wit_plugin.citygml import reader
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import InputError
 from wit_plugin.mosaic import merge_tiles
@@ -295,6 +297,23 @@ def test_half_metre_shift_is_measured_exactly(shifted, which):
     assert rows["BLD_ell"].ssi == pytest.approx(metrics.shape_similarity(shapes["ell"], moved))
     assert rows["BLD_lonely"].status == metrics.SOURCE_ONLY and math.isnan(rows["BLD_lonely"].ssi)
     assert rows["BLD_extra"].status == metrics.MODEL_ONLY and rows["BLD_extra"].model_area == pytest.approx(16)
+
+
+def test_gml_read_in_small_parts_gives_the_same_buildings(shifted, monkeypatch, tmp_path):
+    """The CityGML reader hands a building's finished children out in parts (its solid too) while the parser is
+    still inside the building (here in the storeys after the solid)."""
+    sources, _, written, _ = shifted
+    gml = tmp_path / "storeys.gml"
+    gml.write_text(Path(written).read_text(encoding="utf-8").replace(
+        "</core:lod1Solid>", "</core:lod1Solid><bldg:storeysAboveGround>2</bldg:storeysAboveGround>"), encoding="utf-8")
+    gml = str(gml)
+    whole = metrics.geometry_metrics(gml, sources)
+    monkeypatch.setattr(reader, "CHUNK_BYTES", 97)
+    monkeypatch.setattr(reader, "MIN_PART", 1)
+    parted = metrics.geometry_metrics(gml, sources)
+    assert [(b.wit_id, b.status, b.solids, b.position_error, b.vertex_max_error, b.ssi) for b in parted.buildings] == [
+        (b.wit_id, b.status, b.solids, b.position_error, b.vertex_max_error, b.ssi) for b in whole.buildings]
+    assert (parted.model_count, parted.matched, parted.vertices) == (4, 3, 4 + 6 + 8)
 
 
 def test_geometry_input_errors(shifted, tmp_path):
