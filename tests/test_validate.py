@@ -747,12 +747,13 @@ def test_without_libxml2_for_ctypes_lxml_reports_the_same_schema_errors_without_
 def _one_by_one(monkeypatch) -> None:
     """Make every check take its element-by-element path."""
     from wit_plugin.citygml import reader as stream
-    from wit_plugin.citygml.validation import checks
+    from wit_plugin.citygml.validation import context, solids, textures, tin
 
-    monkeypatch.setattr(checks, "_numbers", lambda texts, expected: None)  # triangles and solids one by one
-    monkeypatch.setattr(checks, "_UNEVEN_LISTS", lambda part: [True])  # texture lists one by one
+    for module in (tin, solids):
+        monkeypatch.setattr(module, "numbers", lambda texts, expected: None)  # triangles and solids one by one
+    monkeypatch.setattr(textures, "_UNEVEN_LISTS", lambda part: [True])  # texture lists one by one
     monkeypatch.setattr(stream.RawCounts, "any_dimension_not_3", property(lambda self: True))
-    monkeypatch.setattr(checks.FileCheck, "_own_crs_possible", lambda self: True)
+    monkeypatch.setattr(context.FileContext, "own_crs_possible", lambda self: True)
 
 
 @pytest.mark.parametrize("name", sorted(FAULTS) + ["long_runs"])
