@@ -12,6 +12,7 @@ from lxml import etree
 from osgeo import gdal, ogr, osr
 
 from wit_plugin import model
+from wit_plugin.citygml import inputs as citygml_inputs
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
@@ -382,11 +383,11 @@ def test_raw_polygon_markup_is_what_lxml_would_write():
 
 
 def test_a_tin_triangle_id_must_be_an_integer():
-    assert citygml._tri_ids(np.array([12, -3], dtype=np.int32)) == ["tri_12", "tri_-3"]
-    assert citygml._tri_ids(np.array([b"12"])) == ["tri_12"]  # a text field holding integers
+    assert citygml_inputs.tri_ids(np.array([12, -3], dtype=np.int32)) == ["tri_12", "tri_-3"]
+    assert citygml_inputs.tri_ids(np.array([b"12"])) == ["tri_12"]  # a text field holding integers
     for bad in (np.array([b"12", b'1"><x']), np.ma.masked_array([5, 6], mask=[False, True])):
         with pytest.raises(InputError, match="not an integer"):
-            citygml._tri_ids(bad)
+            citygml_inputs.tri_ids(bad)
 
 
 def test_raw_road_texture_association_is_what_lxml_would_write(tmp_path):
