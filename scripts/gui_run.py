@@ -57,6 +57,9 @@ def _run():
                    "features": layer.featureCount() if isinstance(layer, QgsVectorLayer) else None}
                   for layer in QgsProject.instance().mapLayers().values()]
         _write({"results": results, "log": log.lines, "layers": layers})
+        # QGIS 3.44 (Debian sid) dies on signal 11 when it quits from a start-up script with a layer in
+        # the project, with or without this plugin (native:creategrid too): quit with an empty project
+        QgsProject.instance().clear()
         QTimer.singleShot(0, lambda: QgsApplication.exit(0))
     except Exception:  # noqa: BLE001 (report everything, then quit)
         _write({"error": traceback.format_exc()})
