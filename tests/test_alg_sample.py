@@ -13,7 +13,7 @@ from test_sample_given import snapshot
 
 from wit_plugin import mapsheet
 from wit_plugin.io.vector_io import read_layer
-from wit_plugin.vectors import transform
+from wit_plugin.polygons import transform
 
 pytestmark = pytest.mark.qgis_facing
 

@@ -26,7 +26,7 @@ from ..model import (
     PREPARED_ROADS,
     WIT_ID,
 )
-from ..vectors import transform
+from ..polygons import transform
 from .constraints import GRID, Feature, Seam, _polygonal, clean_polygons
 from .mesh import TinStats, _longest_edges, max_vertical_error, triangulate, vertical_error
 from .output import snap_to_grid, write_tin
