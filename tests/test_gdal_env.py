@@ -1,4 +1,4 @@
-"""gdal_env: opening and reading input rasters is checked, named, and writes nothing beside them."""
+"""io.raster_io and gdal_env: opening and reading input rasters is checked, named, and writes nothing beside them."""
 from __future__ import annotations
 
 import shutil
@@ -9,12 +9,8 @@ from osgeo import gdal
 
 from wit_plugin import mosaic
 from wit_plugin.errors import InputError
-from wit_plugin.gdal_env import (
-    no_sidecars,
-    open_raster,
-    raster_file_problem,
-    read_window,
-)
+from wit_plugin.gdal_env import no_sidecars
+from wit_plugin.io.raster_io import open_raster, raster_file_problem, read_window
 
 
 @pytest.fixture
@@ -64,7 +60,8 @@ def test_undecodable_block_names_file_band_and_window(landsat, tmp_path, gdal_ex
     data[offset + 2:offset + size] = b"\x55" * (size - 2)
     garbled.write_bytes(data)
     ds = open_raster(garbled, "orthoimage")
-    np.testing.assert_array_equal(read_window(ds, 0, 0, 256, 256, "x"), gdal.Open(str(landsat)).ReadAsArray(0, 0, 256, 256))
+    np.testing.assert_array_equal(read_window(ds, 0, 0, 256, 256, "x"),
+                                  gdal.Open(str(landsat)).ReadAsArray(0, 0, 256, 256))
     with pytest.raises(InputError, match=r"^Cannot read the orthoimage .*garbled.tif, band 2, pixels x 300–309, "
                                          r"y 260–269: .*IReadBlock failed.*; the file may be truncated or damaged"):
         read_window(ds.GetRasterBand(2), 300, 260, 10, 10, f"the orthoimage {garbled}")

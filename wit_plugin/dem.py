@@ -1,4 +1,4 @@
-"""Read a DEM window and interpolate heights bilinearly between cell centres (SPEC §4).
+"""Read a DEM window and interpolate heights bilinearly between cell centres.
 
 The terrain TIN and the building bases both take their Z from here, so they agree exactly.
 Cells that hold NoData (the declared value, else anything ≤ −1000 because real files such as the
@@ -27,7 +27,7 @@ from osgeo import gdal
 from .arrays import ragged_indices
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .gdal_env import open_raster, read_window
+from .io.raster_io import open_raster, read_window
 from .raster_crs import (
     aligned,
     cell_size,
@@ -40,7 +40,7 @@ from .raster_crs import (
     warp,
 )
 
-#: values at or below this are NoData in files that declare no NoData value (SPEC §4)
+#: values at or below this are NoData in files that declare no NoData value (real DEMs store −9999 so)
 NODATA_THRESHOLD = -1000.0
 
 Bounds = tuple[float, float, float, float]  # xmin, ymin, xmax, ymax
@@ -187,7 +187,7 @@ class Dem:
         return u, v
 
     def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Bilinear height at each (x, y) from the four surrounding cell centres (SPEC §4)."""
+        """Bilinear height at each (x, y) from the four surrounding cell centres."""
         u, v = self._indices(x, y)
         rows, cols = self.values.shape
         u = np.clip(u, 0.0, cols - 1.0)
@@ -366,7 +366,8 @@ def shortfall(short: dict[str, float], degrees: bool = False) -> str:
                      for side, amount in short.items())
 
 
-def _window(gt: tuple[float, ...], cols: int, rows: int, bounds: Bounds, margin_cells: int) -> tuple[int, int, int, int]:
+def _window(gt: tuple[float, ...], cols: int, rows: int, bounds: Bounds,
+            margin_cells: int) -> tuple[int, int, int, int]:
     """The cells (c0, r0, c1, r1; ends excluded) covering ``bounds`` plus a margin, within the raster."""
     us = [(x - gt[0]) / gt[1] for x in (bounds[0], bounds[2])]
     vs = [(y - gt[3]) / gt[5] for y in (bounds[1], bounds[3])]

@@ -21,17 +21,10 @@ from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
 from ..feedback import SILENT, Feedback
-from ..gdal_env import read_window
-from .layout import (
-    GROUND_BARE,
-    GROUND_FOREST,
-    GROUND_LANE,
-    GROUND_LAWN,
-    GROUND_PARKING,
-    PITCHED_ROOFS,
-    CityLayout,
-    footprints,
-)
+from ..io.raster_io import read_window
+from .blocks import footprints
+from .gangnam import GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS
+from .layout import CityLayout
 
 NO_DATA_HOLE = -9999.0
 SUSEO_STATION_5186 = (209020.888, 543132.772)
@@ -97,7 +90,8 @@ class Terrain:
                 rng = np.random.default_rng([self.seed, 21, c, r])
                 if rng.random() < 0.55:
                     px, py = (c + rng.random()) * _HILL_CELL, (r + rng.random()) * _HILL_CELL
-                    hills.append((px, py, rng.uniform(10.0, 45.0), rng.uniform(200.0, 450.0), rng.uniform(200.0, 450.0)))
+                    hills.append((px, py, rng.uniform(10.0, 45.0), rng.uniform(200.0, 450.0),
+                                  rng.uniform(200.0, 450.0)))
         return hills
 
 
