@@ -20,7 +20,7 @@ from qgis.core import (
 from qgis.PyQt.QtGui import QColor
 
 from ..wit_plugin import model
-from .base import tr, translatable
+from .translation import tr, translatable
 
 GROUP_NAME = translatable("WIT city model")
 BUILDING_RGB, TERRAIN_RGB = (222, 213, 196), (128, 146, 108)
@@ -68,7 +68,8 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
         buildings.setSubsetString(f"\"{model.FACE_TYPE}\" = 'ground'")  # footprints, extruded by their height
         layers.append((buildings, _building_renderer))
     if tin:
-        layers.append((QgsVectorLayer(f"{tin}|layername={model.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"), _terrain_renderer))
+        layers.append((QgsVectorLayer(f"{tin}|layername={model.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"),
+                       _terrain_renderer))
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 

@@ -15,9 +15,9 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import tr, translatable
 from .expressions import checked_expression
 from .qgis_compat import FieldDataType, NumberType, ParameterFlag, SourceType
+from .translation import tr, translatable
 
 WGS84 = QgsCoordinateReferenceSystem("EPSG:4326")
 

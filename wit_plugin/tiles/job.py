@@ -1,15 +1,20 @@
-"""One tile's share of a run: what a worker needs besides the run's inputs and options."""
+"""One tile's share of a run: what a worker needs besides the run's inputs and options, and the
+tile's own step 1 of the chain (``TileJob.prepare_layers``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import shapely
 from shapely.geometry.base import BaseGeometry
 
 from .. import model
+from ..chain import ChainInputs, ChainOptions, PreparedLayers
+from ..feedback import Feedback
 from ..terrain import Seam
 from ..vector_io import read_prepared
 from .plan import TileOwner, tile_of
+from .prepare import clip_context, prepare_tile_buildings
 from .seams import tile_seam
 
 
@@ -37,3 +42,16 @@ class TileJob:
         if self.owner.area_wkt is None:
             return polygon
         return shapely.intersection(polygon, shapely.from_wkt(self.owner.area_wkt))
+
+    def prepare_layers(self, inputs: ChainInputs, options: ChainOptions, work: Path,
+                       feedback: Feedback) -> PreparedLayers:
+        """Step 1 for the tile (``ChainOptions.prepare``): its own buildings, its neighbours' crossing in,
+        the run's roads and dongs cut at its border, and its seam."""
+        prepared = str(work / "prepared.gpkg")
+        tile_area = self.area(options.target_crs)
+        names = prepare_tile_buildings(inputs.buildings, tile_area, self.owner, prepared, options.encoding, feedback)
+        context = str(work / "context.gpkg")
+        context_names = clip_context(self.context, self.context_layers, tile_area, context) if self.context else []
+        seam = self.seam(options.target_crs, [f"{prepared}|layername={n}" for n in names
+                                              if n in (model.PREPARED_BUILDINGS, model.FOREIGN_BUILDINGS)])
+        return PreparedLayers.read(prepared, names, context, context_names, seam)

@@ -267,7 +267,8 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                       f"{written.buildings} buildings in the groups; the run's tileset.json {written.root_bytes:,} "
                       f"bytes, the largest tileset file {written.largest_file_bytes:,} bytes.")
         if written.tiles < len(modelled):
-            feedback.warning(f"{len(modelled) - written.tiles} tile(s) have no 3D Tiles and are not in {report.tileset}.")
+            feedback.warning(f"{len(modelled) - written.tiles} tile(s) have no 3D Tiles "
+                             f"and are not in {report.tileset}.")
         if written.without_terrain:
             feedback.warning(f"{written.without_terrain} group(s) of tiles have no coarse terrain (the DEM or the "
                              "orthoimage does not cover them): from afar they show their buildings only.")

@@ -57,7 +57,8 @@ def run_tile(spec: dict) -> dict:
         triangulator=spec["triangulator"],
         heights=HeightOptions(**spec["heights"]), outside_ortho=spec["outside_ortho"],
         schema_dir=spec["schema_dir"], schema_cache=spec["schema_cache"], metrics=False,
-        tiles3d=spec["tiles3d"], tiles3d_web=spec["tiles3d_web"], encoding=spec["encoding"], tile=job)
+        tiles3d=spec["tiles3d"], tiles3d_web=spec["tiles3d_web"], encoding=spec["encoding"],
+        prepare=job.prepare_layers)
     row = {"sheet": sheet, "buildings": 0, "triangles": 0, "gml": None, "error": None}
     try:
         report = run_city_model(ChainInputs(**spec["inputs"]), options, folder,
