@@ -563,7 +563,8 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
 
 
 def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature], dem: Dem,
-                max_edge: float = 5.0, tolerance: float = 0.5, footprints_as_holes: bool = True,
+                max_edge: float = triangulators.MAX_EDGE,
+                tolerance: float = triangulators.VERTICAL_TOLERANCE, footprints_as_holes: bool = True,
                 max_iterations: int = 10, fixed_segments: bool = False, seam: Seam | None = None,
                 feedback: Feedback = SILENT, triangulator: int | None = None) -> tuple[Tin, TinStats]:
     """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``.
@@ -909,7 +910,8 @@ def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
 
 
 def run(dem_path: str | Path, buildings: str | Path | None, roads: str | Path | None, output: str | Path,
-        area: BaseGeometry | str | Path, max_edge: float = 5.0, tolerance: float = 0.5,
+        area: BaseGeometry | str | Path, max_edge: float = triangulators.MAX_EDGE,
+                tolerance: float = triangulators.VERTICAL_TOLERANCE,
         footprints_as_holes: bool = True, spatial_index: bool = True, feedback: Feedback = SILENT,
         foreign: str | Path | None = None, fixed_segments: bool = False, seam: Seam | None = None,
         triangulator: int | None = None) -> TinStats:

@@ -40,6 +40,10 @@ MIN_ANGLE = 0.5
 #: At 0.25 well under 1 % do and one refinement pass fixes them; 0.3 needs two passes and ends
 #: with more triangles (measured on the 1 km demo, 5 m edges)
 AREA_FACTOR = 0.25
+#: the terrain mesh's targets, the defaults of wit:triangulateterrain and of the chain: the longest
+#: triangle edge (m) and the largest height difference between the TIN and the DEM (m)
+MAX_EDGE = 5.0
+VERTICAL_TOLERANCE = 0.5
 
 
 @dataclass

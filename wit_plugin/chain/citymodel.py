@@ -30,7 +30,7 @@ from pathlib import Path
 
 from shapely.geometry.base import BaseGeometry
 
-from .. import extrude, model, terrain
+from .. import extrude, model, terrain, triangulators
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
@@ -110,8 +110,8 @@ class ChainOptions:
     target_crs: str = "EPSG:5186"
     sheet_crs: str = "EPSG:4737"  # datum of the sheet numbers' degrees
     margin: float = 50.0  # the NGII orthoimages' margin around their sheet
-    max_edge: float = 5.0
-    tolerance: float = 0.5
+    max_edge: float = triangulators.MAX_EDGE
+    tolerance: float = triangulators.VERTICAL_TOLERANCE
     triangulator: int | None = None  # triangulators.BACKENDS key; None: Triangle where installed, else CDT
     texture_scale: float = 1.0
     heights: HeightOptions = field(default_factory=HeightOptions)
