@@ -73,15 +73,15 @@ def prepare_data() -> dict:
 
 
 def _area(prepared: str):
-    from wit_plugin import model
+    from wit_plugin import step_layers
     from wit_plugin.vector_io import read_prepared
 
-    return read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
+    return read_prepared(f"{prepared}|layername={step_layers.STUDY_AREA}", step_layers.STUDY_AREA).geoms[0]
 
 
 def run_case(case: str, kind: str, paths: dict) -> dict:
     _setup()
-    from wit_plugin import extrude, model, terrain
+    from wit_plugin import extrude, step_layers, terrain
     from wit_plugin.chain.coverage import require_dem
     from wit_plugin.dem import Dem
 
@@ -92,12 +92,12 @@ def run_case(case: str, kind: str, paths: dict) -> dict:
         dem = Dem.open(paths["dem"], area.bounds, crs=crs)
         result = {"cells": int(dem.values.size), "cell_m": dem.geotransform[1]}
     elif case == "terrain":
-        stats = terrain.run(paths["dem"], f"{prepared}|layername={model.PREPARED_BUILDINGS}",
-                            f"{prepared}|layername={model.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg", area,
+        stats = terrain.run(paths["dem"], f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}",
+                            f"{prepared}|layername={step_layers.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg", area,
                             spatial_index=False)
         result = {"triangles": stats.triangles, "max_vertical_error": stats.max_vertical_error}
     elif case == "extrude":
-        stats = extrude.run(f"{prepared}|layername={model.PREPARED_BUILDINGS}", paths["dem"],
+        stats = extrude.run(f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}", paths["dem"],
                             DATA / f"lod1_{kind}.gpkg", spatial_index=False)
         result = {"solids": stats.solids}
     else:

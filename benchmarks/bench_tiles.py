@@ -57,9 +57,9 @@ def main() -> int:
 
     from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.tiles.plan import tile_of
-    from wit_plugin.tiles.runner import run_tiles
-    from wit_plugin.tiles.worker import peak_mb
+    from wit_plugin.sheetrun.plan import tile_of
+    from wit_plugin.sheetrun.runner import run_tiles
+    from wit_plugin.sheetrun.worker import peak_mb
     from wit_plugin.vectors import StudyArea
 
     def sample(name: str, config: SampleConfig) -> ChainInputs:
@@ -86,7 +86,7 @@ def main() -> int:
                   "triangles": sum(r["triangles"] for r in done),
                   "peak_mb_per_worker": max((r["peak_mb"] for r in done), default=0)}
         print(json.dumps(result), flush=True)
-        print(f"\n| district (40 km²) | workers | wall | tiles (failed) | buildings | TIN triangles | peak MB/worker |\n"
+        print("\n| district (40 km²) | workers | wall | tiles (failed) | buildings | TIN triangles | peak MB/worker |\n"
               f"|---|---:|---:|---:|---:|---:|---:|\n| generated, 1:1,000 sheets | {workers} | "
               f"{seconds / 60:.1f} min | {result['tiles']} ({result['failed']}) | {result['buildings']:,} | "
               f"{result['triangles']:,} | {result['peak_mb_per_worker']:.0f} |\n(goal: a Gangnam-size area in "

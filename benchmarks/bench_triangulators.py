@@ -67,8 +67,8 @@ def run_tiles_case(key: int, tiles: int) -> dict:
     from wit_plugin import triangulators
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.tiles.plan import tile_of
-    from wit_plugin.tiles.runner import run_tiles
+    from wit_plugin.sheetrun.plan import tile_of
+    from wit_plugin.sheetrun.runner import run_tiles
     from wit_plugin.vectors import StudyArea
 
     folder = TILES_OUT / "sample"

@@ -101,8 +101,8 @@ class CityModelTiles(CityModel):
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.tiles.plan import TILE_SCALES
-        from ..wit_plugin.tiles.runner import run_tiles
+        from ..wit_plugin.sheetrun.plan import TILE_SCALES
+        from ..wit_plugin.sheetrun.runner import run_tiles
         from ..wit_plugin.vectors import StudyArea
 
         inputs, options, expression = self.chain_settings(parameters, context, feedback)

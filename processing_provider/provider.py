@@ -11,7 +11,7 @@ from .extrudebuildings import ExtrudeBuildings
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
 from .installdependencies import InstallDependencies
-from .mergetiles import MergeTiles
+from .mergerasters import MergeRasters
 from .preparevectors import PrepareVectors
 from .qualitymetrics import QualityMetrics
 from .translation import tr, translatable
@@ -23,7 +23,7 @@ from .writecitygml import WriteCityGML
 ALGORITHMS = (
     GenerateSample,
     GeoreferenceMapSheets,
-    MergeTiles,
+    MergeRasters,
     PrepareVectors,
     TriangulateTerrain,
     ExtrudeBuildings,

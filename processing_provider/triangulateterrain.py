@@ -66,7 +66,7 @@ class TriangulateTerrain(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("MAX_EDGE_MEASURED", self.tr("Measured maximum edge length (m)")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin import model
+        from ..wit_plugin import step_layers
         from ..wit_plugin.terrain import run
 
         def source(name):
@@ -82,6 +82,6 @@ class TriangulateTerrain(WitAlgorithm):
             spatial_index=self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context),
             feedback=feedback, triangulator=triangulator(self, parameters, context, feedback),
         )
-        return {self.OUTPUT: output, "TIN": f"{output}|layername={model.TIN_LAYER}",
+        return {self.OUTPUT: output, "TIN": f"{output}|layername={step_layers.TIN_LAYER}",
                 "TRIANGLES": stats.triangles, "MAX_VERTICAL_ERROR": stats.max_vertical_error,
                 "MAX_EDGE_MEASURED": stats.max_edge}

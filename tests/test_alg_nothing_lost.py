@@ -13,7 +13,7 @@ import pytest
 from osgeo import gdal, ogr, osr
 from qgis.core import QgsProcessingException
 
-from wit_plugin import model
+from wit_plugin import step_layers
 
 pytestmark = pytest.mark.qgis_facing
 
@@ -103,7 +103,8 @@ INPUTS = {
     "wit:export3dtiles": lambda d: {"LOD1": d["lod1"], "TIN": d["tin"], "TEXTURES": d["textures"]},
     "wit:validatecitygml": lambda d: {"INPUT": [d["gml"]]},
     "wit:buildcolorstore": lambda d: {"INPUT": d["rgb"]},
-    "wit:querycolorstore": lambda d: {"STORE": d["store"], "POINTS": d["points"], "EXTENT": "209000,209010,543000,543010 [EPSG:5186]"},
+    "wit:querycolorstore": lambda d: {"STORE": d["store"], "POINTS": d["points"],
+                                      "EXTENT": "209000,209010,543000,543010 [EPSG:5186]"},
     "wit:qualitymetrics": lambda d: {"MODEL": d["gml"], "SOURCE_BUILDINGS": d["buildings"], "ORTHO": d["rgb"]},
     "wit:citymodel": lambda d: {"ORTHO_INPUT": [d["sheet"]], "DEM": d["dem"], "BUILDINGS": d["buildings_shp"],
                                 "ROADS": d["roads_shp"]},
@@ -265,7 +266,8 @@ def test_a_layer_of_the_wrong_geometry_type_is_refused(algorithm, parameter, dat
 @pytest.fixture
 def floors(data):
     """Buildings with floor counts, as wit:preparevectors writes them."""
-    return vector(data["folder"] / "floors.gpkg", "buildings", [SQUARE, "POLYGON((209015 543015,209025 543015,209025 543025,209015 543025,209015 543015))"],
+    return vector(data["folder"] / "floors.gpkg", "buildings",
+                  [SQUARE, "POLYGON((209015 543015,209025 543015,209025 543025,209015 543025,209015 543015))"],
                   fields={"wit_id": ogr.OFTString, "GRO_FLO_CO": ogr.OFTInteger},
                   rows=[{"wit_id": "BLD_1", "GRO_FLO_CO": 0}, {"wit_id": "BLD_2", "GRO_FLO_CO": 0}])
 
@@ -288,7 +290,7 @@ def test_a_good_height_expression_is_used(data, floors, tmp_path, run_algorithm)
         "BUILDINGS": floors, "DEM": data["dem"], "HEIGHT_EXPRESSION": "length(\"wit_id\") * 2",
         "OUTPUT": str(tmp_path / "lod1.gpkg")})
     ds = ogr.Open(result["OUTPUT"])
-    heights = {f["wit_id"]: (f[model.HEIGHT], f[model.HEIGHT_SOURCE]) for f in ds.GetLayer("lod1_faces")}
+    heights = {f["wit_id"]: (f[step_layers.HEIGHT], f[step_layers.HEIGHT_SOURCE]) for f in ds.GetLayer("lod1_faces")}
     assert heights == {"BLD_1": (10.0, "expression"), "BLD_2": (10.0, "expression")}
 
 
@@ -440,7 +442,8 @@ def test_extrude_that_makes_no_solid_fails(data, tmp_path, run_algorithm):
 
 def test_writecitygml_with_no_building_fails(data, tmp_path, run_algorithm):
     empty = vector(data["folder"] / "empty.gpkg", "lod1_faces", [], ogr.wkbPolygon25D,
-                   fields={"wit_id": ogr.OFTString, model.FACE_NUMBER: ogr.OFTInteger, model.FACE_TYPE: ogr.OFTString})
+                   fields={"wit_id": ogr.OFTString, step_layers.FACE_NUMBER: ogr.OFTInteger,
+                           step_layers.FACE_TYPE: ogr.OFTString})
     _refused(run_algorithm, "wit:writecitygml", {"LOD1": empty, "OUTPUT": str(tmp_path / "out" / "model.gml")},
              "has no building faces", data, tmp_path / "out")
 
@@ -545,7 +548,8 @@ def test_terrain_leaves_out_non_finite_constraints_with_a_warning(data, tmp_path
     good = [(209002, 543002), (209010, 543002), (209010, 543010), (209002, 543010), (209002, 543002)]
     buildings = _ring_layer(data["folder"] / "inf.gpkg", [good, _broken(209012, INF), _broken(209020, NAN)])
     result, warnings = run_logged("wit:triangulateterrain", {"DEM": data["dem"], "AREA": data["area"],
-                                                             "BUILDINGS": buildings, "OUTPUT": str(tmp_path / "t.gpkg")})
+                                                             "BUILDINGS": buildings,
+                                                             "OUTPUT": str(tmp_path / "t.gpkg")})
     assert result["TRIANGLES"] > 0
     assert any("buildings: 2 feature(s) with infinite or NaN coordinates left out" in w for w in warnings), warnings
     assert any(w.startswith("2 building/road polygon(s) dropped") for w in warnings), warnings

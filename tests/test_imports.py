@@ -20,14 +20,14 @@ CORE, GLUE = "wit_plugin", "processing_provider"
 LAYERS: tuple[tuple[str, frozenset[str]], ...] = (
     ("infrastructure", frozenset({
         "arrays", "bulk_read", "deps", "dem", "errors", "feedback", "fileio", "gc_pause", "gdal_env", "gpkg_bulk",
-        "installer", "interpreter", "mapsheet", "meshes", "model", "numtext", "raster_crs", "vector_io",
+        "installer", "interpreter", "mapsheet", "meshes", "numtext", "raster_crs", "step_layers", "vector_io",
     })),
     ("steps", frozenset({
         "citygml", "colorstore", "extrude", "georef", "heights", "metrics", "mosaic", "preview", "roads", "sample",
         "steiner", "terrain", "texture", "tiles3d", "tone", "triangulators", "vectors",
     })),
     ("chain", frozenset({"chain"})),
-    ("map-sheet runs", frozenset({"tiles"})),
+    ("map-sheet runs", frozenset({"sheetrun"})),
 )
 
 
@@ -163,15 +163,17 @@ def test_find_cycle_finds_a_cycle_and_only_a_cycle():
 
 
 def test_relative_imports_resolve_and_packages_collapse():
-    modules = {"wit_plugin.chain", "wit_plugin.chain.citymodel", "wit_plugin.tiles", "wit_plugin.tiles.job",
-               "wit_plugin.model"}
-    source = "from .. import model\nfrom ..tiles.job import TileJob\nfrom . import coverage\nimport qgis.core\n"
+    modules = {"wit_plugin.chain", "wit_plugin.chain.citymodel", "wit_plugin.sheetrun", "wit_plugin.sheetrun.job",
+               "wit_plugin.step_layers"}
+    source = ("from .. import step_layers\nfrom ..sheetrun.job import TileJob\nfrom . import coverage\n"
+              "import qgis.core\n")
     assert imported_names(source, "wit_plugin.chain.citymodel", False, modules) == {
-        "wit_plugin.model", "wit_plugin.tiles.job", "wit_plugin.chain", "qgis.core"}
-    assert imported_names("from .job import TileJob\n", "wit_plugin.tiles", True, modules) == {"wit_plugin.tiles.job"}
-    toy = {"wit_plugin.chain.citymodel": {"wit_plugin.tiles.job"}, "wit_plugin.tiles.job": {"wit_plugin.chain"},
+        "wit_plugin.step_layers", "wit_plugin.sheetrun.job", "wit_plugin.chain", "qgis.core"}
+    assert imported_names("from .job import TileJob\n", "wit_plugin.sheetrun", True, modules) == {
+        "wit_plugin.sheetrun.job"}
+    toy = {"wit_plugin.chain.citymodel": {"wit_plugin.sheetrun.job"}, "wit_plugin.sheetrun.job": {"wit_plugin.chain"},
            "wit_plugin.chain": {"wit_plugin.chain.citymodel"}}
-    assert find_cycle(package_graph(toy)) == ["chain", "tiles", "chain"]
+    assert find_cycle(package_graph(toy)) == ["chain", "sheetrun", "chain"]
 
 
 def test_uphill_import_is_found():
@@ -182,7 +184,7 @@ def test_uphill_import_is_found():
 
 def test_the_graph_is_read():
     """Known edges, so that an empty graph cannot pass the checks below."""
-    assert "wit_plugin.chain" in GRAPH["wit_plugin.tiles.worker"]
+    assert "wit_plugin.chain" in GRAPH["wit_plugin.sheetrun.worker"]
     assert "wit_plugin.errors" in GRAPH["processing_provider.base"]
     assert "wit_plugin.citygml.validation.names" in GRAPH["wit_plugin.citygml.validation.stream"]
     assert len([m for m in GRAPH if m.startswith(CORE + ".")]) > 60

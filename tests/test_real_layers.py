@@ -18,7 +18,7 @@ import shapely
 from conftest import ROOT
 from osgeo import gdal, ogr
 
-from wit_plugin import bulk_read, model, roads, vector_io
+from wit_plugin import bulk_read, roads, step_layers, vector_io
 from wit_plugin.errors import InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
@@ -140,7 +140,8 @@ def test_a_declared_euc_kr_that_holds_cp949_syllables_is_read_as_cp949_with_a_wa
 
 def test_korean_field_names_with_ascii_text_are_still_decoded(tmp_path):
     """Names alone decide too: every value ASCII, the names Korean (the sniff reads the DBF header)."""
-    path = ngii.write_shapefile(tmp_path / "n.shp", ogr.wkbPolygon, [("층수", ogr.OFTInteger, 10), ("구분", ogr.OFTString, 10)],
+    path = ngii.write_shapefile(tmp_path / "n.shp", ogr.wkbPolygon,
+                                [("층수", ogr.OFTInteger, 10), ("구분", ogr.OFTString, 10)],
                                 [{"층수": 3, "구분": "A1"}], [ngii.building_wkt(0, 0)], cpg=None)
     found = _json(in_subprocess(f"""
         import json
@@ -166,11 +167,12 @@ def test_a_csv_with_cp949_field_names_is_read_feature_by_feature(tmp_path):
                 self.warnings.append(message)
         feedback = F()
         layer = vector_io.read_layer({str(path)!r}, crs="EPSG:5187", feedback=feedback)
-        print(json.dumps([[f.name for f in layer.fields], layer.columns["용도"], layer.geoms[0].area, feedback.warnings],
-                         ensure_ascii=False))
+        print(json.dumps([[f.name for f in layer.fields], layer.columns["용도"], layer.geoms[0].area,
+                          feedback.warnings], ensure_ascii=False))
         """))
     assert found[:3] == [["WKT", "층수", "용도"], ["단독주택"], 100.0]
-    assert found[3] == ["건물.csv: 2 field name(s) are not UTF-8 (read as 층수, 용도); the layer is read feature by feature."]
+    assert found[3] == ["건물.csv: 2 field name(s) are not UTF-8 (read as 층수, 용도); "
+                        "the layer is read feature by feature."]
 
 
 def test_the_feature_api_gives_the_arrow_readers_columns(tmp_path):
@@ -223,7 +225,7 @@ def test_a_step_takes_a_files_only_layer_its_own_name_or_the_named_one(tmp_path)
                                          r"name the one to use, as two.gpkg\|layername=<name>"):
         vector_io.read_prepared(str(two), "lod1_faces")
     with pytest.raises(InputError, match=r"lacks the field\(s\) wit_face of the LoD1 faces \(wit:extrudebuildings\)"):
-        vector_io.open_step_layer(str(one), model.LOD1_LAYER, model.LOD1_ROLE, (model.FACE_TYPE,))
+        vector_io.open_step_layer(str(one), step_layers.LOD1_LAYER, step_layers.LOD1_ROLE, (step_layers.FACE_TYPE,))
 
 
 # -- road schemas ---------------------------------------------------------------------------------
@@ -233,13 +235,16 @@ def test_a_step_takes_a_files_only_layer_its_own_name_or_the_named_one(tmp_path)
     ([n for n, _, _ in ngii.CENTRE_LINE_FIELDS], {"도로폭": 0.0, "차로수": 2}, (6.5, "차로수 × 3.25 m")),
     ([n for n, _, _ in ngii.CENTRE_LINE_FIELDS], {"도로폭": None, "차로수": None}, (6.0, "default")),
     (["UFID", "ROAD_NO", "ROAD_SE", "CARTRK_CO", "ROAD_BT"], {"ROAD_BT": 8.5, "CARTRK_CO": 2}, (8.5, "ROAD_BT")),
-    (["UFID", "ROAD_NO", "ROAD_SE", "CARTRK_CO", "ROAD_BT"], {"ROAD_BT": None, "CARTRK_CO": 3}, (9.75, "CARTRK_CO × 3.25 m")),
+    (["UFID", "ROAD_NO", "ROAD_SE", "CARTRK_CO", "ROAD_BT"], {"ROAD_BT": None, "CARTRK_CO": 3},
+     (9.75, "CARTRK_CO × 3.25 m")),
     (["UFID", "RDNU", "NAME", "RDDV", "RDLN", "RVWD"], {"RVWD": "15", "RDLN": 4}, (15.0, "RVWD")),
     (["UFID", "RDNU", "NAME", "RDDV", "RDLN", "RVWD"], {"RVWD": None, "RDLN": "2"}, (6.5, "RDLN × 3.25 m")),
     (["SIG_CD", "RDS_MAN_NO", "ROA_CLS_SE", "ROAD_BT"], {"ROAD_BT": 0, "ROA_CLS_SE": "3"}, (12.0, "ROA_CLS_SE=3")),
     (["osm_id", "highway", "width", "lanes"], {"highway": "primary", "width": "7.5 m", "lanes": "2"}, (7.5, "width")),
-    (["osm_id", "highway", "width", "lanes"], {"highway": "primary", "width": None, "lanes": "3"}, (9.75, "lanes × 3.25 m")),
-    (["osm_id", "highway", "width", "lanes"], {"highway": "residential", "width": "", "lanes": "2;3"}, (6.5, "highway=residential")),
+    (["osm_id", "highway", "width", "lanes"], {"highway": "primary", "width": None, "lanes": "3"},
+     (9.75, "lanes × 3.25 m")),
+    (["osm_id", "highway", "width", "lanes"], {"highway": "residential", "width": "", "lanes": "2;3"},
+     (6.5, "highway=residential")),
     (["osm_id", "highway"], {"highway": "footway"}, (2.0, "highway=footway")),
     (["id", "name"], {}, (6.0, "default")),
 ])
@@ -276,19 +281,19 @@ def test_ngii_road_polygons_are_the_road_surfaces_as_they_are(layers, tmp_path):
                              PrepareConfig(target_crs="EPSG:5187"), feedback)
     stats = {s.layer: s for s in report.stats}
     assert (stats["roads"].features_in, stats["roads"].features_out, stats["buildings"].features_out) == (2, 2, 12)
-    rows = _table(out, model.PREPARED_ROADS)
-    assert [r[model.ROAD_WIDTH_SOURCE] for r in rows] == ["surface", "surface"]
-    assert [r[model.ROAD_WIDTH] for r in rows] == [None, None]
+    rows = _table(out, step_layers.PREPARED_ROADS)
+    assert [r[step_layers.ROAD_WIDTH_SOURCE] for r in rows] == ["surface", "surface"]
+    assert [r[step_layers.ROAD_WIDTH] for r in rows] == [None, None]
     assert [r["명칭"] for r in rows] == ["화랑로", None]
-    assert [r[model.WIT_ID] for r in rows] == ["RD_A0012021359010580000001", "RD_A0012021359010580000002"]
+    assert [r[step_layers.WIT_ID] for r in rows] == ["RD_A0012021359010580000001", "RD_A0012021359010580000002"]
     expected = [shapely.from_wkt(w).intersection(report.area) for w in ngii.ROAD_POLYGONS]
     for row, polygon in zip(rows, expected):  # cut to the area, not simplified: the same shape, the same vertices
         assert row["geometry"].symmetric_difference(polygon).area < 1e-6
         assert shapely.get_num_coordinates(row["geometry"]) == shapely.get_num_coordinates(polygon)
     assert any("2 road polygon(s) of N3A_A0010000.shp are road surfaces as they are" in m for m in feedback.infos)
-    buildings = _table(out, model.PREPARED_BUILDINGS)
+    buildings = _table(out, step_layers.PREPARED_BUILDINGS)
     assert [b["층수"] for b in buildings] == ngii.FLOORS and [b["용도"] for b in buildings] == ngii.USES
-    assert buildings[0][model.WIT_ID].startswith("BLD_B0012021")
+    assert buildings[0][step_layers.WIT_ID].startswith("BLD_B0012021")
     assert not any("fields not found" in w for w in feedback.warnings)  # not a road-name-address layer
 
 
@@ -297,8 +302,8 @@ def test_ngii_centre_lines_are_buffered_by_their_width_or_lanes(layers, tmp_path
     out = tmp_path / "lines.gpkg"
     prepare_vectors(None, layers["lines"], None, AREA, out, PrepareConfig(target_crs="EPSG:5187", road_tolerance=0.0),
                     feedback)
-    rows = {r["UFID"]: r for r in _table(out, model.PREPARED_ROADS)}
-    assert {k: (r[model.ROAD_WIDTH], r[model.ROAD_WIDTH_SOURCE]) for k, r in rows.items()} == {
+    rows = {r["UFID"]: r for r in _table(out, step_layers.PREPARED_ROADS)}
+    assert {k: (r[step_layers.ROAD_WIDTH], r[step_layers.ROAD_WIDTH_SOURCE]) for k, r in rows.items()} == {
         "A0022021359010580000001": (12.0, "도로폭"), "A0022021359010580000002": (6.5, "차로수 × 3.25 m"),
         "A0022021359010580000003": (6.0, "default")}
     # the 12 m road: 12 m wide, with round caps of 6 m at both ends
@@ -329,8 +334,8 @@ def test_a_road_layer_of_lines_and_polygons_keeps_both(tmp_path):
     del layer, ds
     out = tmp_path / "prepared.gpkg"
     report = prepare_vectors(None, str(path), None, AREA, out, PrepareConfig(target_crs="EPSG:5187"))
-    rows = _table(out, model.PREPARED_ROADS)
-    assert sorted((r["osm_id"], r[model.ROAD_WIDTH], r[model.ROAD_WIDTH_SOURCE]) for r in rows) == [
+    rows = _table(out, step_layers.PREPARED_ROADS)
+    assert sorted((r["osm_id"], r[step_layers.ROAD_WIDTH], r[step_layers.ROAD_WIDTH_SOURCE]) for r in rows) == [
         ("11", 12.0, "highway=secondary"), ("12", 4.0, "width"), ("13", None, "surface")]
-    assert len({r[model.WIT_ID] for r in rows}) == 3
+    assert len({r[step_layers.WIT_ID] for r in rows}) == 3
     assert report.stats[0].features_in == 3 and report.stats[0].features_out == 3

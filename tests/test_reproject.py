@@ -14,7 +14,7 @@ import pytest
 import shapely
 from osgeo import gdal, ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.chain.coverage import ortho_coverage, require_dem
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
@@ -255,7 +255,8 @@ def test_the_coverage_check_judges_a_dem_in_its_own_crs(dem_4326, tmp_path):
     message = _refusal(require_dem, path, east, "EPSG:5187")
     assert message.startswith("The DEM dem_4326.tif (x 127.080000–127.121667, y 37.468333–37.510000 in its CRS, "
                               "EPSG:4326) does not cover the area (x 127.")
-    assert re.search(r"\(the area's box in EPSG:5187, reprojected\)\): it stops short by 0\.0\d{5}° to the east\. ", message)
+    assert re.search(r"\(the area's box in EPSG:5187, reprojected\)\): it stops short by 0\.0\d{5}° to the east\. ",
+                     message)
     assert sorted(p.name for p in folder.iterdir()) == before  # nothing written beside the DEM (no .aux.xml)
 
 
@@ -302,8 +303,8 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
     assert sorted(p.name for p in inputs.iterdir()) == before  # nothing beside the inputs
     assert sorted(p.name for p in (tmp_path / "geo").iterdir()) == [
         "37709004.vrt", "37709004.warped.vrt", "37709005.vrt", "37709005.warped.vrt"]
-    assert any("carries its own georeference in EPSG:5186: reprojected to EPSG:5187 (bilinear, 2 m pixels) → 37709005.vrt" in m
-               for m in log.infos)
+    assert any("carries its own georeference in EPSG:5186: reprojected to EPSG:5187 (bilinear, 2 m pixels) "
+               "→ 37709005.vrt" in m for m in log.infos)
     to_5186 = pyproj.Transformer.from_crs("EPSG:5187", "EPSG:5186", always_xy=True)
     for result, path in zip(results, paths):
         vrt, source = gdal.Open(result.output), gdal.Open(path)
@@ -330,7 +331,8 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
     tifs = georeference_sheets(paths[1:], tmp_path / "geo_tif", "EPSG:5187", fmt="GTiff")  # a GeoTIFF, masked
     assert [p.name for p in (tmp_path / "geo_tif").iterdir()] == ["37709005.tif"]
     tif, vrt = gdal.Open(tifs[0].output), gdal.Open(results[1].output)
-    assert tif.GetGeoTransform() == vrt.GetGeoTransform() and tif.GetRasterBand(1).GetMaskFlags() == gdal.GMF_PER_DATASET
+    assert tif.GetGeoTransform() == vrt.GetGeoTransform()
+    assert tif.GetRasterBand(1).GetMaskFlags() == gdal.GMF_PER_DATASET
     np.testing.assert_array_equal(tif.ReadAsArray(), vrt.ReadAsArray())
     np.testing.assert_array_equal(tif.GetRasterBand(1).GetMaskBand().ReadAsArray(),
                                   vrt.GetRasterBand(1).GetMaskBand().ReadAsArray())
@@ -370,7 +372,7 @@ def east_belt_run(tmp_path_factory):
 
 def _tin_vertices(path: str) -> np.ndarray:
     ds = ogr.Open(path)
-    points = [g.GetPoints() for f in ds.GetLayer(model.TIN_LAYER) for g in [f.GetGeometryRef().GetGeometryRef(0)]]
+    points = [g.GetPoints() for f in ds.GetLayer(step_layers.TIN_LAYER) for g in [f.GetGeometryRef().GetGeometryRef(0)]]
     return np.unique(np.round(np.array([p for ring in points for p in ring[:3]]), 6), axis=0)
 
 
@@ -394,8 +396,8 @@ def test_the_chain_models_a_5186_dem_and_sheets_in_5187(east_belt_run):
     # the merged orthoimage in 5187 shows at each roof what the 5186 sheet shows there
     mosaic = gdal.Open(str(Path(report.work) / "ortho.tif"))
     lod1 = ogr.Open(report.lod1)  # kept while its layer is read
-    roofs = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb())) for f in lod1.GetLayer(model.LOD1_LAYER)
-             if f.GetField(model.FACE_TYPE) == "roof"]
+    roofs = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb())) for f in lod1.GetLayer(step_layers.LOD1_LAYER)
+             if f.GetField(step_layers.FACE_TYPE) == "roof"]
     inner = [r.buffer(-2.0) for r in shapely.force_2d(np.array(roofs, dtype=object))]
     points = np.array([shapely.get_coordinates(p.representative_point())[0] for p in inner if not p.is_empty])
     assert len(points) > 20
@@ -452,7 +454,7 @@ def test_a_mosaic_in_another_crs_is_reprojected_by_the_texture_step(east_belt_ru
 def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east_belt_run, dem_4326, tmp_path,
                                                                               monkeypatch):
     from wit_plugin.chain import ChainInputs, ChainOptions
-    from wit_plugin.tiles import runner
+    from wit_plugin.sheetrun import runner
     from wit_plugin.vectors import StudyArea
 
     def no_cluster(*args, **kwargs):
@@ -474,7 +476,7 @@ def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east
 def test_a_tiled_run_checks_the_orthoimage_sheets_before_any_worker_starts(east_belt_run, tmp_path, monkeypatch):
     """The sheet under the area missing (surfaces outside the orthoimage: fail): refused in seconds, naming it."""
     from wit_plugin.chain import ChainInputs, ChainOptions
-    from wit_plugin.tiles import runner
+    from wit_plugin.sheetrun import runner
     from wit_plugin.vectors import StudyArea
 
     def no_cluster(*args, **kwargs):

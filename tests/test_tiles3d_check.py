@@ -13,13 +13,14 @@ import numpy as np
 import pytest
 from osgeo import ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.tiles3d.check import check_glb_metadata, check_tileset, read_glb
 from wit_plugin.tiles3d.glb import GlbBuilder
 from wit_plugin.tiles3d.metadata import BUILDING_CLASS, INT32_NO_DATA, building_schema, property_columns
 
-FIELDS = [(model.WIT_ID, ogr.OFTString), (model.HEIGHT, ogr.OFTReal), (model.STOREYS_ABOVE, ogr.OFTInteger),
-          (model.STOREYS_BELOW, ogr.OFTInteger), ("BULD_NM", ogr.OFTString), ("BD_MGT_SN", ogr.OFTInteger64)]
+FIELDS = [(step_layers.WIT_ID, ogr.OFTString), (step_layers.HEIGHT, ogr.OFTReal),
+          (step_layers.STOREYS_ABOVE, ogr.OFTInteger), (step_layers.STOREYS_BELOW, ogr.OFTInteger),
+          ("BULD_NM", ogr.OFTString), ("BD_MGT_SN", ogr.OFTInteger64)]
 
 
 def _glb(attributes: list[list]) -> tuple[dict, bytes]:

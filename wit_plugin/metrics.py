@@ -75,7 +75,8 @@ import shapely
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from . import bulk_read, model
+from . import bulk_read
+from . import step_layers as model
 from .arrays import ragged_indices
 from .citygml.validation.crs import frame_of
 from .errors import InputError

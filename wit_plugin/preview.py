@@ -45,7 +45,8 @@ import numpy as np
 import shapely
 from osgeo import gdal, ogr
 
-from . import bulk_read, model
+from . import bulk_read
+from . import step_layers as model
 from .errors import InputError, WitError
 from .feedback import SILENT, Feedback, LoggingFeedback
 from .fileio import atomic_file

@@ -38,7 +38,7 @@ from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import refuse_overlap
 from .gpkg_bulk import write_layer
-from .model import (
+from .step_layers import (
     FOREIGN_BUILDINGS,
     PREPARED_BUILDINGS,
     PREPARED_ROADS,

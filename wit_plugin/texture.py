@@ -72,7 +72,8 @@ import shapely
 from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
-from . import bulk_read, model
+from . import bulk_read
+from . import step_layers as model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_files

@@ -59,7 +59,7 @@ import pyproj
 import shapely
 from osgeo import ogr
 
-from . import model
+from . import step_layers as model
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, refuse_overlap

@@ -1,7 +1,7 @@
 """The whole chain in one call, in the core: raw national data → validated, textured CityGML 3.0.
 
 ``wit:citymodel`` is a thin adapter over :func:`run_city_model`, and the tiled run
-(``wit_plugin.tiles``) calls it once per tile on Dask workers, without QGIS, passing the tile's own
+(``wit_plugin.sheetrun``) calls it once per tile on Dask workers, without QGIS, passing the tile's own
 step 1 (``ChainOptions.prepare``): the chain knows nothing of tiles. Order of the steps:
 
 1. prepare the vectors (fast) — the study area, grown to hold the buildings that cross its edge,
@@ -30,7 +30,7 @@ from pathlib import Path
 
 from shapely.geometry.base import BaseGeometry
 
-from .. import extrude, model, terrain, triangulators
+from .. import extrude, step_layers, terrain, triangulators
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
@@ -80,11 +80,11 @@ class PreparedLayers:
         def source(file: str, present: list[str], name: str) -> str | None:
             return f"{file}|layername={name}" if name in present else None
 
-        study = read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
-        return cls(source(prepared, names, model.PREPARED_BUILDINGS), study,
-                   source(context, context_names, model.PREPARED_ROADS),
-                   source(context, context_names, model.PREPARED_DISTRICTS),
-                   source(prepared, names, model.FOREIGN_BUILDINGS), seam)
+        study = read_prepared(f"{prepared}|layername={step_layers.STUDY_AREA}", step_layers.STUDY_AREA).geoms[0]
+        return cls(source(prepared, names, step_layers.PREPARED_BUILDINGS), study,
+                   source(context, context_names, step_layers.PREPARED_ROADS),
+                   source(context, context_names, step_layers.PREPARED_DISTRICTS),
+                   source(prepared, names, step_layers.FOREIGN_BUILDINGS), seam)
 
 
 @dataclass
@@ -123,7 +123,7 @@ class ChainOptions:
     tiles3d: bool = True  # write the 3D Tiles 1.1 tileset (<output>/3dtiles) for viewers
     tiles3d_web: bool = False  # its web profile: compressed geometry for browsers (QGIS cannot read it)
     encoding: str | None = None  # of shapefile inputs, when their declaration is wrong
-    #: step 1 of one part of a larger run (a tile of wit_plugin.tiles); None: the study area's layers
+    #: step 1 of one part of a larger run (a tile of wit_plugin.sheetrun); None: the study area's layers
     prepare: PrepareLayers | None = None
 
 
@@ -250,7 +250,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("prepare") as fb:
         layers = _prepare(inputs, options, work, fb)
-        area = terrain.covering_area(layers.study, read_prepared(layers.buildings, model.PREPARED_BUILDINGS).geoms) \
+        area = terrain.covering_area(layers.study,
+                                     read_prepared(layers.buildings, step_layers.PREPARED_BUILDINGS).geoms) \
             if layers.buildings else layers.study
 
     with clock.step("coverage") as fb:
@@ -350,6 +351,6 @@ def _prepare(inputs: ChainInputs, options: ChainOptions, work: Path, feedback: F
                            stats_csv=str(work / "prepared_stats.csv"))
     names = prepare_vectors(inputs.buildings, inputs.roads, inputs.districts, options.area, prepared, config,
                             feedback).layers
-    if model.PREPARED_BUILDINGS not in names:
+    if step_layers.PREPARED_BUILDINGS not in names:
         raise InputError("No building of the building layer lies in the study area.")
     return PreparedLayers.read(prepared, names, prepared, names)

@@ -47,7 +47,8 @@ import shapely
 from lxml import etree
 from osgeo import ogr
 
-from .. import bulk_read, model
+from .. import bulk_read
+from .. import step_layers as model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file

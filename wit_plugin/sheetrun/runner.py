@@ -84,7 +84,7 @@ WORKER_MODULES = ("distributed", "numpy", "shapely", "pyproj", "lxml", "osgeo")
 def worker_python(configured: str | None = None, triangulator: str = "pythoncdt") -> str:
     """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask and the
     triangulation library ``triangulator``)."""
-    return core_python(configured, (*WORKER_MODULES, triangulator), "wit_plugin.tiles.worker")
+    return core_python(configured, (*WORKER_MODULES, triangulator), "wit_plugin.sheetrun.worker")
 
 
 def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,

@@ -8,7 +8,7 @@ from pathlib import Path
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import model
+from .. import step_layers
 from ..chain import ChainInputs, ChainOptions, PreparedLayers
 from ..feedback import Feedback
 from ..terrain import Seam
@@ -30,7 +30,7 @@ class TileJob:
     def seam(self, target_crs: str, footprints: list[str]) -> Seam:
         """The tile's border and its canonical points, from the run's area, its roads and ``footprints``."""
         crossing = [shapely.from_wkt(self.owner.area_wkt)] if self.owner.area_wkt else []
-        for name in (n for n in self.context_layers if n == model.PREPARED_ROADS):
+        for name in (n for n in self.context_layers if n == step_layers.PREPARED_ROADS):
             crossing += list(read_prepared(f"{self.context}|layername={name}", name).geoms)
         for source in footprints:
             crossing += list(read_prepared(source, source.rsplit("=", 1)[-1]).geoms)
@@ -53,5 +53,5 @@ class TileJob:
         context = str(work / "context.gpkg")
         context_names = clip_context(self.context, self.context_layers, tile_area, context) if self.context else []
         seam = self.seam(options.target_crs, [f"{prepared}|layername={n}" for n in names
-                                              if n in (model.PREPARED_BUILDINGS, model.FOREIGN_BUILDINGS)])
+                                              if n in (step_layers.PREPARED_BUILDINGS, step_layers.FOREIGN_BUILDINGS)])
         return PreparedLayers.read(prepared, names, context, context_names, seam)
