@@ -1,4 +1,5 @@
-"""Checks every ``wit`` algorithm makes before it touches anything (Nothing lost, SPEC and issue 13).
+"""Checks every ``wit`` algorithm makes before it touches anything, so that nothing is lost: no input is
+written over, and bad input is refused up front with its real problem.
 
 Generic over the parameter definitions, so every algorithm (the chain and future ones too) gets
 them without code of its own:

@@ -1,4 +1,4 @@
-"""Real national layers through Processing and through scripts/qgis-process (issue 21).
+"""Real national layers through Processing and through scripts/qgis-process.
 
 Every algorithm that reads vectors takes the NGII digital map as NGII ships it (Korean field names in
 CP949, an EUC-KR ``.cpg`` or none, EPSG:5187) with QGIS's own GDAL settings, without a crash; every

@@ -1,4 +1,4 @@
-"""NGII map-sheet numbers (도엽번호): digits ↔ degree bounds ↔ projected footprint (SPEC §3).
+"""NGII map-sheet numbers (도엽번호): digits ↔ degree bounds ↔ projected footprint.
 
 NGII orthoimage tiles arrive without georeferencing; their file names carry the sheet number,
 which fixes the sheet's bounds in degrees on Korea 2000 (EPSG:4737). This module turns a number
@@ -27,7 +27,7 @@ The numbering:
   1:1,000    9       1:10,000 + 00–99                10  0.005°
   =========  ======  ==============================  ==  =========
 
-1:1,000 decision: a 10×10 split needs 100 numbers but the SPEC gives it two digits, so it cannot
+1:1,000 decision: a 10×10 split needs 100 numbers but the numbering gives it two digits, so it cannot
 be numbered 1–100 like the other scales. We read the two digits as 00–99 counted from 0 in the
 same row-major order, i.e. the first digit is the row from the north (0–9) and the second the
 column from the west (0–9): ``00`` is the north-west cell, ``09`` the north-east, ``99`` the

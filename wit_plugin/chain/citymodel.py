@@ -104,7 +104,7 @@ PrepareLayers = Callable[[ChainInputs, "ChainOptions", Path, Feedback], Prepared
 
 @dataclass
 class ChainOptions:
-    """Everything else a run needs (defaults: the paper's and SPEC's)."""
+    """Everything else a run needs (defaults: the paper's settings and the NGII data's conventions)."""
 
     area: StudyArea
     target_crs: str = "EPSG:5186"
