@@ -101,9 +101,9 @@ class CityModelTiles(CityModel):
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def execute(self, parameters, context, feedback):
+        from ..wit_plugin.area import StudyArea
         from ..wit_plugin.sheetrun.plan import TILE_SCALES
         from ..wit_plugin.sheetrun.runner import run_tiles
-        from ..wit_plugin.vectors import StudyArea
 
         inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)

@@ -194,9 +194,10 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     import shapely
     from osgeo import ogr, osr
 
+    from wit_plugin.polygons import transform
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.vector_io import read_layer
-    from wit_plugin.vectors import road_widths, transform
+    from wit_plugin.vectors import road_widths
 
     folder = tmp_path_factory.mktemp("suseo")
     synthetic = generate_sample(folder / "synthetic", SampleConfig(radius_m=350.0, with_ortho=False, with_dem=False))

@@ -21,10 +21,10 @@ from lxml import etree
 from osgeo import gdal, ogr
 
 from wit_plugin import step_layers
+from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.colorstore import build_color_store
 from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers
-from wit_plugin.vectors import StudyArea
 
 pytestmark = pytest.mark.slow
 

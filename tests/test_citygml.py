@@ -12,6 +12,7 @@ from lxml import etree
 from osgeo import gdal, ogr, osr
 
 from wit_plugin import step_layers
+from wit_plugin.citygml import inputs as citygml_inputs
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
@@ -380,7 +381,7 @@ def test_raw_polygon_markup_is_what_lxml_would_write():
     """The ready-made markup for the repeated geometry (``_Writer.raw``) equals lxml's element."""
     geometry = ogr.CreateGeometryFromWkt("POLYGON Z ((0 0 1, 10 0 1, 10 10 2.5, 0 0 1), "
                                          "(2 1 1, 8 1 1, 8 7 1.25, 2 1 1))")
-    gml = "{{{}}}".format(citygml.NS["gml"])
+    gml = f"{{{citygml.NS['gml']}}}"
     expected = etree.Element(gml + "Polygon", {gml + "id": "BLD_1_f3"}, nsmap={"gml": citygml.NS["gml"]})
     for i, side in enumerate(("exterior", "interior")):
         ring = etree.SubElement(etree.SubElement(expected, gml + side), gml + "LinearRing",
@@ -392,11 +393,11 @@ def test_raw_polygon_markup_is_what_lxml_would_write():
 
 
 def test_a_tin_triangle_id_must_be_an_integer():
-    assert citygml._tri_ids(np.array([12, -3], dtype=np.int32)) == ["tri_12", "tri_-3"]
-    assert citygml._tri_ids(np.array([b"12"])) == ["tri_12"]  # a text field holding integers
+    assert citygml_inputs.tri_ids(np.array([12, -3], dtype=np.int32)) == ["tri_12", "tri_-3"]
+    assert citygml_inputs.tri_ids(np.array([b"12"])) == ["tri_12"]  # a text field holding integers
     for bad in (np.array([b"12", b'1"><x']), np.ma.masked_array([5, 6], mask=[False, True])):
         with pytest.raises(InputError, match="not an integer"):
-            citygml._tri_ids(bad)
+            citygml_inputs.tri_ids(bad)
 
 
 def test_raw_road_texture_association_is_what_lxml_would_write(tmp_path):

@@ -20,11 +20,12 @@ CORE, GLUE = "wit_plugin", "processing_provider"
 LAYERS: tuple[tuple[str, frozenset[str]], ...] = (
     ("infrastructure", frozenset({
         "arrays", "bulk_read", "deps", "dem", "errors", "feedback", "fileio", "gc_pause", "gdal_env", "gpkg_bulk",
-        "installer", "interpreter", "mapsheet", "meshes", "numtext", "raster_crs", "step_layers", "vector_io",
+        "installer", "interpreter", "mapsheet", "meshes", "numtext", "polygons", "raster_crs", "step_layers",
+        "vector_io",
     })),
     ("steps", frozenset({
-        "citygml", "colorstore", "extrude", "georef", "heights", "metrics", "mosaic", "preview", "roads", "sample",
-        "steiner", "terrain", "texture", "tiles3d", "tone", "triangulators", "vectors",
+        "area", "citygml", "colorstore", "extrude", "georef", "heights", "metrics", "mosaic", "preview", "roads",
+        "sample", "simplify", "steiner", "terrain", "texture", "tiles3d", "tone", "triangulators", "vectors",
     })),
     ("chain", frozenset({"chain"})),
     ("map-sheet runs", frozenset({"sheetrun"})),
@@ -186,7 +187,7 @@ def test_the_graph_is_read():
     """Known edges, so that an empty graph cannot pass the checks below."""
     assert "wit_plugin.chain" in GRAPH["wit_plugin.sheetrun.worker"]
     assert "wit_plugin.errors" in GRAPH["processing_provider.base"]
-    assert "wit_plugin.citygml.validation.names" in GRAPH["wit_plugin.citygml.validation.stream"]
+    assert "wit_plugin.citygml.validation.names" in GRAPH["wit_plugin.citygml.validation.geometry"]
     assert len([m for m in GRAPH if m.startswith(CORE + ".")]) > 60
 
 
