@@ -7,9 +7,9 @@ from qgis.core import Qgis, QgsApplication
 from qgis.PyQt.QtCore import QCoreApplication, QLocale, QSettings, QTranslator
 from qgis.PyQt.QtWidgets import QPushButton
 
-from .processing_provider.base import tr
 from .processing_provider.dependency_notice import NOTICE
 from .processing_provider.provider import WitProvider
+from .processing_provider.translation import tr
 
 PLUGIN_DIR = Path(__file__).resolve().parent
 

@@ -27,7 +27,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-import measure  # benchmarks/measure.py
+import measure  # noqa: E402 — benchmarks/measure.py, on the path just above
 
 ORIGIN = (200000.0, 540000.0)  # EPSG:5186 metres, Seoul
 SPACING, SIDE = 20.0, 12.0  # building pitch and footprint side (m)
@@ -38,7 +38,7 @@ def make_inputs(folder: Path, n: int) -> tuple[str, str]:
     """(lod1.gpkg, districts.gpkg) for n buildings on a square grid; reused when present."""
     from osgeo import ogr, osr
 
-    from wit_plugin import model
+    from wit_plugin import step_layers
 
     folder.mkdir(parents=True, exist_ok=True)
     lod1, districts = folder / f"lod1_{n}.gpkg", folder / f"districts_{n}.gpkg"
@@ -48,11 +48,11 @@ def make_inputs(folder: Path, n: int) -> tuple[str, str]:
     if not lod1.exists():
         tmp = folder / f".lod1_{n}.gpkg"
         ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tmp))
-        layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon25D, ["SPATIAL_INDEX=NO"])
-        for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                           (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal),
-                           (model.HEIGHT, ogr.OFTReal), (model.HEIGHT_SOURCE, ogr.OFTString),
-                           (model.STOREYS_ABOVE, ogr.OFTInteger), ("BULD_NM", ogr.OFTString),
+        layer = ds.CreateLayer(step_layers.LOD1_LAYER, srs, ogr.wkbPolygon25D, ["SPATIAL_INDEX=NO"])
+        for name, kind in ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                           (step_layers.FACE_NUMBER, ogr.OFTInteger), (step_layers.BASE_Z, ogr.OFTReal),
+                           (step_layers.HEIGHT, ogr.OFTReal), (step_layers.HEIGHT_SOURCE, ogr.OFTString),
+                           (step_layers.STOREYS_ABOVE, ogr.OFTInteger), ("BULD_NM", ogr.OFTString),
                            ("BDTYP_CD", ogr.OFTString)):
             layer.CreateField(ogr.FieldDefn(name, kind))
         defn = layer.GetLayerDefn()
@@ -69,13 +69,13 @@ def make_inputs(folder: Path, n: int) -> tuple[str, str]:
             for number, (kind, ring) in enumerate(faces):
                 wkt = "POLYGON Z ((" + ", ".join(f"{x} {y} {z}" for x, y, z in ring + ring[:1]) + "))"
                 feature = ogr.Feature(defn)
-                feature.SetField(model.WIT_ID, f"BLD_{1111010100100000000000000 + i}")
-                feature.SetField(model.FACE_TYPE, kind)
-                feature.SetField(model.FACE_NUMBER, number)
-                feature.SetField(model.BASE_Z, base)
-                feature.SetField(model.HEIGHT, height)
-                feature.SetField(model.HEIGHT_SOURCE, "floors")
-                feature.SetField(model.STOREYS_ABOVE, 1 + i % 5)
+                feature.SetField(step_layers.WIT_ID, f"BLD_{1111010100100000000000000 + i}")
+                feature.SetField(step_layers.FACE_TYPE, kind)
+                feature.SetField(step_layers.FACE_NUMBER, number)
+                feature.SetField(step_layers.BASE_Z, base)
+                feature.SetField(step_layers.HEIGHT, height)
+                feature.SetField(step_layers.HEIGHT_SOURCE, "floors")
+                feature.SetField(step_layers.STOREYS_ABOVE, 1 + i % 5)
                 feature.SetField("BULD_NM", f"테스트 건물 {i}")
                 feature.SetField("BDTYP_CD", "01001")
                 feature.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
@@ -85,15 +85,15 @@ def make_inputs(folder: Path, n: int) -> tuple[str, str]:
         os.replace(tmp, lod1)
     if not districts.exists():
         ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(districts))
-        layer = ds.CreateLayer(model.PREPARED_DISTRICTS, srs, ogr.wkbPolygon)
-        for name in (model.WIT_ID, "EMD_KOR_NM"):
+        layer = ds.CreateLayer(step_layers.PREPARED_DISTRICTS, srs, ogr.wkbPolygon)
+        for name in (step_layers.WIT_ID, "EMD_KOR_NM"):
             layer.CreateField(ogr.FieldDefn(name, ogr.OFTString))
         step = cols * SPACING / GRID
         for r in range(GRID):
             for c in range(GRID):
                 x0, y0 = ORIGIN[0] + c * step, ORIGIN[1] + r * step
                 feature = ogr.Feature(layer.GetLayerDefn())
-                feature.SetField(model.WIT_ID, f"EMD_{11110100 + r * GRID + c}")
+                feature.SetField(step_layers.WIT_ID, f"EMD_{11110100 + r * GRID + c}")
                 feature.SetField("EMD_KOR_NM", f"테스트{r * GRID + c}동")
                 feature.SetGeometry(ogr.CreateGeometryFromWkt(
                     f"POLYGON (({x0} {y0}, {x0 + step} {y0}, {x0 + step} {y0 + step}, {x0} {y0 + step}, {x0} {y0}))"))
@@ -120,11 +120,12 @@ def child(output: str, inputs: str) -> None:
 
 def _qgis_parameters(inputs: dict, output: Path) -> dict[str, str]:
     """wit:writecitygml's parameters for the same inputs (prepared layers named as the chain names them)."""
-    from wit_plugin import model
+    from wit_plugin import step_layers
 
     layers = {"LOD1": inputs["lod1"], "TIN": inputs.get("tin"),
-              "ROADS": inputs.get("roads") and f"{inputs['roads']}|layername={model.PREPARED_ROADS}",
-              "DISTRICTS": inputs.get("districts") and f"{inputs['districts']}|layername={model.PREPARED_DISTRICTS}",
+              "ROADS": inputs.get("roads") and f"{inputs['roads']}|layername={step_layers.PREPARED_ROADS}",
+              "DISTRICTS": inputs.get("districts")
+              and f"{inputs['districts']}|layername={step_layers.PREPARED_DISTRICTS}",
               "TEXTURES": inputs.get("textures")}
     return {**{k: v for k, v in layers.items() if v}, "OUTPUT": str(output)}
 

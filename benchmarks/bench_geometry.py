@@ -76,11 +76,11 @@ def _study_area():
 
 
 def _inputs(paths: dict):
-    from wit_plugin import model, terrain
+    from wit_plugin import step_layers, terrain
     from wit_plugin.io.vector_io import read_layer
 
-    buildings = read_layer(paths["prepared"], model.PREPARED_BUILDINGS)
-    roads = read_layer(paths["prepared"], model.PREPARED_ROADS)
+    buildings = read_layer(paths["prepared"], step_layers.PREPARED_BUILDINGS)
+    roads = read_layer(paths["prepared"], step_layers.PREPARED_ROADS)
     return buildings, terrain.features(buildings), terrain.features(roads)
 
 

@@ -50,12 +50,12 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
     import shapely
     from osgeo import gdal, ogr, osr
 
-    from wit_plugin import model
+    from wit_plugin import step_layers
     from wit_plugin.io.vector_io import read_layer
     from wit_plugin.mapsheet import sheets_covering
     from wit_plugin.polygons import transform
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.tiles.plan import owners, plan_tiles
+    from wit_plugin.sheetrun.plan import owners, plan_tiles
     from wit_plugin.tiles3d.geo import Georeference, column_major
     from wit_plugin.tiles3d.glb import GlbBuilder
 
@@ -138,22 +138,22 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
         if not len(mine):
             continue
         ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(run / "tiles" / tile.sheet / "lod1.gpkg"))
-        layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon)
-        for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                           (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal),
-                           (model.HEIGHT, ogr.OFTReal), (model.STOREYS_ABOVE, ogr.OFTInteger),
+        layer = ds.CreateLayer(step_layers.LOD1_LAYER, srs, ogr.wkbPolygon)
+        for name, kind in ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                           (step_layers.FACE_NUMBER, ogr.OFTInteger), (step_layers.BASE_Z, ogr.OFTReal),
+                           (step_layers.HEIGHT, ogr.OFTReal), (step_layers.STOREYS_ABOVE, ogr.OFTInteger),
                            ("BULD_NM", ogr.OFTString)):
             layer.CreateField(ogr.FieldDefn(name, kind))
         ds.StartTransaction()
         for i in mine.tolist():
             feature = ogr.Feature(layer.GetLayerDefn())
-            feature.SetField(model.WIT_ID, f"BLD_{i}")
-            feature.SetField(model.FACE_TYPE, "ground")
-            feature.SetField(model.FACE_NUMBER, 0)
-            feature.SetField(model.BASE_Z, float(base[i]))
-            feature.SetField(model.HEIGHT, 3.0 * floors[i] if floors[i] else 3.0)
+            feature.SetField(step_layers.WIT_ID, f"BLD_{i}")
+            feature.SetField(step_layers.FACE_TYPE, "ground")
+            feature.SetField(step_layers.FACE_NUMBER, 0)
+            feature.SetField(step_layers.BASE_Z, float(base[i]))
+            feature.SetField(step_layers.HEIGHT, 3.0 * floors[i] if floors[i] else 3.0)
             if floors[i]:
-                feature.SetField(model.STOREYS_ABOVE, int(floors[i]))
+                feature.SetField(step_layers.STOREYS_ABOVE, int(floors[i]))
             if names[i]:
                 feature.SetField("BULD_NM", names[i])
             feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(footprints[i])))
@@ -205,9 +205,9 @@ def main() -> int:
 
     import shapely
 
-    from wit_plugin.tiles.index import read_index
-    from wit_plugin.tiles.plan import tile_of
-    from wit_plugin.tiles.prepare import area_of_layer
+    from wit_plugin.sheetrun.index import read_index
+    from wit_plugin.sheetrun.plan import tile_of
+    from wit_plugin.sheetrun.prepare import area_of_layer
     from wit_plugin.tiles3d.check import check_tileset
     from wit_plugin.tiles3d.combine import tile_areas
 

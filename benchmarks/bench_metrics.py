@@ -98,10 +98,10 @@ def _footprints(paths: dict):
     import shapely
     from osgeo import ogr
 
-    from wit_plugin import model
+    from wit_plugin import step_layers
 
     ds = ogr.Open(paths["prepared"])  # kept referenced: the layer dies with its data source
-    wkbs = [bytes(f.GetGeometryRef().ExportToIsoWkb()) for f in ds.GetLayerByName(model.PREPARED_BUILDINGS)]
+    wkbs = [bytes(f.GetGeometryRef().ExportToIsoWkb()) for f in ds.GetLayerByName(step_layers.PREPARED_BUILDINGS)]
     return shapely.multipolygons(shapely.get_parts(shapely.from_wkb(np.array(wkbs, dtype=object))))
 
 

@@ -1,4 +1,4 @@
-"""Benchmark a DEM in another CRS than the layers' (issue 21): the cost of reprojecting it on the fly,
+"""Benchmark a DEM in another CRS than the layers': the cost of reprojecting it on the fly,
 and how far the reprojected surface departs from bilinear sampling of the source DEM.
 
 Data: the generated 1 km sample around Suseo station (5 m DEM in EPSG:5186 with undeclared -9999
@@ -74,15 +74,15 @@ def prepare_data() -> dict:
 
 
 def _area(prepared: str):
-    from wit_plugin import model
+    from wit_plugin import step_layers
     from wit_plugin.io.vector_io import read_prepared
 
-    return read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
+    return read_prepared(f"{prepared}|layername={step_layers.STUDY_AREA}", step_layers.STUDY_AREA).geoms[0]
 
 
 def run_case(case: str, kind: str, paths: dict) -> dict:
     _setup()
-    from wit_plugin import extrude, model, terrain
+    from wit_plugin import extrude, step_layers, terrain
     from wit_plugin.chain.coverage import require_dem
     from wit_plugin.dem import Dem
 
@@ -93,12 +93,12 @@ def run_case(case: str, kind: str, paths: dict) -> dict:
         dem = Dem.open(paths["dem"], area.bounds, crs=crs)
         result = {"cells": int(dem.values.size), "cell_m": dem.geotransform[1]}
     elif case == "terrain":
-        stats = terrain.triangulate_terrain(paths["dem"], f"{prepared}|layername={model.PREPARED_BUILDINGS}",
-                                            f"{prepared}|layername={model.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg",
+        stats = terrain.triangulate_terrain(paths["dem"], f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}",
+                                            f"{prepared}|layername={step_layers.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg",
                                             area, terrain.TerrainConfig(spatial_index=False))
         result = {"triangles": stats.triangles, "max_vertical_error": stats.max_vertical_error}
     elif case == "extrude":
-        stats = extrude.extrude_buildings(f"{prepared}|layername={model.PREPARED_BUILDINGS}", paths["dem"],
+        stats = extrude.extrude_buildings(f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}", paths["dem"],
                                           DATA / f"lod1_{kind}.gpkg", spatial_index=False)
         result = {"solids": stats.solids}
     else:

@@ -3,7 +3,7 @@
 Generates (and caches under /tmp) a synthetic 0.25 m RGB orthoimage of 8000 × 8000 px (2 km
 square, tiled GeoTIFF like wit:mergetiles writes), an LoD1 faces layer of 5,041 buildings
 (roof + ground + 4 walls each) and a TIN of 100,352 grid triangles (70 % terrain, 20 % road,
-10 % footprint), all in EPSG:5186 in the ``model`` schema. Each configuration then runs
+10 % footprint), all in EPSG:5186 in the ``step_layers`` schema. Each configuration then runs
 ``texture_model`` in its own child process under ``/usr/bin/time``, whose peak RSS is the run's
 own (the parent imports nothing heavy); the default configuration also runs through
 ``qgis_process`` as users run it (QGIS's start-up measured in the same run and subtracted). The
@@ -29,10 +29,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-import measure  # benchmarks/measure.py
+import measure  # noqa: E402 — benchmarks/measure.py, on the path just above
 
 SIZE, PIXEL = 8000, 0.25
-X0, Y0 = 208842.55, 544511.46  # north-west corner of sheet 37709005 (Suseo station, SPEC §3)
+X0, Y0 = 208842.55, 544511.46  # north-west corner of sheet 37709005 (Suseo station; wit_plugin.mapsheet)
 BUILDINGS_PER_SIDE = 71  # 5,041 buildings
 TIN_CELLS = 224  # 224 × 224 cells × 2 = 100,352 triangles
 CONFIGS = {
@@ -49,7 +49,7 @@ def make_inputs(folder: Path) -> tuple[str, str, str]:
     from osgeo import gdal, ogr, osr
 
     sys.path.insert(0, str(ROOT))
-    from wit_plugin import model
+    from wit_plugin import step_layers
 
     folder.mkdir(parents=True, exist_ok=True)
     ortho, lod1, tin = folder / "ortho.tif", folder / "lod1.gpkg", folder / "tin.gpkg"
@@ -80,9 +80,9 @@ def make_inputs(folder: Path) -> tuple[str, str, str]:
         ds = None
         os.replace(tmp, ortho)
     if not lod1.exists():
-        _write_lod1(lod1, srs, sizes, spacing, model, ogr)
+        _write_lod1(lod1, srs, sizes, spacing, step_layers, ogr)
     if not tin.exists():
-        _write_tin(tin, srs, rng, model, ogr)
+        _write_tin(tin, srs, rng, step_layers, ogr)
     return str(ortho), str(lod1), str(tin)
 
 
@@ -95,11 +95,11 @@ def _face(ogr, points: list[tuple[float, float, float]]):
     return poly
 
 
-def _write_lod1(path: Path, srs, sizes, spacing: float, model, ogr) -> None:
+def _write_lod1(path: Path, srs, sizes, spacing: float, step_layers, ogr) -> None:
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path) + ".tmp.gpkg")
-    layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon25D)
-    for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                       (model.FACE_NUMBER, ogr.OFTInteger)):
+    layer = ds.CreateLayer(step_layers.LOD1_LAYER, srs, ogr.wkbPolygon25D)
+    for name, kind in ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                       (step_layers.FACE_NUMBER, ogr.OFTInteger)):
         layer.CreateField(ogr.FieldDefn(name, kind))
     layer.StartTransaction()
     for k, (w, h) in enumerate(sizes):
@@ -112,9 +112,9 @@ def _write_lod1(path: Path, srs, sizes, spacing: float, model, ogr) -> None:
             faces.append(("wall", _face(ogr, [(xa, ya, 30.0), (xb, yb, 30.0), (xb, yb, 45.0), (xa, ya, 45.0)])))
         for number, (kind, geom) in enumerate(faces):
             f = ogr.Feature(layer.GetLayerDefn())
-            f.SetField(model.WIT_ID, f"BLD_{k:07d}")
-            f.SetField(model.FACE_TYPE, kind)
-            f.SetField(model.FACE_NUMBER, number)
+            f.SetField(step_layers.WIT_ID, f"BLD_{k:07d}")
+            f.SetField(step_layers.FACE_TYPE, kind)
+            f.SetField(step_layers.FACE_NUMBER, number)
             f.SetGeometry(geom)
             layer.CreateFeature(f)
     layer.CommitTransaction()
@@ -122,11 +122,11 @@ def _write_lod1(path: Path, srs, sizes, spacing: float, model, ogr) -> None:
     os.replace(str(path) + ".tmp.gpkg", path)
 
 
-def _write_tin(path: Path, srs, rng, model, ogr) -> None:
+def _write_tin(path: Path, srs, rng, step_layers, ogr) -> None:
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path) + ".tmp.gpkg")
-    layer = ds.CreateLayer(model.TIN_LAYER, srs, ogr.wkbPolygon25D)
-    for name, kind in ((model.TIN_TRIANGLE_ID, ogr.OFTInteger), (model.TIN_SURFACE, ogr.OFTString),
-                       (model.TIN_FEATURE_ID, ogr.OFTString)):
+    layer = ds.CreateLayer(step_layers.TIN_LAYER, srs, ogr.wkbPolygon25D)
+    for name, kind in ((step_layers.TIN_TRIANGLE_ID, ogr.OFTInteger), (step_layers.TIN_SURFACE, ogr.OFTString),
+                       (step_layers.TIN_FEATURE_ID, ogr.OFTString)):
         layer.CreateField(ogr.FieldDefn(name, kind))
     step = SIZE * PIXEL / TIN_CELLS
     kinds = rng.choice(["terrain", "road", "footprint"], size=2 * TIN_CELLS ** 2, p=[0.7, 0.2, 0.1])
@@ -138,10 +138,10 @@ def _write_tin(path: Path, srs, rng, model, ogr) -> None:
             cc, d = (X0 + (c + 1) * step, Y0 - (r + 1) * step), (X0 + c * step, Y0 - (r + 1) * step)
             for tri in ((a, d, cc), (a, cc, b)):
                 f = ogr.Feature(layer.GetLayerDefn())
-                f.SetField(model.TIN_TRIANGLE_ID, n)
-                f.SetField(model.TIN_SURFACE, str(kinds[n]))
+                f.SetField(step_layers.TIN_TRIANGLE_ID, n)
+                f.SetField(step_layers.TIN_SURFACE, str(kinds[n]))
                 if kinds[n] == "road":
-                    f.SetField(model.TIN_FEATURE_ID, f"RD_{r // 16:03d}")
+                    f.SetField(step_layers.TIN_FEATURE_ID, f"RD_{r // 16:03d}")
                 f.SetGeometry(_face(ogr, [(x, y, 40.0) for x, y in tri]))
                 layer.CreateFeature(f)
                 n += 1

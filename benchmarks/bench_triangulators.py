@@ -1,5 +1,5 @@
-"""The two terrain triangulators side by side (issue 24): Triangle (TRIANGULATOR 0, non-commercial licence)
-and CDT (TRIANGULATOR 1, MPL-2.0, with our Steiner points), on the same inputs.
+"""The two terrain triangulators side by side: Triangle (TRIANGULATOR 0, non-commercial licence) and CDT
+(TRIANGULATOR 1, MPL-2.0, with our Steiner points: offered so that commercial users have one), on the same inputs.
 
 * ``area``: ``terrain.mesh.triangulate`` + the snap to the millimetre grid on the 1 km / 5 m sample (the data of
   ``bench_geometry.py``: ~5,000 buildings, roads, 5 m DEM; max edge 5 m, tolerance 0.5 m), each backend in
@@ -68,8 +68,8 @@ def run_tiles_case(key: int, tiles: int) -> dict:
     from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.tiles.plan import tile_of
-    from wit_plugin.tiles.runner import run_tiles
+    from wit_plugin.sheetrun.plan import tile_of
+    from wit_plugin.sheetrun.runner import run_tiles
 
     folder = TILES_OUT / "sample"
     if not (folder / "sample_manifest.json").is_file():  # the same sample as bench_tiles.py

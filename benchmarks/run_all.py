@@ -158,12 +158,12 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
     elif step == "terrain":
 
         from benchmarks.bench_geometry import terrain_clock
-        from wit_plugin import model, terrain
+        from wit_plugin import step_layers, terrain
 
         clock = terrain_clock()
         start = time.perf_counter()
         stats = terrain.triangulate_terrain(p["dem"], p["prepared"], p["prepared"], p["tin"],
-                                            f"{p['prepared']}|layername={model.STUDY_AREA}",
+                                            f"{p['prepared']}|layername={step_layers.STUDY_AREA}",
                                             terrain.TerrainConfig(spatial_index=False))  # as wit:citymodel
         seconds = time.perf_counter() - start
         split = {k: round(v, 3) for k, v in clock.seconds.items()}

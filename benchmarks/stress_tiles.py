@@ -90,7 +90,7 @@ class Cluster:
                                     stderr=subprocess.STDOUT)
 
     def stop(self) -> None:
-        from wit_plugin.tiles.runner import stop_workers
+        from wit_plugin.sheetrun.runner import stop_workers
 
         stop_workers(self.processes)
 
@@ -148,8 +148,8 @@ def stress(args: argparse.Namespace) -> int:
     from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.tiles.plan import tile_of
-    from wit_plugin.tiles.runner import run_tiles, worker_python
+    from wit_plugin.sheetrun.plan import tile_of
+    from wit_plugin.sheetrun.runner import run_tiles, worker_python
 
     folder = OUT / "sample"  # bench_tiles.py's
     if not (folder / "sample_manifest.json").is_file():

@@ -19,7 +19,6 @@ from qgis.core import (
     QgsProcessingParameterBoolean,
     QgsVectorFileWriter,
 )
-from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
 from ..wit_plugin import deps
@@ -27,8 +26,10 @@ from ..wit_plugin.errors import CanceledError, WitError
 from ..wit_plugin.feedback import Feedback
 from ..wit_plugin.gdal_env import no_sidecars
 from ..wit_plugin.io import fileio
+from . import safeguards
 from .dependency_notice import NOTICE
 from .qgis_compat import ParameterFlag
+from .translation import tr
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1]
 HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
@@ -37,16 +38,6 @@ HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
 def crs_string(crs: QgsCoordinateReferenceSystem) -> str:
     """A CRS as the core takes it: the authority id when there is one, else WKT."""
     return crs.authid() or crs.toWkt()
-
-
-def translatable(text: str) -> str:
-    """Mark a literal for scripts/i18n.py that is translated later, through ``tr`` on a variable."""
-    return text
-
-
-def tr(text: str) -> str:
-    """Translate in the plugin's single translation context."""
-    return QCoreApplication.translate("WitCityModel", text)
 
 
 class QgisFeedback(Feedback):
@@ -127,8 +118,6 @@ class WitAlgorithm(QgsProcessingAlgorithm):
     def checkParameterValues(self, parameters, context):  # noqa: N802
         """A vector or raster file's real problem before QGIS's generic "Incorrect parameter value";
         QGIS loads the layers here, without writing .aux.xml beside them (``no_sidecars``)."""
-        from . import safeguards
-
         with no_sidecars():
             problem = safeguards.file_problem(self, parameters, context)
             return (False, problem) if problem else super().checkParameterValues(parameters, context)
@@ -155,8 +144,6 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         return []
 
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
-        from . import safeguards
-
         try:
             absent = deps.missing(self.requirements)
             if absent:

@@ -21,11 +21,14 @@ from .base import WitAlgorithm, crs_string
 from .load_results import load_results
 from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
 from .shared_parameters import (
+    MAX_EDGE,
     ROADS_LABEL,
     ROADS_TYPES,
+    TOLERANCE,
     WEB_PROFILE,
     add_area_parameters,
     add_height_parameters,
+    add_mesh_parameters,
     add_triangulator_parameter,
     add_web_profile_parameter,
     height_options,
@@ -67,8 +70,6 @@ class CityModel(WitAlgorithm):
     ROADS = "ROADS"
     DISTRICTS = "DISTRICTS"
     TARGET_CRS = "TARGET_CRS"
-    MAX_EDGE = "MAX_EDGE"
-    TOLERANCE = "TOLERANCE"
     TEXTURE_SCALE = "TEXTURE_SCALE"
     OUTSIDE_ORTHO = "OUTSIDE_ORTHO"
     SCHEMA_DIR = "SCHEMA_DIR"
@@ -117,12 +118,7 @@ class CityModel(WitAlgorithm):
         self.addParameter(QgsProcessingParameterCrs(
             self.TARGET_CRS, self.tr("Target CRS"), defaultValue="EPSG:5186", optional=True))
         add_height_parameters(self, self.BUILDINGS)
-        self.addParameter(QgsProcessingParameterNumber(
-            self.MAX_EDGE, self.tr("Maximum edge length (m)"), NumberType.Double,
-            defaultValue=5.0, minValue=0.5))
-        self.addParameter(QgsProcessingParameterNumber(
-            self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
-            defaultValue=0.5, minValue=0.01))
+        add_mesh_parameters(self)
         add_triangulator_parameter(self)
         self.addParameter(QgsProcessingParameterNumber(
             self.TEXTURE_SCALE, self.tr("Texture scale S (0 < S ≤ 1)"), NumberType.Double,
@@ -152,8 +148,8 @@ class CityModel(WitAlgorithm):
         options = ChainOptions(
             area=study_area(self, parameters, context, feedback),
             target_crs=crs_string(self.parameterAsCrs(parameters, self.TARGET_CRS, context)),
-            max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
-            tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
+            max_edge=self.parameterAsDouble(parameters, MAX_EDGE, context),
+            tolerance=self.parameterAsDouble(parameters, TOLERANCE, context),
             triangulator=triangulator(self, parameters, context, feedback),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],

@@ -27,7 +27,6 @@ from .load_results import load_index, load_results
 from .qgis_compat import FieldType, NumberType, ParameterFlag
 from .shared_parameters import add_web_profile_parameter
 
-TILE_SCALES = (5000, 1000)
 EXPRESSION_COLUMN = "wit_expr_height"
 
 
@@ -75,7 +74,8 @@ class CityModelTiles(CityModel):
             defaultValue=False))
         self.addParameter(QgsProcessingParameterEnum(
             self.TILE_SCALE, self.tr("Tile grid (NGII map sheets)"),
-            options=[self.tr("1:5,000 sheets"), self.tr("1:1,000 sheets (dense cities)")], defaultValue=0))
+            options=[self.tr("1:5,000 sheets"), self.tr("1:1,000 sheets (dense cities)")],  # TILE_SCALES' order
+            defaultValue=0))
         self.addParameter(QgsProcessingParameterString(
             self.SCHEDULER, self.tr("Dask scheduler address (empty = an embedded one on this computer)"),
             optional=True))
@@ -102,7 +102,8 @@ class CityModelTiles(CityModel):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.area import StudyArea
-        from ..wit_plugin.tiles.runner import run_tiles
+        from ..wit_plugin.sheetrun.plan import TILE_SCALES
+        from ..wit_plugin.sheetrun.runner import run_tiles
 
         inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)

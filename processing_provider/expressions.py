@@ -18,7 +18,7 @@ from qgis.core import (
     QgsProcessingException,
 )
 
-from .base import tr
+from .translation import tr
 
 
 class CheckedExpression:

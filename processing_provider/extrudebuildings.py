@@ -59,7 +59,7 @@ class ExtrudeBuildings(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("DEFAULT_HEIGHTS", self.tr("Buildings with the default height")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin import model
+        from ..wit_plugin import step_layers
         from ..wit_plugin.extrude import extrude_buildings
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
@@ -72,5 +72,5 @@ class ExtrudeBuildings(WitAlgorithm):
             self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
-        return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,
+        return {self.OUTPUT: output, "LOD1": f"{output}|layername={step_layers.LOD1_LAYER}", "SOLIDS": stats.solids,
                 "DEFAULT_HEIGHTS": stats.height_sources.get("default", 0)}

@@ -19,8 +19,8 @@ from qgis.core import (
 )
 from qgis.PyQt.QtGui import QColor
 
-from ..wit_plugin import model
-from .base import tr, translatable
+from ..wit_plugin import step_layers
+from .translation import tr, translatable
 
 GROUP_NAME = translatable("WIT city model")
 BUILDING_RGB, TERRAIN_RGB = (222, 213, 196), (128, 146, 108)
@@ -64,11 +64,12 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
     group_name = group_name or tr(GROUP_NAME)
     layers: list[tuple[QgsMapLayer, object]] = []
     if lod1:
-        buildings = QgsVectorLayer(f"{lod1}|layername={model.LOD1_LAYER}", tr("LoD1 buildings"), "ogr")
-        buildings.setSubsetString(f"\"{model.FACE_TYPE}\" = 'ground'")  # footprints, extruded by their height
+        buildings = QgsVectorLayer(f"{lod1}|layername={step_layers.LOD1_LAYER}", tr("LoD1 buildings"), "ogr")
+        buildings.setSubsetString(f"\"{step_layers.FACE_TYPE}\" = 'ground'")  # footprints, extruded by their height
         layers.append((buildings, _building_renderer))
     if tin:
-        layers.append((QgsVectorLayer(f"{tin}|layername={model.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"), _terrain_renderer))
+        layers.append((QgsVectorLayer(f"{tin}|layername={step_layers.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"),
+                       _terrain_renderer))
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 
@@ -126,7 +127,7 @@ def _set_renderer(layer: QgsVectorLayer, symbol) -> None:
 
 
 def _building_renderer(layer: QgsVectorLayer) -> None:
-    _set_renderer(layer, _polygon_symbol(BUILDING_RGB, extrusion_field=model.HEIGHT))
+    _set_renderer(layer, _polygon_symbol(BUILDING_RGB, extrusion_field=step_layers.HEIGHT))
 
 
 def _terrain_renderer(layer: QgsVectorLayer) -> None:

@@ -34,7 +34,8 @@ class PrepareVectors(WitAlgorithm):
         "share it. Road polygons (NGII N3A_A0010000) are the road surfaces as they are; centre lines become "
         "polygons buffered by width / 2, the width from the layer's width field (ROAD_BT, NGII 도로폭 / RVWD, "
         "OpenStreetMap width), else its lanes × 3.25 m (CARTRK_CO, 차로수, RDLN, lanes), else its class (ROA_CLS_SE, "
-        "highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if given, else a polygon layer if given, else the "
+        "highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if "
+        "given, else a polygon layer if given, else the "
         "centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) "
         "and a stats CSV: features in/out, repairs, drops and vertices per layer."
     )
@@ -85,7 +86,7 @@ class PrepareVectors(WitAlgorithm):
             name, label, NumberType.Double, defaultValue=default, minValue=minimum))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin import model
+        from ..wit_plugin import step_layers
         from ..wit_plugin.vectors import PrepareConfig, prepare_vectors
 
         buildings, roads, districts = (self.vector_source(parameters, name, context, feedback)
@@ -110,14 +111,15 @@ class PrepareVectors(WitAlgorithm):
                           f"dropped {stats.dropped}")
         written = set(report.layers)
         layer_uri = {name: f"{output}|layername={name}" if name in written else None
-                     for name in (model.PREPARED_BUILDINGS, model.PREPARED_ROADS, model.PREPARED_DISTRICTS)}
+                     for name in (step_layers.PREPARED_BUILDINGS, step_layers.PREPARED_ROADS,
+                                  step_layers.PREPARED_DISTRICTS)}
         kept = {s.layer: s.features_out for s in report.stats}
         return {
             self.OUTPUT: output,
-            "BUILDINGS_OUT": layer_uri[model.PREPARED_BUILDINGS],
-            "ROADS_OUT": layer_uri[model.PREPARED_ROADS],
-            "DISTRICTS_OUT": layer_uri[model.PREPARED_DISTRICTS],
-            "AREA_OUT": f"{output}|layername={model.STUDY_AREA}",
+            "BUILDINGS_OUT": layer_uri[step_layers.PREPARED_BUILDINGS],
+            "ROADS_OUT": layer_uri[step_layers.PREPARED_ROADS],
+            "DISTRICTS_OUT": layer_uri[step_layers.PREPARED_DISTRICTS],
+            "AREA_OUT": f"{output}|layername={step_layers.STUDY_AREA}",
             "STATS": report.stats_csv,
-            "BUILDING_COUNT": kept.get(model.PREPARED_BUILDINGS, 0),
+            "BUILDING_COUNT": kept.get(step_layers.PREPARED_BUILDINGS, 0),
         }

@@ -2,7 +2,7 @@
 from qgis.core import QgsApplication, QgsProcessingModelAlgorithm, QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
-from .base import PLUGIN_DIR, tr, translatable
+from .base import PLUGIN_DIR
 from .citymodel import CityModel
 from .citymodeltiles import CityModelTiles
 from .colorstore_algorithms import BuildColorStore, QueryColorStore
@@ -11,9 +11,10 @@ from .extrudebuildings import ExtrudeBuildings
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
 from .installdependencies import InstallDependencies
-from .mergetiles import MergeTiles
+from .mergerasters import MergeRasters
 from .preparevectors import PrepareVectors
 from .qualitymetrics import QualityMetrics
+from .translation import tr, translatable
 from .triangulateterrain import TriangulateTerrain
 from .validatecitygml import ValidateCityGML
 from .wittexture import WitTexture
@@ -22,7 +23,7 @@ from .writecitygml import WriteCityGML
 ALGORITHMS = (
     GenerateSample,
     GeoreferenceMapSheets,
-    MergeTiles,
+    MergeRasters,
     PrepareVectors,
     TriangulateTerrain,
     ExtrudeBuildings,

@@ -1,4 +1,5 @@
-"""Checks every ``wit`` algorithm makes before it touches anything (Nothing lost, SPEC and issue 13).
+"""Checks every ``wit`` algorithm makes before it touches anything, so that nothing is lost: no input is
+written over, and bad input is refused up front with its real problem.
 
 Generic over the parameter definitions, so every algorithm (the chain and future ones too) gets
 them without code of its own:
@@ -27,8 +28,8 @@ from qgis.core import (
 
 from ..wit_plugin.io import fileio
 from ..wit_plugin.io.raster_io import raster_file_problem
-from .base import tr, translatable
 from .qgis_compat import GeometryType, SourceType, code
+from .translation import tr, translatable
 
 VECTOR_TYPES = ("vector", "source")
 LAYER_TYPES = (*VECTOR_TYPES, "raster", "layer")
@@ -182,6 +183,7 @@ def geometry_problem(algorithm, parameters: dict, context) -> str | None:
             continue  # mixed types are sorted feature by feature, with counts
         return tr("{label}: the layer '{layer}' ({source}) has {found} ({wkb}); expected {wanted}.").format(
             label=definition.description(), layer=layer.name(), source=layer.source(),
-            found=tr(GEOMETRY_NAMES.get(found, translatable("unknown geometries"))), wkb=QgsWkbTypes.displayString(layer.wkbType()),
+            found=tr(GEOMETRY_NAMES.get(found, translatable("unknown geometries"))),
+            wkb=QgsWkbTypes.displayString(layer.wkbType()),
             wanted=tr(" or ").join(tr(GEOMETRY_NAMES[g]) for g in sorted(wanted, key=code)))
     return None

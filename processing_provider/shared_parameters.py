@@ -15,9 +15,9 @@ from qgis.core import (
     QgsProcessingParameterVectorLayer,
 )
 
-from .base import tr, translatable
 from .expressions import checked_expression
 from .qgis_compat import FieldDataType, NumberType, ParameterFlag, SourceType
+from .translation import tr, translatable
 
 WGS84 = QgsCoordinateReferenceSystem("EPSG:4326")
 
@@ -31,6 +31,7 @@ ROADS_TYPES = [SourceType.VectorLine, SourceType.VectorPolygon]
 ROADS_LABEL = translatable("Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, "
                            "OpenStreetMap…)")
 TRIANGULATOR = "TRIANGULATOR"
+MAX_EDGE, TOLERANCE = "MAX_EDGE", "TOLERANCE"
 #: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
 WEB_PROFILE = "WEB_PROFILE"
@@ -86,6 +87,18 @@ def add_triangulator_parameter(algorithm) -> None:
         options=[tr(label) for label in TRIANGULATOR_OPTIONS], defaultValue=triangulators.default_key()))
 
 
+def add_mesh_parameters(algorithm) -> None:
+    """The terrain mesh's maximum edge length and vertical tolerance (defaults: the core's)."""
+    from ..wit_plugin import triangulators
+
+    algorithm.addParameter(QgsProcessingParameterNumber(
+        MAX_EDGE, tr("Maximum edge length (m)"), NumberType.Double, defaultValue=triangulators.MAX_EDGE,
+        minValue=0.5))
+    algorithm.addParameter(QgsProcessingParameterNumber(
+        TOLERANCE, tr("Vertical tolerance (m)"), NumberType.Double,
+        defaultValue=triangulators.VERTICAL_TOLERANCE, minValue=0.01))
+
+
 def triangulator(algorithm, parameters: dict, context, feedback) -> int:
     """The TRIANGULATOR chosen; says so when Triangle is not installed and CDT is used instead."""
     from ..wit_plugin import triangulators
@@ -98,7 +111,7 @@ def triangulator(algorithm, parameters: dict, context, feedback) -> int:
 
 
 def add_height_parameters(algorithm, parent: str) -> None:
-    """Storey height, height field, height expression and default height (SPEC §4, wit_plugin.heights)."""
+    """Storey height, height field, height expression and default height (the rules: wit_plugin.heights)."""
     algorithm.addParameter(QgsProcessingParameterNumber(
         STOREY_HEIGHT, tr("Storey height (m)"), NumberType.Double, defaultValue=3.0, minValue=0.5))
     algorithm.addParameter(QgsProcessingParameterField(

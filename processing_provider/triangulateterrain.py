@@ -4,14 +4,13 @@ from qgis.core import (
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterEnum,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterVectorLayer,
 )
 
 from .base import WitAlgorithm
-from .qgis_compat import NumberType, SourceType
-from .shared_parameters import add_triangulator_parameter, triangulator
+from .qgis_compat import SourceType
+from .shared_parameters import MAX_EDGE, TOLERANCE, add_mesh_parameters, add_triangulator_parameter, triangulator
 
 
 class TriangulateTerrain(WitAlgorithm):
@@ -40,8 +39,6 @@ class TriangulateTerrain(WitAlgorithm):
     AREA = "AREA"
     BUILDINGS = "BUILDINGS"
     ROADS = "ROADS"
-    MAX_EDGE = "MAX_EDGE"
-    TOLERANCE = "TOLERANCE"
     FOOTPRINTS = "FOOTPRINTS"
     OUTPUT = "OUTPUT"
 
@@ -55,12 +52,7 @@ class TriangulateTerrain(WitAlgorithm):
             optional=True))
         self.addParameter(QgsProcessingParameterVectorLayer(
             self.ROADS, self.tr("Road polygons (constraints)"), [SourceType.VectorPolygon], optional=True))
-        self.addParameter(QgsProcessingParameterNumber(
-            self.MAX_EDGE, self.tr("Maximum edge length (m)"), NumberType.Double,
-            defaultValue=5.0, minValue=0.5))
-        self.addParameter(QgsProcessingParameterNumber(
-            self.TOLERANCE, self.tr("Vertical tolerance (m)"), NumberType.Double,
-            defaultValue=0.5, minValue=0.01))
+        add_mesh_parameters(self)
         self.addParameter(QgsProcessingParameterEnum(
             self.FOOTPRINTS, self.tr("Building footprints become"),
             options=[self.tr("Holes (buildings stand on them)"), self.tr("Constrained edges")], defaultValue=0))
@@ -74,7 +66,7 @@ class TriangulateTerrain(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("MAX_EDGE_MEASURED", self.tr("Measured maximum edge length (m)")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin import model
+        from ..wit_plugin import step_layers
         from ..wit_plugin.terrain import TerrainConfig, triangulate_terrain
 
         def source(name):
@@ -85,13 +77,13 @@ class TriangulateTerrain(WitAlgorithm):
             self.parameterAsRasterLayer(parameters, self.DEM, context).source(),
             source(self.BUILDINGS), source(self.ROADS), output, source(self.AREA),
             TerrainConfig(
-                max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
-                tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
+                max_edge=self.parameterAsDouble(parameters, MAX_EDGE, context),
+                tolerance=self.parameterAsDouble(parameters, TOLERANCE, context),
                 footprints_as_holes=self.parameterAsEnum(parameters, self.FOOTPRINTS, context) == 0,
                 spatial_index=self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context),
                 triangulator=triangulator(self, parameters, context, feedback)),
             feedback,
         )
-        return {self.OUTPUT: output, "TIN": f"{output}|layername={model.TIN_LAYER}",
+        return {self.OUTPUT: output, "TIN": f"{output}|layername={step_layers.TIN_LAYER}",
                 "TRIANGLES": stats.triangles, "MAX_VERTICAL_ERROR": stats.max_vertical_error,
                 "MAX_EDGE_MEASURED": stats.max_edge}

@@ -11,6 +11,7 @@ from qgis.core import (
 
 from .base import WitAlgorithm, crs_string
 from .qgis_compat import AlgorithmFlag, FileBehavior, SourceType
+from .safeguards import Endpoint
 from .shared_parameters import LOD1, TIN, add_model_layer_parameters
 
 
@@ -60,13 +61,12 @@ class WriteCityGML(WitAlgorithm):
             self.OUTPUT, self.tr("CityGML file"), self.tr("CityGML files (*.gml)")))
         for name, label in (("BUILDINGS", self.tr("Buildings written")), ("ROADS_WRITTEN", self.tr("Roads written")),
                             ("TRIANGLES", self.tr("Terrain triangles written")),
-                            ("TEXTURED_SURFACES", self.tr("Textured surfaces")), ("GROUPS", self.tr("District groups"))):
+                            ("TEXTURED_SURFACES", self.tr("Textured surfaces")),
+                            ("GROUPS", self.tr("District groups"))):
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def extra_outputs(self, parameters, context) -> list:
         """The texture images are copied into ``<name>_textures`` beside the .gml."""
-        from .safeguards import Endpoint
-
         output = Path(self.parameterAsFileOutput(parameters, self.OUTPUT, context))
         if not self.parameterAsBool(parameters, self.COPY_TEXTURES, context):
             return []

@@ -128,7 +128,10 @@ def build_model():
         QgsProcessingParameterNumber("DEFAULT_HEIGHT", "Default height (m)", QgsProcessingParameterNumber.Double,
                                      defaultValue=3.0, minValue=0.1),
         QgsProcessingParameterNumber("MAX_EDGE", "Maximum edge length of the terrain (m)",
-                                     QgsProcessingParameterNumber.Double, defaultValue=5.0, minValue=0.5),
+                                     QgsProcessingParameterNumber.Double, minValue=0.5,
+                                     defaultValue=QgsApplication.processingRegistry()  # the core's default
+                                     .algorithmById("wit:triangulateterrain").parameterDefinition("MAX_EDGE")
+                                     .defaultValue()),
         # no default: wit:triangulateterrain's own (Triangle where installed, else CDT) on the machine it runs on
         QgsProcessingParameterEnum("TRIANGULATOR", "Triangulator", options=QgsApplication.processingRegistry()
                                    .algorithmById("wit:triangulateterrain").parameterDefinition("TRIANGULATOR")

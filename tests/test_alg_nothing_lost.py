@@ -1,4 +1,4 @@
-"""Nothing lost (issue 13): no algorithm writes over one of its inputs, and bad inputs are refused
+"""Nothing lost: no algorithm writes over one of its inputs, and bad inputs are refused
 up front with one message that names the problem; every input file stays byte-identical and no
 output (nor a partial one) is left behind."""
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 from osgeo import gdal, ogr, osr
 from qgis.core import QgsProcessingException
 
-from wit_plugin import model
+from wit_plugin import step_layers
 
 pytestmark = pytest.mark.qgis_facing
 
@@ -290,7 +290,7 @@ def test_a_good_height_expression_is_used(data, floors, tmp_path, run_algorithm)
         "BUILDINGS": floors, "DEM": data["dem"], "HEIGHT_EXPRESSION": "length(\"wit_id\") * 2",
         "OUTPUT": str(tmp_path / "lod1.gpkg")})
     ds = ogr.Open(result["OUTPUT"])
-    heights = {f["wit_id"]: (f[model.HEIGHT], f[model.HEIGHT_SOURCE]) for f in ds.GetLayer("lod1_faces")}
+    heights = {f["wit_id"]: (f[step_layers.HEIGHT], f[step_layers.HEIGHT_SOURCE]) for f in ds.GetLayer("lod1_faces")}
     assert heights == {"BLD_1": (10.0, "expression"), "BLD_2": (10.0, "expression")}
 
 
@@ -442,7 +442,8 @@ def test_extrude_that_makes_no_solid_fails(data, tmp_path, run_algorithm):
 
 def test_writecitygml_with_no_building_fails(data, tmp_path, run_algorithm):
     empty = vector(data["folder"] / "empty.gpkg", "lod1_faces", [], ogr.wkbPolygon25D,
-                   fields={"wit_id": ogr.OFTString, model.FACE_NUMBER: ogr.OFTInteger, model.FACE_TYPE: ogr.OFTString})
+                   fields={"wit_id": ogr.OFTString, step_layers.FACE_NUMBER: ogr.OFTInteger,
+                           step_layers.FACE_TYPE: ogr.OFTString})
     _refused(run_algorithm, "wit:writecitygml", {"LOD1": empty, "OUTPUT": str(tmp_path / "out" / "model.gml")},
              "has no building faces", data, tmp_path / "out")
 
@@ -470,8 +471,8 @@ def _dem(path: Path, epsg: int | None) -> str:
 
 @pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])
 def test_a_dem_in_another_crs_is_judged_in_its_own_crs(algorithm, data, tmp_path, run_algorithm):
-    """A DEM in EPSG:4326 is reprojected, never refused for its CRS (issue 21): this one stops at 127.1°E,
-    150 m west of the buildings, and the message says so in its own degrees."""
+    """A DEM in EPSG:4326 is reprojected, never refused for its CRS (users' DEMs come in any CRS): this one stops
+    at 127.1°E, 150 m west of the buildings, and the message says so in its own degrees."""
     dem = _dem(data["folder"] / "dem4326.tif", 4326)
     parameters = {"BUILDINGS": data["buildings"], "DEM": dem, "OUTPUT": str(tmp_path / "out" / "o.gpkg")}
     if algorithm == "wit:triangulateterrain":

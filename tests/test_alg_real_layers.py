@@ -1,4 +1,4 @@
-"""Real national layers through Processing and through scripts/qgis-process (issue 21).
+"""Real national layers through Processing and through scripts/qgis-process.
 
 Every algorithm that reads vectors takes the NGII digital map as NGII ships it (Korean field names in
 CP949, an EUC-KR ``.cpg`` or none, EPSG:5187) with QGIS's own GDAL settings, without a crash; every
@@ -20,7 +20,7 @@ from conftest import ROOT, ensure_wit_provider, qgis_gui_profile
 from lxml import etree
 from osgeo import gdal, ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.colorstore import build_color_store
@@ -65,16 +65,16 @@ def scene(tmp_path_factory) -> dict:
     work = chain / "work"
     steps = folder / "steps"
     steps.mkdir()
-    _copy_layers(steps / "faces.gpkg", [(str(chain / "lod1.gpkg"), model.LOD1_LAYER, "notes"),
-                                        (str(chain / "lod1.gpkg"), model.LOD1_LAYER, "faces")])
-    _copy_layers(steps / "mesh.gpkg", [(str(chain / "tin.gpkg"), model.TIN_LAYER, "mesh")])
-    _copy_layers(steps / "도로.gpkg", [(str(work / "prepared.gpkg"), model.STUDY_AREA, "구역"),
-                                     (str(work / "prepared.gpkg"), model.PREPARED_ROADS, "도로")])
-    _copy_layers(steps / "index.gpkg", [(str(work / "prepared.gpkg"), model.STUDY_AREA, "area"),
+    _copy_layers(steps / "faces.gpkg", [(str(chain / "lod1.gpkg"), step_layers.LOD1_LAYER, "notes"),
+                                        (str(chain / "lod1.gpkg"), step_layers.LOD1_LAYER, "faces")])
+    _copy_layers(steps / "mesh.gpkg", [(str(chain / "tin.gpkg"), step_layers.TIN_LAYER, "mesh")])
+    _copy_layers(steps / "도로.gpkg", [(str(work / "prepared.gpkg"), step_layers.STUDY_AREA, "구역"),
+                                     (str(work / "prepared.gpkg"), step_layers.PREPARED_ROADS, "도로")])
+    _copy_layers(steps / "index.gpkg", [(str(work / "prepared.gpkg"), step_layers.STUDY_AREA, "area"),
                                         (str(work / "sheets.gpkg"), "footprints", "sheets")])
     with ngii.shapefile_text("CP949"):
         gdal.VectorTranslate(str(steps / "footprints.shp"), f"{work / 'prepared.gpkg'}",
-                             layers=[model.PREPARED_BUILDINGS], layerCreationOptions=["ENCODING=CP949"])
+                             layers=[step_layers.PREPARED_BUILDINGS], layerCreationOptions=["ENCODING=CP949"])
     assert "층수".encode("cp949") in (steps / "footprints.dbf").read_bytes()
     points = ngii.write_shapefile(steps / "지점.shp", ogr.wkbPoint, [("이름", ogr.OFTString, 20)],
                                   [{"이름": "첨성대"}, {"이름": "똠방각하"}],
@@ -122,7 +122,7 @@ def _prepare(s, out):
 def _check_prepare(r, s, out):
     assert r["BUILDING_COUNT"] == 12
     roads = _rows(r["ROADS_OUT"])
-    assert [row[model.ROAD_WIDTH_SOURCE] for row in roads] == ["surface", "surface"]
+    assert [row[step_layers.ROAD_WIDTH_SOURCE] for row in roads] == ["surface", "surface"]
     assert [row["층수"] for row in _rows(r["BUILDINGS_OUT"])] == ngii.FLOORS
     assert [row["명칭"] for row in _rows(r["BUILDINGS_OUT"])][:2] == ["똠방각하", "햇살아파트"]
 
@@ -133,7 +133,7 @@ def _extrude(s, out):
 
 def _check_extrude(r, s, out):
     assert (r["SOLIDS"], r["DEFAULT_HEIGHTS"]) == (12, 0)
-    heights = {row["UFID"]: (row[model.HEIGHT], row[model.HEIGHT_RULE]) for row in _rows(r["LOD1"])}
+    heights = {row["UFID"]: (row[step_layers.HEIGHT], row[step_layers.HEIGHT_RULE]) for row in _rows(r["LOD1"])}
     assert heights == {row["UFID"]: (3.0 * row["층수"], "층수 × 3 m") for row in _rows(s["buildings"])}
 
 
@@ -143,7 +143,7 @@ def _terrain(s, out):
 
 
 def _check_terrain(r, s, out):
-    surfaces = [row[model.TIN_SURFACE] for row in _rows(r["TIN"])]
+    surfaces = [row[step_layers.TIN_SURFACE] for row in _rows(r["TIN"])]
     assert r["TRIANGLES"] == len(surfaces) > 100
     assert set(surfaces) == {"terrain", "road"}  # footprints are holes: the buildings stand on them
 
@@ -153,7 +153,8 @@ def _texture(s, out):
 
 
 def _check_texture(r, s, out):
-    roofs = [row for row in _rows(str(out / "textures" / model.TEXCOORD_FILE)) if row[model.TEX_TARGET] == "roof"]
+    roofs = [row for row in _rows(str(out / "textures" / step_layers.TEXCOORD_FILE))
+             if row[step_layers.TEX_TARGET] == "roof"]
     assert len(roofs) == 12 and r["TEXTURED_SURFACES"] > 100
 
 

@@ -1,4 +1,4 @@
-"""A DEM and orthoimage sheets in another CRS than the model's (issue 21, item 3), as users run the
+"""A DEM and orthoimage sheets in another CRS than the model's, as users run the
 algorithms: wit:triangulateterrain, wit:extrudebuildings and wit:citymodel through Processing in the
 QGIS process, wit:citymodeltiles headless through qgis_process on several tiles. The sample's DEM and
 sheets are in EPSG:5186 (the sheets as GeoTIFFs that carry that georeference), the model in EPSG:5187."""
@@ -15,7 +15,7 @@ from conftest import ROOT
 from lxml import etree
 from osgeo import gdal, ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.dem import Dem
 from wit_plugin.georef import georeference_sheets
 from wit_plugin.sample import SampleConfig, generate_sample
@@ -88,11 +88,11 @@ def _on_the_dem(xyz: np.ndarray, dem: str) -> None:
 def test_triangulateterrain_with_a_dem_in_5186_and_layers_in_5187(sample, prepared, tmp_path, wit_provider):
     dem = str(sample["base"].dem)
     result, messages = run_logged("wit:triangulateterrain", {
-        "DEM": dem, "AREA": f"{prepared['OUTPUT']}|layername={model.STUDY_AREA}",
+        "DEM": dem, "AREA": f"{prepared['OUTPUT']}|layername={step_layers.STUDY_AREA}",
         "BUILDINGS": prepared["BUILDINGS_OUT"], "ROADS": prepared["ROADS_OUT"], "MAX_EDGE": 10.0,
         "OUTPUT": str(tmp_path / "tin.gpkg")})
     assert result["TRIANGLES"] > 1000
-    xyz = _vertices(str(tmp_path / "tin.gpkg"), model.TIN_LAYER)
+    xyz = _vertices(str(tmp_path / "tin.gpkg"), step_layers.TIN_LAYER)
     assert pyproj.CRS(ogr.Open(str(tmp_path / "tin.gpkg")).GetLayer(0).GetSpatialRef().ExportToWkt()).to_epsg() == 5187
     _on_the_dem(xyz, dem)
     assert not any("CRS mismatch" in m for m in messages)
@@ -105,9 +105,9 @@ def test_extrudebuildings_with_a_geographic_dem(sample, prepared, tmp_path, wit_
     assert result["SOLIDS"] > 30
     ds = ogr.Open(str(tmp_path / "lod1.gpkg"))
     grounds = {}
-    for feature in ds.GetLayer(model.LOD1_LAYER):
-        if feature.GetField(model.FACE_TYPE) == "ground":
-            grounds.setdefault(feature.GetField(model.WIT_ID), []).append(
+    for feature in ds.GetLayer(step_layers.LOD1_LAYER):
+        if feature.GetField(step_layers.FACE_TYPE) == "ground":
+            grounds.setdefault(feature.GetField(step_layers.WIT_ID), []).append(
                 np.array(feature.GetGeometryRef().GetGeometryRef(0).GetPoints()))
     rings = [np.concatenate(parts) for parts in grounds.values()]
     everything = np.concatenate(rings)
@@ -132,7 +132,7 @@ def test_a_dem_in_another_crs_that_misses_the_area_is_refused_naming_it(algorith
     before = sorted(p.name for p in west.parent.iterdir())
     parameters = {"BUILDINGS": prepared["BUILDINGS_OUT"], "DEM": str(west), "OUTPUT": str(tmp_path / "out.gpkg")}
     if algorithm == "wit:triangulateterrain":
-        parameters["AREA"] = f"{prepared['OUTPUT']}|layername={model.STUDY_AREA}"
+        parameters["AREA"] = f"{prepared['OUTPUT']}|layername={step_layers.STUDY_AREA}"
     with pytest.raises(QgsProcessingException) as caught:
         run_logged(algorithm, parameters)
     message = str(caught.value)
@@ -155,7 +155,7 @@ def test_citymodel_in_5187_from_a_dem_and_sheets_in_5186(sample, tmp_path, wit_p
     assert envelope.get("srsName") == "EPSG:5187"
     assert any("reprojected on the fly to Korea 2000 / East Belt 2010 (EPSG:5187)" in m for m in messages)
     assert any("carries its own georeference in EPSG:5186: reprojected to EPSG:5187" in m for m in messages)
-    _on_the_dem(_vertices(str(tmp_path / "city" / "tin.gpkg"), model.TIN_LAYER), str(base.dem))
+    _on_the_dem(_vertices(str(tmp_path / "city" / "tin.gpkg"), step_layers.TIN_LAYER), str(base.dem))
 
 
 def test_citymodeltiles_headless_in_5187_from_a_dem_in_5186(sample, tmp_path):

@@ -14,7 +14,7 @@ import shapely
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import InputError
@@ -98,15 +98,16 @@ def test_openstreetmap_heights_flow_into_the_citygml(sample, tmp_path):
         height = float(building.find("con:height/con:Height/con:value", NS).text)
         if height_text:
             assert height == pytest.approx(float(height_text.split()[0]), abs=5e-4)
-            assert generic(building, model.HEIGHT_RULE) == "height (m)"
+            assert generic(building, step_layers.HEIGHT_RULE) == "height (m)"
             assert generic(building, "height") == height_text  # the source attribute, not shadowed
             assert building.find("con:height/con:Height/con:status", NS).text == "measured"
         elif levels:
-            assert height == pytest.approx(3.0 * int(levels)) and generic(building, model.HEIGHT_SOURCE) == "floors"
+            assert height == pytest.approx(3.0 * int(levels))
+            assert generic(building, step_layers.HEIGHT_SOURCE) == "floors"
             assert building.find("bldg:storeysAboveGround", NS).text == levels
         else:
             expected_default += 1
-            assert generic(building, model.HEIGHT_SOURCE) == "default" and height == 3.0
+            assert generic(building, step_layers.HEIGHT_SOURCE) == "default" and height == 3.0
     assert report.default_heights == expected_default > 0
 
 

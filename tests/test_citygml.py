@@ -11,7 +11,7 @@ import pytest
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.citygml import inputs as citygml_inputs
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import CanceledError, InputError
@@ -90,10 +90,11 @@ def _add(layer: ogr.Layer, geometry: ogr.Geometry | None, **values) -> None:
 
 def make_inputs(folder: Path) -> citygml.CityGMLInputs:
     folder.mkdir(parents=True, exist_ok=True)
-    ds, layer = _layer(folder / "lod1.gpkg", model.LOD1_LAYER, ogr.wkbPolygon25D, {
-        model.WIT_ID: ogr.OFTString, model.FACE_TYPE: ogr.OFTString, model.FACE_NUMBER: ogr.OFTInteger,
-        model.BASE_Z: ogr.OFTReal, model.HEIGHT: ogr.OFTReal, model.HEIGHT_SOURCE: ogr.OFTString,
-        model.STOREYS_ABOVE: ogr.OFTInteger, model.STOREYS_BELOW: ogr.OFTInteger,
+    ds, layer = _layer(folder / "lod1.gpkg", step_layers.LOD1_LAYER, ogr.wkbPolygon25D, {
+        step_layers.WIT_ID: ogr.OFTString, step_layers.FACE_TYPE: ogr.OFTString,
+        step_layers.FACE_NUMBER: ogr.OFTInteger, step_layers.BASE_Z: ogr.OFTReal, step_layers.HEIGHT: ogr.OFTReal,
+        step_layers.HEIGHT_SOURCE: ogr.OFTString,
+        step_layers.STOREYS_ABOVE: ogr.OFTInteger, step_layers.STOREYS_BELOW: ogr.OFTInteger,
         "BULD_NM": ogr.OFTString, "GRND_FLR": ogr.OFTInteger, "AREA": ogr.OFTReal, "NOTE": ogr.OFTString})
     rows = []
     for b in (A, B):
@@ -101,14 +102,16 @@ def make_inputs(folder: Path) -> citygml.CityGMLInputs:
             rows.append((b, number, kind, rings))
     rows = rows[1::2] + rows[::2]  # stored out of order: the writer must sort by wit_id, face_no
     for b, number, kind, rings in rows:
-        _add(layer, _polygon(rings), **{model.WIT_ID: b["wit_id"], model.FACE_TYPE: kind, model.FACE_NUMBER: number,
-                                        model.BASE_Z: b["base"], model.HEIGHT: b["height"],
-                                        model.HEIGHT_SOURCE: b["src"], model.STOREYS_ABOVE: 3 if b is A else None,
-                                        model.STOREYS_BELOW: 1 if b is A else None}, **b["attrs"])
+        _add(layer, _polygon(rings), **{step_layers.WIT_ID: b["wit_id"], step_layers.FACE_TYPE: kind,
+                                        step_layers.FACE_NUMBER: number, step_layers.BASE_Z: b["base"],
+                                        step_layers.HEIGHT: b["height"], step_layers.HEIGHT_SOURCE: b["src"],
+                                        step_layers.STOREYS_ABOVE: 3 if b is A else None,
+                                        step_layers.STOREYS_BELOW: 1 if b is A else None}, **b["attrs"])
     ds = None
     # TIN over 208990–209050 × 543110–543140: a road strip y < 543118 (two triangles), terrain above
-    ds, layer = _layer(folder / "tin.gpkg", model.TIN_LAYER, ogr.wkbPolygon25D, {
-        model.TIN_TRIANGLE_ID: ogr.OFTInteger, model.TIN_SURFACE: ogr.OFTString, model.TIN_FEATURE_ID: ogr.OFTString})
+    ds, layer = _layer(folder / "tin.gpkg", step_layers.TIN_LAYER, ogr.wkbPolygon25D, {
+        step_layers.TIN_TRIANGLE_ID: ogr.OFTInteger, step_layers.TIN_SURFACE: ogr.OFTString,
+        step_layers.TIN_FEATURE_ID: ogr.OFTString})
     z = {543110: 9.5, 543118: 9.8, 543140: 10.2}
     tris = [(1, "road", ROAD, [(208990, 543110), (209050, 543110), (209050, 543118)]),
             (2, "road", ROAD, [(208990, 543110), (209050, 543118), (208990, 543118)]),
@@ -117,37 +120,39 @@ def make_inputs(folder: Path) -> citygml.CityGMLInputs:
             (5, "footprint", A["wit_id"], [(209000, 543120), (209020.9, 543120), (209020.9, 543132.8)])]
     for tri_id, surface, feature_id, points in tris:
         _add(layer, _polygon([[(x, y, z.get(y, 10.0)) for x, y in points + points[:1]]]),
-             **{model.TIN_TRIANGLE_ID: tri_id, model.TIN_SURFACE: surface, model.TIN_FEATURE_ID: feature_id})
+             **{step_layers.TIN_TRIANGLE_ID: tri_id, step_layers.TIN_SURFACE: surface,
+                step_layers.TIN_FEATURE_ID: feature_id})
     ds = None
-    ds, layer = _layer(folder / "roads.gpkg", model.PREPARED_ROADS, ogr.wkbPolygon, {
-        model.WIT_ID: ogr.OFTString, "RN": ogr.OFTString, "ROAD_BT": ogr.OFTReal,
-        model.ROAD_WIDTH_SOURCE: ogr.OFTString})
+    ds, layer = _layer(folder / "roads.gpkg", step_layers.PREPARED_ROADS, ogr.wkbPolygon, {
+        step_layers.WIT_ID: ogr.OFTString, "RN": ogr.OFTString, "ROAD_BT": ogr.OFTReal,
+        step_layers.ROAD_WIDTH_SOURCE: ogr.OFTString})
     _add(layer, _polygon([[(208990, 543110), (209050, 543110), (209050, 543118), (208990, 543118), (208990, 543110)]]),
-         **{model.WIT_ID: ROAD, "RN": "세종대로", "ROAD_BT": 8.0, model.ROAD_WIDTH_SOURCE: "ROAD_BT"})
+         **{step_layers.WIT_ID: ROAD, "RN": "세종대로", "ROAD_BT": 8.0, step_layers.ROAD_WIDTH_SOURCE: "ROAD_BT"})
     ds = None
-    ds, layer = _layer(folder / "districts.gpkg", model.PREPARED_DISTRICTS, ogr.wkbPolygon, {
-        model.WIT_ID: ogr.OFTString, "EMD_CD": ogr.OFTString, "EMD_KOR_NM": ogr.OFTString})
+    ds, layer = _layer(folder / "districts.gpkg", step_layers.PREPARED_DISTRICTS, ogr.wkbPolygon, {
+        step_layers.WIT_ID: ogr.OFTString, "EMD_CD": ogr.OFTString, "EMD_KOR_NM": ogr.OFTString})
     for code, name, x0, x1 in (("11110101", "청운동", 208900, 209025), ("11110102", "신교동", 209025, 209100),
                                ("11110103", "궁정동", 209100, 209200)):
         _add(layer, _polygon([[(x0, 543000), (x1, 543000), (x1, 543200), (x0, 543200), (x0, 543000)]]),
-             **{model.WIT_ID: f"EMD_{code}", "EMD_CD": code, "EMD_KOR_NM": name})
+             **{step_layers.WIT_ID: f"EMD_{code}", "EMD_CD": code, "EMD_KOR_NM": name})
     ds = None
     tex = folder / "textures"
     (tex / "atlas").mkdir(parents=True)
     mem = gdal.GetDriverByName("MEM").Create("", 8, 8, 3)
     gdal.GetDriverByName("JPEG").CreateCopy(str(tex / "atlas" / "roofs.jpg"), mem)
     gdal.GetDriverByName("PNG").CreateCopy(str(tex / "ground.png"), mem)
-    ds, layer = _layer(tex / TEXCOORDS_FILE, model.TEXCOORD_TABLE, ogr.wkbNone, {
-        model.TEX_TARGET: ogr.OFTString, model.TEX_FEATURE: ogr.OFTString, model.TEX_FACE: ogr.OFTInteger,
-        model.TEX_IMAGE: ogr.OFTString, model.TEX_COORDS: ogr.OFTString})
+    ds, layer = _layer(tex / TEXCOORDS_FILE, step_layers.TEXCOORD_TABLE, ogr.wkbNone, {
+        step_layers.TEX_TARGET: ogr.OFTString, step_layers.TEX_FEATURE: ogr.OFTString,
+        step_layers.TEX_FACE: ogr.OFTInteger, step_layers.TEX_IMAGE: ogr.OFTString,
+        step_layers.TEX_COORDS: ogr.OFTString})
     for target, feature, face, image, uv in (
             ("roof", A["wit_id"], 1, "atlas/roofs.jpg", "0 0 0.5 0 0.5 0.5 0 0.5 0 0"),
             ("roof", B["wit_id"], 1, "atlas/roofs.jpg", "0.5 0 1 0 1 0.5 0.5 0.5 0.5 0"),
             ("tin", "3", None, "ground.png", "0 0 1 0 1 1 0 0"),
             ("tin", "4", None, "ground.png", "0 0 1 1 0 1 0 0"),
             ("road", "1", None, "ground.png", "0 0 1 0 1 0.25 0 0")):
-        _add(layer, None, **{model.TEX_TARGET: target, model.TEX_FEATURE: feature, model.TEX_FACE: face,
-                             model.TEX_IMAGE: image, model.TEX_COORDS: uv})
+        _add(layer, None, **{step_layers.TEX_TARGET: target, step_layers.TEX_FEATURE: feature,
+                             step_layers.TEX_FACE: face, step_layers.TEX_IMAGE: image, step_layers.TEX_COORDS: uv})
     del ds  # close: flush to disk
     return citygml.CityGMLInputs(lod1=str(folder / "lod1.gpkg"), tin=str(folder / "tin.gpkg"),
                                  roads=str(folder / "roads.gpkg"), districts=str(folder / "districts.gpkg"),
@@ -228,11 +233,11 @@ def test_building_content(written):
     assert attrs["GRND_FLR"] == ("3", "IntAttribute")
     assert attrs["AREA"] == ("267.52", "DoubleAttribute")
     assert attrs["NOTE"] == ('a<b & "c" d', "StringAttribute")  # control characters dropped
-    assert attrs[model.HEIGHT_SOURCE] == ("field", "StringAttribute")
+    assert attrs[step_layers.HEIGHT_SOURCE] == ("field", "StringAttribute")
     b = _all(doc, f"//bldg:Building[@gml:id='{B['wit_id']}']")[0]
     names = _all(b, "core:genericAttribute/*/gen:name/text()")
     assert "AREA" not in names and "NOTE" not in names and "GRND_FLR" not in names  # NaN / NULL omitted
-    assert _all(b, f"core:genericAttribute/*[gen:name='{model.HEIGHT_SOURCE}']/gen:value/text()") == ["default"]
+    assert _all(b, f"core:genericAttribute/*[gen:name='{step_layers.HEIGHT_SOURCE}']/gen:value/text()") == ["default"]
     assert _all(b, "con:height/con:Height/con:status/text()") == ["estimated"]
     assert not _all(b, "bldg:storeysAboveGround")
     assert _all(b, f".//gml:Polygon[@gml:id='{B['wit_id']}_f1']/gml:interior/gml:LinearRing/@gml:id") == [
@@ -333,13 +338,15 @@ def test_input_errors(written, tmp_path):
 
 @pytest.mark.parametrize("wit_id, numbers, message", [
     ("BLD 1", range(6), "cannot be a gml:id"),
-    ("BLD_1", [0, 1, 2, 2, 3, 4], f"unique {model.FACE_NUMBER}"),
+    ("BLD_1", [0, 1, 2, 2, 3, 4], f"unique {step_layers.FACE_NUMBER}"),
 ])
 def test_bad_building_ids(tmp_path, wit_id, numbers, message):
-    ds, layer = _layer(tmp_path / "bad.gpkg", model.LOD1_LAYER, ogr.wkbPolygon25D, {
-        model.WIT_ID: ogr.OFTString, model.FACE_TYPE: ogr.OFTString, model.FACE_NUMBER: ogr.OFTInteger})
+    ds, layer = _layer(tmp_path / "bad.gpkg", step_layers.LOD1_LAYER, ogr.wkbPolygon25D, {
+        step_layers.WIT_ID: ogr.OFTString, step_layers.FACE_TYPE: ogr.OFTString,
+        step_layers.FACE_NUMBER: ogr.OFTInteger})
     for number, (kind, rings) in zip(numbers, extrude(A["outer"], [], 0.0, 3.0)):
-        _add(layer, _polygon(rings), **{model.WIT_ID: wit_id, model.FACE_TYPE: kind, model.FACE_NUMBER: number})
+        _add(layer, _polygon(rings), **{step_layers.WIT_ID: wit_id, step_layers.FACE_TYPE: kind,
+                                        step_layers.FACE_NUMBER: number})
     del ds  # close: flush to disk
     with pytest.raises(InputError, match=message):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=str(tmp_path / "bad.gpkg")), str(tmp_path / "bad.gml"))

@@ -9,7 +9,7 @@ import pytest
 import shapely
 from osgeo import ogr
 
-from wit_plugin import extrude, heights, model
+from wit_plugin import extrude, heights, step_layers
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
 from wit_plugin.heights import HeightOptions
@@ -150,15 +150,15 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(gpkg))
     srs = osr.SpatialReference()
     srs.ImportFromEPSG(5186)
-    lyr = ds.CreateLayer(model.PREPARED_BUILDINGS, srs, ogr.wkbPolygon)
-    for name, kind in [(model.WIT_ID, ogr.OFTString), ("GRO_FLO_CO", ogr.OFTInteger), ("UND_FLO_CO", ogr.OFTInteger),
-                       ("BUL_MAN_NO", ogr.OFTInteger64)]:
+    lyr = ds.CreateLayer(step_layers.PREPARED_BUILDINGS, srs, ogr.wkbPolygon)
+    for name, kind in [(step_layers.WIT_ID, ogr.OFTString), ("GRO_FLO_CO", ogr.OFTInteger),
+                       ("UND_FLO_CO", ogr.OFTInteger), ("BUL_MAN_NO", ogr.OFTInteger64)]:
         lyr.CreateField(ogr.FieldDefn(name, kind))
     for k, (poly, floors) in enumerate([(shapely.box(200010, 550010, 200030, 550025), 3), (COURTYARD, None)]):
         if k == 1:
             poly = shapely.affinity.translate(poly, 200050, 550050)
         feat = ogr.Feature(lyr.GetLayerDefn())
-        feat.SetField(model.WIT_ID, f"BLD_{k}")
+        feat.SetField(step_layers.WIT_ID, f"BLD_{k}")
         if floors:
             feat.SetField("GRO_FLO_CO", floors)
         feat.SetField("BUL_MAN_NO", 1234567 + k)
@@ -177,22 +177,23 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
     stats = extrude.extrude_buildings(gpkg, dem_path, out, HeightOptions(storey_height=3.5))
     assert stats.solids == 2 and stats.nodata_filled == 4
     ds = ogr.Open(str(out))
-    lyr = ds.GetLayerByName(model.LOD1_LAYER)
+    lyr = ds.GetLayerByName(step_layers.LOD1_LAYER)
     assert lyr.GetGeomType() == ogr.wkbPolygon25D
     feats = list(lyr)
     assert len(feats) == 2 + 4 + 2 + 8  # ground + roof + walls, per building
     names = [lyr.GetLayerDefn().GetFieldDefn(k).GetName() for k in range(lyr.GetLayerDefn().GetFieldCount())]
-    for name in (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.BASE_Z, model.HEIGHT, model.HEIGHT_SOURCE,
-                 model.STOREYS_ABOVE, model.STOREYS_BELOW, "GRO_FLO_CO", "BUL_MAN_NO"):
+    for name in (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER, step_layers.BASE_Z,
+                 step_layers.HEIGHT, step_layers.HEIGHT_SOURCE, step_layers.STOREYS_ABOVE, step_layers.STOREYS_BELOW,
+                 "GRO_FLO_CO", "BUL_MAN_NO"):
         assert name in names
-    first = [f for f in feats if f[model.WIT_ID] == "BLD_0"]
-    assert [f[model.FACE_NUMBER] for f in first] == list(range(6))
-    assert first[0][model.FACE_TYPE] == "ground" and first[0][model.HEIGHT] == pytest.approx(10.5)
-    assert first[0][model.HEIGHT_SOURCE] == "floors" and first[0]["BUL_MAN_NO"] == 1234567
-    assert first[0][model.HEIGHT_RULE] == "GRO_FLO_CO × 3.5 m"
-    assert first[0][model.BASE_Z] == pytest.approx(25.0)
-    court = [f for f in feats if f[model.WIT_ID] == "BLD_1"]
-    assert court[0][model.HEIGHT_SOURCE] == "default" and court[0][model.HEIGHT_RULE] == "default 3 m"
+    first = [f for f in feats if f[step_layers.WIT_ID] == "BLD_0"]
+    assert [f[step_layers.FACE_NUMBER] for f in first] == list(range(6))
+    assert first[0][step_layers.FACE_TYPE] == "ground" and first[0][step_layers.HEIGHT] == pytest.approx(10.5)
+    assert first[0][step_layers.HEIGHT_SOURCE] == "floors" and first[0]["BUL_MAN_NO"] == 1234567
+    assert first[0][step_layers.HEIGHT_RULE] == "GRO_FLO_CO × 3.5 m"
+    assert first[0][step_layers.BASE_Z] == pytest.approx(25.0)
+    court = [f for f in feats if f[step_layers.WIT_ID] == "BLD_1"]
+    assert court[0][step_layers.HEIGHT_SOURCE] == "default" and court[0][step_layers.HEIGHT_RULE] == "default 3 m"
     roof = shapely.from_wkb(bytes(court[1].GetGeometryRef().ExportToIsoWkb()))
     assert roof.has_z and len(roof.interiors) == 1
     assert not list(tmp_path.glob(".lod1*"))  # no temporary file left behind

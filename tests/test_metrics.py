@@ -11,7 +11,7 @@ import pytest
 import shapely
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import extrude, georef, metrics, model
+from wit_plugin import extrude, georef, metrics, step_layers
 from wit_plugin.area import StudyArea
 from wit_plugin.citygml import reader
 from wit_plugin.citygml import writer as citygml
@@ -115,16 +115,16 @@ def _write_raster(path, data: np.ndarray, driver: str = "GTiff", gt=None, nodata
 
 
 def _write_texcoords(folder, rows: list[tuple[str, str]]) -> None:
-    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(folder / model.TEXCOORD_FILE))
-    layer = ds.CreateLayer(model.TEXCOORD_TABLE, None, ogr.wkbNone)
-    for name in (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_IMAGE, model.TEX_COORDS):
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(folder / step_layers.TEXCOORD_FILE))
+    layer = ds.CreateLayer(step_layers.TEXCOORD_TABLE, None, ogr.wkbNone)
+    for name in (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_IMAGE, step_layers.TEX_COORDS):
         layer.CreateField(ogr.FieldDefn(name, ogr.OFTString))
     for image, uv in rows:
         feature = ogr.Feature(layer.GetLayerDefn())
-        feature.SetField(model.TEX_TARGET, "roof")
-        feature.SetField(model.TEX_FEATURE, "BLD_1")
-        feature.SetField(model.TEX_IMAGE, image)
-        feature.SetField(model.TEX_COORDS, uv)
+        feature.SetField(step_layers.TEX_TARGET, "roof")
+        feature.SetField(step_layers.TEX_FEATURE, "BLD_1")
+        feature.SetField(step_layers.TEX_IMAGE, image)
+        feature.SetField(step_layers.TEX_COORDS, uv)
         layer.CreateFeature(feature)
     ds = None
 
@@ -217,11 +217,11 @@ def test_shape_similarity_iou():
 
 def _write_sources(path, buildings: dict[str, shapely.Geometry]) -> str:
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
-    layer = ds.CreateLayer(model.PREPARED_BUILDINGS, _srs(), ogr.wkbMultiPolygon)
-    layer.CreateField(ogr.FieldDefn(model.WIT_ID, ogr.OFTString))
+    layer = ds.CreateLayer(step_layers.PREPARED_BUILDINGS, _srs(), ogr.wkbMultiPolygon)
+    layer.CreateField(ogr.FieldDefn(step_layers.WIT_ID, ogr.OFTString))
     for wit_id, geom in buildings.items():
         feature = ogr.Feature(layer.GetLayerDefn())
-        feature.SetField(model.WIT_ID, wit_id)
+        feature.SetField(step_layers.WIT_ID, wit_id)
         feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(shapely.MultiPolygon(
             list(shapely.get_parts(geom))))))
         layer.CreateFeature(feature)
@@ -232,9 +232,9 @@ def _write_sources(path, buildings: dict[str, shapely.Geometry]) -> str:
 def _write_lod1(path, footprints: dict[str, shapely.Polygon], base: float = 30.0, height: float = 9.0) -> str:
     """A minimal LoD1 faces layer: ground (clockwise), roof (counter-clockwise), one wall per edge."""
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
-    layer = ds.CreateLayer(model.LOD1_LAYER, _srs(), ogr.wkbPolygon25D)
-    for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                       (model.FACE_NUMBER, ogr.OFTInteger)):
+    layer = ds.CreateLayer(step_layers.LOD1_LAYER, _srs(), ogr.wkbPolygon25D)
+    for name, kind in ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                       (step_layers.FACE_NUMBER, ogr.OFTInteger)):
         layer.CreateField(ogr.FieldDefn(name, kind))
     for wit_id, poly in footprints.items():
         poly = shapely.geometry.polygon.orient(poly, 1.0)
@@ -245,9 +245,9 @@ def _write_lod1(path, footprints: dict[str, shapely.Polygon], base: float = 30.0
                   for p, q in pairwise(ring)]
         for number, (kind, pts) in enumerate(faces):
             feature = ogr.Feature(layer.GetLayerDefn())
-            feature.SetField(model.WIT_ID, wit_id)
-            feature.SetField(model.FACE_TYPE, kind)
-            feature.SetField(model.FACE_NUMBER, number)
+            feature.SetField(step_layers.WIT_ID, wit_id)
+            feature.SetField(step_layers.FACE_TYPE, kind)
+            feature.SetField(step_layers.FACE_NUMBER, number)
             feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(shapely.Polygon(pts), output_dimension=3)))
             layer.CreateFeature(feature)
     ds = None

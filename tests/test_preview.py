@@ -8,7 +8,7 @@ import pytest
 import shapely
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import model, preview
+from wit_plugin import preview, step_layers
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
@@ -70,13 +70,13 @@ def write_scene(folder: Path, buildings: list[tuple[str, Ring, list[Ring], float
     """LoD1 boxes (id, outer ring ccw, holes cw, height, roof colour), a flat TIN over ``ground``, textures."""
     tex = folder / "tex"
     tex.mkdir()
-    tc_ds, tc = _layer(tex / model.TEXCOORD_FILE, model.TEXCOORD_TABLE,
-                       ((model.TEX_TARGET, ogr.OFTString), (model.TEX_FEATURE, ogr.OFTString),
-                        (model.TEX_FACE, ogr.OFTInteger), (model.TEX_IMAGE, ogr.OFTString),
-                        (model.TEX_COORDS, ogr.OFTString)), ogr.wkbNone)
-    lod1_ds, lod1 = _layer(folder / "lod1.gpkg", model.LOD1_LAYER,
-                           ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                            (model.FACE_NUMBER, ogr.OFTInteger)))
+    tc_ds, tc = _layer(tex / step_layers.TEXCOORD_FILE, step_layers.TEXCOORD_TABLE,
+                       ((step_layers.TEX_TARGET, ogr.OFTString), (step_layers.TEX_FEATURE, ogr.OFTString),
+                        (step_layers.TEX_FACE, ogr.OFTInteger), (step_layers.TEX_IMAGE, ogr.OFTString),
+                        (step_layers.TEX_COORDS, ogr.OFTString)), ogr.wkbNone)
+    lod1_ds, lod1 = _layer(folder / "lod1.gpkg", step_layers.LOD1_LAYER,
+                           ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                            (step_layers.FACE_NUMBER, ogr.OFTInteger)))
     for wit_id, outer, holes, height, colour in buildings:
         _image(tex / f"{wit_id}.png", colour)
         rings = [outer, *holes]
@@ -86,17 +86,18 @@ def write_scene(folder: Path, buildings: list[tuple[str, Ring, list[Ring], float
             for p, q in zip(r, r[1:] + r[:1]):
                 faces.append(("wall", [[(*p, 0.0), (*q, 0.0), (*q, height), (*p, height)]]))
         for number, (kind, face) in enumerate(faces):
-            _add(lod1, {model.WIT_ID: wit_id, model.FACE_TYPE: kind, model.FACE_NUMBER: number}, _polygon(face))
-        _add(tc, {model.TEX_TARGET: "roof", model.TEX_FEATURE: wit_id, model.TEX_FACE: 1,
-                  model.TEX_IMAGE: f"{wit_id}.png", model.TEX_COORDS: _uv(outer)})
+            _add(lod1, {step_layers.WIT_ID: wit_id, step_layers.FACE_TYPE: kind, step_layers.FACE_NUMBER: number},
+                 _polygon(face))
+        _add(tc, {step_layers.TEX_TARGET: "roof", step_layers.TEX_FEATURE: wit_id, step_layers.TEX_FACE: 1,
+                  step_layers.TEX_IMAGE: f"{wit_id}.png", step_layers.TEX_COORDS: _uv(outer)})
     del lod1_ds
     tin_path = None
     if ground:
         _image(tex / "ground.png", GREEN)
         tin_path = str(folder / "tin.gpkg")
-        tin_ds, tin = _layer(folder / "tin.gpkg", model.TIN_LAYER,
-                             ((model.TIN_TRIANGLE_ID, ogr.OFTInteger), (model.TIN_SURFACE, ogr.OFTString),
-                              (model.TIN_FEATURE_ID, ogr.OFTString)))
+        tin_ds, tin = _layer(folder / "tin.gpkg", step_layers.TIN_LAYER,
+                             ((step_layers.TIN_TRIANGLE_ID, ogr.OFTInteger), (step_layers.TIN_SURFACE, ogr.OFTString),
+                              (step_layers.TIN_FEATURE_ID, ogr.OFTString)))
         xmin, ymin, xmax, ymax = ground
         xs, ys = np.linspace(xmin, xmax, 5), np.linspace(ymin, ymax, 5)
         tri_id = 0
@@ -104,12 +105,12 @@ def write_scene(folder: Path, buildings: list[tuple[str, Ring, list[Ring], float
             for j in range(4):
                 a, b, c, d = (xs[i], ys[j]), (xs[i + 1], ys[j]), (xs[i + 1], ys[j + 1]), (xs[i], ys[j + 1])
                 for ring in ([a, b, c], [a, c, d]):
-                    _add(tin, {model.TIN_TRIANGLE_ID: tri_id, model.TIN_SURFACE: "terrain"},
+                    _add(tin, {step_layers.TIN_TRIANGLE_ID: tri_id, step_layers.TIN_SURFACE: "terrain"},
                          _polygon([[(x, y, 0.0) for x, y in ring]]))
                     uv = " ".join(f"{(x - xmin) / (xmax - xmin):.6f} {(y - ymin) / (ymax - ymin):.6f}"
                                   for x, y in ring + ring[:1])
-                    _add(tc, {model.TEX_TARGET: "tin", model.TEX_FEATURE: str(tri_id), model.TEX_IMAGE: "ground.png",
-                              model.TEX_COORDS: uv})
+                    _add(tc, {step_layers.TEX_TARGET: "tin", step_layers.TEX_FEATURE: str(tri_id),
+                              step_layers.TEX_IMAGE: "ground.png", step_layers.TEX_COORDS: uv})
                     tri_id += 1
         del tin_ds
     del tc_ds
@@ -212,9 +213,9 @@ def test_self_intersecting_roof_is_still_drawn(tmp_path):
 
 
 def test_empty_or_wrong_inputs(tmp_path):
-    ds, _ = _layer(tmp_path / "empty.gpkg", model.LOD1_LAYER,
-                   ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                    (model.FACE_NUMBER, ogr.OFTInteger)))
+    ds, _ = _layer(tmp_path / "empty.gpkg", step_layers.LOD1_LAYER,
+                   ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                    (step_layers.FACE_NUMBER, ogr.OFTInteger)))
     del ds
     out = tmp_path / "preview.png"
     with pytest.raises(InputError, match="Nothing to draw"):
@@ -241,10 +242,10 @@ class _NoArrow:
 
 def test_feature_loop_reads_like_arrow(tmp_path):
     lod1, tin, tex = write_scene(tmp_path, [("A", square(0, 0, 20, 20), [], 15.0, RED)], ground=(-30, -30, 50, 50))
-    for path, name, fields in ((lod1, model.LOD1_LAYER, (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER)),
-                               (tin, model.TIN_LAYER, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE)),
-                               (str(Path(tex) / model.TEXCOORD_FILE), model.TEXCOORD_TABLE,
-                                (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_COORDS))):
+    for path, name, fields in ((lod1, step_layers.LOD1_LAYER, (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER)),
+                               (tin, step_layers.TIN_LAYER, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE)),
+                               (str(Path(tex) / step_layers.TEXCOORD_FILE), step_layers.TEXCOORD_TABLE,
+                                (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_COORDS))):
         with preview.scene._open_layer(path, name, "test", fields) as layer:
             arrow = preview.scene._read_columns(layer, fields, lambda g: shapely.get_coordinates(g, include_z=True))
             layer.ResetReading()

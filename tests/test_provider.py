@@ -10,14 +10,15 @@ import wit_citymodel
 from conftest import ROOT
 from qgis.core import QgsApplication
 from wit_citymodel import plugin as plugin_module
-from wit_citymodel.processing_provider.base import tr
 from wit_citymodel.processing_provider.provider import ALGORITHMS, MODELS
+from wit_citymodel.processing_provider.translation import tr
 
 pytestmark = pytest.mark.qgis_facing
 
-EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
-                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics", "wit:citymodel",
-                "wit:export3dtiles"}
+EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors",
+                "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
+                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics",
+                "wit:citymodel", "wit:export3dtiles"}
 
 
 def _without_registered_provider():
@@ -109,7 +110,8 @@ def test_plugin_loads_without_optional_packages_and_explains_how_to_install(tmp_
            "XDG_RUNTIME_DIR": str(tmp_path), "QGIS_CUSTOM_CONFIG_PATH": str(tmp_path / "profile")}
     result = subprocess.run(["/usr/bin/python3", "-c", script], capture_output=True, text=True,
                             env=env, timeout=120)
-    assert "wit:generatesample" in next(l for l in result.stdout.splitlines() if l.startswith("ALGS")), result.stdout + result.stderr
+    algorithms = next(line for line in result.stdout.splitlines() if line.startswith("ALGS"))
+    assert "wit:generatesample" in algorithms, result.stdout + result.stderr
     assert "HELP True" in result.stdout
     assert "OK False" in result.stdout
     error = next(line for line in result.stdout.splitlines() if line.startswith("ERROR"))

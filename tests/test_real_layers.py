@@ -1,4 +1,4 @@
-"""Real national layers in the form they ship (issue 21), core only: Korean field names in CP949 read
+"""Real national layers in the form they ship, core only: Korean field names in CP949 read
 without a crash under QGIS's GDAL settings, NGII / OpenStreetMap road schemas, road polygons as road
 surfaces, step inputs of any layer name. Layers are made by the tests (``ngii``)."""
 from __future__ import annotations
@@ -18,7 +18,7 @@ import shapely
 from conftest import ROOT
 from osgeo import gdal, ogr
 
-from wit_plugin import model, roads
+from wit_plugin import roads, step_layers
 from wit_plugin.area import StudyArea
 from wit_plugin.errors import InputError
 from wit_plugin.feedback import Feedback
@@ -227,7 +227,7 @@ def test_a_step_takes_a_files_only_layer_its_own_name_or_the_named_one(tmp_path)
                                          r"name the one to use, as two.gpkg\|layername=<name>"):
         vector_io.read_prepared(str(two), "lod1_faces")
     with pytest.raises(InputError, match=r"lacks the field\(s\) wit_face of the LoD1 faces \(wit:extrudebuildings\)"):
-        vector_io.open_step_layer(str(one), model.LOD1_LAYER, model.LOD1_ROLE, (model.FACE_TYPE,))
+        vector_io.open_step_layer(str(one), step_layers.LOD1_LAYER, step_layers.LOD1_ROLE, (step_layers.FACE_TYPE,))
 
 
 # -- road schemas ---------------------------------------------------------------------------------
@@ -283,19 +283,19 @@ def test_ngii_road_polygons_are_the_road_surfaces_as_they_are(layers, tmp_path):
                              PrepareConfig(target_crs="EPSG:5187"), feedback)
     stats = {s.layer: s for s in report.stats}
     assert (stats["roads"].features_in, stats["roads"].features_out, stats["buildings"].features_out) == (2, 2, 12)
-    rows = _table(out, model.PREPARED_ROADS)
-    assert [r[model.ROAD_WIDTH_SOURCE] for r in rows] == ["surface", "surface"]
-    assert [r[model.ROAD_WIDTH] for r in rows] == [None, None]
+    rows = _table(out, step_layers.PREPARED_ROADS)
+    assert [r[step_layers.ROAD_WIDTH_SOURCE] for r in rows] == ["surface", "surface"]
+    assert [r[step_layers.ROAD_WIDTH] for r in rows] == [None, None]
     assert [r["명칭"] for r in rows] == ["화랑로", None]
-    assert [r[model.WIT_ID] for r in rows] == ["RD_A0012021359010580000001", "RD_A0012021359010580000002"]
+    assert [r[step_layers.WIT_ID] for r in rows] == ["RD_A0012021359010580000001", "RD_A0012021359010580000002"]
     expected = [shapely.from_wkt(w).intersection(report.area) for w in ngii.ROAD_POLYGONS]
     for row, polygon in zip(rows, expected):  # cut to the area, not simplified: the same shape, the same vertices
         assert row["geometry"].symmetric_difference(polygon).area < 1e-6
         assert shapely.get_num_coordinates(row["geometry"]) == shapely.get_num_coordinates(polygon)
     assert any("2 road polygon(s) of N3A_A0010000.shp are road surfaces as they are" in m for m in feedback.infos)
-    buildings = _table(out, model.PREPARED_BUILDINGS)
+    buildings = _table(out, step_layers.PREPARED_BUILDINGS)
     assert [b["층수"] for b in buildings] == ngii.FLOORS and [b["용도"] for b in buildings] == ngii.USES
-    assert buildings[0][model.WIT_ID].startswith("BLD_B0012021")
+    assert buildings[0][step_layers.WIT_ID].startswith("BLD_B0012021")
     assert not any("fields not found" in w for w in feedback.warnings)  # not a road-name-address layer
 
 
@@ -304,8 +304,8 @@ def test_ngii_centre_lines_are_buffered_by_their_width_or_lanes(layers, tmp_path
     out = tmp_path / "lines.gpkg"
     prepare_vectors(None, layers["lines"], None, AREA, out, PrepareConfig(target_crs="EPSG:5187", road_tolerance=0.0),
                     feedback)
-    rows = {r["UFID"]: r for r in _table(out, model.PREPARED_ROADS)}
-    assert {k: (r[model.ROAD_WIDTH], r[model.ROAD_WIDTH_SOURCE]) for k, r in rows.items()} == {
+    rows = {r["UFID"]: r for r in _table(out, step_layers.PREPARED_ROADS)}
+    assert {k: (r[step_layers.ROAD_WIDTH], r[step_layers.ROAD_WIDTH_SOURCE]) for k, r in rows.items()} == {
         "A0022021359010580000001": (12.0, "도로폭"), "A0022021359010580000002": (6.5, "차로수 × 3.25 m"),
         "A0022021359010580000003": (6.0, "default")}
     # the 12 m road: 12 m wide, with round caps of 6 m at both ends
@@ -336,8 +336,8 @@ def test_a_road_layer_of_lines_and_polygons_keeps_both(tmp_path):
     del layer, ds
     out = tmp_path / "prepared.gpkg"
     report = prepare_vectors(None, str(path), None, AREA, out, PrepareConfig(target_crs="EPSG:5187"))
-    rows = _table(out, model.PREPARED_ROADS)
-    assert sorted((r["osm_id"], r[model.ROAD_WIDTH], r[model.ROAD_WIDTH_SOURCE]) for r in rows) == [
+    rows = _table(out, step_layers.PREPARED_ROADS)
+    assert sorted((r["osm_id"], r[step_layers.ROAD_WIDTH], r[step_layers.ROAD_WIDTH_SOURCE]) for r in rows) == [
         ("11", 12.0, "highway=secondary"), ("12", 4.0, "width"), ("13", None, "surface")]
-    assert len({r[model.WIT_ID] for r in rows}) == 3
+    assert len({r[step_layers.WIT_ID] for r in rows}) == 3
     assert report.stats[0].features_in == 3 and report.stats[0].features_out == 3

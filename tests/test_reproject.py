@@ -1,4 +1,4 @@
-"""Rasters in another CRS than the model's (issue 21, item 3): the DEM and the orthoimage reprojected on
+"""Rasters in another CRS than the model's: the DEM and the orthoimage reprojected on
 the fly, window by window — heights checked against gdal.Warp and against bilinear sampling of the
 source DEM at the transformed point, NoData, vertical values, the coverage check in the DEM's own CRS,
 sheets georeferenced in another CRS, and the chain run with the model in EPSG:5187."""
@@ -14,7 +14,7 @@ import pytest
 import shapely
 from osgeo import gdal, ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.chain.coverage import ortho_coverage, require_dem
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
@@ -91,7 +91,8 @@ def _refusal(function, *args) -> str:
 
 
 def _bilinear(values: np.ndarray, gt: tuple, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """SPEC §4's formula straight on the source grid (this test's own, independent of the core)."""
+    """Bilinear interpolation of the four surrounding cell centres, straight on the source grid (this test's
+    own, independent of the core)."""
     u = (x - gt[0]) / gt[1] - 0.5
     v = (y - gt[3]) / gt[5] - 0.5
     j, i = np.floor(u).astype(int), np.floor(v).astype(int)
@@ -372,7 +373,7 @@ def east_belt_run(tmp_path_factory):
 
 def _tin_vertices(path: str) -> np.ndarray:
     ds = ogr.Open(path)
-    points = [g.GetPoints() for f in ds.GetLayer(model.TIN_LAYER) for g in [f.GetGeometryRef().GetGeometryRef(0)]]
+    points = [g.GetPoints() for f in ds.GetLayer(step_layers.TIN_LAYER) for g in [f.GetGeometryRef().GetGeometryRef(0)]]
     return np.unique(np.round(np.array([p for ring in points for p in ring[:3]]), 6), axis=0)
 
 
@@ -396,8 +397,8 @@ def test_the_chain_models_a_5186_dem_and_sheets_in_5187(east_belt_run):
     # the merged orthoimage in 5187 shows at each roof what the 5186 sheet shows there
     mosaic = gdal.Open(str(Path(report.work) / "ortho.tif"))
     lod1 = ogr.Open(report.lod1)  # kept while its layer is read
-    roofs = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb())) for f in lod1.GetLayer(model.LOD1_LAYER)
-             if f.GetField(model.FACE_TYPE) == "roof"]
+    roofs = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb())) for f in lod1.GetLayer(step_layers.LOD1_LAYER)
+             if f.GetField(step_layers.FACE_TYPE) == "roof"]
     inner = [r.buffer(-2.0) for r in shapely.force_2d(np.array(roofs, dtype=object))]
     points = np.array([shapely.get_coordinates(p.representative_point())[0] for p in inner if not p.is_empty])
     assert len(points) > 20
@@ -455,7 +456,7 @@ def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east
                                                                               monkeypatch):
     from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
-    from wit_plugin.tiles import runner
+    from wit_plugin.sheetrun import runner
 
     def no_cluster(*args, **kwargs):
         raise AssertionError("a Dask cluster was started")
@@ -477,7 +478,7 @@ def test_a_tiled_run_checks_the_orthoimage_sheets_before_any_worker_starts(east_
     """The sheet under the area missing (surfaces outside the orthoimage: fail): refused in seconds, naming it."""
     from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
-    from wit_plugin.tiles import runner
+    from wit_plugin.sheetrun import runner
 
     def no_cluster(*args, **kwargs):
         raise AssertionError("a Dask cluster was started")

@@ -11,7 +11,7 @@ import pytest
 import shapely
 from osgeo import ogr, osr
 
-from wit_plugin import model, terrain, triangulators
+from wit_plugin import step_layers, terrain, triangulators
 from wit_plugin.dem import Dem
 from wit_plugin.errors import InputError
 
@@ -120,7 +120,7 @@ def test_holes_and_constrained_footprints_are_labelled(triangulator):
         xy = tin.vertices[:, :2][tin.triangles]
         areas = 0.5 * np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
         centroids = xy.mean(axis=1)
-        by = {s: areas[tin.surface == s].sum() for s in model.TIN_SURFACES}
+        by = {s: areas[tin.surface == s].sum() for s in step_layers.TIN_SURFACES}
         if holes:
             assert by["footprint"] == 0 and stats.triangles_by_surface["footprint"] == 0
             assert areas.sum() == pytest.approx(AREA.area - footprint_area, rel=1e-9)
@@ -173,12 +173,12 @@ def _write_prepared(path, buildings, roads):
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
     srs = osr.SpatialReference()
     srs.ImportFromEPSG(5186)
-    for name, features in ((model.PREPARED_BUILDINGS, buildings), (model.PREPARED_ROADS, roads)):
+    for name, features in ((step_layers.PREPARED_BUILDINGS, buildings), (step_layers.PREPARED_ROADS, roads)):
         lyr = ds.CreateLayer(name, srs, ogr.wkbPolygon)
-        lyr.CreateField(ogr.FieldDefn(model.WIT_ID, ogr.OFTString))
+        lyr.CreateField(ogr.FieldDefn(step_layers.WIT_ID, ogr.OFTString))
         for wit_id, geom in features:
             feat = ogr.Feature(lyr.GetLayerDefn())
-            feat.SetField(model.WIT_ID, wit_id)
+            feat.SetField(step_layers.WIT_ID, wit_id)
             feat.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geom)))
             lyr.CreateFeature(feat)
     ds = None
@@ -197,16 +197,16 @@ def test_run_on_the_seoul_dem_writes_a_tin(tmp_path, shared_dir):
                                                         area)
     assert stats.max_edge <= 5.0 * (1 + 1e-9) and stats.max_vertical_error <= 0.5
     ds = ogr.Open(str(out))
-    lyr = ds.GetLayerByName(model.TIN_LAYER)
+    lyr = ds.GetLayerByName(step_layers.TIN_LAYER)
     assert lyr.GetGeomType() == ogr.wkbPolygon25D
     assert lyr.GetFeatureCount() == stats.triangles
     assert lyr.GetSpatialRef().GetAuthorityCode(None) == "5186"
     defn = lyr.GetLayerDefn()
     assert [defn.GetFieldDefn(k).GetName() for k in range(defn.GetFieldCount())] == \
-        [model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID]
+        [step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID]
     surfaces, zs = set(), []
     for feat in lyr:
-        surfaces.add(feat[model.TIN_SURFACE])
+        surfaces.add(feat[step_layers.TIN_SURFACE])
         ring = feat.GetGeometryRef().GetGeometryRef(0)
         assert ring.GetPointCount() == 4
         zs += [ring.GetZ(k) for k in range(4)]
@@ -322,7 +322,8 @@ def test_terrain_covers_buildings_that_cross_the_rim(tmp_path, shared_dir):
     terrain.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, None, out, area,
                                 terrain.TerrainConfig(max_edge=10.0, footprints_as_holes=False))
     ds = ogr.Open(str(out))
-    triangles = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToIsoWkb())) for f in ds.GetLayer(model.TIN_LAYER)]
+    triangles = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToIsoWkb()))
+                 for f in ds.GetLayer(step_layers.TIN_LAYER)]
     covered = shapely.union_all(shapely.force_2d(np.array(triangles, dtype=object)), grid_size=1e-3)
     assert covered.buffer(1e-3).contains(crossing)  # the whole footprint, also its 30 m outside the circle
     assert covered.area == pytest.approx(shapely.union(area, crossing).area, rel=1e-3)

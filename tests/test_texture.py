@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import model, texture
+from wit_plugin import step_layers, texture
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.texture import TextureConfig, texture_model
@@ -53,11 +53,11 @@ def _polygon(ring: list[tuple[float, float]], z: float) -> ogr.Geometry:
 
 
 def write_lod1(path: Path, buildings: dict[str, list[tuple[float, float]]]) -> str:
-    """LoD1 faces in the model.py schema: per building one ground, one roof and one wall per edge."""
+    """LoD1 faces in the step_layers.py schema: per building one ground, one roof and one wall per edge."""
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
-    layer = ds.CreateLayer(model.LOD1_LAYER, _srs(), ogr.wkbPolygon25D)
-    for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                       (model.FACE_NUMBER, ogr.OFTInteger)):
+    layer = ds.CreateLayer(step_layers.LOD1_LAYER, _srs(), ogr.wkbPolygon25D)
+    for name, kind in ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                       (step_layers.FACE_NUMBER, ogr.OFTInteger)):
         layer.CreateField(ogr.FieldDefn(name, kind))
     for wit_id, ring in buildings.items():
         faces = [("ground", _polygon(ring[::-1], 10.0)), ("roof", _polygon(ring, 20.0))]
@@ -70,9 +70,9 @@ def write_lod1(path: Path, buildings: dict[str, list[tuple[float, float]]]) -> s
             faces.append(("wall", poly))
         for number, (kind, geom) in enumerate(faces):
             f = ogr.Feature(layer.GetLayerDefn())
-            f.SetField(model.WIT_ID, wit_id)
-            f.SetField(model.FACE_TYPE, kind)
-            f.SetField(model.FACE_NUMBER, number)
+            f.SetField(step_layers.WIT_ID, wit_id)
+            f.SetField(step_layers.FACE_TYPE, kind)
+            f.SetField(step_layers.FACE_NUMBER, number)
             f.SetGeometry(geom)
             layer.CreateFeature(f)
     ds = None
@@ -80,19 +80,19 @@ def write_lod1(path: Path, buildings: dict[str, list[tuple[float, float]]]) -> s
 
 
 def write_tin(path: Path, triangles: list[tuple[str, list[tuple[float, float]]]]) -> str:
-    """TIN triangles in the model.py schema; tri_id = index; road triangles on road RD_1 but every 7th."""
+    """TIN triangles in the step_layers.py schema; tri_id = index; road triangles on road RD_1 but every 7th."""
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
-    layer = ds.CreateLayer(model.TIN_LAYER, _srs(), ogr.wkbPolygon25D)
-    for name, kind in ((model.TIN_TRIANGLE_ID, ogr.OFTInteger), (model.TIN_SURFACE, ogr.OFTString),
-                       (model.TIN_FEATURE_ID, ogr.OFTString)):
+    layer = ds.CreateLayer(step_layers.TIN_LAYER, _srs(), ogr.wkbPolygon25D)
+    for name, kind in ((step_layers.TIN_TRIANGLE_ID, ogr.OFTInteger), (step_layers.TIN_SURFACE, ogr.OFTString),
+                       (step_layers.TIN_FEATURE_ID, ogr.OFTString)):
         layer.CreateField(ogr.FieldDefn(name, kind))
     layer.StartTransaction()
     for tri_id, (surface, ring) in enumerate(triangles):
         f = ogr.Feature(layer.GetLayerDefn())
-        f.SetField(model.TIN_TRIANGLE_ID, tri_id)
-        f.SetField(model.TIN_SURFACE, surface)
+        f.SetField(step_layers.TIN_TRIANGLE_ID, tri_id)
+        f.SetField(step_layers.TIN_SURFACE, surface)
         if surface == "road" and tri_id % 7:
-            f.SetField(model.TIN_FEATURE_ID, "RD_1")
+            f.SetField(step_layers.TIN_FEATURE_ID, "RD_1")
         f.SetGeometry(_polygon(ring, 30.0))
         layer.CreateFeature(f)
     layer.CommitTransaction()
@@ -107,23 +107,23 @@ def grid_triangles(c0: int, r0: int, c1: int, r1: int, step: int) -> list[tuple[
         for c in range(c0, c1, step):
             a, b, cc, d = centre(c, r), centre(c + step, r), centre(c + step, r + step), centre(c, r + step)
             for ring in ([a, d, cc], [a, cc, b]):
-                tris.append((model.TIN_SURFACES[len(tris) % 3], ring))
+                tris.append((step_layers.TIN_SURFACES[len(tris) % 3], ring))
     return tris
 
 
 def read_rows(output: Path) -> list[dict]:
     ds = ogr.Open(str(output / texture.TEXCOORDS_FILE))
-    layer = ds.GetLayerByName(model.TEXCOORD_TABLE)
+    layer = ds.GetLayerByName(step_layers.TEXCOORD_TABLE)
     assert layer.GetGeomType() == ogr.wkbNone
     rows = []
     for f in layer:
-        rows.append({"target": f.GetField(model.TEX_TARGET), "feature": f.GetField(model.TEX_FEATURE),
-                     "face": f.GetField(model.TEX_FACE), "image": f.GetField(model.TEX_IMAGE),
-                     "uv": np.array(f.GetField(model.TEX_COORDS).split(), dtype=float).reshape(-1, 2)})
+        rows.append({"target": f.GetField(step_layers.TEX_TARGET), "feature": f.GetField(step_layers.TEX_FEATURE),
+                     "face": f.GetField(step_layers.TEX_FACE), "image": f.GetField(step_layers.TEX_IMAGE),
+                     "uv": np.array(f.GetField(step_layers.TEX_COORDS).split(), dtype=float).reshape(-1, 2)})
     ds = None
     with sqlite3.connect(output / texture.TEXCOORDS_FILE) as db:  # the count GDAL keeps matches the rows
         assert db.execute("SELECT feature_count FROM gpkg_ogr_contents WHERE table_name = ?",
-                          (model.TEXCOORD_TABLE,)).fetchone() == (len(rows),)
+                          (step_layers.TEXCOORD_TABLE,)).fetchone() == (len(rows),)
     return rows
 
 
@@ -416,8 +416,8 @@ def test_surfaces_outside_the_coverage_are_left_untextured_and_counted(tmp_path)
     coverage = shapely.box(X0, Y0 - 100, X0 + 100, Y0)  # the ortho: 200 px of 0.5 m
     report = texture_model(ortho, lod1, None, str(tmp_path / "tex"), coverage=coverage)
     assert report.surfaces[texture.ROOF_TARGET] == 1 and report.untextured[texture.OUTSIDE_ORTHO] == 1
-    rows = sqlite3.connect(tmp_path / "tex" / model.TEXCOORD_FILE).execute(
-        f"SELECT {model.TEX_FEATURE} FROM {model.TEXCOORD_TABLE}").fetchall()
+    rows = sqlite3.connect(tmp_path / "tex" / step_layers.TEXCOORD_FILE).execute(
+        f"SELECT {step_layers.TEX_FEATURE} FROM {step_layers.TEXCOORD_TABLE}").fetchall()
     assert rows == [("BLD_IN",)]
 
 
@@ -428,7 +428,7 @@ def test_layers_read_in_several_runs_give_the_same_output(scene: dict, tmp_path:
         out = tmp_path / name
         texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(out), TextureConfig(atlas_size=64, gutter=2))
         with sqlite3.connect(out / texture.TEXCOORDS_FILE) as db:
-            rows = db.execute(f'SELECT * FROM "{model.TEXCOORD_TABLE}" ORDER BY fid').fetchall()
+            rows = db.execute(f'SELECT * FROM "{step_layers.TEXCOORD_TABLE}" ORDER BY fid').fetchall()
         return rows, {p.name: p.read_bytes() for p in out.iterdir() if p.suffix == ".jpg"}
 
     whole = run("whole")

@@ -1,4 +1,4 @@
-"""Tiled runs (wit_plugin.tiles): the tile plan alone, then real runs on Dask — an embedded scheduler,
+"""Tiled runs (wit_plugin.sheetrun): the tile plan alone, then real runs on Dask — an embedded scheduler,
 and a `dask scheduler` with two `dask worker` processes started here — checked against the
 single-area chain: same buildings, none twice, tiles valid, borders shared vertex for vertex;
 resume, a failing tile, a killed worker and Cancel."""
@@ -28,9 +28,9 @@ from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
 from wit_plugin.mapsheet import sheet_at
 from wit_plugin.sample import SampleConfig, generate_sample
-from wit_plugin.tiles import plan
-from wit_plugin.tiles.index import read_index
-from wit_plugin.tiles.runner import run_tiles, stop_workers, worker_python
+from wit_plugin.sheetrun import plan
+from wit_plugin.sheetrun.index import read_index
+from wit_plugin.sheetrun.runner import run_tiles, stop_workers, worker_python
 
 ROOT = Path(__file__).resolve().parents[1]
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "gml": "http://www.opengis.net/gml/3.2",
@@ -279,7 +279,7 @@ def _lone_ground_edges(gmls: list[Path], rim, walls: list) -> np.ndarray:
 def test_the_ground_is_watertight_to_the_millimetre(run, request, single):
     """Every ground edge away from the area's rim and the buildings is shared by two triangles as written
     (a road triangle and a relief one meet at the same digits), in each tile, across the tiles' borders,
-    and in a single run: no vertex written twice a millimetre apart (issue 21)."""
+    and in a single run: no vertex written twice a millimetre apart (a gap a viewer would show as a crack)."""
     out, report = request.getfixturevalue(run)
     rim = AREA.geometry(pyproj.CRS("EPSG:5186"))
     gmls = [out / r["gml"] for r in _modelled(report)]
@@ -324,7 +324,7 @@ def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_wit
 
     from osgeo import ogr
 
-    from wit_plugin.tiles import worker
+    from wit_plugin.sheetrun import worker
 
     buildings = tmp_path / "buildings_with_a_shed.shp"
     for part in sample.buildings.parent.glob(sample.buildings.stem + ".*"):
@@ -347,8 +347,8 @@ def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_wit
 
 def _one_tile_spec(sample, tmp_path: Path, sheet: str, **inputs) -> dict:
     """What the runner gives a worker for ``sheet`` of the run over AREA (its roads and dongs prepared)."""
-    from wit_plugin.tiles import runner
-    from wit_plugin.tiles.prepare import prepare_context
+    from wit_plugin.sheetrun import runner
+    from wit_plugin.sheetrun.prepare import prepare_context
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
     context = prepare_context(str(sample.roads), str(sample.districts), polygon, "EPSG:5186",
@@ -366,7 +366,7 @@ def test_a_tile_is_built_when_gdal_objects_outlive_their_use(sample, local_run, 
     built as in the run."""
     from osgeo import ogr
 
-    from wit_plugin.tiles import worker
+    from wit_plugin.sheetrun import worker
 
     kept = []
     read, create = ogr.Layer.GetArrowStreamAsNumPy, ogr.DataSource.CreateLayer
@@ -439,8 +439,8 @@ def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, 
     from distributed import Client, LocalCluster
 
     from wit_plugin.feedback import SILENT
-    from wit_plugin.tiles import runner, worker
-    from wit_plugin.tiles.index import write_index
+    from wit_plugin.sheetrun import runner, worker
+    from wit_plugin.sheetrun.index import write_index
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
     tile = plan.plan_tiles(polygon, "EPSG:5186", 1000)[0]
@@ -469,7 +469,7 @@ def test_a_tile_spec_and_its_row_are_plain_values(sample, local_run):
     """What travels through the scheduler: JSON values only (nothing of the core to unpickle there)."""
     import json
 
-    from wit_plugin.tiles import runner
+    from wit_plugin.sheetrun import runner
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
     spec = runner._spec(_inputs(sample), _options(), Path("/out"), "376081", 1000, polygon, ("/out/c.gpkg", ["x"]))
@@ -859,17 +859,19 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
     build = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
                             "--target", str(target), str(source)], capture_output=True, text=True, cwd=tmp_path)
     assert build.returncode == 0, build.stderr[-2000:]
-    probe = subprocess.run([sys.executable, "-c", "import wit_plugin.tiles.worker as w, wit_plugin.citygml.schemas as s; "
+    probe = subprocess.run([sys.executable, "-c",
+                            "import wit_plugin.sheetrun.worker as w, wit_plugin.citygml.schemas as s; "
                             "print(w.__file__); print((s.EMBEDDED_DIR / 'citygml3-all.xsd').is_file())"],
                            capture_output=True, text=True, cwd=tmp_path,
-                           env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
+                           env=dict(os.environ,
+                                    PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
     assert probe.returncode == 0, probe.stderr[-2000:]
-    assert probe.stdout.split() == [str(target / "wit_plugin" / "tiles" / "worker.py"), "True"]
+    assert probe.stdout.split() == [str(target / "wit_plugin" / "sheetrun" / "worker.py"), "True"]
 
 
 def _check_from_afar(output: Path, tmp_path: Path) -> None:
     """Zoomed out (4 radii of the run's bounding sphere), the viewer loads the top group's content alone and
-    shows buildings (issue 22: from afar the groups held terrain only): a click names one."""
+    shows buildings (from afar the groups once held terrain only): a click names one."""
     import json
 
     report, picture = view_in_chromium(output, tmp_path, click=True, query="?range=4")

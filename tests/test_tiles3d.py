@@ -15,7 +15,7 @@ import shapely
 from conftest import ensure_wit_provider, view_in_chromium
 from osgeo import gdal, ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.sample import SampleConfig, generate_sample
@@ -170,12 +170,13 @@ def test_tileset_structure(chain):
 
 
 def test_a_layer_without_floor_values_gives_complete_property_tables(chain, tmp_path):
-    """Issue 22: the official validator rejected tiles whose buildings had no storeys at all ("The property
+    """The official validator rejected tiles whose buildings had no storeys at all ("The property
     table does not define property wit_storeys_below"): every table now holds every numeric property."""
     lod1 = tmp_path / "lod1.gpkg"
     gdal.VectorTranslate(str(lod1), chain["lod1"])
     ds = ogr.Open(str(lod1), 1)
-    ds.ExecuteSQL(f"UPDATE {model.LOD1_LAYER} SET {model.STOREYS_ABOVE} = NULL, {model.STOREYS_BELOW} = NULL")
+    ds.ExecuteSQL(f"UPDATE {step_layers.LOD1_LAYER} "
+                  f"SET {step_layers.STOREYS_ABOVE} = NULL, {step_layers.STOREYS_BELOW} = NULL")
     ds = None
     out = tmp_path / "3dtiles"
     export_tileset(str(lod1), chain["tin"], chain["textures"], str(out), config=TilesetConfig(leaf_size=128.0))
@@ -184,7 +185,8 @@ def test_a_layer_without_floor_values_gives_complete_property_tables(chain, tmp_
     for path in out.rglob("*.glb"):
         gltf, blob = read_glb(path.read_bytes())
         for table in gltf.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTables", []):
-            assert {model.STOREYS_ABOVE, model.STOREYS_BELOW, model.HEIGHT} <= set(table["properties"])
+            assert {step_layers.STOREYS_ABOVE, step_layers.STOREYS_BELOW, step_layers.HEIGHT} \
+                <= set(table["properties"])
 
 
 def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):
@@ -202,7 +204,7 @@ def _check_round_trip(chain: dict, folder: Path) -> None:
     for f in ds.GetLayer():
         polygon = f.GetGeometryRef()
         for ring in range(polygon.GetGeometryCount()):  # roof triangles use the holes' corners too
-            faces.setdefault(f.GetField(model.WIT_ID), []).extend(polygon.GetGeometryRef(ring).GetPoints())
+            faces.setdefault(f.GetField(step_layers.WIT_ID), []).extend(polygon.GetGeometryRef(ring).GetPoints())
     tin_tree = shapely.STRtree(shapely.points(tin[:, :2]))
     buildings_seen = 0
     for tile, world, _ in _tiles(document["root"], np.eye(4)):
@@ -226,8 +228,8 @@ def _check_round_trip(chain: dict, folder: Path) -> None:
 def test_buildings_carry_their_attributes_and_korean_names(chain):
     ds = ogr.Open(chain["lod1"])
     layer = ds.GetLayer()
-    layer.SetAttributeFilter(f"{model.FACE_TYPE} = 'ground'")
-    names = {f.GetField(model.WIT_ID): f.GetField("BULD_NM") or "" for f in layer}
+    layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground'")
+    names = {f.GetField(step_layers.WIT_ID): f.GetField("BULD_NM") or "" for f in layer}
     assert any(names.values())
     checked = 0
     for path in (chain["folder"] / "tiles").rglob("*.glb"):
@@ -236,8 +238,10 @@ def test_buildings_carry_their_attributes_and_korean_names(chain):
             continue
         metadata = content["gltf"].extensions["EXT_structural_metadata"]
         properties = metadata["schema"]["classes"]["building"]["properties"]
-        assert properties[model.HEIGHT]["componentType"] == "FLOAT64" and properties["BULD_NM"]["type"] == "STRING"
-        assert {model.WIT_ID, model.HEIGHT, model.HEIGHT_SOURCE, model.STOREYS_ABOVE, model.STOREYS_BELOW} <= set(properties)
+        assert properties[step_layers.HEIGHT]["componentType"] == "FLOAT64"
+        assert properties["BULD_NM"]["type"] == "STRING"
+        assert {step_layers.WIT_ID, step_layers.HEIGHT, step_layers.HEIGHT_SOURCE, step_layers.STOREYS_ABOVE,
+                step_layers.STOREYS_BELOW} <= set(properties)
         ids = _property_strings(content["gltf"], content["blob"], "wit_id")
         if "BULD_NM" in metadata["propertyTables"][0]["properties"]:
             for wit_id, name in zip(ids, _property_strings(content["gltf"], content["blob"], "BULD_NM")):
@@ -273,9 +277,10 @@ def test_viewer_in_headless_chromium_shows_the_model_and_a_buildings_attributes(
     assert info and info["rows"]["wit_id"].startswith("BLD_")
     ds = ogr.Open(chain["lod1"])
     layer = ds.GetLayer()
-    layer.SetAttributeFilter(f"{model.FACE_TYPE} = 'ground' AND {model.WIT_ID} = '{info['rows']['wit_id']}'")
+    layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground' "
+                             f"AND {step_layers.WIT_ID} = '{info['rows']['wit_id']}'")
     ground = layer.GetNextFeature()
-    assert float(info["rows"][model.HEIGHT]) == pytest.approx(ground.GetField(model.HEIGHT))
+    assert float(info["rows"][step_layers.HEIGHT]) == pytest.approx(ground.GetField(step_layers.HEIGHT))
     name = ground.GetField("BULD_NM")
     assert name and info["title"] == name == info["rows"]["BULD_NM"]  # Korean, intact
 
@@ -296,8 +301,8 @@ def test_bad_inputs_and_outputs_are_refused_before_anything_is_written(chain, tm
         export_tileset(lod1, tin, textures, str(tmp_path / "b"), crs="EPSG:4326")
     with pytest.raises(InputError, match="EPSG:5186"):
         export_tileset(lod1, tin, textures, str(tmp_path / "c"), crs="EPSG:5179")
-    with pytest.raises(InputError, match=r"Layer 'tin' .* lacks the field\(s\) wit_id, wit_face, wit_face_no, wit_height "
-                                         r"of the LoD1 faces \(wit:extrudebuildings\)"):
+    with pytest.raises(InputError, match=r"Layer 'tin' .* lacks the field\(s\) wit_id, wit_face, wit_face_no, "
+                                         r"wit_height of the LoD1 faces \(wit:extrudebuildings\)"):
         export_tileset(tin, None, None, str(tmp_path / "d"))
     assert not any((tmp_path / n).exists() for n in "abcd")
 
@@ -369,7 +374,7 @@ def _check_gui_loading(chain, monkeypatch, project, tiled_scenes: bool) -> None:
     assert renderer is not None and renderer.type() == "vector"
     renderer = sip.cast(renderer, QgsVectorLayer3DRenderer)  # 3.44's bindings return the base class
     extrusion = renderer.symbol().dataDefinedProperties().property(QgsAbstract3DSymbol.PropertyExtrusionHeight)
-    assert extrusion.field() == model.HEIGHT
+    assert extrusion.field() == step_layers.HEIGHT
     terrain = project.mapLayersByName("Terrain (TIN)")[0]
     assert terrain.featureCount() == chain["triangles"] and terrain.renderer3D() is not None
     if tiled_scenes:

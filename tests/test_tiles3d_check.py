@@ -1,8 +1,8 @@
 """Our tileset checker (wit_plugin.tiles3d.check) on good and bad examples: the metadata rules the official
 3D Tiles validator applies (every property of a class in each property table, types, counts, offsets,
 feature ids) and the structure rules (regions nested, errors falling, contents on disk); and the
-writer's tables for a tile whose buildings have no value at all in some fields (issue 22: the
-validator rejected such a tile)."""
+writer's tables for a tile whose buildings have no value at all in some fields (the official validator
+rejected such a tile)."""
 from __future__ import annotations
 
 import copy
@@ -13,13 +13,14 @@ import numpy as np
 import pytest
 from osgeo import ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.tiles3d.check import check_glb_metadata, check_tileset, read_glb
 from wit_plugin.tiles3d.glb import GlbBuilder
 from wit_plugin.tiles3d.metadata import BUILDING_CLASS, INT32_NO_DATA, building_schema, property_columns
 
-FIELDS = [(model.WIT_ID, ogr.OFTString), (model.HEIGHT, ogr.OFTReal), (model.STOREYS_ABOVE, ogr.OFTInteger),
-          (model.STOREYS_BELOW, ogr.OFTInteger), ("BULD_NM", ogr.OFTString), ("BD_MGT_SN", ogr.OFTInteger64)]
+FIELDS = [(step_layers.WIT_ID, ogr.OFTString), (step_layers.HEIGHT, ogr.OFTReal),
+          (step_layers.STOREYS_ABOVE, ogr.OFTInteger), (step_layers.STOREYS_BELOW, ogr.OFTInteger),
+          ("BULD_NM", ogr.OFTString), ("BD_MGT_SN", ogr.OFTInteger64)]
 
 
 def _glb(attributes: list[list]) -> tuple[dict, bytes]:
@@ -50,7 +51,7 @@ def test_a_good_table_passes_and_holds_every_numeric_property():
 
 
 def test_a_tile_without_floor_fields_still_writes_them_as_no_data():
-    """The validator's "The property table does not define property wit_storeys_below" (issue 22)."""
+    """The official validator's "The property table does not define property wit_storeys_below"."""
     gltf, blob = _glb([["BLD_1", 12.5, None, None, None, None], ["BLD_2", 6.0, None, None, None, None]])
     assert check_glb_metadata(gltf, blob) == ([], 1)
     table = _table(gltf)

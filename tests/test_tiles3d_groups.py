@@ -12,7 +12,7 @@ import pytest
 import shapely
 from osgeo import ogr
 
-from wit_plugin import model
+from wit_plugin import step_layers
 from wit_plugin.mapsheet import sheets_covering
 from wit_plugin.tiles3d.check import check_glb_metadata, read_glb
 from wit_plugin.tiles3d.geo import Georeference, gltf_to_model
@@ -73,8 +73,8 @@ def _buildings() -> Candidates:
         top.append(30.0 + k + height)
         size.append(max(float(np.hypot(w, h + 0.2)), height))
         attributes.append([ids[-1], height, None, "한빛빌딩" if k % 2 else None])
-    fields = [(model.WIT_ID, ogr.OFTString), (model.HEIGHT, ogr.OFTReal), (model.STOREYS_BELOW, ogr.OFTInteger),
-              ("BULD_NM", ogr.OFTString)]
+    fields = [(step_layers.WIT_ID, ogr.OFTString), (step_layers.HEIGHT, ogr.OFTReal),
+              (step_layers.STOREYS_BELOW, ogr.OFTInteger), ("BULD_NM", ogr.OFTString)]
     return Candidates(fields, ids, np.array(footprints, dtype=object), np.array(base), np.array(top),
                       np.array(size), attributes)
 
@@ -90,7 +90,8 @@ def test_a_group_keeps_its_largest_buildings_and_counts_the_largest_left_out():
                          [row[:2] for row in all_buildings.attributes[:15]], dropped=1.5),
               all_buildings.largest(30)]
     joined = Candidates.join([halves[0], halves[1].largest(15)])
-    assert [n for n, _ in joined.fields] == [model.WIT_ID, model.HEIGHT, model.STOREYS_BELOW, "BULD_NM"]
+    assert [n for n, _ in joined.fields] == [step_layers.WIT_ID, step_layers.HEIGHT, step_layers.STOREYS_BELOW,
+                                             "BULD_NM"]
     assert joined.attributes[0][2:] == [None, None]  # fields a part lacks: NULL
     assert joined.dropped == max(1.5, halves[1].largest(15).dropped)
 
@@ -169,7 +170,7 @@ def _stand_in_run(folder: Path, sheets: list[str]) -> dict:
     import pyproj
     from osgeo import gdal, osr
 
-    from wit_plugin.tiles.plan import tile_of
+    from wit_plugin.sheetrun.plan import tile_of
     from wit_plugin.tiles3d.geo import column_major
 
     georef = Georeference("EPSG:5186")
@@ -205,16 +206,17 @@ def _stand_in_run(folder: Path, sheets: list[str]) -> dict:
         (tile / "3dtiles" / "tileset.json").write_text(json.dumps({"asset": {"version": "1.1"},
                                                                    "geometricError": 16.0, "root": root}))
         ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(tile / "lod1.gpkg"))
-        layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon)
-        for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                           (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal),
-                           (model.HEIGHT, ogr.OFTReal), (model.STOREYS_BELOW, ogr.OFTInteger)):
+        layer = ds.CreateLayer(step_layers.LOD1_LAYER, srs, ogr.wkbPolygon)
+        for name, kind in ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
+                           (step_layers.FACE_NUMBER, ogr.OFTInteger), (step_layers.BASE_Z, ogr.OFTReal),
+                           (step_layers.HEIGHT, ogr.OFTReal), (step_layers.STOREYS_BELOW, ogr.OFTInteger)):
             layer.CreateField(ogr.FieldDefn(name, kind))
         cx, cy = polygon.centroid.x, polygon.centroid.y
         for k in range(4):
             feature = ogr.Feature(layer.GetLayerDefn())
-            for name, value in ((model.WIT_ID, f"BLD_{number}_{k}"), (model.FACE_TYPE, "ground"),
-                                (model.FACE_NUMBER, 0), (model.BASE_Z, 35.0), (model.HEIGHT, 10.0 + 10 * k)):
+            for name, value in ((step_layers.WIT_ID, f"BLD_{number}_{k}"), (step_layers.FACE_TYPE, "ground"),
+                                (step_layers.FACE_NUMBER, 0), (step_layers.BASE_Z, 35.0),
+                                (step_layers.HEIGHT, 10.0 + 10 * k)):
                 feature.SetField(name, value)
             feature.SetGeometry(ogr.CreateGeometryFromWkt(shapely.box(cx + 30 * k, cy, cx + 30 * k + 12, cy + 15).wkt))
             layer.CreateFeature(feature)
@@ -237,7 +239,8 @@ def test_a_run_across_two_1_50000_sheets_gets_bounded_files_that_our_checker_pas
     check = check_tileset(tmp_path)
     assert check.problems == [] and check.property_tables == 3
     assert set(check.tilesets) == {"tileset.json", "3dtiles-groups/377.json"} | {
-        f"3dtiles-groups/{g}.json" for g in groups["377"].children} | {f"tiles/{s}/3dtiles/tileset.json" for s in sheets}
+        f"3dtiles-groups/{g}.json" for g in groups["377"].children} | {
+        f"tiles/{s}/3dtiles/tileset.json" for s in sheets}
     assert written.root_bytes == (tmp_path / "tileset.json").stat().st_size < 1000
     block = json.loads((tmp_path / "3dtiles-groups" / "377.json").read_text())["root"]
     assert block["geometricError"] == pytest.approx(written.errors["377"], abs=1e-3)

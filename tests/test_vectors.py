@@ -11,7 +11,7 @@ import shapely
 from ngii import shapefile_text
 from osgeo import ogr, osr
 
-from wit_plugin import model, polygons, simplify, vectors
+from wit_plugin import polygons, simplify, step_layers, vectors
 from wit_plugin.area import StudyArea
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
@@ -150,18 +150,18 @@ def test_one_km_around_suseo_gives_43_valid_roads_inside_the_circle(juso: Path, 
     out = tmp_path / "out.gpkg"
     area = StudyArea.circle(*SUSEO_5179, 1000, "EPSG:5179")
     report = prepare_vectors(None, juso / "TL_SPRD_MANAGE.shp", juso / "TL_SCCO_EMD.shp", area, out)
-    roads = next(s for s in report.stats if s.layer == model.PREPARED_ROADS)
+    roads = next(s for s in report.stats if s.layer == step_layers.PREPARED_ROADS)
     assert roads.features_out == 43
     centre = shapely.Point(SUSEO_5186)
     assert report.area.centroid.distance(centre) < 0.2
     assert report.area.area == pytest.approx(np.pi * 1000 ** 2, rel=1e-3)
     ds = ogr.Open(str(out))
-    lyr = ds.GetLayerByName(model.PREPARED_ROADS)
+    lyr = ds.GetLayerByName(step_layers.PREPARED_ROADS)
     geoms, widths, ids = [], [], []
     for f in lyr:
         geoms.append(shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb())))
-        widths.append((f[model.ROAD_WIDTH], f[model.ROAD_WIDTH_SOURCE], f["ROAD_BT"]))
-        ids.append(f[model.WIT_ID])
+        widths.append((f[step_layers.ROAD_WIDTH], f[step_layers.ROAD_WIDTH_SOURCE], f["ROAD_BT"]))
+        ids.append(f[step_layers.WIT_ID])
     geoms = np.array(geoms)
     assert len(geoms) == 43 and shapely.is_valid(geoms).all()
     assert shapely.contains(report.area.buffer(1e-6), geoms).all()
@@ -173,8 +173,8 @@ def test_one_km_around_suseo_gives_43_valid_roads_inside_the_circle(juso: Path, 
     a, b = shapely.STRtree(geoms).query(geoms, predicate="intersects")
     assert max(shapely.area(shapely.intersection(geoms[a[a < b]], geoms[b[a < b]])), default=0) < 1e-3
     assert vectors.road_area(geoms).area == pytest.approx(shapely.area(geoms).sum(), rel=1e-6)
-    districts = ds.GetLayerByName(model.PREPARED_DISTRICTS)
-    names = {f["EMD_KOR_NM"]: f[model.WIT_ID] for f in districts}
+    districts = ds.GetLayerByName(step_layers.PREPARED_DISTRICTS)
+    names = {f["EMD_KOR_NM"]: f[step_layers.WIT_ID] for f in districts}
     assert names["수서동"] == "EMD_11680115"
 
 
@@ -182,10 +182,10 @@ def test_district_code_selects_suseo_dong(juso: Path, tmp_path: Path):
     report = prepare_vectors(None, None, juso / "TL_SCCO_EMD.shp", StudyArea.from_district_code("11680115"),
                              tmp_path / "d.gpkg")
     assert report.area.contains(shapely.Point(SUSEO_5186))
-    districts = next(s for s in report.stats if s.layer == model.PREPARED_DISTRICTS)
+    districts = next(s for s in report.stats if s.layer == step_layers.PREPARED_DISTRICTS)
     assert districts.features_out >= 1
     ds = ogr.Open(str(tmp_path / "d.gpkg"))
-    kor = [f["EMD_KOR_NM"] for f in ds.GetLayerByName(model.PREPARED_DISTRICTS)]
+    kor = [f["EMD_KOR_NM"] for f in ds.GetLayerByName(step_layers.PREPARED_DISTRICTS)]
     assert "수서동" in kor
 
 
@@ -405,8 +405,8 @@ def test_buildings_end_to_end_attributes_korean_text_stats_and_csv(tmp_path: Pat
     assert sorted((d.wit_id, d.reason) for d in report.dropped) == [("BLD_11680_7", "too_small"),
                                                                     ("BLD_11680_8", "thin")]
     ds = ogr.Open(str(out))
-    lyr = ds.GetLayerByName(model.PREPARED_BUILDINGS)
-    feats = sorted(((f[model.WIT_ID], f["BULD_NM"], f["GRO_FLO_CO"],
+    lyr = ds.GetLayerByName(step_layers.PREPARED_BUILDINGS)
+    feats = sorted(((f[step_layers.WIT_ID], f["BULD_NM"], f["GRO_FLO_CO"],
                      shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb())))
                     for f in lyr), key=lambda t: t[0])
     assert [f[0] for f in feats] == ["BLD_11680_0", "BLD_11680_2", "BLD_11680_3", "BLD_11680_4", "BLD_11680_5",
@@ -445,12 +445,12 @@ def test_generated_sample_prepares_cleanly(tmp_path: Path):
                              StudyArea.circle(sample.SampleConfig.center_lon, sample.SampleConfig.center_lat, 250.0,
                                               "EPSG:4737"),
                              tmp_path / "s.gpkg")
-    buildings = next(s for s in report.stats if s.layer == model.PREPARED_BUILDINGS)
+    buildings = next(s for s in report.stats if s.layer == step_layers.PREPARED_BUILDINGS)
     assert buildings.features_out > 20
     assert buildings.repaired["unclosed_ring"] + buildings.repaired["invalid"] > 0
     ds = ogr.Open(str(tmp_path / "s.gpkg"))
     geoms = np.array([shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb()))
-                      for f in ds.GetLayerByName(model.PREPARED_BUILDINGS)])
+                      for f in ds.GetLayerByName(step_layers.PREPARED_BUILDINGS)])
     assert shapely.is_valid(geoms).all()
     a, b = shapely.STRtree(geoms).query(geoms, predicate="intersects")
     sel = a < b
@@ -477,8 +477,8 @@ def test_sections_of_one_road_are_merged_into_one_polygon(tmp_path: Path):
     report = prepare_vectors(None, path, None, StudyArea.circle(209050, 543025, 500, "EPSG:5186"),
                              tmp_path / "out.gpkg", PrepareConfig(default_road_width=6.0))
     ds = ogr.Open(str(tmp_path / "out.gpkg"))
-    roads = {f[model.WIT_ID]: shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb()))
-             for f in ds.GetLayerByName(model.PREPARED_ROADS)}
+    roads = {f[step_layers.WIT_ID]: shapely.from_wkb(bytes(f.GetGeometryRef().ExportToWkb()))
+             for f in ds.GetLayerByName(step_layers.PREPARED_ROADS)}
     assert sorted(roads) == ["RD_11680_7", "RD_11680_8"]
     assert roads["RD_11680_7"].bounds == pytest.approx((208997, 542997, 209103, 543003), abs=1e-3)
     assert report.stats[0].features_in == 3 and report.stats[0].features_out == 2

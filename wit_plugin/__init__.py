@@ -5,6 +5,8 @@ so the core runs in tests, scripts and worker processes without QGIS.
 """
 
 __all__ = [
-    "citygml", "deps", "errors", "feedback", "gdal_env", "georef", "io", "mapsheet", "model", "mosaic",
-    "sample", "schemas", "texture", "validate", "vectors",
+    "area", "arrays", "chain", "citygml", "colorstore", "dem", "deps", "errors", "extrude", "feedback", "gc_pause",
+    "gdal_env", "georef", "heights", "installer", "interpreter", "io", "mapsheet", "meshes", "metrics",
+    "mosaic", "numtext", "polygons", "preview", "raster_crs", "roads", "sample", "sheetrun", "simplify",
+    "steiner", "step_layers", "terrain", "texture", "tiles3d", "tone", "triangulators", "vectors",
 ]

@@ -10,3 +10,19 @@ def ragged_indices(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     owner = np.repeat(np.arange(len(counts)), counts)
     starts = np.cumsum(counts) - counts
     return owner, np.arange(len(owner)) - starts[owner]
+
+
+def edge_keys(edges: np.ndarray) -> np.ndarray:
+    """One int64 per undirected edge (vertex indices below 2³¹)."""
+    edges = np.sort(edges, axis=-1).astype(np.int64)
+    return (edges[..., 0] << 31) | edges[..., 1]
+
+
+def edge_pairs(keys: np.ndarray) -> np.ndarray:
+    """The (k, 2) vertex pairs back from ``edge_keys``."""
+    return np.column_stack([keys >> 31, keys & ((1 << 31) - 1)])
+
+
+def triangle_edge_keys(tris: np.ndarray) -> np.ndarray:
+    """(m, 3) edge keys of each triangle."""
+    return edge_keys(np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1))

@@ -7,8 +7,8 @@ footprints on steep ground where the minimum buries one side deeply.
 Height: the first source of the rule that gives a finite height > 0 (``wit_plugin.heights``:
 ``GRO_FLO_CO`` × storey height, the chosen field / expression, or the height and floor fields of
 the common layers recognised by name), else the default; recorded per building as the kind
-(``model.HEIGHT_SOURCE``: floors, field, expression, default) and the exact rule
-(``model.HEIGHT_RULE``, e.g. ``GRO_FLO_CO × 3 m``). Buildings that got the default are a warning
+(``step_layers.HEIGHT_SOURCE``: floors, field, expression, default) and the exact rule
+(``step_layers.HEIGHT_RULE``, e.g. ``GRO_FLO_CO × 3 m``). Buildings that got the default are a warning
 with their count.
 
 Each solid is a closed, outward-oriented shell of PolygonZ faces: the ground (clockwise seen from
@@ -41,7 +41,7 @@ from .feedback import SILENT, Feedback
 from .heights import DEFAULT, HeightOptions, HeightRule, building_height
 from .io.gpkg_bulk import write_layer
 from .io.vector_io import FieldDef, keep_source_fields, read_prepared
-from .model import (
+from .step_layers import (
     BASE_Z,
     FACE_NUMBER,
     FACE_TYPE,
@@ -201,7 +201,7 @@ def extrude(buildings: Sequence[tuple[str | None, BaseGeometry | None, dict]], d
 def write_solids(path: str | Path, solids: Sequence[Solid], crs: pyproj.CRS,
                  source_fields: Sequence[FieldDef] = (), spatial_index: bool = True,
                  feedback: Feedback = SILENT) -> int:
-    """Write the faces as PolygonZ features (layer ``model.LOD1_LAYER``) with the solid's fields.
+    """Write the faces as PolygonZ features (layer ``step_layers.LOD1_LAYER``) with the solid's fields.
 
     Source fields keep their names and types (one that clashes with ours is kept as ``<name>_src``).
     """

@@ -102,7 +102,7 @@ class HeightRule:
         return " → ".join(parts + [f"default {self.default_height:g} m"])
 
     def label(self, source: HeightSource | None) -> str:
-        """The per-building record of the rule that gave its height (``model.HEIGHT_RULE``)."""
+        """The per-building record of the rule that gave its height (``step_layers.HEIGHT_RULE``)."""
         return _label(source, self.storey_height) if source else f"default {self.default_height:g} m"
 
 

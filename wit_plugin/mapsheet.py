@@ -1,4 +1,4 @@
-"""NGII map-sheet numbers (도엽번호): digits ↔ degree bounds ↔ projected footprint (SPEC §3).
+"""NGII map-sheet numbers (도엽번호): digits ↔ degree bounds ↔ projected footprint.
 
 NGII orthoimage tiles arrive without georeferencing; their file names carry the sheet number,
 which fixes the sheet's bounds in degrees on Korea 2000 (EPSG:4737). This module turns a number
@@ -27,7 +27,7 @@ The numbering:
   1:1,000    9       1:10,000 + 00–99                10  0.005°
   =========  ======  ==============================  ==  =========
 
-1:1,000 decision: a 10×10 split needs 100 numbers but the SPEC gives it two digits, so it cannot
+1:1,000 decision: a 10×10 split needs 100 numbers but the numbering gives it two digits, so it cannot
 be numbered 1–100 like the other scales. We read the two digits as 00–99 counted from 0 in the
 same row-major order, i.e. the first digit is the row from the north (0–9) and the second the
 column from the west (0–9): ``00`` is the north-west cell, ``09`` the north-east, ``99`` the
@@ -47,6 +47,7 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from pyproj import Transformer
 from pyproj.exceptions import CRSError, ProjError
 
@@ -252,3 +253,30 @@ def projected_envelope(sheet: MapSheet, target_crs: str = "EPSG:5186", source_cr
     if not all(map(math.isfinite, (*xs, *ys))):
         raise InputError(f"sheet {sheet.number} cannot be projected to {target_crs}")
     return min(xs) - margin, min(ys) - margin, max(xs) + margin, max(ys) + margin
+
+
+def sheet_polygon(sheet: MapSheet, target_crs: str, sheet_crs: str = "EPSG:4737") -> shapely.Polygon:
+    """The sheet's corners (NW, NE, SE, SW) projected to ``target_crs``, joined by straight edges:
+    neighbouring sheets share their corners exactly, so the polygons partition the plane."""
+    to_target = Transformer.from_crs(sheet_crs, target_crs, always_xy=True)
+    xs, ys = to_target.transform([sheet.west, sheet.east, sheet.east, sheet.west],
+                                 [sheet.north, sheet.north, sheet.south, sheet.south])
+    return shapely.Polygon(list(zip(xs, ys))[::-1])  # counter-clockwise: SW, SE, NE, NW
+
+
+def sheets_overlapping(area: shapely.Geometry, target_crs: str, scale: int = 5000,
+                       sheet_crs: str = "EPSG:4737") -> list[tuple[MapSheet, shapely.Polygon]]:
+    """The sheets whose polygon (``sheet_polygon``) overlaps ``area`` (in ``target_crs``) with a positive
+    area, with their polygons, in sheet-number order."""
+    if area is None or area.is_empty or area.area <= 0:
+        raise InputError("The area to tile is empty.")
+    to_degrees = Transformer.from_crs(target_crs, sheet_crs, always_xy=True)
+    ring = shapely.get_coordinates(shapely.segmentize(area.envelope, max(area.envelope.length / 256, 1.0)))
+    lon, lat = to_degrees.transform(ring[:, 0], ring[:, 1])
+    shapely.prepare(area)
+    found = []
+    for sheet in sheets_covering(min(lon), min(lat), max(lon), max(lat), scale):
+        polygon = sheet_polygon(sheet, target_crs, sheet_crs)
+        if area.intersects(polygon) and area.intersection(polygon).area > 0:
+            found.append((sheet, polygon))
+    return sorted(found, key=lambda pair: pair[0].number)

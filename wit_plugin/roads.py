@@ -21,7 +21,7 @@ GeoJSON, GeoPackage…)                                                         
 any other line layer                                       –             –               –
 =========================================================  ============  ==============  =====================
 
-The rule each layer got is logged; each road records the source of its width (``model.ROAD_WIDTH_SOURCE``).
+The rule each layer got is logged; each road records the source of its width (``step_layers.ROAD_WIDTH_SOURCE``).
 """
 from __future__ import annotations
 

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .arrays import ragged_indices
+from .arrays import edge_keys, edge_pairs, ragged_indices, triangle_edge_keys
 
 if TYPE_CHECKING:
     from .triangulators import Mesh, Pslg, Triangulator
@@ -122,8 +122,6 @@ class _Lattice:
 def halve_long_edges(backend: Triangulator, mesh: Mesh, pslg: Pslg, max_edge: float, rounds: int = 1) -> Mesh:
     """``mesh`` with the midpoint of every edge longer than ``max_edge`` added (not of a segment: segments are
     split beforehand), where it keeps ``CLEARANCE`` × ``max_edge`` from the segments; a round or two."""
-    from .triangulators import edge_pairs, triangle_edge_keys
-
     for _ in range(rounds):
         xy, tris = mesh.vertices, mesh.triangles
         keys = triangle_edge_keys(tris).ravel()
@@ -190,8 +188,6 @@ def split_points(mesh: Mesh, pslg: Pslg, bad: np.ndarray, limits: np.ndarray) ->
 
     centre = circumcentres(a, b, c)
     own = inside(centre, a, b, c)
-
-    from .triangulators import edge_keys
 
     edges = np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1)  # (k, 3, 2)
     lengths = np.linalg.norm(xy[edges[:, :, 1]] - xy[edges[:, :, 0]], axis=2)

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from . import steiner
+from .arrays import edge_keys, edge_pairs, triangle_edge_keys
 from .deps import require
 
 #: Triangle's minimum angle (degrees). Kept tiny on purpose: what matters is that with any "q"
@@ -39,6 +40,10 @@ MIN_ANGLE = 0.5
 #: At 0.25 well under 1 % do and one refinement pass fixes them; 0.3 needs two passes and ends
 #: with more triangles (measured on the 1 km demo, 5 m edges)
 AREA_FACTOR = 0.25
+#: the terrain mesh's targets, the defaults of wit:triangulateterrain and of the chain: the longest
+#: triangle edge (m) and the largest height difference between the TIN and the DEM (m)
+MAX_EDGE = 5.0
+VERTICAL_TOLERANCE = 0.5
 
 
 @dataclass
@@ -77,22 +82,6 @@ class Mesh:
     neighbours: np.ndarray | None = None  # (m, 3) edge neighbours (−1: none), when the backend gives them
     origin: np.ndarray | None = None  # (m,) each triangle's row in the previous mesh if unchanged, else −1
     state: Any = None  # the backend's own (CDT: the live triangulation, to insert more points into)
-
-
-def edge_keys(edges: np.ndarray) -> np.ndarray:
-    """One int64 per undirected edge (vertex indices below 2³¹)."""
-    edges = np.sort(edges, axis=-1).astype(np.int64)
-    return (edges[..., 0] << 31) | edges[..., 1]
-
-
-def edge_pairs(keys: np.ndarray) -> np.ndarray:
-    """The (k, 2) vertex pairs back from ``edge_keys``."""
-    return np.column_stack([keys >> 31, keys & ((1 << 31) - 1)])
-
-
-def triangle_edge_keys(tris: np.ndarray) -> np.ndarray:
-    """(m, 3) edge keys of each triangle."""
-    return edge_keys(np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1))
 
 
 class Triangulator:

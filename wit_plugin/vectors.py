@@ -46,7 +46,7 @@ import pyproj
 import shapely
 from osgeo import ogr
 
-from . import model
+from . import step_layers
 from .area import StudyArea
 from .errors import InputError
 from .feedback import SILENT, Feedback
@@ -108,11 +108,11 @@ class PrepareConfig:
     encoding: str | None = None  # force the text encoding of shapefile inputs
     source_crs: str | None = None  # CRS of inputs that declare none (no .prj); declared ones win
     stats_csv: str | None = None  # default: <output stem>_stats.csv beside the GeoPackage
-    # Tiles (wit_plugin.tiles): keep the buildings whose point on surface ``owner`` accepts (an (n, 2)
+    # Tiles (wit_plugin.sheetrun): keep the buildings whose point on surface ``owner`` accepts (an (n, 2)
     # array → n booleans; it replaces the area test), read and simplify them together with their neighbours
     # within ``context_margin`` (so walls shared across the tile's edge are simplified alike on both sides),
     # and write the neighbours that cross into the area and another tile of the run owns
-    # (``owner.in_run``) as ``model.FOREIGN_BUILDINGS`` (holes in the tile's terrain).
+    # (``owner.in_run``) as ``step_layers.FOREIGN_BUILDINGS`` (holes in the tile's terrain).
     owner: Owner | None = None
     context_margin: float = 0.0
 
@@ -354,7 +354,7 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
             crossing[crossing] = config.owner.in_run(shapely.get_coordinates(points[context][crossing]))
         foreign = layer.take(keep[context][crossing])
         foreign.geoms = simplified[crossing]
-        others = _Prepared(model.FOREIGN_BUILDINGS, foreign, [ids[i] for i in keep[context][crossing]])
+        others = _Prepared(step_layers.FOREIGN_BUILDINGS, foreign, [ids[i] for i in keep[context][crossing]])
         keep, geoms = keep[context][ours], simplified[ours]
         out = layer.take(keep)
         out.geoms = geoms
@@ -387,11 +387,11 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
         polygons = layer.take(np.flatnonzero(surface))
         feedback.info(f"roads: {len(polygons)} road polygon(s) of {Path(layer.path).name} are road surfaces as "
                       "they are (repaired, cut to the study area, not simplified).")
-        prep, stats = _polygon_layer(polygons, model.PREPARED_ROADS, "RD", ROAD_KEYS, area, 0.0, True, config,
+        prep, stats = _polygon_layer(polygons, step_layers.PREPARED_ROADS, "RD", ROAD_KEYS, area, 0.0, True, config,
                                      dropped, feedback)
         prep.extra_fields = _ROAD_EXTRA
-        prep.extra_columns = {model.ROAD_WIDTH: [None] * len(prep.ids),
-                              model.ROAD_WIDTH_SOURCE: ["surface"] * len(prep.ids)}
+        prep.extra_columns = {step_layers.ROAD_WIDTH: [None] * len(prep.ids),
+                              step_layers.ROAD_WIDTH_SOURCE: ["surface"] * len(prep.ids)}
         parts.append((prep, stats))
     if not surface.all() or not parts:  # an empty layer too: its stats say so
         parts.append(_road_lines(layer.take(np.flatnonzero(~surface)), area, config, dropped, feedback))
@@ -412,13 +412,13 @@ def _road_layer(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
     return _Prepared(a.name, merged, unique_ids(a.ids + b.ids), _ROAD_EXTRA, columns), stats
 
 
-_ROAD_EXTRA = [FieldDef(model.ROAD_WIDTH, ogr.OFTReal), FieldDef(model.ROAD_WIDTH_SOURCE, ogr.OFTString)]
+_ROAD_EXTRA = [FieldDef(step_layers.ROAD_WIDTH, ogr.OFTReal), FieldDef(step_layers.ROAD_WIDTH_SOURCE, ogr.OFTString)]
 
 
 def _road_lines(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfig,
                 dropped: list[DroppedFeature], feedback: Feedback) -> tuple[_Prepared, LayerStats]:
     """Centre lines → simplified → buffered by width/2 (``roads.WidthRule``) → clipped → junction overlaps removed."""
-    name = model.PREPARED_ROADS
+    name = step_layers.PREPARED_ROADS
     ids = source_ids(layer, "RD", ROAD_KEYS)  # sections of one road share it: merged below
     stats = LayerStats(name, len(layer), 0, 0, vertices_in=vertex_count(layer.geoms))
     g = layer.geoms
@@ -453,7 +453,8 @@ def _road_lines(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
     out = roads.take(ok)
     out.geoms = orient(polys[ok])[0]
     stats.features_out, stats.vertices_out = len(out), vertex_count(out.geoms)
-    columns = {model.ROAD_WIDTH: [float(widths[i]) for i in ok], model.ROAD_WIDTH_SOURCE: [sources[i] for i in ok]}
+    columns = {step_layers.ROAD_WIDTH: [float(widths[i]) for i in ok],
+               step_layers.ROAD_WIDTH_SOURCE: [sources[i] for i in ok]}
     return _Prepared(name, out, [ids[i] for i in ok], _ROAD_EXTRA, columns), stats
 
 
@@ -465,11 +466,11 @@ def _reasons(stats: LayerStats) -> str:
 
 def _output_layer(prep: _Prepared, feedback: Feedback) -> OutputLayer:
     """Source fields (renamed where they clash with ours, see ``keep_source_fields``) + ours."""
-    ours = [FieldDef(model.WIT_ID, ogr.OFTString)] + prep.extra_fields
+    ours = [FieldDef(step_layers.WIT_ID, ogr.OFTString)] + prep.extra_fields
     kept = keep_source_fields(prep.layer.fields, [f.name for f in ours], prep.name, feedback)
     fields = [out for out, _ in kept] + ours
     columns = {out.name: prep.layer.columns[source] for out, source in kept}
-    columns[model.WIT_ID] = prep.ids
+    columns[step_layers.WIT_ID] = prep.ids
     columns.update(prep.extra_columns)
     return OutputLayer(prep.name, fields, columns, prep.layer.geoms)
 
@@ -512,7 +513,7 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     if buildings:
         reach = polygon.buffer(config.context_margin) if config.context_margin > 0 else polygon
         layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config, reach, feedback.scaled(10, 30))
-        results.append(_polygon_layer(layer, model.PREPARED_BUILDINGS, "BLD",
+        results.append(_polygon_layer(layer, step_layers.PREPARED_BUILDINGS, "BLD",
                                       [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO"), ("UFID",), ("osm_id",)], polygon,
                                       config.building_tolerance, False, config, dropped, feedback.scaled(30, 70)))
     if roads:
@@ -521,7 +522,7 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
         results.append(_road_layer(layer, polygon, config, dropped, feedback.scaled(75, 82)))
     if district_layer is not None:
         feedback.check_canceled()
-        results.append(_polygon_layer(district_layer, model.PREPARED_DISTRICTS, "EMD", [("EMD_CD",)], polygon,
+        results.append(_polygon_layer(district_layer, step_layers.PREPARED_DISTRICTS, "EMD", [("EMD_CD",)], polygon,
                                       config.district_tolerance, True, config, dropped, feedback.scaled(82, 88)))
     stats = [s for _, s in results]
     for s in stats:
@@ -543,10 +544,10 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     rows = [s.row() for s in stats]
     stat_fields = [FieldDef(c, ogr.OFTString if c == "layer" else ogr.OFTInteger64) for c in rows[0]]
     drop_fields = [FieldDef("layer", ogr.OFTString), FieldDef("source_fid", ogr.OFTInteger64),
-                   FieldDef(model.WIT_ID, ogr.OFTString), FieldDef("reason", ogr.OFTString)]
+                   FieldDef(step_layers.WIT_ID, ogr.OFTString), FieldDef("reason", ogr.OFTString)]
     layers = [_output_layer(p, feedback) for p, _ in results]
     layers += [_output_layer(p.foreign, feedback) for p, _ in results if p.foreign is not None]
-    layers.append(OutputLayer(model.STUDY_AREA, [FieldDef("area_m2", ogr.OFTReal)], {"area_m2": [polygon.area]},
+    layers.append(OutputLayer(step_layers.STUDY_AREA, [FieldDef("area_m2", ogr.OFTReal)], {"area_m2": [polygon.area]},
                               np.array([polygon], dtype=object)))
     layers += [_table(STATS_TABLE, rows, stat_fields), _table(DROPPED_TABLE, [asdict(d) for d in dropped], drop_fields)]
     feedback.check_canceled()

@@ -1,7 +1,8 @@
 """The whole chain in one call, in the core: raw national data → validated, textured CityGML 3.0.
 
 ``wit:citymodel`` is a thin adapter over :func:`run_city_model`, and the tiled run
-(``wit_plugin.tiles``) calls it once per tile on Dask workers, without QGIS. Order of the steps:
+(``wit_plugin.sheetrun``) calls it once per tile on Dask workers, without QGIS, passing the tile's own
+step 1 (``ChainOptions.prepare``): the chain knows nothing of tiles. Order of the steps:
 
 1. prepare the vectors (fast) — the study area, grown to hold the buildings that cross its edge,
    is then known exactly;
@@ -29,7 +30,7 @@ from pathlib import Path
 
 from shapely.geometry.base import BaseGeometry
 
-from .. import extrude, model, terrain
+from .. import extrude, step_layers, terrain, triangulators
 from ..area import StudyArea
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
@@ -45,8 +46,6 @@ from ..metrics import quality_report
 from ..mosaic import merge_tiles
 from ..terrain.constraints import Seam
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
-from ..tiles.job import TileJob
-from ..tiles.prepare import clip_context, prepare_tile_buildings
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
 from ..vectors import PrepareConfig, prepare_vectors
@@ -64,6 +63,32 @@ STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("t
 
 
 @dataclass
+class PreparedLayers:
+    """The prepared sources the later steps read (``file|layername=…``), and the study area itself."""
+
+    buildings: str | None  # None: a part of a larger run that owns no building
+    study: BaseGeometry
+    roads: str | None = None
+    districts: str | None = None
+    foreign: str | None = None  # buildings of neighbouring parts that cross into this one (holes in its terrain)
+    seam: Seam | None = None  # a part's border, met alike by its neighbours
+
+    @classmethod
+    def read(cls, prepared: str, names: list[str], context: str, context_names: list[str],
+             seam: Seam | None = None) -> PreparedLayers:
+        """The layers ``names`` of ``prepared`` (buildings, study area, foreign buildings) and
+        ``context_names`` of ``context`` (roads, dongs)."""
+        def source(file: str, present: list[str], name: str) -> str | None:
+            return f"{file}|layername={name}" if name in present else None
+
+        study = read_prepared(f"{prepared}|layername={step_layers.STUDY_AREA}", step_layers.STUDY_AREA).geoms[0]
+        return cls(source(prepared, names, step_layers.PREPARED_BUILDINGS), study,
+                   source(context, context_names, step_layers.PREPARED_ROADS),
+                   source(context, context_names, step_layers.PREPARED_DISTRICTS),
+                   source(prepared, names, step_layers.FOREIGN_BUILDINGS), seam)
+
+
+@dataclass
 class ChainInputs:
     """The raw inputs: orthoimage TIFs named by sheet number (files or folders), DEM, layers."""
 
@@ -74,16 +99,20 @@ class ChainInputs:
     districts: str | None = None
 
 
+#: step 1 of a part of a larger run: (inputs, options, work folder, feedback) → its prepared layers
+PrepareLayers = Callable[[ChainInputs, "ChainOptions", Path, Feedback], PreparedLayers]
+
+
 @dataclass
 class ChainOptions:
-    """Everything else a run needs (defaults: the paper's and SPEC's)."""
+    """Everything else a run needs (defaults: the paper's settings and the NGII data's conventions)."""
 
     area: StudyArea
     target_crs: str = "EPSG:5186"
     sheet_crs: str = "EPSG:4737"  # datum of the sheet numbers' degrees
     margin: float = 50.0  # the NGII orthoimages' margin around their sheet
-    max_edge: float = 5.0
-    tolerance: float = 0.5
+    max_edge: float = triangulators.MAX_EDGE
+    tolerance: float = triangulators.VERTICAL_TOLERANCE
     triangulator: int | None = None  # triangulators.BACKENDS key; None: Triangle where installed, else CDT
     texture_scale: float = 1.0
     heights: HeightOptions = field(default_factory=HeightOptions)
@@ -95,7 +124,8 @@ class ChainOptions:
     tiles3d: bool = True  # write the 3D Tiles 1.1 tileset (<output>/3dtiles) for viewers
     tiles3d_web: bool = False  # its web profile: compressed geometry for browsers (QGIS cannot read it)
     encoding: str | None = None  # of shapefile inputs, when their declaration is wrong
-    tile: TileJob | None = None  # one tile of a tiled run (wit_plugin.tiles)
+    #: step 1 of one part of a larger run (a tile of wit_plugin.sheetrun); None: the study area's layers
+    prepare: PrepareLayers | None = None
 
 
 @dataclass
@@ -194,7 +224,8 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
         shutil.rmtree(staging, ignore_errors=True)
     report.seconds = {label: clock.seconds[label] for label, _ in STEPS if label in clock.seconds}
     report.wall_seconds = round(time.perf_counter() - started, 3)
-    (output / "steps.json").write_text(json.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1), encoding="utf-8")
+    (output / "steps.json").write_text(json.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
+                                       encoding="utf-8")
     feedback.info("Seconds per step: " + ", ".join(f"{k} {v:.1f}" for k, v in report.seconds.items())
                   + f"; {report.wall_seconds:.1f} s in all (3D Tiles beside validation and metrics)")
     feedback.progress(100.0)
@@ -220,7 +251,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("prepare") as fb:
         layers = _prepare(inputs, options, work, fb)
-        area = terrain.covering_area(layers.study, read_prepared(layers.buildings, model.PREPARED_BUILDINGS).geoms) \
+        area = terrain.covering_area(layers.study,
+                                     read_prepared(layers.buildings, step_layers.PREPARED_BUILDINGS).geoms) \
             if layers.buildings else layers.study
 
     with clock.step("coverage") as fb:
@@ -247,7 +279,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         tin = str(work / "tin.gpkg")
         config = terrain.TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
                                        triangulator=options.triangulator)
-        tile_context = terrain.TileContext(layers.foreign, layers.seam) if options.tile is not None else None
+        tile_context = terrain.TileContext(layers.foreign, layers.seam) if layers.seam is not None else None
         tin_stats = terrain.triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
                                                 fb, tile_context)
 
@@ -312,45 +344,15 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         tileset=str(output / TILESET_DIR / Path(tileset).name) if tileset else None)
 
 
-@dataclass
-class _Layers:
-    """The prepared sources the later steps read (``file|layername=…``), and the study area itself."""
-
-    buildings: str | None  # None: a tile that owns no building
-    study: BaseGeometry
-    roads: str | None = None
-    districts: str | None = None
-    foreign: str | None = None
-    seam: Seam | None = None  # a tile's border, met alike by its neighbours
-
-
-def _prepare(inputs: ChainInputs, options: ChainOptions, work: Path, feedback: Feedback) -> _Layers:
-    """Step 1: the area's layers, or a tile's (its own buildings, its neighbours' crossing in, the
-    run's roads and dongs cut at its border)."""
+def _prepare(inputs: ChainInputs, options: ChainOptions, work: Path, feedback: Feedback) -> PreparedLayers:
+    """Step 1: the study area's layers, or those of a part of a larger run (``options.prepare``)."""
+    if options.prepare is not None:
+        return options.prepare(inputs, options, work, feedback)
     prepared = str(work / "prepared.gpkg")
-
-    def source(file: str, names: list[str], name: str) -> str | None:
-        return f"{file}|layername={name}" if name in names else None
-
     config = PrepareConfig(target_crs=options.target_crs, encoding=options.encoding,
                            stats_csv=str(work / "prepared_stats.csv"))
-    seam = None
-    if options.tile is None:
-        names = prepare_vectors(inputs.buildings, inputs.roads, inputs.districts, options.area, prepared, config,
-                                feedback).layers
-        context, context_names = prepared, names
-    else:
-        job = options.tile
-        tile_area = job.area(options.target_crs)
-        names = prepare_tile_buildings(inputs.buildings, tile_area, job.owner, prepared, options.encoding, feedback)
-        context = str(work / "context.gpkg")
-        context_names = clip_context(job.context, job.context_layers, tile_area, context) if job.context else []
-        seam = job.seam(options.target_crs, [f"{prepared}|layername={n}" for n in names
-                                             if n in (model.PREPARED_BUILDINGS, model.FOREIGN_BUILDINGS)])
-    if model.PREPARED_BUILDINGS not in names and options.tile is None:
+    names = prepare_vectors(inputs.buildings, inputs.roads, inputs.districts, options.area, prepared, config,
+                            feedback).layers
+    if step_layers.PREPARED_BUILDINGS not in names:
         raise InputError("No building of the building layer lies in the study area.")
-    study = read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
-    return _Layers(source(prepared, names, model.PREPARED_BUILDINGS), study,
-                   source(context, context_names, model.PREPARED_ROADS),
-                   source(context, context_names, model.PREPARED_DISTRICTS),
-                   source(prepared, names, model.FOREIGN_BUILDINGS), seam)
+    return PreparedLayers.read(prepared, names, prepared, names)

@@ -80,7 +80,8 @@ def require_sheet_names(files: list[str]) -> None:
         except InputError as exc:
             reasons.append(f"{Path(path).name}: {exc}")
     raise InputError("No orthoimage TIF has a valid map-sheet number in its name (e.g. "
-                     "(B060)정사영상_2022_37709005.tif): " + "; ".join(reasons[:5]) + (" …" if len(reasons) > 5 else ""))
+                     "(B060)정사영상_2022_37709005.tif): " + "; ".join(reasons[:5])
+                     + (" …" if len(reasons) > 5 else ""))
 
 
 def ortho_coverage(files: list[str], area: BaseGeometry, target_crs: str, source_crs: str = "EPSG:4737",
@@ -178,7 +179,8 @@ def require_dem(dem_path: str, area: BaseGeometry, target_crs: str, feedback: Fe
                          f"{also}): it stops short by {sides}. Use a DEM that covers the area, or a smaller area.")
     if source is not None:
         feedback.info(f"The DEM {name} is in {crs_name(source)}: it is reprojected on the fly to "
-                      f"{crs_name(pyproj.CRS(target_crs))} (bilinear, cells of {cell_size(ds, source, target_crs):g} m).")
+                      f"{crs_name(pyproj.CRS(target_crs))} "
+                      f"(bilinear, cells of {cell_size(ds, source, target_crs):g} m).")
     band = ds.GetRasterBand(1)
     c0, c1 = (int(np.floor((x - gt[0]) / gt[1])) for x in (xmin, xmax))
     r0, r1 = (int(np.floor((y - gt[3]) / gt[5])) for y in (ymax, ymin))

@@ -20,7 +20,7 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..io import bulk_read
 from ..io.vector_io import open_step_layer, split_source
@@ -124,7 +124,7 @@ def envelope_of(layers: list[InputLayer]) -> tuple[float, ...] | None:
 def texture_images(texcoords: InputLayer, folder: Path) -> dict[str, Path]:
     """Image name → source path of every image the texture table uses; refuses missing images."""
     images: dict[str, Path] = {}
-    with texcoords.select(columns=f'DISTINCT "{model.TEX_IMAGE}"', order=(model.TEX_IMAGE,)) as result:
+    with texcoords.select(columns=f'DISTINCT "{step_layers.TEX_IMAGE}"', order=(step_layers.TEX_IMAGE,)) as result:
         for feature in result:
             image = feature.GetField(0)
             rel = Path(image or "")
@@ -164,7 +164,7 @@ def tin_triangles(tin: InputLayer, where: str, order: tuple[str, ...]
     """
     with tin.select(where, order) as result:
         for batch in bulk_read.batches(result, BULK):
-            ids = tri_ids(batch[model.TIN_TRIANGLE_ID])
+            ids = tri_ids(batch[step_layers.TIN_TRIANGLE_ID])
             points, counts, rings = bulk_read.exterior_rings(batch["geometry"])
             bad = np.flatnonzero((rings != 1) | (counts != 4))
             if len(bad):
@@ -180,7 +180,7 @@ class Membership:
         self.rows: list[tuple[str, ogr.Feature]] = []  # (wit_id, feature) sorted by wit_id
         geoms = []
         districts.layer.ResetReading()
-        features = sorted(((checked_wit_id(f.GetField(model.WIT_ID), f"A district in {districts.path}"), f)
+        features = sorted(((checked_wit_id(f.GetField(step_layers.WIT_ID), f"A district in {districts.path}"), f)
                            for f in districts.layer), key=lambda pair: pair[0])
         for wit_id, group in groupby(features, key=lambda pair: pair[0]):
             feature = next(group)[1]

@@ -44,7 +44,7 @@ import numpy as np
 from lxml import etree
 from osgeo import ogr
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..gc_pause import collector_paused
@@ -87,7 +87,7 @@ class CityGMLInputs:
     tin: str | None = None
     roads: str | None = None
     districts: str | None = None
-    textures: str | None = None  # wit:wittexture folder: images + model.TEXCOORD_FILE
+    textures: str | None = None  # wit:wittexture folder: images + step_layers.TEXCOORD_FILE
 
 
 @dataclass
@@ -118,16 +118,17 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         def layer(path: str | None, *args: Any, **kwargs: Any) -> InputLayer | None:
             return stack.enter_context(InputLayer.open(path, *args, **kwargs)) if path else None
 
-        lod1 = layer(inputs.lod1, model.LOD1_LAYER, model.LOD1_ROLE,
-                     (model.WIT_ID, model.FACE_NUMBER, model.FACE_TYPE), geometry_z=True)
-        tin = layer(inputs.tin, model.TIN_LAYER, model.TIN_ROLE,
-                    (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), geometry_z=True)
-        roads = layer(inputs.roads, model.PREPARED_ROADS, model.PREPARED_ROADS_ROLE, (model.WIT_ID,))
-        districts = layer(inputs.districts, model.PREPARED_DISTRICTS, model.PREPARED_DISTRICTS_ROLE,
-                          (model.WIT_ID,))
-        texcoords = layer(inputs.textures and str(Path(inputs.textures) / model.TEXCOORD_FILE), model.TEXCOORD_TABLE,
-                          model.TEXCOORD_ROLE,
-                          (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS))
+        lod1 = layer(inputs.lod1, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE,
+                     (step_layers.WIT_ID, step_layers.FACE_NUMBER, step_layers.FACE_TYPE), geometry_z=True)
+        tin = layer(inputs.tin, step_layers.TIN_LAYER, step_layers.TIN_ROLE,
+                    (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID), geometry_z=True)
+        roads = layer(inputs.roads, step_layers.PREPARED_ROADS, step_layers.PREPARED_ROADS_ROLE, (step_layers.WIT_ID,))
+        districts = layer(inputs.districts, step_layers.PREPARED_DISTRICTS, step_layers.PREPARED_DISTRICTS_ROLE,
+                          (step_layers.WIT_ID,))
+        texcoords = layer(inputs.textures and str(Path(inputs.textures) / step_layers.TEXCOORD_FILE),
+                          step_layers.TEXCOORD_TABLE, step_layers.TEXCOORD_ROLE,
+                          (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_IMAGE,
+                           step_layers.TEX_COORDS))
         if (lod1 is None or lod1.count() == 0) and (tin is None or inputs.lod1):
             raise InputError(f"{inputs.lod1} has no building faces: run wit:extrudebuildings on a non-empty area.")
         for source in (lod1, tin):
@@ -269,8 +270,8 @@ class _Progress:
 
 # --- writing ------------------------------------------------------------------------------------
 
-_SKIP_BUILDING_FIELDS = {model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.HEIGHT,
-                         model.STOREYS_ABOVE, model.STOREYS_BELOW}
+_SKIP_BUILDING_FIELDS = {step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER, step_layers.HEIGHT,
+                         step_layers.STOREYS_ABOVE, step_layers.STOREYS_BELOW}
 _GEN_TYPES = {ogr.OFTInteger: "IntAttribute", ogr.OFTInteger64: "IntAttribute",
               ogr.OFTReal: "DoubleAttribute", ogr.OFTDate: "DateAttribute"}
 
@@ -353,16 +354,16 @@ class _Writer:
 
     # content ------------------------------------------------------------------------------------
     def buildings(self, lod1: InputLayer, members: Membership | None) -> None:
-        with lod1.select(order=(model.WIT_ID, model.FACE_NUMBER)) as result:
+        with lod1.select(order=(step_layers.WIT_ID, step_layers.FACE_NUMBER)) as result:
             fields, col = fields_of(result), columns_of(result)
-            key = col[model.WIT_ID]
+            key = col[step_layers.WIT_ID]
             for wit_id, faces in groupby(result, key=lambda f: f.GetFieldAsString(key)):
                 self.building(checked_wit_id(wit_id, f"A face in {lod1.path}"), faces, fields, col, members)
 
     def building(self, wit_id: str, faces: Iterator[ogr.Feature], fields: list[tuple[int, str, int]],
                  col: dict[str, int], members: Membership | None) -> None:
         first = next(faces)
-        number_col, type_col, last = col[model.FACE_NUMBER], col[model.FACE_TYPE], -1
+        number_col, type_col, last = col[step_layers.FACE_NUMBER], col[step_layers.FACE_TYPE], -1
         with self.member(BLDG + "Building", wit_id):
             self.attributes(first, fields, _SKIP_BUILDING_FIELDS)
             with self.el(CORE + "lod1Solid"), self.el(GML + "Solid", {GML_ID: f"{wit_id}_lod1"}), \
@@ -370,7 +371,7 @@ class _Writer:
                 for face in chain([first], faces):
                     number, geometry = face.GetFieldAsInteger(number_col), face.GetGeometryRef()
                     if not face.IsFieldSetAndNotNull(number_col) or number <= last:
-                        raise InputError(f"Building {wit_id} has a face without a unique {model.FACE_NUMBER}: "
+                        raise InputError(f"Building {wit_id} has a face without a unique {step_layers.FACE_NUMBER}: "
                                          "re-run wit:extrudebuildings.")
                     if geometry is None or geometry.IsEmpty():
                         raise InputError(f"Face {number} of building {wit_id} has no geometry: "
@@ -384,19 +385,20 @@ class _Writer:
                     self.report.faces += 1
                     self.progress.tick()
             self.height(first, col)
-            for name, tag in ((model.STOREYS_ABOVE, "storeysAboveGround"), (model.STOREYS_BELOW, "storeysBelowGround")):
+            for name, tag in ((step_layers.STOREYS_ABOVE, "storeysAboveGround"),
+                              (step_layers.STOREYS_BELOW, "storeysBelowGround")):
                 if name in col and first.IsFieldSetAndNotNull(col[name]):
                     self.leaf(BLDG + tag, str(first.GetFieldAsInteger64(col[name])))
         self.report.buildings += 1
 
     def height(self, feature: ogr.Feature, col: dict[str, int]) -> None:
         """``con:height``: measured when it came from a height field, else estimated."""
-        if model.HEIGHT not in col or not feature.IsFieldSetAndNotNull(col[model.HEIGHT]):
+        if step_layers.HEIGHT not in col or not feature.IsFieldSetAndNotNull(col[step_layers.HEIGHT]):
             return
-        value = feature.GetFieldAsDouble(col[model.HEIGHT])
+        value = feature.GetFieldAsDouble(col[step_layers.HEIGHT])
         if not math.isfinite(value):
             return
-        source = feature.GetFieldAsString(col[model.HEIGHT_SOURCE]) if model.HEIGHT_SOURCE in col else None
+        source = feature.GetFieldAsString(col[step_layers.HEIGHT_SOURCE]) if step_layers.HEIGHT_SOURCE in col else None
         with self.el(CON + "height"), self.el(CON + "Height"):
             self.leaf(CON + "highReference", "highestRoofEdge")
             self.leaf(CON + "lowReference", "lowestGroundPoint")
@@ -410,13 +412,13 @@ class _Writer:
             road_rows: Iterator[tuple[str, Any]] = iter(())
             tri_rows: Iterator[tuple[str, Any]] = iter(())
             if roads:
-                result = stack.enter_context(roads.select(order=(model.WIT_ID,)))
-                fields, key = fields_of(result), columns_of(result)[model.WIT_ID]
+                result = stack.enter_context(roads.select(order=(step_layers.WIT_ID,)))
+                fields, key = fields_of(result), columns_of(result)[step_layers.WIT_ID]
                 road_rows = ((k, next(g)) for k, g in groupby(result, key=lambda f: f.GetFieldAsString(key)))
             if tin:
                 triangles = chain.from_iterable(
-                    zip(bulk_read.texts(batch[model.TIN_FEATURE_ID]), ids, poslists) for ids, poslists, batch in
-                    tin_triangles(tin, _ROAD_TRIANGLES, (model.TIN_FEATURE_ID, model.TIN_TRIANGLE_ID)))
+                    zip(bulk_read.texts(batch[step_layers.TIN_FEATURE_ID]), ids, poslists) for ids, poslists, batch in
+                    tin_triangles(tin, _ROAD_TRIANGLES, (step_layers.TIN_FEATURE_ID, step_layers.TIN_TRIANGLE_ID)))
                 tri_rows = groupby(triangles, key=itemgetter(0))
             for wit_id, road, triangles in _join_sorted(road_rows, tri_rows):
                 self.road(checked_wit_id(wit_id, "A road"), road, fields, triangles)
@@ -426,7 +428,7 @@ class _Writer:
         """A road with its attributes and its triangles: (road wit_id, triangle id, posList) each."""
         with self.member(TRAN + "Road", wit_id):
             if road is not None:
-                self.attributes(road, fields, {model.WIT_ID})
+                self.attributes(road, fields, {step_layers.WIT_ID})
             if triangles is not None:
                 with self.el(TRAN + "trafficSpace"), self.el(TRAN + "TrafficSpace", {GML_ID: f"{wit_id}_space"}):
                     with self.el(CORE + "boundary"), self.el(TRAN + "TrafficArea", {GML_ID: f"{wit_id}_area"}), \
@@ -450,7 +452,7 @@ class _Writer:
                 self.leaf(DEM + "lod", RELIEF_LOD)
                 with self.el(DEM + "tin"), self.el(GML + "TriangulatedSurface", {GML_ID: TIN_SURFACE_ID}), \
                         self.el(GML + "patches"):
-                    for ids, poslists, _ in tin_triangles(tin, where, (model.TIN_TRIANGLE_ID,)):
+                    for ids, poslists, _ in tin_triangles(tin, where, (step_layers.TIN_TRIANGLE_ID,)):
                         self.raw("".join(
                             f'\n<gml:Triangle><gml:exterior><gml:LinearRing gml:id="{gml_id}_r">'
                             f'<gml:posList srsDimension="3">{poslist}'
@@ -465,7 +467,7 @@ class _Writer:
                 index = district.GetFieldIndex(DISTRICT_NAME_FIELD)
                 if index >= 0 and district.IsFieldSetAndNotNull(index):
                     self.leaf(GML + "name", _clean(district.GetFieldAsString(index)))
-                self.attributes(district, members.fields, {model.WIT_ID})
+                self.attributes(district, members.fields, {step_layers.WIT_ID})
                 for building in buildings:
                     with self.el(GRP + "groupMember"), self.el(GRP + "Role"), \
                             self.el(GRP + "groupMember", {XLINK + "href": f"#{building}"}):
@@ -475,10 +477,10 @@ class _Writer:
 
     def appearance(self, texcoords: InputLayer, uris: dict[str, str]) -> None:
         """Per image one ``app:Appearance`` (``app_1``…) with its ``ParameterizedTexture`` (``tex_1``…)."""
-        order = (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE)
+        order = (step_layers.TEX_IMAGE, step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE)
         with texcoords.select(order=order) as result:
             rows = chain.from_iterable(
-                zip(*(bulk_read.texts(batch[name]) for name in order + (model.TEX_COORDS,)))
+                zip(*(bulk_read.texts(batch[name]) for name in order + (step_layers.TEX_COORDS,)))
                 for batch in bulk_read.batches(result, BULK))
             for number, (image, group) in enumerate(groupby(rows, key=itemgetter(0)), 1):
                 # one appearanceMember per image: a reader (or validator) streaming member by member
@@ -544,7 +546,7 @@ class _Writer:
                 yield
 
 
-_ROAD_TRIANGLES = f"\"{model.TIN_SURFACE}\" = 'road' AND \"{model.TIN_FEATURE_ID}\" IS NOT NULL"
+_ROAD_TRIANGLES = f"\"{step_layers.TIN_SURFACE}\" = 'road' AND \"{step_layers.TIN_FEATURE_ID}\" IS NOT NULL"
 """Triangles written into their road's traffic area; every other triangle goes into the relief."""
 
 

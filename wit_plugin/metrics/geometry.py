@@ -5,7 +5,7 @@ CityGML 3.0 file (``bldg:Building`` → ``core:lod1Solid`` polygons, streamed by
 so the metric checks the deliverable itself) or from the LoD1 faces GeoPackage. In the CityGML
 file a face's kind is not stored: horizontal faces (Z spread ≤ 1 mm) at the solid's lowest Z are
 its ground, at its highest Z its roof. Everything is compared in 2D (X, Y) with the prepared
-source footprints (``model.PREPARED_BUILDINGS``), matched by ``wit_id`` = ``gml:id``; the solids
+source footprints (``step_layers.PREPARED_BUILDINGS``), matched by ``wit_id`` = ``gml:id``; the solids
 ``<wit_id>_part1``, ``_part2``… that wit:extrudebuildings makes from a multi-part footprint are
 merged back into their building. Per building:
 
@@ -37,7 +37,7 @@ import shapely
 from lxml import etree
 from osgeo import osr
 
-from .. import model
+from .. import step_layers
 from ..citygml.namespaces import BLDG, CORE, GML, GML_ID
 from ..citygml.reader import Stream, SyntaxProblem, envelope_srs
 from ..citygml.validation.crs import frame_of
@@ -200,15 +200,15 @@ def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding],
 
 def _read_lod1(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding], osr.SpatialReference | None]:
     """Ground polygons and roof vertices per wit_id from the LoD1 faces layer (FACE_TYPE given)."""
-    ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, model.LOD1_ROLE,
-                                   (model.WIT_ID, model.FACE_TYPE))
+    ds, layer, _ = open_step_layer(path, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE,
+                                   (step_layers.WIT_ID, step_layers.FACE_TYPE))
     faces: dict[str, list] = defaultdict(list)
     total = max(layer.GetFeatureCount(), 1)
     for k, feature in enumerate(layer):
         if k % 5000 == 0:
             feedback.check_canceled()
             feedback.progress(100.0 * k / total)
-        kind = feature.GetFieldAsString(model.FACE_TYPE)
+        kind = feature.GetFieldAsString(step_layers.FACE_TYPE)
         geometry = feature.GetGeometryRef()
         if kind not in ("ground", "roof") or geometry is None or geometry.IsEmpty():
             continue
@@ -216,7 +216,7 @@ def _read_lod1(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding]
         rings = [np.asarray(poly.exterior.coords)] + [np.asarray(r.coords) for r in poly.interiors]
         if rings[0].shape[1] != 3:
             rings = [np.column_stack([r, np.zeros(len(r))]) for r in rings]
-        faces[feature.GetFieldAsString(model.WIT_ID)].append((*_polygon_3d(rings), kind))
+        faces[feature.GetFieldAsString(step_layers.WIT_ID)].append((*_polygon_3d(rings), kind))
     buildings: dict[str, _ModelBuilding] = {}
     for wit_id, solid in faces.items():
         _add_solid(buildings.setdefault(wit_id, _ModelBuilding()), solid)
@@ -225,14 +225,14 @@ def _read_lod1(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding]
 
 
 def _read_sources(source: str) -> tuple[list[str], np.ndarray, osr.SpatialReference | None]:
-    ds, layer, _ = open_step_layer(source, model.PREPARED_BUILDINGS, model.PREPARED_BUILDINGS_ROLE,
-                                   (model.WIT_ID,))
+    ds, layer, _ = open_step_layer(source, step_layers.PREPARED_BUILDINGS, step_layers.PREPARED_BUILDINGS_ROLE,
+                                   (step_layers.WIT_ID,))
     ids, wkbs = [], []
     for feature in layer:
         geometry = feature.GetGeometryRef()
         if geometry is None or geometry.IsEmpty():
             continue
-        ids.append(feature.GetFieldAsString(model.WIT_ID))
+        ids.append(feature.GetFieldAsString(step_layers.WIT_ID))
         wkbs.append(bytes(geometry.ExportToIsoWkb()))
     geoms = shapely.force_2d(shapely.from_wkb(np.array(wkbs, dtype=object))) if wkbs else np.empty(0, dtype=object)
     srs = layer.GetSpatialRef()
@@ -312,7 +312,8 @@ def geometry_metrics(model_source: str, source_buildings: str, feedback: Feedbac
     if not ids:
         raise InputError(f"{source_buildings} has no building footprints.")
     if len(set(ids)) != len(ids):
-        raise InputError(f"{source_buildings}: '{model.WIT_ID}' is not unique; give the output of wit:preparevectors.")
+        raise InputError(f"{source_buildings}: '{step_layers.WIT_ID}' is not unique; "
+                         "give the output of wit:preparevectors.")
     feedback.progress(5.0)
     if Path(model_source).suffix.lower() in (".gml", ".xml"):
         raw, model_srs = _read_gml(str(model_source), feedback.scaled(5.0, 60.0))

@@ -19,7 +19,7 @@ import pyproj
 import shapely
 from osgeo import ogr
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..io.fileio import atomic_file
@@ -132,7 +132,7 @@ def metric_rows(geometry: GeometryMetrics | None, texture: TextureMetrics | None
 
 
 _ROW_FIELDS = ["group", "metric", "value", "unit", "paper", "note"]
-_BUILDING_FIELDS = [model.WIT_ID, "status", "solids", "position_error", "vertex_mean_error", "vertex_max_error",
+_BUILDING_FIELDS = [step_layers.WIT_ID, "status", "solids", "position_error", "vertex_mean_error", "vertex_max_error",
                     "hausdorff", "ssi", "source_area", "model_area"]
 
 

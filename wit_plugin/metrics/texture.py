@@ -14,7 +14,7 @@ float, not rounded to 8 bits; a single-band image is its own intensity).
 * *contrast* = standard deviation of I (population, over the masked pixels).
 
 Model textures: the images of a wit:wittexture folder (mip files left out). If the folder holds
-``model.TEXCOORD_FILE``, only texels inside the textured rings (their UV polygons rasterised,
+``step_layers.TEXCOORD_FILE``, only texels inside the textured rings (their UV polygons rasterised,
 pixel centres inside) count, so atlas background and gutters do not; otherwise whole images
 count. Values are pooled over all counted pixels of all images (not averaged per image). The
 source orthoimage is measured the same way, read in row blocks, NoData excluded: over the model's
@@ -35,7 +35,7 @@ import numpy as np
 import shapely
 from osgeo import gdal, ogr
 
-from .. import model
+from .. import step_layers
 from ..arrays import ragged_indices
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
@@ -212,7 +212,7 @@ def _list_images(images: Sequence[str] | str) -> tuple[list[Path], Path | None]:
         if not paths:
             raise InputError(f"{folder} holds no texture images (.jpg, .png, .tif): give the wit:wittexture "
                              "output folder.")
-        texcoords = folder / model.TEXCOORD_FILE
+        texcoords = folder / step_layers.TEXCOORD_FILE
         return paths, texcoords if texcoords.exists() else None
     return [Path(p) for p in images], None
 
@@ -221,14 +221,14 @@ def _texcoord_rings(texcoords: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]
     """UV rings per image (relative path as stored) from the wit:wittexture table: (points, points per ring),
     read in bulk (the 1 km demo has ~600,000 rings)."""
     ds = open_vector(texcoords)
-    layer = None if ds is None else ds.GetLayerByName(model.TEXCOORD_TABLE)
+    layer = None if ds is None else ds.GetLayerByName(step_layers.TEXCOORD_TABLE)
     if layer is None:
-        raise InputError(f"{texcoords} has no table '{model.TEXCOORD_TABLE}': re-run wit:wittexture.")
+        raise InputError(f"{texcoords} has no table '{step_layers.TEXCOORD_TABLE}': re-run wit:wittexture.")
     images: list[str] = []
     uvs: list[str] = []
     for batch in bulk_read.batches(layer):
-        images += bulk_read.texts(batch[model.TEX_IMAGE])
-        uvs += bulk_read.texts(batch[model.TEX_COORDS])
+        images += bulk_read.texts(batch[step_layers.TEX_IMAGE])
+        uvs += bulk_read.texts(batch[step_layers.TEX_COORDS])
     if not uvs:
         return {}
     counts = np.fromiter((text.count(" ") + 1 for text in uvs), dtype=np.int64, count=len(uvs)) // 2

@@ -10,7 +10,7 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..io import bulk_read
 from ..io.vector_io import open_step_layer
@@ -115,20 +115,20 @@ class _TexTable:
 
     @classmethod
     def read(cls, folder: str, images: list[str]) -> _TexTable:
-        path = Path(folder) / model.TEXCOORD_FILE
-        fields = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
-        with _open_layer(str(path), model.TEXCOORD_TABLE, model.TEXCOORD_ROLE, fields) as layer:
+        path = Path(folder) / step_layers.TEXCOORD_FILE
+        fields = (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_IMAGE, step_layers.TEX_COORDS)
+        with _open_layer(str(path), step_layers.TEXCOORD_TABLE, step_layers.TEXCOORD_ROLE, fields) as layer:
             cols = _read_columns(layer, fields)
         try:
-            uv, counts = parse_texcoords(cols[model.TEX_COORDS].tolist())
+            uv, counts = parse_texcoords(cols[step_layers.TEX_COORDS].tolist())
         except ValueError:
             raise InputError(f"The texture table {path} has malformed texture coordinates: "
                              "re-run wit:wittexture.") from None
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-        names, image = np.unique(cols[model.TEX_IMAGE].astype(str), return_inverse=True)
+        names, image = np.unique(cols[step_layers.TEX_IMAGE].astype(str), return_inverse=True)
         images.extend(names.tolist())
         keys = {}
-        columns = (cols[model.TEX_TARGET].tolist(), cols[model.TEX_FEATURE].tolist(), cols[model.TEX_FACE].tolist())
+        columns = (cols[step_layers.TEX_TARGET].tolist(), cols[step_layers.TEX_FEATURE].tolist(), cols[step_layers.TEX_FACE].tolist())
         for i, (target, feature, face) in enumerate(zip(*columns)):
             keys[(feature, int(face or 0)) if target == "roof" else feature] = i
         return cls(keys, uv, starts, counts, image.astype(np.int32))
@@ -139,15 +139,15 @@ class _TexTable:
 
 
 def _read_lod1(path: str, table: _TexTable | None, report: PreviewReport) -> _Mesh:
-    fields = (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER)
-    with _open_layer(path, model.LOD1_LAYER, model.LOD1_ROLE, fields) as layer:
+    fields = (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER)
+    with _open_layer(path, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE, fields) as layer:
         cols = _read_columns(layer, fields, lambda geoms: geoms)
-    geoms, kind = cols[None], cols[model.FACE_TYPE]
+    geoms, kind = cols[None], cols[step_layers.FACE_TYPE]
     ok = ~shapely.is_missing(geoms) & (shapely.get_type_id(geoms) == 3)
-    _, building = np.unique(cols[model.WIT_ID].astype(str), return_inverse=True)
+    _, building = np.unique(cols[step_layers.WIT_ID].astype(str), return_inverse=True)
     roofs = np.flatnonzero(ok & (kind == "roof"))
     walls = np.flatnonzero(ok & (kind == "wall"))
-    rows = (table.rows([(cols[model.WIT_ID][i], int(cols[model.FACE_NUMBER][i] or 0)) for i in roofs])
+    rows = (table.rows([(cols[step_layers.WIT_ID][i], int(cols[step_layers.FACE_NUMBER][i] or 0)) for i in roofs])
             if table is not None else np.full(len(roofs), -1))
     roof, report.untextured_roofs = _roof_mesh(geoms[roofs], building[roofs], rows, table)
     return _Mesh.concat([roof, _wall_mesh(geoms[walls], building[walls])])
@@ -186,17 +186,17 @@ def _wall_mesh(polygons: np.ndarray, building: np.ndarray) -> _Mesh:
 
 
 def _read_tin(path: str, table: _TexTable | None) -> _Mesh:
-    fields = (model.TIN_TRIANGLE_ID, model.TIN_SURFACE)
-    with _open_layer(path, model.TIN_LAYER, model.TIN_ROLE, fields) as layer:
+    fields = (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE)
+    with _open_layer(path, step_layers.TIN_LAYER, step_layers.TIN_ROLE, fields) as layer:
         cols = _read_columns(layer, fields, triangle_vertices)
     ok = np.flatnonzero(np.isfinite(cols[None]).all(axis=(1, 2)))
     xyz = cols[None][ok]
-    surface = cols[model.TIN_SURFACE][ok]
+    surface = cols[step_layers.TIN_SURFACE][ok]
     kind = np.select([surface == "road", surface == "footprint"], [_ROAD, _FOOTPRINT], _TERRAIN).astype(np.int8)
     uv = np.zeros((len(ok), 3, 2), np.float32)
     image = np.full(len(ok), -1, np.int32)
     if table is not None and len(ok):
-        rows = table.rows([str(t) for t in cols[model.TIN_TRIANGLE_ID][ok].tolist()])
+        rows = table.rows([str(t) for t in cols[step_layers.TIN_TRIANGLE_ID][ok].tolist()])
         hit = np.flatnonzero((rows >= 0) & (table.counts[np.maximum(rows, 0)] == 4))
         uv[hit] = table.uv[table.starts[rows[hit]][:, None] + np.arange(3)]
         image[hit] = table.image[rows[hit]]

@@ -39,7 +39,6 @@ from ..io.fileio import atomic_files, refuse_overlap, source_file
 from ..io.vector_io import VectorLayer, layer_extent, non_finite, read_layer
 from ..polygons import polygonal, repair_polygons, transform
 from ..terrain import covering_area
-from ..tiles.plan import plan_tiles
 from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, road_widths
 from .config import MANIFEST, SampleConfig, check_rasters
 from .gangnam import GROUND_LANE
@@ -83,7 +82,8 @@ class DrawnSample:
 
 def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: SampleConfig | None = None,
                      feedback: Feedback = SILENT) -> DrawnSample:
-    """Render the ortho tiles (and the DEM) for ``layers`` into ``output_dir``, with a manifest.
+    """Render the ortho tiles (and the DEM) for ``layers`` into ``output_dir``, with a manifest
+    (``config`` None: the default ``SampleConfig``).
 
     Nothing appears in ``output_dir`` unless every file is complete; the given layers are read only.
     """
@@ -181,7 +181,7 @@ def _read(path: str, layers: GivenLayers, bbox, target: pyproj.CRS, feedback: Fe
 def sheets_meeting(area: shapely.Geometry) -> list[mapsheet.MapSheet]:
     """The NGII 1:5,000 sheets that overlap ``area`` (EPSG:5186), as the chain's tiles are planned."""
     try:
-        return [mapsheet.parse_sheet_number(t.sheet) for t in plan_tiles(area, RASTER_CRS)]
+        return [sheet for sheet, _ in mapsheet.sheets_overlapping(area, RASTER_CRS)]
     except InputError as exc:
         raise InputError(f"The area (bounds {_rounded(area.bounds)} in {RASTER_CRS}) has no NGII map sheets: "
                          f"{exc}") from None

@@ -20,13 +20,14 @@ from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..io.fileio import refuse_overlap
 from ..io.vector_io import VectorLayer, read_layer, read_prepared
-from ..model import (
+from ..polygons import transform
+from ..step_layers import (
     FOREIGN_BUILDINGS,
     PREPARED_BUILDINGS,
     PREPARED_ROADS,
     WIT_ID,
 )
-from ..polygons import transform
+from ..triangulators import MAX_EDGE, VERTICAL_TOLERANCE
 from .constraints import GRID, Feature, Seam, _polygonal, clean_polygons
 from .mesh import TinStats, _longest_edges, max_vertical_error, triangulate, vertical_error
 from .output import snap_to_grid, write_tin
@@ -36,8 +37,8 @@ from .output import snap_to_grid, write_tin
 class TerrainConfig:
     """The step's settings (wit:triangulateterrain's parameters)."""
 
-    max_edge: float = 5.0  # m: no triangle edge longer
-    tolerance: float = 0.5  # m: no triangle farther from the DEM surface
+    max_edge: float = MAX_EDGE  # m: no triangle edge longer
+    tolerance: float = VERTICAL_TOLERANCE  # m: no triangle farther from the DEM surface
     footprints_as_holes: bool = True  # else footprints are constrained edges, meshed over
     spatial_index: bool = True  # of the written TIN; an intermediate file read whole needs none
     triangulator: int | None = None  # a ``triangulators.BACKENDS`` key (None: the default)

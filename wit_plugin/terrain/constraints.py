@@ -30,7 +30,7 @@ GRID = 0.001
 MIN_WIDTH = 0.01
 
 
-TERRAIN, ROAD, FOOTPRINT = range(3)  # indices into model.TIN_SURFACES
+TERRAIN, ROAD, FOOTPRINT = range(3)  # indices into step_layers.TIN_SURFACES
 
 
 Feature = tuple[str | None, BaseGeometry]  # (wit_id, polygon)
@@ -99,7 +99,7 @@ SEAM_REACH = 0.05  # m: how far along the border such a vertex may move to its c
 
 @dataclass(frozen=True)
 class Seam:
-    """A tile's border and its canonical points (see ``wit_plugin.tiles.seams``)."""
+    """A tile's border and its canonical points (see ``wit_plugin.sheetrun.seams``)."""
 
     tile: BaseGeometry  # the tile's polygon
     points: np.ndarray  # (k, 2) canonical points on its border, on the 1 mm grid

@@ -18,15 +18,14 @@ from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
 from .. import triangulators
-from ..arrays import ragged_indices
+from ..arrays import edge_pairs, ragged_indices, triangle_edge_keys
 from ..dem import Dem
 from ..deps import require
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..model import (
+from ..step_layers import (
     TIN_SURFACES,
 )
-from ..triangulators import edge_pairs, triangle_edge_keys
 from .constraints import MIN_WIDTH, Constraints, Feature, Seam, _classify, clean_constraints
 
 ROUNDING = 1e-3  # m: the precision coordinates are written with
@@ -205,8 +204,8 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
 
 
 def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature], dem: Dem,
-                max_edge: float = 5.0, tolerance: float = 0.5, footprints_as_holes: bool = True,
-                max_iterations: int = 10, fixed_segments: bool = False, seam: Seam | None = None,
+                max_edge: float = triangulators.MAX_EDGE, tolerance: float = triangulators.VERTICAL_TOLERANCE,
+                footprints_as_holes: bool = True, max_iterations: int = 10, fixed_segments: bool = False, seam: Seam | None = None,
                 feedback: Feedback = SILENT, triangulator: int | None = None) -> tuple[Tin, TinStats]:
     """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``.
 

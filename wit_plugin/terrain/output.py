@@ -7,17 +7,17 @@ import numpy as np
 import pyproj
 from osgeo import ogr
 
+from ..arrays import triangle_edge_keys
 from ..dem import Dem
 from ..feedback import SILENT, Feedback
 from ..io.gpkg_bulk import write_layer
 from ..io.vector_io import FieldDef
-from ..model import (
+from ..step_layers import (
     TIN_FEATURE_ID,
     TIN_LAYER,
     TIN_SURFACE,
     TIN_TRIANGLE_ID,
 )
-from ..triangulators import triangle_edge_keys
 from .constraints import Constraints
 from .mesh import ROUNDING, Tin, _areas_3d, _triangle_areas, _with_heights
 
@@ -128,7 +128,7 @@ def _mend_flat(xyz: np.ndarray, tris: np.ndarray, surface: np.ndarray, feature: 
 
 def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, spatial_index: bool = True,
               feedback: Feedback = SILENT) -> int:
-    """Write the TIN as PolygonZ triangles (layer ``model.TIN_LAYER``), one feature per triangle.
+    """Write the TIN as PolygonZ triangles (layer ``step_layers.TIN_LAYER``), one feature per triangle.
 
     Give it a TIN on the millimetre grid (``snap_to_grid``): it is written as it is, and only a triangle
     that would be degenerate at that precision (none after ``snap_to_grid``) is left out, with a count.

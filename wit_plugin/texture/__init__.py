@@ -4,7 +4,7 @@ Inputs follow ``model``: the LoD1 faces layer (``lod1_faces``), the TIN layer (`
 merged orthoimage (north-up RGB GeoTIFF; in another CRS than the layers', the window over them
 is reprojected as it is read, bilinear, ``_Ortho.reproject_to``). Outputs, in ``output_dir`` (the texture
 folder): JPEG or PNG images and ``texcoords.gpkg`` holding the attribute table ``texcoords``
-(one row per textured ring, ``model.TEX_*`` columns, image names relative to the folder).
+(one row per textured ring, ``step_layers.TEX_*`` columns, image names relative to the folder).
 
 What is textured, and how:
 
@@ -68,7 +68,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..gc_pause import collector_paused
@@ -118,15 +118,15 @@ def texture_model(
         roofs = tin = None
         untextured: dict[str, int] = {}
         if lod1_gpkg:
-            roofs = _Layer(lod1_gpkg, model.LOD1_LAYER, model.FACE_TYPE,
-                           (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER), (ROOF_TARGET,),
-                           model.LOD1_ROLE)
+            roofs = _Layer(lod1_gpkg, step_layers.LOD1_LAYER, step_layers.FACE_TYPE,
+                           (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER), (ROOF_TARGET,),
+                           step_layers.LOD1_ROLE)
             stack.callback(roofs.close)
             untextured.update({k: roofs.count((k,)) for k in ("wall", "ground")})
         if tin_gpkg:
-            tin = _Layer(tin_gpkg, model.TIN_LAYER, model.TIN_SURFACE,
-                         (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), TEXTURED_TIN_SURFACES,
-                         model.TIN_ROLE)
+            tin = _Layer(tin_gpkg, step_layers.TIN_LAYER, step_layers.TIN_SURFACE,
+                         (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID), TEXTURED_TIN_SURFACES,
+                         step_layers.TIN_ROLE)
             stack.callback(tin.close)
             untextured["footprint"] = tin.count(("footprint",))
         layers = [layer for layer in (roofs, tin) if layer is not None]
@@ -204,7 +204,7 @@ def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, conf
     packer = _AtlasPacker(config, out)
     limit = config.atlas_size - 2 * config.gutter
     count = len(grid.keys(layer.extent))
-    for n, (_, rings) in enumerate(layer.tiles(grid, (model.WIT_ID, model.FACE_NUMBER), roof)):
+    for n, (_, rings) in enumerate(layer.tiles(grid, (step_layers.WIT_ID, step_layers.FACE_NUMBER), roof)):
         feedback.check_canceled()
         rings = inside(rings)
         patches = [ortho.patch(rings.bbox(i), limit) for i in range(len(rings))]
@@ -226,7 +226,7 @@ def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, con
                 np.full(len(on_road), None, dtype=object))
 
     count = len(grid.keys(layer.extent))
-    tiles = layer.tiles(grid, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), triangle)
+    tiles = layer.tiles(grid, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID), triangle)
     for n, ((r, c), batch) in enumerate(tiles):
         feedback.check_canceled()
         batch = inside(batch)

@@ -3,12 +3,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .. import model
+from .. import step_layers
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
 
 
-TEXCOORDS_FILE = model.TEXCOORD_FILE
+TEXCOORDS_FILE = step_layers.TEXCOORD_FILE
 
 
 TEXTURED_TIN_SURFACES = ("terrain", "road")

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 from osgeo import gdal, ogr
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..io.gpkg_bulk import BulkTable
 from ..io.vector_io import FieldDef
@@ -93,15 +93,15 @@ class _Output:
     the main thread reads the ortho and formats the next image's rows: the two cores overlap.
     """
 
-    _FIELDS = [FieldDef(model.TEX_TARGET, ogr.OFTString), FieldDef(model.TEX_FEATURE, ogr.OFTString),
-               FieldDef(model.TEX_FACE, ogr.OFTInteger), FieldDef(model.TEX_IMAGE, ogr.OFTString),
-               FieldDef(model.TEX_COORDS, ogr.OFTString)]
+    _FIELDS = [FieldDef(step_layers.TEX_TARGET, ogr.OFTString), FieldDef(step_layers.TEX_FEATURE, ogr.OFTString),
+               FieldDef(step_layers.TEX_FACE, ogr.OFTInteger), FieldDef(step_layers.TEX_IMAGE, ogr.OFTString),
+               FieldDef(step_layers.TEX_COORDS, ogr.OFTString)]
 
     def __init__(self, folder: Path, ext: str, config: TextureConfig, report: TextureReport):
         self.folder, self.ext, self.config, self.report = folder, ext, config, report
         self._driver = gdal.GetDriverByName("JPEG" if ext == "jpg" else "PNG")
         self._options = [f"QUALITY={config.jpeg_quality}"] if ext == "jpg" else ["ZLEVEL=6"]
-        self._table = BulkTable(folder / TEXCOORDS_FILE, model.TEXCOORD_TABLE, self._FIELDS, threaded=True)
+        self._table = BulkTable(folder / TEXCOORDS_FILE, step_layers.TEXCOORD_TABLE, self._FIELDS, threaded=True)
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="wit-texture-output")
         self._pending: Future | None = None
 
@@ -148,8 +148,8 @@ class _Output:
     def finish(self) -> None:
         """Index the table in the order the CityGML writer reads it (image, target, feature, face)."""
         self._wait()
-        columns = ", ".join(f'"{c}"' for c in (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE))
-        self._table.db.execute(f'CREATE INDEX "{model.TEXCOORD_TABLE}_order" ON "{model.TEXCOORD_TABLE}" ({columns})')
+        columns = ", ".join(f'"{c}"' for c in (step_layers.TEX_IMAGE, step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE))
+        self._table.db.execute(f'CREATE INDEX "{step_layers.TEXCOORD_TABLE}_order" ON "{step_layers.TEXCOORD_TABLE}" ({columns})')
 
     def close(self) -> None:
         """Stop the worker (after its current image) and close the table; on success after ``finish``."""

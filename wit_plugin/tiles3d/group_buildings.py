@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from .. import model
+from .. import step_layers
 from ..io.vector_io import open_step_layer
 from ..meshes import triangulate
 from .geo import Georeference
@@ -83,13 +83,14 @@ class Candidates:
 
 def read_tile_buildings(lod1: str, limit: int = GROUP_BUILDINGS) -> Candidates:
     """The ``limit`` largest buildings of a tile's LoD1 layer (its ground faces)."""
-    ds, layer, _ = open_step_layer(lod1, model.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
-                                   (model.WIT_ID, model.FACE_TYPE, model.BASE_Z, model.HEIGHT))
+    ds, layer, _ = open_step_layer(lod1, step_layers.LOD1_LAYER, "LoD1 faces (wit:extrudebuildings)",
+                                   (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.BASE_Z, step_layers.HEIGHT))
     defn = layer.GetLayerDefn()
     kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
     fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept]
-    wit_id, base_z, height = (defn.GetFieldIndex(n) for n in (model.WIT_ID, model.BASE_Z, model.HEIGHT))
-    layer.SetAttributeFilter(f"{model.FACE_TYPE} = 'ground'")
+    wit_id, base_z, height = (defn.GetFieldIndex(n)
+                              for n in (step_layers.WIT_ID, step_layers.BASE_Z, step_layers.HEIGHT))
+    layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground'")
     ids, wkb, base, top, size, attributes = [], [], [], [], [], []
     for feature in layer:
         geometry = feature.GetGeometryRef()

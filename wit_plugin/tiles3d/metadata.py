@@ -15,7 +15,7 @@ import re
 
 from osgeo import ogr
 
-from .. import model
+from .. import step_layers
 
 BUILDING_CLASS = "building"
 SCHEMA_ID = "wit_citymodel"
@@ -25,12 +25,12 @@ FLOAT_NO_DATA = -3.4028234663852886e38
 
 #: descriptions of the fields a user looks for first (the others keep their source name only)
 DESCRIPTIONS = {
-    model.WIT_ID: "Stable building id (the CityGML gml:id)",
-    model.HEIGHT: "Building height (m)",
-    model.HEIGHT_SOURCE: "Where the height comes from: floors, field, expression or default",
-    model.STOREYS_ABOVE: "Storeys above ground",
-    model.STOREYS_BELOW: "Storeys below ground",
-    model.BASE_Z: "Ground height at the footprint (m)",
+    step_layers.WIT_ID: "Stable building id (the CityGML gml:id)",
+    step_layers.HEIGHT: "Building height (m)",
+    step_layers.HEIGHT_SOURCE: "Where the height comes from: floors, field, expression or default",
+    step_layers.STOREYS_ABOVE: "Storeys above ground",
+    step_layers.STOREYS_BELOW: "Storeys below ground",
+    step_layers.BASE_Z: "Ground height at the footprint (m)",
     "BULD_NM": "Building name",
     "BD_MGT_SN": "Building management number",
 }
@@ -61,9 +61,9 @@ def building_schema(fields: list[tuple[str, int]]) -> dict:
         while key in properties:  # two names that differ in characters an id cannot hold
             key += "_"
         properties[key] = spec
-    if property_id(model.WIT_ID) not in properties:  # the id is there whatever the layer holds
-        properties[property_id(model.WIT_ID)] = {"name": model.WIT_ID, "type": "STRING", "noData": "", "default": "",
-                                                 "description": DESCRIPTIONS[model.WIT_ID]}
+    if property_id(step_layers.WIT_ID) not in properties:  # the id is there whatever the layer holds
+        properties[property_id(step_layers.WIT_ID)] = {"name": step_layers.WIT_ID, "type": "STRING", "noData": "",
+                                                       "default": "", "description": DESCRIPTIONS[step_layers.WIT_ID]}
     return {"id": SCHEMA_ID, "classes": {BUILDING_CLASS: {"name": "Building", "properties": properties}}}
 
 
@@ -72,7 +72,7 @@ def property_columns(schema: dict, ids: list[str], attributes: list[list]) -> di
     properties = schema["classes"][BUILDING_CLASS]["properties"]
     columns: dict[str, list] = {}
     for position, (key, spec) in enumerate(properties.items()):
-        if spec["name"] == model.WIT_ID:
+        if spec["name"] == step_layers.WIT_ID:
             columns[key] = list(ids)
         elif spec["type"] == "STRING":
             columns[key] = [None if row[position] is None else str(row[position]) for row in attributes]

@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..feedback import Feedback
 from ..io import bulk_read
@@ -39,8 +39,8 @@ from ..io.vector_io import open_step_layer
 from ..meshes import parse_texcoords, triangle_vertices
 
 FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not exported
-SURFACES = {name: number for number, name in enumerate(model.TIN_SURFACES)}
-PER_FACE_FIELDS = (model.FACE_TYPE, model.FACE_NUMBER)
+SURFACES = {name: number for number, name in enumerate(step_layers.TIN_SURFACES)}
+PER_FACE_FIELDS = (step_layers.FACE_TYPE, step_layers.FACE_NUMBER)
 BATCH = 20_000
 
 
@@ -138,26 +138,27 @@ class Store:
     # --- filling -----------------------------------------------------------------------------
 
     def add_textures(self, folder: str, feedback: Feedback) -> None:
-        path = Path(folder) / model.TEXCOORD_FILE
-        fields = (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_IMAGE, model.TEX_COORDS)
-        ds, layer, _ = open_step_layer(str(path), model.TEXCOORD_TABLE, model.TEXCOORD_ROLE, fields)
+        path = Path(folder) / step_layers.TEXCOORD_FILE
+        fields = (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_IMAGE,
+                  step_layers.TEX_COORDS)
+        ds, layer, _ = open_step_layer(str(path), step_layers.TEXCOORD_TABLE, step_layers.TEXCOORD_ROLE, fields)
         numbers: dict[str, int] = {}
         for batch in _column_batches(layer, fields):
             feedback.check_canceled()
             try:
-                uv, counts = _texcoords(batch[model.TEX_COORDS])
+                uv, counts = _texcoords(batch[step_layers.TEX_COORDS])
             except ValueError:
                 raise InputError(f"The texture table {path} has malformed texture coordinates: "
                                  "re-run wit:wittexture.") from None
             uv = uv.astype(np.float32)
             starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            names, image = _unique_texts(batch[model.TEX_IMAGE])
+            names, image = _unique_texts(batch[step_layers.TEX_IMAGE])
             image = np.array([numbers.setdefault(name, len(numbers)) for name in names], dtype=np.int64)[image]
-            kinds, target = _unique_texts(batch[model.TEX_TARGET])
+            kinds, target = _unique_texts(batch[step_layers.TEX_TARGET])
             is_roof = np.isin(target, [k for k, kind in enumerate(kinds) if kind == "roof"])
             roof = np.flatnonzero(is_roof)
-            features = np.asarray(batch[model.TEX_FEATURE])
-            faces = batch[model.TEX_FACE][roof].tolist()
+            features = np.asarray(batch[step_layers.TEX_FEATURE])
+            faces = batch[step_layers.TEX_FACE][roof].tolist()
             self.db.executemany("INSERT OR REPLACE INTO tex_roof VALUES (?, ?, ?, ?)", [
                 (feature, int(face or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
                 for feature, face, i in zip(_texts(features[roof]), faces, roof.tolist())])
@@ -181,13 +182,14 @@ class Store:
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
         """Buildings from their ground faces, then their roof and wall faces; returns the building count."""
-        ds, layer, _ = open_step_layer(path, model.LOD1_LAYER, model.LOD1_ROLE,
-                                       (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER, model.HEIGHT))
+        ds, layer, _ = open_step_layer(path, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE,
+                                       (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER,
+                                        step_layers.HEIGHT))
         defn = layer.GetLayerDefn()
         kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
         self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept]
-        wit_id, height = defn.GetFieldIndex(model.WIT_ID), defn.GetFieldIndex(model.HEIGHT)
-        layer.SetAttributeFilter(f"{model.FACE_TYPE} = 'ground'")
+        wit_id, height = defn.GetFieldIndex(step_layers.WIT_ID), defn.GetFieldIndex(step_layers.HEIGHT)
+        layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground'")
         rows: list[tuple] = []
         for feature in layer:
             geometry = feature.GetGeometryRef()
@@ -203,12 +205,13 @@ class Store:
                 rows = []
                 feedback.check_canceled()
         self._insert_buildings(rows, grid)
-        layer.SetAttributeFilter(f"{model.FACE_TYPE} IN ('roof', 'wall')")
-        for batch in _column_batches(layer, (model.WIT_ID, model.FACE_NUMBER, model.FACE_TYPE), geometry=True):
+        layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} IN ('roof', 'wall')")
+        for batch in _column_batches(layer, (step_layers.WIT_ID, step_layers.FACE_NUMBER, step_layers.FACE_TYPE),
+                                     geometry=True):
             feedback.check_canceled()
-            kinds = [FACE_KINDS[k] for k in _texts(batch[model.FACE_TYPE])]
+            kinds = [FACE_KINDS[k] for k in _texts(batch[step_layers.FACE_TYPE])]
             self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?)", [
-                row for row in zip(_texts(batch[model.WIT_ID]), batch[model.FACE_NUMBER].tolist(), kinds,
+                row for row in zip(_texts(batch[step_layers.WIT_ID]), batch[step_layers.FACE_NUMBER].tolist(), kinds,
                                    map(_blob, batch[None])) if row[3]])
         del layer, ds
         self.db.execute("CREATE INDEX face_building ON face (wit_id)")
@@ -225,15 +228,15 @@ class Store:
                             [(r[0], int(leaf), r[3], r[4]) for r, leaf in zip(rows, leaves.tolist())])
 
     def add_triangles(self, path: str, grid: Grid, feedback: Feedback) -> int:
-        ds, layer, _ = open_step_layer(path, model.TIN_LAYER, model.TIN_ROLE,
-                                       (model.TIN_TRIANGLE_ID, model.TIN_SURFACE))
+        ds, layer, _ = open_step_layer(path, step_layers.TIN_LAYER, step_layers.TIN_ROLE,
+                                       (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE))
         seen = []
-        for batch in _column_batches(layer, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE), geometry=True):
+        for batch in _column_batches(layer, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE), geometry=True):
             feedback.check_canceled()
             xyz = _triangle_corners(batch[None])
             ok = np.isfinite(xyz).all(axis=(1, 2))
-            ids = np.asarray(batch[model.TIN_TRIANGLE_ID], dtype=np.int64)[ok]
-            names, surface = _unique_texts(batch[model.TIN_SURFACE])
+            ids = np.asarray(batch[step_layers.TIN_TRIANGLE_ID], dtype=np.int64)[ok]
+            names, surface = _unique_texts(batch[step_layers.TIN_SURFACE])
             surface = np.array([SURFACES.get(name, 0) for name in names], dtype=np.int8)[surface][ok]
             xyz = np.ascontiguousarray(xyz[ok])
             if not len(ids):
@@ -264,7 +267,7 @@ class Store:
         del layer, ds
         everything = np.concatenate(seen) if seen else np.zeros(0, dtype=np.int64)
         if len(np.unique(everything)) < len(everything):
-            raise InputError(f"The TIN {path} repeats triangle ids ({model.TIN_TRIANGLE_ID}): "
+            raise InputError(f"The TIN {path} repeats triangle ids ({step_layers.TIN_TRIANGLE_ID}): "
                              "re-run wit:triangulateterrain.")
         self.db.execute("CREATE INDEX tri_block_leaf ON tri_block (leaf)")
         self.db.execute("CREATE INDEX spill_block_leaf ON spill_block (leaf)")

@@ -38,7 +38,7 @@ import numpy as np
 import shapely
 from osgeo import osr
 
-from .. import model
+from .. import step_layers
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..io.fileio import atomic_files, refuse_overlap
@@ -121,7 +121,8 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
     if config.web:
         require_web_profile()
     georef = Georeference(crs)
-    for path, layer, role in ((lod1, model.LOD1_LAYER, model.LOD1_ROLE), (tin, model.TIN_LAYER, model.TIN_ROLE)):
+    for path, layer, role in ((lod1, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE),
+                              (tin, step_layers.TIN_LAYER, step_layers.TIN_ROLE)):
         if path:
             _check_crs(path, layer, role, georef)
     report = TilesetReport(output=str(out), tileset=str(out / TILESET_FILE))
@@ -204,7 +205,8 @@ def _check_crs(path: str, layer_name: str, role: str, georef: Georeference) -> N
 
 def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, float]:
     boxes = []
-    for path, name, role in ((lod1, model.LOD1_LAYER, model.LOD1_ROLE), (tin, model.TIN_LAYER, model.TIN_ROLE)):
+    for path, name, role in ((lod1, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE),
+                             (tin, step_layers.TIN_LAYER, step_layers.TIN_ROLE)):
         if path:
             ds, layer, _ = open_step_layer(path, name, role)
             if layer.GetFeatureCount() > 0:

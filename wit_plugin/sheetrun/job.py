@@ -1,15 +1,20 @@
-"""One tile's share of a run: what a worker needs besides the run's inputs and options."""
+"""One tile's share of a run: what a worker needs besides the run's inputs and options, and the
+tile's own step 1 of the chain (``TileJob.prepare_layers``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import model
+from .. import step_layers
+from ..chain import ChainInputs, ChainOptions, PreparedLayers
+from ..feedback import Feedback
 from ..io.vector_io import read_prepared
 from ..terrain.constraints import Seam
 from .plan import TileOwner, tile_of
+from .prepare import clip_context, prepare_tile_buildings
 from .seams import tile_seam
 
 
@@ -25,7 +30,7 @@ class TileJob:
     def seam(self, target_crs: str, footprints: list[str]) -> Seam:
         """The tile's border and its canonical points, from the run's area, its roads and ``footprints``."""
         crossing = [shapely.from_wkt(self.owner.area_wkt)] if self.owner.area_wkt else []
-        for name in (n for n in self.context_layers if n == model.PREPARED_ROADS):
+        for name in (n for n in self.context_layers if n == step_layers.PREPARED_ROADS):
             crossing += list(read_prepared(f"{self.context}|layername={name}", name).geoms)
         for source in footprints:
             crossing += list(read_prepared(source, source.rsplit("=", 1)[-1]).geoms)
@@ -37,3 +42,16 @@ class TileJob:
         if self.owner.area_wkt is None:
             return polygon
         return shapely.intersection(polygon, shapely.from_wkt(self.owner.area_wkt))
+
+    def prepare_layers(self, inputs: ChainInputs, options: ChainOptions, work: Path,
+                       feedback: Feedback) -> PreparedLayers:
+        """Step 1 for the tile (``ChainOptions.prepare``): its own buildings, its neighbours' crossing in,
+        the run's roads and dongs cut at its border, and its seam."""
+        prepared = str(work / "prepared.gpkg")
+        tile_area = self.area(options.target_crs)
+        names = prepare_tile_buildings(inputs.buildings, tile_area, self.owner, prepared, options.encoding, feedback)
+        context = str(work / "context.gpkg")
+        context_names = clip_context(self.context, self.context_layers, tile_area, context) if self.context else []
+        seam = self.seam(options.target_crs, [f"{prepared}|layername={n}" for n in names
+                                              if n in (step_layers.PREPARED_BUILDINGS, step_layers.FOREIGN_BUILDINGS)])
+        return PreparedLayers.read(prepared, names, context, context_names, seam)

@@ -30,7 +30,7 @@ from .plan import TileOwner
 
 TILES_DIR = "tiles"
 MODEL_FILE = "model.gml"
-TASK = "wit_plugin.tiles.worker.run_tile"  # what a worker imports: the core's name on any machine
+TASK = "wit_plugin.sheetrun.worker.run_tile"  # what a worker imports: the core's name on any machine
 
 
 def tile_folder(output: str | Path, sheet: str) -> Path:
@@ -57,11 +57,12 @@ def run_tile(spec: dict) -> dict:
         triangulator=spec["triangulator"],
         heights=HeightOptions(**spec["heights"]), outside_ortho=spec["outside_ortho"],
         schema_dir=spec["schema_dir"], schema_cache=spec["schema_cache"], metrics=False,
-        tiles3d=spec["tiles3d"], tiles3d_web=spec["tiles3d_web"], encoding=spec["encoding"], tile=job)
+        tiles3d=spec["tiles3d"], tiles3d_web=spec["tiles3d_web"], encoding=spec["encoding"],
+        prepare=job.prepare_layers)
     row = {"sheet": sheet, "buildings": 0, "triangles": 0, "gml": None, "error": None}
     try:
         report = run_city_model(ChainInputs(**spec["inputs"]), options, folder,
-                                LoggingFeedback(logging.getLogger(f"wit_plugin.tiles.{sheet}")))
+                                LoggingFeedback(logging.getLogger(f"wit_plugin.sheetrun.{sheet}")))
         status = (DONE if report.buildings else EMPTY) if report.valid else FAILED
         row.update(status=status, buildings=int(report.buildings), triangles=int(report.triangles),
                    gml=f"{TILES_DIR}/{sheet}/{MODEL_FILE}",

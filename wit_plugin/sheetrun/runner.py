@@ -85,7 +85,7 @@ WORKER_MODULES = ("distributed", "numpy", "shapely", "pyproj", "lxml", "osgeo")
 def worker_python(configured: str | None = None, triangulator: str = "pythoncdt") -> str:
     """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask and the
     triangulation library ``triangulator``)."""
-    return core_python(configured, (*WORKER_MODULES, triangulator), "wit_plugin.tiles.worker")
+    return core_python(configured, (*WORKER_MODULES, triangulator), "wit_plugin.sheetrun.worker")
 
 
 def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
@@ -268,7 +268,8 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                       f"{written.buildings} buildings in the groups; the run's tileset.json {written.root_bytes:,} "
                       f"bytes, the largest tileset file {written.largest_file_bytes:,} bytes.")
         if written.tiles < len(modelled):
-            feedback.warning(f"{len(modelled) - written.tiles} tile(s) have no 3D Tiles and are not in {report.tileset}.")
+            feedback.warning(f"{len(modelled) - written.tiles} tile(s) have no 3D Tiles "
+                             f"and are not in {report.tileset}.")
         if written.without_terrain:
             feedback.warning(f"{written.without_terrain} group(s) of tiles have no coarse terrain (the DEM or the "
                              "orthoimage does not cover them): from afar they show their buildings only.")

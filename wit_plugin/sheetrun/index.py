@@ -46,7 +46,8 @@ def write_index(output: Path, tiles: list[Tile], crs: str, previous: dict[str, d
     for tile in tiles:
         row = previous.get(tile.sheet, {})
         for name, _ in FIELDS:
-            columns[name].append(tile.sheet if name == "sheet" else row.get(name, PENDING if name == "status" else None))
+            default = PENDING if name == "status" else None
+            columns[name].append(tile.sheet if name == "sheet" else row.get(name, default))
     layer = OutputLayer(INDEX_LAYER, [FieldDef(name, kind) for name, kind in FIELDS], columns,
                         np.array([t.polygon for t in tiles], dtype=object))
     with atomic_file(output / INDEX_FILE) as tmp:

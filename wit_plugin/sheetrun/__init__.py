@@ -1,4 +1,4 @@
-"""A district or a whole city in NGII map-sheet tiles, in parallel on Dask distributed.
+"""Map-sheet runs: a district or a whole city in NGII map-sheet tiles, in parallel on Dask distributed.
 
 ``plan`` decides the tiles and which tile owns each building (pure, no Dask); ``prepare`` and
 ``job`` give a tile's layers so that neighbours agree at their border; ``worker`` builds one tile

@@ -1,4 +1,5 @@
-"""wit:mergetiles — streaming mosaic of georeferenced tiles, overwrite (paper) or WIT feather."""
+"""wit:mergetiles — streaming mosaic of georeferenced rasters (orthoimage sheets, DEM pieces), overwrite (paper)
+or WIT feather. The id keeps its first name: saved models call the algorithm by it."""
 from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
@@ -16,7 +17,7 @@ from .qgis_compat import NumberType, ParameterFlag, SourceType
 MODES = ("overwrite", "feather")
 
 
-class MergeTiles(WitAlgorithm):
+class MergeRasters(WitAlgorithm):
     algorithm_id = "mergetiles"
     display_name = "Merge tiles (WIT seam feathering)"
     group_name = "Rasters"

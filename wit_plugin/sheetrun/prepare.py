@@ -17,7 +17,7 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import model
+from .. import step_layers
 from ..area import StudyArea
 from ..feedback import SILENT, Feedback
 from ..io.fileio import atomic_file
@@ -27,7 +27,7 @@ from .plan import TileOwner
 
 #: neighbours within this distance of a tile take part in simplifying its buildings (m)
 CONTEXT_MARGIN = 100.0
-CONTEXT_LAYERS = (model.PREPARED_ROADS, model.PREPARED_DISTRICTS)
+CONTEXT_LAYERS = (step_layers.PREPARED_ROADS, step_layers.PREPARED_DISTRICTS)
 
 
 def prepare_context(roads: str | None, districts: str | None, area: BaseGeometry, target_crs: str, output: str,
@@ -75,8 +75,8 @@ def prepare_tile_buildings(buildings: str, tile_area: BaseGeometry, owner: TileO
                            context_margin=CONTEXT_MARGIN, stats_csv=str(Path(output).with_suffix(".csv")))
     report = prepare_vectors(buildings, None, None, StudyArea.polygon(tile_area, owner.target_crs), output, config,
                              feedback)
-    owned = any(s.layer == model.PREPARED_BUILDINGS and s.features_out for s in report.stats)
-    return [name for name in report.layers if owned or name != model.PREPARED_BUILDINGS]
+    owned = any(s.layer == step_layers.PREPARED_BUILDINGS and s.features_out for s in report.stats)
+    return [name for name in report.layers if owned or name != step_layers.PREPARED_BUILDINGS]
 
 
 def area_of_layer(path: str, target_crs: str) -> BaseGeometry:

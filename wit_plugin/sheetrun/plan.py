@@ -23,7 +23,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from ..errors import InputError
-from ..mapsheet import MapSheet, parse_sheet_number, sheets_at, sheets_covering
+from ..mapsheet import parse_sheet_number, sheet_polygon, sheets_at, sheets_overlapping
 
 TILE_SCALES = (5000, 1000)
 
@@ -42,29 +42,10 @@ def _check(scale: int) -> None:
                          "(the NGII 1:5,000 or 1:1,000 sheets).")
 
 
-def tile_polygon(sheet: MapSheet, target_crs: str, sheet_crs: str = "EPSG:4737") -> BaseGeometry:
-    """The sheet's corners (NW, NE, SE, SW) projected to ``target_crs``, joined by straight edges."""
-    to_target = pyproj.Transformer.from_crs(sheet_crs, target_crs, always_xy=True)
-    xs, ys = to_target.transform([sheet.west, sheet.east, sheet.east, sheet.west],
-                                 [sheet.north, sheet.north, sheet.south, sheet.south])
-    return shapely.Polygon(list(zip(xs, ys))[::-1])  # counter-clockwise: SW, SE, NE, NW
-
-
 def plan_tiles(area: BaseGeometry, target_crs: str, scale: int = 5000, sheet_crs: str = "EPSG:4737") -> list[Tile]:
     """The tiles whose polygon overlaps ``area`` (with a positive area), in sheet-number order."""
     _check(scale)
-    if area is None or area.is_empty or area.area <= 0:
-        raise InputError("The area to tile is empty.")
-    to_degrees = pyproj.Transformer.from_crs(target_crs, sheet_crs, always_xy=True)
-    ring = shapely.get_coordinates(shapely.segmentize(area.envelope, max(area.envelope.length / 256, 1.0)))
-    lon, lat = to_degrees.transform(ring[:, 0], ring[:, 1])
-    shapely.prepare(area)
-    tiles = []
-    for sheet in sheets_covering(min(lon), min(lat), max(lon), max(lat), scale):
-        polygon = tile_polygon(sheet, target_crs, sheet_crs)
-        if area.intersects(polygon) and area.intersection(polygon).area > 0:
-            tiles.append(Tile(sheet.number, polygon))
-    return sorted(tiles, key=lambda t: t.sheet)
+    return [Tile(sheet.number, polygon) for sheet, polygon in sheets_overlapping(area, target_crs, scale, sheet_crs)]
 
 
 def owners(points: np.ndarray, target_crs: str, scale: int = 5000, sheet_crs: str = "EPSG:4737") -> list[str]:
@@ -80,7 +61,7 @@ def owners(points: np.ndarray, target_crs: str, scale: int = 5000, sheet_crs: st
 
 def tile_of(sheet: str, target_crs: str, sheet_crs: str = "EPSG:4737") -> Tile:
     """The tile of a sheet number (for a worker given only the number)."""
-    return Tile(sheet, tile_polygon(parse_sheet_number(sheet), target_crs, sheet_crs))
+    return Tile(sheet, sheet_polygon(parse_sheet_number(sheet), target_crs, sheet_crs))
 
 
 @dataclass(frozen=True)
