@@ -5,8 +5,8 @@ output file, measured in the same run so the machine's load cancels out of the r
 
     .venv/bin/python benchmarks/bench_chain.py [--radius 1000] [--max-edge 5] [--runs 1] [--no-core]
 
-Prints the seconds per step (steps.json), the whole chain, the xmllint time and the ratios (issue 15
-goals: whole chain ≤ 30 s through qgis_process; validation ≤ 1.5 × xmllint; chain ≤ 3 × xmllint);
+Prints the seconds per step (steps.json), the whole chain, the xmllint time and the ratios (the
+project's goals: whole chain ≤ 30 s through qgis_process; validation ≤ 1.5 × xmllint; chain ≤ 3 × xmllint);
 writes out/bench/chain.json.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Benchmark a DEM in another CRS than the layers' (issue 21): the cost of reprojecting it on the fly,
+"""Benchmark a DEM in another CRS than the layers': the cost of reprojecting it on the fly,
 and how far the reprojected surface departs from bilinear sampling of the source DEM.
 
 Data: the generated 1 km sample around Suseo station (5 m DEM in EPSG:5186 with undeclared -9999

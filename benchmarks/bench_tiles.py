@@ -7,7 +7,7 @@ single-process chain on the same 1-tile area beside it (the reference measured i
 
 Data: the generated sample around Suseo (cached in out/bench/tiles/sample); the areas are blocks of
 whole 1:1,000 sheets (1×1, 2×2, 4×4) so every tile is full. Results: a table, and
-out/bench/tiles/results.json. Goals (issue 14): 16 tiles ≤ 17 × one tile; 2 workers ≥ 1.8 × faster
+out/bench/tiles/results.json. Goals: 16 tiles ≤ 17 × one tile; 2 workers ≥ 1.8 × faster
 than 1; peak memory per worker flat (≤ 1.5 GB) whatever the area.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The two terrain triangulators side by side (issue 24): Triangle (TRIANGULATOR 0, non-commercial licence)
+"""The two terrain triangulators side by side: Triangle (TRIANGULATOR 0, non-commercial licence)
 and CDT (TRIANGULATOR 1, MPL-2.0, with our Steiner points), on the same inputs.
 
 * ``area``: ``terrain.triangulate`` + the snap to the millimetre grid on the 1 km / 5 m sample (the data of

@@ -98,7 +98,7 @@ def triangulator(algorithm, parameters: dict, context, feedback) -> int:
 
 
 def add_height_parameters(algorithm, parent: str) -> None:
-    """Storey height, height field, height expression and default height (SPEC §4, wit_plugin.heights)."""
+    """Storey height, height field, height expression and default height (the rules: wit_plugin.heights)."""
     algorithm.addParameter(QgsProcessingParameterNumber(
         STOREY_HEIGHT, tr("Storey height (m)"), NumberType.Double, defaultValue=3.0, minValue=0.5))
     algorithm.addParameter(QgsProcessingParameterField(

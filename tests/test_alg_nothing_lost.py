@@ -1,4 +1,4 @@
-"""Nothing lost (issue 13): no algorithm writes over one of its inputs, and bad inputs are refused
+"""Nothing lost: no algorithm writes over one of its inputs, and bad inputs are refused
 up front with one message that names the problem; every input file stays byte-identical and no
 output (nor a partial one) is left behind."""
 from __future__ import annotations
@@ -468,7 +468,7 @@ def _dem(path: Path, epsg: int | None) -> str:
 
 @pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])
 def test_a_dem_in_another_crs_is_judged_in_its_own_crs(algorithm, data, tmp_path, run_algorithm):
-    """A DEM in EPSG:4326 is reprojected, never refused for its CRS (issue 21): this one stops at 127.1°E,
+    """A DEM in EPSG:4326 is reprojected, never refused for its CRS: this one stops at 127.1°E,
     150 m west of the buildings, and the message says so in its own degrees."""
     dem = _dem(data["folder"] / "dem4326.tif", 4326)
     parameters = {"BUILDINGS": data["buildings"], "DEM": dem, "OUTPUT": str(tmp_path / "out" / "o.gpkg")}

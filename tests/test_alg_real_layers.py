@@ -1,4 +1,4 @@
-"""Real national layers through Processing and through scripts/qgis-process (issue 21).
+"""Real national layers through Processing and through scripts/qgis-process.
 
 Every algorithm that reads vectors takes the NGII digital map as NGII ships it (Korean field names in
 CP949, an EUC-KR ``.cpg`` or none, EPSG:5187) with QGIS's own GDAL settings, without a crash; every
@@ -271,7 +271,7 @@ def test_real_layers_through_qgis_process(algorithm, scene, tmp_path, profile):
 
 
 def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path, profile):
-    """The issue's case: NGII buildings and road polygons as shipped (EUC-KR .cpg, Korean field names,
+    """NGII buildings and road polygons as shipped (EUC-KR .cpg, Korean field names,
     EPSG:5187), the DEM in EPSG:5186, the model in EPSG:5187, tiled on 1:5,000 sheets, through
     qgis_process: no crash, no failed tile, roads in every tile, every building's height = 층수 × storey
     height."""

@@ -1,4 +1,4 @@
-"""A DEM and orthoimage sheets in another CRS than the model's (issue 21, item 3), as users run the
+"""A DEM and orthoimage sheets in another CRS than the model's, as users run the
 algorithms: wit:triangulateterrain, wit:extrudebuildings and wit:citymodel through Processing in the
 QGIS process, wit:citymodeltiles headless through qgis_process on several tiles. The sample's DEM and
 sheets are in EPSG:5186 (the sheets as GeoTIFFs that carry that georeference), the model in EPSG:5187."""

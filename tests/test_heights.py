@@ -81,7 +81,7 @@ def test_user_choice_replaces_recognition_but_floors_of_juso_stay_first():
     rule = _rule(OSM, height_field="HEIGHT")  # case-insensitive lookup, the layer's spelling is used
     assert [(s.kind, s.name) for s in rule.sources] == [(FIELD, "height")]
     juso = _rule(JUSO + ["H_M"], height_field="H_M")
-    assert [s.name for s in juso.sources] == ["GRO_FLO_CO", "H_M"]  # SPEC §4: GRO_FLO_CO first
+    assert [s.name for s in juso.sources] == ["GRO_FLO_CO", "H_M"]  # the national layer's floor count first
     with pytest.raises(InputError, match="height field 'HGT' is not in the building layer"):
         _rule(OSM, height_field="HGT")
     with pytest.raises(InputError, match="must be positive"):

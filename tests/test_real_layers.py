@@ -1,4 +1,4 @@
-"""Real national layers in the form they ship (issue 21), core only: Korean field names in CP949 read
+"""Real national layers in the form they ship, core only: Korean field names in CP949 read
 without a crash under QGIS's GDAL settings, NGII / OpenStreetMap road schemas, road polygons as road
 surfaces, step inputs of any layer name. Layers are made by the tests (``ngii``)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Rasters in another CRS than the model's (issue 21, item 3): the DEM and the orthoimage reprojected on
+"""Rasters in another CRS than the model's: the DEM and the orthoimage reprojected on
 the fly, window by window — heights checked against gdal.Warp and against bilinear sampling of the
 source DEM at the transformed point, NoData, vertical values, the coverage check in the DEM's own CRS,
 sheets georeferenced in another CRS, and the chain run with the model in EPSG:5187."""
@@ -91,7 +91,8 @@ def _refusal(function, *args) -> str:
 
 
 def _bilinear(values: np.ndarray, gt: tuple, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """SPEC §4's formula straight on the source grid (this test's own, independent of the core)."""
+    """The paper's bilinear formula (Kang et al. 2025, §3.1) straight on the source grid (this test's own,
+    independent of the core)."""
     u = (x - gt[0]) / gt[1] - 0.5
     v = (y - gt[3]) / gt[5] - 0.5
     j, i = np.floor(u).astype(int), np.floor(v).astype(int)

@@ -1,4 +1,5 @@
-"""Read a DEM window and interpolate heights bilinearly between cell centres (SPEC §4).
+"""Read a DEM window and interpolate heights bilinearly between cell centres (as the paper,
+Kang et al. 2025, §3.1).
 
 The terrain TIN and the building bases both take their Z from here, so they agree exactly.
 Cells that hold NoData (the declared value, else anything ≤ −1000 because real files such as the
@@ -40,7 +41,7 @@ from .raster_crs import (
     warp,
 )
 
-#: values at or below this are NoData in files that declare no NoData value (SPEC §4)
+#: values at or below this are NoData in files that declare no NoData value (no real height is that low)
 NODATA_THRESHOLD = -1000.0
 
 Bounds = tuple[float, float, float, float]  # xmin, ymin, xmax, ymax
@@ -187,7 +188,7 @@ class Dem:
         return u, v
 
     def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Bilinear height at each (x, y) from the four surrounding cell centres (SPEC §4)."""
+        """Bilinear height at each (x, y) from the four surrounding cell centres."""
         u, v = self._indices(x, y)
         rows, cols = self.values.shape
         u = np.clip(u, 0.0, cols - 1.0)
