@@ -140,7 +140,8 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
         ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(run / "tiles" / tile.sheet / "lod1.gpkg"))
         layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon)
         for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
-                           (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal), (model.HEIGHT, ogr.OFTReal),
+                           (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal),
+                           (model.HEIGHT, ogr.OFTReal),
                            (model.STOREYS_ABOVE, ogr.OFTInteger), ("BULD_NM", ogr.OFTString)):
             layer.CreateField(ogr.FieldDefn(name, kind))
         ds.StartTransaction()
@@ -180,8 +181,8 @@ def browse(run: Path, scratch: Path, view_range: float) -> dict:
     viewer = scratch / "viewer"
     subprocess.run([sys.executable, str(ROOT / "scripts" / "viewer.py"), "build", str(run), str(viewer)], check=True,
                    capture_output=True)
-    server = subprocess.Popen([sys.executable, str(ROOT / "scripts" / "viewer.py"), "serve", str(viewer), "--port", "0"],
-                              stdout=subprocess.PIPE, text=True)
+    server = subprocess.Popen([sys.executable, str(ROOT / "scripts" / "viewer.py"), "serve", str(viewer),
+                               "--port", "0"], stdout=subprocess.PIPE, text=True)
     try:
         url = server.stdout.readline().strip() + f"?range={view_range}"
         result = subprocess.run(["node", str(ROOT / "viewer" / "browse.mjs"), url, str(scratch / "view.png"),

@@ -94,7 +94,8 @@ def child(*args: str) -> dict:
 CASES = ("synthetic-500", "drawn-500", "synthetic-1000", "drawn-1000", "drawn-yeoksam")
 #: the printed table: (key, title, alignment, width, format)
 COLUMNS = (("case", "case", "<", 16, ""), ("seconds", "time s", ">", 8, ".1f"), ("tiles", "tiles", ">", 7, ""),
-           ("megapixels", "Mpx", ">", 7, ".0f"), ("buildings", "buildings", ">", 11, ""), ("roads", "roads", ">", 7, ""),
+           ("megapixels", "Mpx", ">", 7, ".0f"), ("buildings", "buildings", ">", 11, ""),
+           ("roads", "roads", ">", 7, ""),
            ("peak_rss_mb", "peak RSS MB", ">", 13, ".0f"))
 
 

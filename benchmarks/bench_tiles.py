@@ -86,7 +86,8 @@ def main() -> int:
                   "triangles": sum(r["triangles"] for r in done),
                   "peak_mb_per_worker": max((r["peak_mb"] for r in done), default=0)}
         print(json.dumps(result), flush=True)
-        print(f"\n| district (40 km²) | workers | wall | tiles (failed) | buildings | TIN triangles | peak MB/worker |\n"
+        print("\n| district (40 km²) | workers | wall | tiles (failed) | buildings | TIN triangles | "
+              "peak MB/worker |\n"
               f"|---|---:|---:|---:|---:|---:|---:|\n| generated, 1:1,000 sheets | {workers} | "
               f"{seconds / 60:.1f} min | {result['tiles']} ({result['failed']}) | {result['buildings']:,} | "
               f"{result['triangles']:,} | {result['peak_mb_per_worker']:.0f} |\n(goal: a Gangnam-size area in "

@@ -222,7 +222,9 @@ def child_metrics(sample: str, run: str) -> dict:
     footprints = _footprints(p)
     ortho = metrics.texture_metrics(None, p["mosaic"], footprints.bounds, footprints)
     seconds = time.perf_counter() - start
-    q = lambda r: {"laplacian_variance": r.laplacian_variance, "contrast": r.contrast, "pixels": r.pixels}
+    def q(r):
+        return {"laplacian_variance": r.laplacian_variance, "contrast": r.contrast, "pixels": r.pixels}
+
     return {"model_textures": {"laplacian_variance": model.laplacian_variance, "contrast": model.contrast,
                                "pixels": model.pixels, "images": len(model.images), "masked": model.masked},
             "mosaic_buildings_box": q(ortho.ortho), "mosaic_in_footprints": q(ortho.ortho_inside),
@@ -357,7 +359,8 @@ def run_chain(name: str, sample: str, radius: float, runs: int, timeout: float |
 
     summary = {step: {"seconds": over(step, "seconds"), "wall_s": over(step, "wall_s"),
                       "peak_rss_mb": over(step, "peak_rss_mb")} for step in STEPS}
-    split = {part: stats([r["steps"].get("terrain", {}).get("info", {}).get("split_s", {}).get(part, 0.0) for r in per_run])
+    split = {part: stats([r["steps"].get("terrain", {}).get("info", {}).get("split_s", {}).get(part, 0.0)
+                          for r in per_run])
              for part in ("mesh", "dem_mapping", "write", "other")}
     complete = all(r["complete"] for r in per_run)
     total, total_wall = stats([r["total_s"] for r in per_run]), stats([r["total_wall_s"] for r in per_run])
@@ -426,7 +429,8 @@ def markdown(report: dict) -> str:
     names = list(sizes)
     md = ["# WIT City Model benchmarks vs the paper (Kang 2025)", "",
           (f"{report['machine']['cpus']} CPUs, {report['machine']['platform']}, Python {report['machine']['python']}; "
-          f"runs per size: {report['runs']}; started {report['started']}; took {report['elapsed_s'] / 60:.1f} min."), ""]
+          f"runs per size: {report['runs']}; started {report['started']}; "
+          f"took {report['elapsed_s'] / 60:.1f} min."), ""]
     for name in names:
         s = sizes[name]
         d = s["data"]
@@ -526,7 +530,8 @@ def markdown(report: dict) -> str:
                "whole-load = per query gdal.Open + ReadAsArray of the whole image (the paper's raster way); "
                "windowed = the tiled GeoTIFF kept open, read only the window; store = ColorStore (GeoPackage), "
                "opened once. Patch = 64 m × 64 m at 0.5 m (128 × 128 texels); point = one colour."), ""]
-        md += ["| approach | query | 1st / run 1 | 2nd / run 2 | 3rd / run 3 | average ± std |", "|---|---|---|---|---|---|"]
+        md += ["| approach | query | 1st / run 1 | 2nd / run 2 | 3rd / run 3 | average ± std |",
+               "|---|---|---|---|---|---|"]
         md.append(f"| paper: raster-based | – | {' | '.join(f'{v} s' for v in PAPER_T15['raster'])} | "
                   f"{PAPER_T15['raster_avg']} s |")
         md.append(f"| paper: vector-based | – | {' | '.join(f'{v} s' for v in PAPER_T15['vector'])} | "
@@ -670,7 +675,8 @@ def main() -> int:
     md = markdown(report)
     quick = args.quick
     for skip, title, script, extra in (
-            (args.skip_chain, "The whole chain as users run it (qgis_process) beside xmllint --stream", "bench_chain.py",
+            (args.skip_chain, "The whole chain as users run it (qgis_process) beside xmllint --stream",
+             "bench_chain.py",
              ["--radius", "300", "--no-core"] if quick else []),
             (args.skip_tiles, "Tiled runs on Dask (1:1,000 sheets)", "bench_tiles.py",
              ["--tiles", "1", "4"] if quick else []),

@@ -68,7 +68,8 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
         buildings.setSubsetString(f"\"{model.FACE_TYPE}\" = 'ground'")  # footprints, extruded by their height
         layers.append((buildings, _building_renderer))
     if tin:
-        layers.append((QgsVectorLayer(f"{tin}|layername={model.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"), _terrain_renderer))
+        terrain = QgsVectorLayer(f"{tin}|layername={model.TIN_LAYER}", tr("Terrain (TIN)"), "ogr")
+        layers.append((terrain, _terrain_renderer))
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
 

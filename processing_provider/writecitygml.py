@@ -60,7 +60,8 @@ class WriteCityGML(WitAlgorithm):
             self.OUTPUT, self.tr("CityGML file"), self.tr("CityGML files (*.gml)")))
         for name, label in (("BUILDINGS", self.tr("Buildings written")), ("ROADS_WRITTEN", self.tr("Roads written")),
                             ("TRIANGLES", self.tr("Terrain triangles written")),
-                            ("TEXTURED_SURFACES", self.tr("Textured surfaces")), ("GROUPS", self.tr("District groups"))):
+                            ("TEXTURED_SURFACES", self.tr("Textured surfaces")),
+                            ("GROUPS", self.tr("District groups"))):
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def extra_outputs(self, parameters, context) -> list:

@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
 os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
 
-from osgeo import gdal
+from osgeo import gdal  # noqa: E402  (after PROJ_DATA: GDAL reads it when it loads)
 
 _SESSION_GDAL_EXCEPTIONS = bool(gdal.GetUseExceptions())
 
@@ -168,8 +168,9 @@ def real_rasters(tmp_path_factory, shared_dir, qgis_processing) -> dict:
     ensure_wit_provider()
     rasters = tmp_path_factory.mktemp("rasters")
     ortho = str(rasters / "ortho.tif")
-    gdal.Translate(ortho, str(shared_dir / "data" / "ortho_usgs_hro_15cm" / "201404_13SED190110_201404_0x1500m_CL_1.tif"),
-                   outputSRS="EPSG:5186", outputBounds=[208990.0, 542990.0 + 232 * 0.15, 208990.0 + 383 * 0.15, 542990.0])
+    source = shared_dir / "data" / "ortho_usgs_hro_15cm" / "201404_13SED190110_201404_0x1500m_CL_1.tif"
+    gdal.Translate(ortho, str(source), outputSRS="EPSG:5186",
+                   outputBounds=[208990.0, 542990.0 + 232 * 0.15, 208990.0 + 383 * 0.15, 542990.0])
     dem = rasters / "dem.tif"
     dem.write_bytes((shared_dir / "data" / "dem_seoul_90m_5186" / "seoul_dem.tif").read_bytes())
     vectors = tmp_path_factory.mktemp("vectors")
@@ -256,6 +257,7 @@ def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False, 
         server.wait(timeout=10)
     report = json.loads(result.stdout)
     assert report["loaded"], report
-    assert not (report["consoleErrors"] or report["pageErrors"] or report["httpErrors"] or report["failedRequests"]), report
+    assert not (report["consoleErrors"] or report["pageErrors"] or report["httpErrors"]
+                or report["failedRequests"]), report
     assert report["externalRequests"] == []  # offline: nothing but the local server
     return report, np.moveaxis(gdal.Open(str(shot)).ReadAsArray()[:3], 0, -1).reshape(-1, 3).astype(int)

@@ -103,7 +103,8 @@ INPUTS = {
     "wit:export3dtiles": lambda d: {"LOD1": d["lod1"], "TIN": d["tin"], "TEXTURES": d["textures"]},
     "wit:validatecitygml": lambda d: {"INPUT": [d["gml"]]},
     "wit:buildcolorstore": lambda d: {"INPUT": d["rgb"]},
-    "wit:querycolorstore": lambda d: {"STORE": d["store"], "POINTS": d["points"], "EXTENT": "209000,209010,543000,543010 [EPSG:5186]"},
+    "wit:querycolorstore": lambda d: {"STORE": d["store"], "POINTS": d["points"],
+                                      "EXTENT": "209000,209010,543000,543010 [EPSG:5186]"},
     "wit:qualitymetrics": lambda d: {"MODEL": d["gml"], "SOURCE_BUILDINGS": d["buildings"], "ORTHO": d["rgb"]},
     "wit:citymodel": lambda d: {"ORTHO_INPUT": [d["sheet"]], "DEM": d["dem"], "BUILDINGS": d["buildings_shp"],
                                 "ROADS": d["roads_shp"]},
@@ -265,7 +266,8 @@ def test_a_layer_of_the_wrong_geometry_type_is_refused(algorithm, parameter, dat
 @pytest.fixture
 def floors(data):
     """Buildings with floor counts, as wit:preparevectors writes them."""
-    return vector(data["folder"] / "floors.gpkg", "buildings", [SQUARE, "POLYGON((209015 543015,209025 543015,209025 543025,209015 543025,209015 543015))"],
+    return vector(data["folder"] / "floors.gpkg", "buildings",
+                  [SQUARE, "POLYGON((209015 543015,209025 543015,209025 543025,209015 543025,209015 543015))"],
                   fields={"wit_id": ogr.OFTString, "GRO_FLO_CO": ogr.OFTInteger},
                   rows=[{"wit_id": "BLD_1", "GRO_FLO_CO": 0}, {"wit_id": "BLD_2", "GRO_FLO_CO": 0}])
 
@@ -544,8 +546,8 @@ def test_writecitygml_refuses_to_copy_textures_onto_their_source(data, tmp_path,
 def test_terrain_leaves_out_non_finite_constraints_with_a_warning(data, tmp_path, wit_provider):
     good = [(209002, 543002), (209010, 543002), (209010, 543010), (209002, 543010), (209002, 543002)]
     buildings = _ring_layer(data["folder"] / "inf.gpkg", [good, _broken(209012, INF), _broken(209020, NAN)])
-    result, warnings = run_logged("wit:triangulateterrain", {"DEM": data["dem"], "AREA": data["area"],
-                                                             "BUILDINGS": buildings, "OUTPUT": str(tmp_path / "t.gpkg")})
+    result, warnings = run_logged("wit:triangulateterrain", {
+        "DEM": data["dem"], "AREA": data["area"], "BUILDINGS": buildings, "OUTPUT": str(tmp_path / "t.gpkg")})
     assert result["TRIANGLES"] > 0
     assert any("buildings: 2 feature(s) with infinite or NaN coordinates left out" in w for w in warnings), warnings
     assert any(w.startswith("2 building/road polygon(s) dropped") for w in warnings), warnings

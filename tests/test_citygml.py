@@ -119,7 +119,8 @@ def make_inputs(folder: Path) -> citygml.CityGMLInputs:
              **{model.TIN_TRIANGLE_ID: tri_id, model.TIN_SURFACE: surface, model.TIN_FEATURE_ID: feature_id})
     ds = None
     ds, layer = _layer(folder / "roads.gpkg", model.PREPARED_ROADS, ogr.wkbPolygon, {
-        model.WIT_ID: ogr.OFTString, "RN": ogr.OFTString, "ROAD_BT": ogr.OFTReal, model.ROAD_WIDTH_SOURCE: ogr.OFTString})
+        model.WIT_ID: ogr.OFTString, "RN": ogr.OFTString, "ROAD_BT": ogr.OFTReal,
+        model.ROAD_WIDTH_SOURCE: ogr.OFTString})
     _add(layer, _polygon([[(208990, 543110), (209050, 543110), (209050, 543118), (208990, 543118), (208990, 543110)]]),
          **{model.WIT_ID: ROAD, "RN": "세종대로", "ROAD_BT": 8.0, model.ROAD_WIDTH_SOURCE: "ROAD_BT"})
     ds = None
@@ -196,7 +197,8 @@ def test_counts_and_report(written):
     assert report.triangles == 5 and report.textures == 2 and report.textured_surfaces == 5
     assert report.groups == 2 and report.group_members == 2
     assert report.envelope == pytest.approx((208990, 543110, 9.5, 209050, 543140, 18.6))
-    assert _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/gml:lowerCorner/text()") == ["208990.000 543110.000 9.500"]
+    lower_corner = _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/gml:lowerCorner/text()")
+    assert lower_corner == ["208990.000 543110.000 9.500"]
     assert _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/@srsName") == ["EPSG:5186"]  # easting first
 
 
@@ -318,7 +320,8 @@ def test_input_errors(written, tmp_path):
     inputs, _, _, _ = written
     with pytest.raises(InputError, match="does not exist"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=str(tmp_path / "missing.gpkg")), str(tmp_path / "x.gml"))
-    with pytest.raises(InputError, match=r"lacks the field\(s\) .*wit_face.* of the LoD1 faces \(wit:extrudebuildings\)"):
+    with pytest.raises(InputError,
+                       match=r"lacks the field\(s\) .*wit_face.* of the LoD1 faces \(wit:extrudebuildings\)"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=inputs.roads), str(tmp_path / "x.gml"))
     with pytest.raises(InputError, match="EPSG:5186, not EPSG:5179"):
         citygml.write_citygml(citygml.CityGMLInputs(lod1=inputs.lod1), str(tmp_path / "x.gml"), srs_name="EPSG:5179")
@@ -370,7 +373,7 @@ def test_raw_polygon_markup_is_what_lxml_would_write():
     """The ready-made markup for the repeated geometry (``_Writer.raw``) equals lxml's element."""
     geometry = ogr.CreateGeometryFromWkt("POLYGON Z ((0 0 1, 10 0 1, 10 10 2.5, 0 0 1), "
                                          "(2 1 1, 8 1 1, 8 7 1.25, 2 1 1))")
-    gml = "{%s}" % citygml.NS["gml"]
+    gml = "{" + citygml.NS["gml"] + "}"
     expected = etree.Element(gml + "Polygon", {gml + "id": "BLD_1_f3"}, nsmap={"gml": citygml.NS["gml"]})
     for i, side in enumerate(("exterior", "interior")):
         ring = etree.SubElement(etree.SubElement(expected, gml + side), gml + "LinearRing",

@@ -64,7 +64,8 @@ def test_undecodable_block_names_file_band_and_window(landsat, tmp_path, gdal_ex
     data[offset + 2:offset + size] = b"\x55" * (size - 2)
     garbled.write_bytes(data)
     ds = open_raster(garbled, "orthoimage")
-    np.testing.assert_array_equal(read_window(ds, 0, 0, 256, 256, "x"), gdal.Open(str(landsat)).ReadAsArray(0, 0, 256, 256))
+    np.testing.assert_array_equal(read_window(ds, 0, 0, 256, 256, "x"),
+                                  gdal.Open(str(landsat)).ReadAsArray(0, 0, 256, 256))
     with pytest.raises(InputError, match=r"^Cannot read the orthoimage .*garbled.tif, band 2, pixels x 300–309, "
                                          r"y 260–269: .*IReadBlock failed.*; the file may be truncated or damaged"):
         read_window(ds.GetRasterBand(2), 300, 260, 10, 10, f"the orthoimage {garbled}")

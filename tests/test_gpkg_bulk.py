@@ -123,7 +123,8 @@ for limit in json.loads(sys.argv[2]):
     folder = tempfile.mkdtemp(dir=sys.argv[3])
     resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.RLIM_INFINITY))
     try:
-        write_layer(os.path.join(folder, "tin.gpkg"), "tin", pyproj.CRS.from_epsg(5186), [FieldDef("n", ogr.OFTInteger)],
+        write_layer(os.path.join(folder, "tin.gpkg"), "tin", pyproj.CRS.from_epsg(5186),
+                    [FieldDef("n", ogr.OFTInteger)],
                     corners, [np.arange(len(corners))], spatial_index=sys.argv[4] == "index")
         outcome = "ok"
     except Exception as exc:

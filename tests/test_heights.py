@@ -39,7 +39,8 @@ def test_ngii_digital_map_building_layer_uses_bflr_co():
     assert rule.floors_field == "BFLR_CO"
 
 
-@pytest.mark.parametrize("fields", [["UFID", "명칭", "구분", "종류", "용도", "주기", "층수", "측량방법"], ["층수", "용도"]])
+@pytest.mark.parametrize("fields", [["UFID", "명칭", "구분", "종류", "용도", "주기", "층수", "측량방법"],
+                                    ["층수", "용도"]])
 def test_ngii_digital_map_buildings_as_shipped_use_their_korean_floor_field(fields):
     """N3A_B0010000 as NGII ships it: Korean field names (층수 = floors above ground)."""
     rule = _rule(fields, storey_height=3.0)

@@ -19,9 +19,10 @@ from wit_citymodel.processing_provider.provider import ALGORITHMS, MODELS
 
 pytestmark = pytest.mark.qgis_facing
 
-EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors", "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
-                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics", "wit:citymodel",
-                "wit:export3dtiles"}
+EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors",
+                "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
+                "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics",
+                "wit:citymodel", "wit:export3dtiles"}
 
 
 def _without_registered_provider():
@@ -113,7 +114,8 @@ def test_plugin_loads_without_optional_packages_and_explains_how_to_install(tmp_
            "XDG_RUNTIME_DIR": str(tmp_path), "QGIS_CUSTOM_CONFIG_PATH": str(tmp_path / "profile")}
     result = subprocess.run(["/usr/bin/python3", "-c", script], capture_output=True, text=True,
                             env=env, timeout=120)
-    assert "wit:generatesample" in next(l for l in result.stdout.splitlines() if l.startswith("ALGS")), result.stdout + result.stderr
+    listed = next(line for line in result.stdout.splitlines() if line.startswith("ALGS"))
+    assert "wit:generatesample" in listed, result.stdout + result.stderr
     assert "HELP True" in result.stdout
     assert "OK False" in result.stdout
     error = next(line for line in result.stdout.splitlines() if line.startswith("ERROR"))

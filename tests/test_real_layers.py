@@ -140,7 +140,8 @@ def test_a_declared_euc_kr_that_holds_cp949_syllables_is_read_as_cp949_with_a_wa
 
 def test_korean_field_names_with_ascii_text_are_still_decoded(tmp_path):
     """Names alone decide too: every value ASCII, the names Korean (the sniff reads the DBF header)."""
-    path = ngii.write_shapefile(tmp_path / "n.shp", ogr.wkbPolygon, [("층수", ogr.OFTInteger, 10), ("구분", ogr.OFTString, 10)],
+    path = ngii.write_shapefile(tmp_path / "n.shp", ogr.wkbPolygon,
+                                [("층수", ogr.OFTInteger, 10), ("구분", ogr.OFTString, 10)],
                                 [{"층수": 3, "구분": "A1"}], [ngii.building_wkt(0, 0)], cpg=None)
     found = _json(in_subprocess(f"""
         import json
@@ -166,11 +167,12 @@ def test_a_csv_with_cp949_field_names_is_read_feature_by_feature(tmp_path):
                 self.warnings.append(message)
         feedback = F()
         layer = vector_io.read_layer({str(path)!r}, crs="EPSG:5187", feedback=feedback)
-        print(json.dumps([[f.name for f in layer.fields], layer.columns["용도"], layer.geoms[0].area, feedback.warnings],
-                         ensure_ascii=False))
+        print(json.dumps([[f.name for f in layer.fields], layer.columns["용도"], layer.geoms[0].area,
+                          feedback.warnings], ensure_ascii=False))
         """))
     assert found[:3] == [["WKT", "층수", "용도"], ["단독주택"], 100.0]
-    assert found[3] == ["건물.csv: 2 field name(s) are not UTF-8 (read as 층수, 용도); the layer is read feature by feature."]
+    assert found[3] == [
+        "건물.csv: 2 field name(s) are not UTF-8 (read as 층수, 용도); the layer is read feature by feature."]
 
 
 def test_the_feature_api_gives_the_arrow_readers_columns(tmp_path):
@@ -233,13 +235,16 @@ def test_a_step_takes_a_files_only_layer_its_own_name_or_the_named_one(tmp_path)
     ([n for n, _, _ in ngii.CENTRE_LINE_FIELDS], {"도로폭": 0.0, "차로수": 2}, (6.5, "차로수 × 3.25 m")),
     ([n for n, _, _ in ngii.CENTRE_LINE_FIELDS], {"도로폭": None, "차로수": None}, (6.0, "default")),
     (["UFID", "ROAD_NO", "ROAD_SE", "CARTRK_CO", "ROAD_BT"], {"ROAD_BT": 8.5, "CARTRK_CO": 2}, (8.5, "ROAD_BT")),
-    (["UFID", "ROAD_NO", "ROAD_SE", "CARTRK_CO", "ROAD_BT"], {"ROAD_BT": None, "CARTRK_CO": 3}, (9.75, "CARTRK_CO × 3.25 m")),
+    (["UFID", "ROAD_NO", "ROAD_SE", "CARTRK_CO", "ROAD_BT"], {"ROAD_BT": None, "CARTRK_CO": 3},
+     (9.75, "CARTRK_CO × 3.25 m")),
     (["UFID", "RDNU", "NAME", "RDDV", "RDLN", "RVWD"], {"RVWD": "15", "RDLN": 4}, (15.0, "RVWD")),
     (["UFID", "RDNU", "NAME", "RDDV", "RDLN", "RVWD"], {"RVWD": None, "RDLN": "2"}, (6.5, "RDLN × 3.25 m")),
     (["SIG_CD", "RDS_MAN_NO", "ROA_CLS_SE", "ROAD_BT"], {"ROAD_BT": 0, "ROA_CLS_SE": "3"}, (12.0, "ROA_CLS_SE=3")),
     (["osm_id", "highway", "width", "lanes"], {"highway": "primary", "width": "7.5 m", "lanes": "2"}, (7.5, "width")),
-    (["osm_id", "highway", "width", "lanes"], {"highway": "primary", "width": None, "lanes": "3"}, (9.75, "lanes × 3.25 m")),
-    (["osm_id", "highway", "width", "lanes"], {"highway": "residential", "width": "", "lanes": "2;3"}, (6.5, "highway=residential")),
+    (["osm_id", "highway", "width", "lanes"], {"highway": "primary", "width": None, "lanes": "3"},
+     (9.75, "lanes × 3.25 m")),
+    (["osm_id", "highway", "width", "lanes"], {"highway": "residential", "width": "", "lanes": "2;3"},
+     (6.5, "highway=residential")),
     (["osm_id", "highway"], {"highway": "footway"}, (2.0, "highway=footway")),
     (["id", "name"], {}, (6.0, "default")),
 ])

@@ -256,7 +256,8 @@ def test_the_coverage_check_judges_a_dem_in_its_own_crs(dem_4326, tmp_path):
     message = _refusal(require_dem, path, east, "EPSG:5187")
     assert message.startswith("The DEM dem_4326.tif (x 127.080000–127.121667, y 37.468333–37.510000 in its CRS, "
                               "EPSG:4326) does not cover the area (x 127.")
-    assert re.search(r"\(the area's box in EPSG:5187, reprojected\)\): it stops short by 0\.0\d{5}° to the east\. ", message)
+    assert re.search(r"\(the area's box in EPSG:5187, reprojected\)\): "
+                     r"it stops short by 0\.0\d{5}° to the east\. ", message)
     assert sorted(p.name for p in folder.iterdir()) == before  # nothing written beside the DEM (no .aux.xml)
 
 
@@ -303,8 +304,8 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
     assert sorted(p.name for p in inputs.iterdir()) == before  # nothing beside the inputs
     assert sorted(p.name for p in (tmp_path / "geo").iterdir()) == [
         "37709004.vrt", "37709004.warped.vrt", "37709005.vrt", "37709005.warped.vrt"]
-    assert any("carries its own georeference in EPSG:5186: reprojected to EPSG:5187 (bilinear, 2 m pixels) → 37709005.vrt" in m
-               for m in log.infos)
+    assert any("carries its own georeference in EPSG:5186: reprojected to EPSG:5187 (bilinear, 2 m pixels) "
+               "→ 37709005.vrt" in m for m in log.infos)
     to_5186 = pyproj.Transformer.from_crs("EPSG:5187", "EPSG:5186", always_xy=True)
     for result, path in zip(results, paths):
         vrt, source = gdal.Open(result.output), gdal.Open(path)
@@ -331,7 +332,8 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
     tifs = georeference_sheets(paths[1:], tmp_path / "geo_tif", "EPSG:5187", fmt="GTiff")  # a GeoTIFF, masked
     assert [p.name for p in (tmp_path / "geo_tif").iterdir()] == ["37709005.tif"]
     tif, vrt = gdal.Open(tifs[0].output), gdal.Open(results[1].output)
-    assert tif.GetGeoTransform() == vrt.GetGeoTransform() and tif.GetRasterBand(1).GetMaskFlags() == gdal.GMF_PER_DATASET
+    assert tif.GetGeoTransform() == vrt.GetGeoTransform()
+    assert tif.GetRasterBand(1).GetMaskFlags() == gdal.GMF_PER_DATASET
     np.testing.assert_array_equal(tif.ReadAsArray(), vrt.ReadAsArray())
     np.testing.assert_array_equal(tif.GetRasterBand(1).GetMaskBand().ReadAsArray(),
                                   vrt.GetRasterBand(1).GetMaskBand().ReadAsArray())

@@ -267,7 +267,8 @@ def test_roads_without_width_get_the_class_or_default_width_with_a_warning(tmp_p
     defaulted = [w for w in feedback.warnings if "1 of 1 centre line(s) have no width, lane count or known class" in w]
     assert len(defaulted) == warned and all("default width 6 m" in w for w in defaulted)
     source = "default" if warned else f"highway={highway}"
-    assert f"Road width rule: OpenStreetMap roads: highway class default → default 6 m; 1 from {source}" in feedback.infos
+    rule = f"Road width rule: OpenStreetMap roads: highway class default → default 6 m; 1 from {source}"
+    assert rule in feedback.infos
     geo = georeference_sheets([str(t) for t in result.ortho_tiles], tmp_path / "geo", RASTER_CRS, fmt="VRT")
     tiles = [(g.output, np.ones(3)) for g in geo]
     asphalt = _chroma(_PALETTE[ASPHALT])

@@ -859,10 +859,12 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
     build = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
                             "--target", str(target), str(source)], capture_output=True, text=True, cwd=tmp_path)
     assert build.returncode == 0, build.stderr[-2000:]
-    probe = subprocess.run([sys.executable, "-c", "import wit_plugin.tiles.worker as w, wit_plugin.citygml.schemas as s; "
+    probe = subprocess.run([sys.executable, "-c",
+                            "import wit_plugin.tiles.worker as w, wit_plugin.citygml.schemas as s; "
                             "print(w.__file__); print((s.EMBEDDED_DIR / 'citygml3-all.xsd').is_file())"],
                            capture_output=True, text=True, cwd=tmp_path,
-                           env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
+                           env=dict(os.environ,
+                                    PYTHONPATH=os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])))
     assert probe.returncode == 0, probe.stderr[-2000:]
     assert probe.stdout.split() == [str(target / "wit_plugin" / "tiles" / "worker.py"), "True"]
 

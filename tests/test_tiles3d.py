@@ -237,7 +237,8 @@ def test_buildings_carry_their_attributes_and_korean_names(chain):
         metadata = content["gltf"].extensions["EXT_structural_metadata"]
         properties = metadata["schema"]["classes"]["building"]["properties"]
         assert properties[model.HEIGHT]["componentType"] == "FLOAT64" and properties["BULD_NM"]["type"] == "STRING"
-        assert {model.WIT_ID, model.HEIGHT, model.HEIGHT_SOURCE, model.STOREYS_ABOVE, model.STOREYS_BELOW} <= set(properties)
+        assert {model.WIT_ID, model.HEIGHT, model.HEIGHT_SOURCE, model.STOREYS_ABOVE,
+                model.STOREYS_BELOW} <= set(properties)
         ids = _property_strings(content["gltf"], content["blob"], "wit_id")
         if "BULD_NM" in metadata["propertyTables"][0]["properties"]:
             for wit_id, name in zip(ids, _property_strings(content["gltf"], content["blob"], "BULD_NM")):
@@ -296,8 +297,8 @@ def test_bad_inputs_and_outputs_are_refused_before_anything_is_written(chain, tm
         export_tileset(lod1, tin, textures, str(tmp_path / "b"), crs="EPSG:4326")
     with pytest.raises(InputError, match="EPSG:5186"):
         export_tileset(lod1, tin, textures, str(tmp_path / "c"), crs="EPSG:5179")
-    with pytest.raises(InputError, match=r"Layer 'tin' .* lacks the field\(s\) wit_id, wit_face, wit_face_no, wit_height "
-                                         r"of the LoD1 faces \(wit:extrudebuildings\)"):
+    with pytest.raises(InputError, match=r"Layer 'tin' .* lacks the field\(s\) wit_id, wit_face, wit_face_no, "
+                                         r"wit_height of the LoD1 faces \(wit:extrudebuildings\)"):
         export_tileset(tin, None, None, str(tmp_path / "d"))
     assert not any((tmp_path / n).exists() for n in "abcd")
 

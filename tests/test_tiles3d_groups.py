@@ -237,7 +237,8 @@ def test_a_run_across_two_1_50000_sheets_gets_bounded_files_that_our_checker_pas
     check = check_tileset(tmp_path)
     assert check.problems == [] and check.property_tables == 3
     assert set(check.tilesets) == {"tileset.json", "3dtiles-groups/377.json"} | {
-        f"3dtiles-groups/{g}.json" for g in groups["377"].children} | {f"tiles/{s}/3dtiles/tileset.json" for s in sheets}
+        f"3dtiles-groups/{g}.json" for g in groups["377"].children} | {
+        f"tiles/{s}/3dtiles/tileset.json" for s in sheets}
     assert written.root_bytes == (tmp_path / "tileset.json").stat().st_size < 1000
     block = json.loads((tmp_path / "3dtiles-groups" / "377.json").read_text())["root"]
     assert block["geometricError"] == pytest.approx(written.errors["377"], abs=1e-3)

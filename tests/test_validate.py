@@ -64,8 +64,8 @@ def test_valid_examples_have_no_errors(name, schema_dir, tmp_path):
 
 
 def test_only_warning_on_valid_examples_is_2d_address_point(schema_dir, tmp_path):
-    reports = validate.validate_files([str(_with_texture(schema_dir / "examples" / n, tmp_path)) for n in VALID_EXAMPLES],
-                                      schema_dir)
+    reports = validate.validate_files(
+        [str(_with_texture(schema_dir / "examples" / n, tmp_path)) for n in VALID_EXAMPLES], schema_dir)
     warnings = [i for r in reports for i in r.issues]
     assert [(Path(w.file).name, w.check, w.line) for w in warnings] == [
         ("Building_CityGML3.0_LOD2_with_several_attributes.gml", "dimension", 294)]
@@ -124,7 +124,8 @@ FAULTS = {  # fixture -> (check, line, gml:id, words in the message)
     "texcoord_count": ("texture-coordinates", 159, "tex_tile_1", "4 texture coordinate pairs for ring #bldg_1_roof_r, "
                        "which has 5 points"),
     "texcoord_nan": ("texture-coordinates", 159, "tex_tile_1", "contain 'NaN'"),
-    "unknown_ade": ("ade", 105, None, "uses ADE namespace http://example.org/ade/energy/1.0 whose schema is not available"),
+    "unknown_ade": ("ade", 105, None,
+                    "uses ADE namespace http://example.org/ade/energy/1.0 whose schema is not available"),
 }
 
 
@@ -176,8 +177,8 @@ def _geographic(src: Path, dest: Path, srs_name: str, order: str, lon_shift: flo
                                   "handmade_LOD1_textured_building_TIN_group.gml"])
 def test_examples_in_degrees_are_valid(name, srs_name, schema_dir, tmp_path):
     """A closed solid is closed and a 10 m triangle not degenerate in degrees too (0.001 was 100 m there)."""
-    path = _with_texture(_geographic(schema_dir / "examples" / name, tmp_path / "degrees" / name, srs_name, GEOGRAPHIC[srs_name]),
-                         tmp_path)
+    path = _with_texture(_geographic(schema_dir / "examples" / name, tmp_path / "degrees" / name, srs_name,
+                                     GEOGRAPHIC[srs_name]), tmp_path)
     report = _one(path, schema_dir)
     assert report.issues == [] and report.valid
 
@@ -336,8 +337,8 @@ def test_unknown_crs_is_read_as_metres_with_a_warning(schema_dir, tmp_path):
 
 def test_gml_id_syntax_is_checked(schema_dir, tmp_path):
     path = tmp_path / "badid.gml"
-    path.write_text((DATA / "pos_2d.gml").read_text(encoding="utf-8").replace('gml:id="bldg_1_wall_n"', 'gml:id="1wall"'),
-                    encoding="utf-8")
+    text = (DATA / "pos_2d.gml").read_text(encoding="utf-8")
+    path.write_text(text.replace('gml:id="bldg_1_wall_n"', 'gml:id="1wall"'), encoding="utf-8")
     [issue] = [i for i in _one(path, schema_dir).issues if i.check == "xsd"]
     assert issue.gml_id == "1wall" and "not a valid XML name" in issue.message
 
@@ -432,8 +433,8 @@ def test_cancel_and_progress(schema_dir, tmp_path):
 
 
 def test_reports_csv_and_html(schema_dir, tmp_path):
-    reports = validate.validate_files([str(DATA / "unresolved_href.gml"), str(_with_texture(DATA / "open_solid.gml", tmp_path))],
-                                      schema_dir)
+    reports = validate.validate_files(
+        [str(DATA / "unresolved_href.gml"), str(_with_texture(DATA / "open_solid.gml", tmp_path))], schema_dir)
     reports[0].issues.append(validate.Issue(reports[0].file, "xsd", "error", 1, None, "<script>alert(1)</script> & co"))
     csv_path, html_path = tmp_path / "out" / "report.csv", tmp_path / "out" / "report.html"
     validate.write_report_csv(reports, str(csv_path))
@@ -565,7 +566,8 @@ def test_validation_survives_libxml2_cleanup_between_runs(schema_dir, monkeypatc
 
 # -- streaming: long runs of triangles and texture entries, ids as hashes -------------------------
 _NS = ('xmlns:core="http://www.opengis.net/citygml/3.0" xmlns:gml="http://www.opengis.net/gml/3.2" '
-       'xmlns:dem="http://www.opengis.net/citygml/relief/3.0" xmlns:app="http://www.opengis.net/citygml/appearance/3.0" '
+       'xmlns:dem="http://www.opengis.net/citygml/relief/3.0" '
+       'xmlns:app="http://www.opengis.net/citygml/appearance/3.0" '
        'xmlns:grp="http://www.opengis.net/citygml/cityobjectgroup/3.0" xmlns:xlink="http://www.w3.org/1999/xlink"')
 _FOO = ' foo="1"'  # an attribute no schema allows
 _UV = "0 0 1 0 0 1 0 0"  # 4 pairs: one per point of a triangle's ring (closing point included)
@@ -601,11 +603,13 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
     expected.append(("reference", line, None, "xlink:href of grp:groupMember '#ghost' points to no gml:id"))
     put('</grp:CityObjectGroup></core:cityObjectMember>')
     put('<core:cityObjectMember><dem:ReliefFeature gml:id="relief"><dem:lod>1</dem:lod><dem:reliefComponent>'
-        '<dem:TINRelief gml:id="tin"><dem:lod>1</dem:lod><dem:tin><gml:TriangulatedSurface gml:id="tin_s"><gml:patches>')
+        '<dem:TINRelief gml:id="tin"><dem:lod>1</dem:lod><dem:tin>'
+        '<gml:TriangulatedSurface gml:id="tin_s"><gml:patches>')
     for k in range(n):
         third = f"{k + 2} 0 10" if k in faulty else f"{k} 1 10"  # faulty: collinear corners
         line = put(f'<gml:Triangle{_FOO if k in faulty else ""}><gml:exterior><gml:LinearRing gml:id="t{k}_r">'
-                   f'<gml:posList srsDimension="3">{k} 0 10 {k + 1} 0 10 {third} {k} 0 10</gml:posList></gml:LinearRing>'
+                   f'<gml:posList srsDimension="3">{k} 0 10 {k + 1} 0 10 {third} {k} 0 10</gml:posList>'
+                   '</gml:LinearRing>'
                    '</gml:exterior></gml:Triangle>')
         if k in faulty:
             expected += [("xsd", line, "tin_s", "gml:Triangle', attribute 'foo': The attribute 'foo' is not allowed"),
@@ -619,13 +623,15 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
     for k in range(n):
         aid = duplicates.get(k, f"ta{k}")
         line = put(f'<app:textureParameterization><app:TextureAssociation gml:id="{aid}"'
-                   f'{_FOO if k in faulty else ""}><app:target>#{f"nowhere{k}" if k in faulty else "tin_s"}</app:target>')
+                   f'{_FOO if k in faulty else ""}>'
+                   f'<app:target>#{f"nowhere{k}" if k in faulty else "tin_s"}</app:target>')
         put('<app:textureParameterization><app:TexCoordList>'
             f'<app:textureCoordinates>{"0 0 1 0 0 1" if k in faulty else _UV}</app:textureCoordinates>')
         put(f'<app:ring>#t{k}_r</app:ring></app:TexCoordList></app:textureParameterization></app:TextureAssociation>'
             '</app:textureParameterization>')
         if k in faulty:
-            expected += [("xsd", line, aid, "app:TextureAssociation', attribute 'foo': The attribute 'foo' is not allowed"),
+            expected += [("xsd", line, aid,
+                          "app:TextureAssociation', attribute 'foo': The attribute 'foo' is not allowed"),
                          ("reference", line, None, f"app:target '#nowhere{k}' points to no gml:id"),
                          ("texture-coordinates", line + 1, aid, f"3 texture coordinate pairs for ring #t{k}_r, "
                           "which has 4 points")]
@@ -641,7 +647,8 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
             expected.append(("texture-coordinates", line, "ta_tin", f"TexCoordList has {n + 1} textureCoordinates "
                              f"but {n} ring references"))
         if k in faulty:
-            expected.append(("texture-coordinates", line, "ta_tin", f"Texture coordinates for ring #t{k}_r contain 'NaN'"))
+            expected.append(("texture-coordinates", line, "ta_tin",
+                             f"Texture coordinates for ring #t{k}_r contain 'NaN'"))
     for k in range(n):
         line = put(f'<app:ring{_FOO if k in faulty else ""}>#t{k}_r</app:ring>')
         if k in faulty:
@@ -787,11 +794,13 @@ def test_a_star_that_turns_one_way_twice_around_is_not_taken_for_convex():
 def test_an_error_met_at_the_end_tag_is_reported_on_the_start_tag_as_xmllint_does(schema_dir, tmp_path):
     """libxml2's streaming validator meets a missing child at the end tag (line 14); the element starts on 13."""
     path = tmp_path / "missing.gml"
-    path.write_text('<?xml version="1.0" encoding="UTF-8"?>\n<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0" '
+    path.write_text('<?xml version="1.0" encoding="UTF-8"?>\n'
+                    '<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0" '
                     'xmlns:gml="http://www.opengis.net/gml/3.2"\n xmlns:bldg="http://www.opengis.net/citygml/building/3.0">\n'
                     '<core:cityObjectMember>\n<bldg:Building gml:id="b1">\n<core:lod1Solid>\n<gml:Solid gml:id="s1">\n'
                     '<gml:exterior>\n<gml:Shell>\n<gml:surfaceMember>\n<gml:Polygon>\n<gml:exterior>\n'
-                    '<gml:LinearRing gml:id="r1">\n</gml:LinearRing>\n</gml:exterior>\n</gml:Polygon>\n</gml:surfaceMember>\n'
+                    '<gml:LinearRing gml:id="r1">\n</gml:LinearRing>\n</gml:exterior>\n</gml:Polygon>\n'
+                    '</gml:surfaceMember>\n'
                     '</gml:Shell>\n</gml:exterior>\n</gml:Solid>\n</core:lod1Solid>\n</bldg:Building>\n'
                     '</core:cityObjectMember>\n</core:CityModel>\n', encoding="utf-8")
     [issue] = [i for i in _one(path, schema_dir).issues if i.check == "xsd"]

@@ -199,13 +199,15 @@ def test_district_by_korean_or_english_name_is_the_code_area(juso: Path, tmp_pat
 def test_district_layer_of_another_schema_names_its_fields(juso: Path, tmp_path: Path):
     """A dong layer from another source (code ADM_CD, name ADM_NM) selects by the fields it names."""
     other = vector_io.read_layer(juso / "TL_SCCO_EMD.shp", encoding="CP949")
-    rows = [{"ADM_CD": code, "ADM_NM": name} for code, name in zip(other.columns["EMD_CD"], other.columns["EMD_KOR_NM"])]
+    rows = [{"ADM_CD": code, "ADM_NM": name}
+            for code, name in zip(other.columns["EMD_CD"], other.columns["EMD_KOR_NM"])]
     path = write_shapefile(tmp_path / "dongs.shp", [g.wkt for g in other.geoms], rows, epsg=5179, encoding="UTF-8")
     area = StudyArea.from_district_code("수서동", code_field="ADM_CD", name_field="ADM_NM")
     report = prepare_vectors(None, None, path, area, tmp_path / "o.gpkg")
     assert report.area.contains(shapely.Point(SUSEO_5186))
     with pytest.raises(InputError, match="has no field 'CODE'"):
-        prepare_vectors(None, None, path, StudyArea.from_district_code("수서동", code_field="CODE"), tmp_path / "p.gpkg")
+        prepare_vectors(None, None, path, StudyArea.from_district_code("수서동", code_field="CODE"),
+                        tmp_path / "p.gpkg")
     with pytest.raises(InputError, match="none of the fields EMD_CD, EMD_KOR_NM, EMD_ENG_NM"):
         prepare_vectors(None, None, path, StudyArea.from_district_code("수서동"), tmp_path / "q.gpkg")
 

@@ -367,7 +367,8 @@ def shortfall(short: dict[str, float], degrees: bool = False) -> str:
                      for side, amount in short.items())
 
 
-def _window(gt: tuple[float, ...], cols: int, rows: int, bounds: Bounds, margin_cells: int) -> tuple[int, int, int, int]:
+def _window(gt: tuple[float, ...], cols: int, rows: int, bounds: Bounds,
+            margin_cells: int) -> tuple[int, int, int, int]:
     """The cells (c0, r0, c1, r1; ends excluded) covering ``bounds`` plus a margin, within the raster."""
     us = [(x - gt[0]) / gt[1] for x in (bounds[0], bounds[2])]
     vs = [(y - gt[3]) / gt[5] for y in (bounds[1], bounds[3])]

@@ -161,7 +161,7 @@ def extrude(buildings: Sequence[tuple[str | None, BaseGeometry | None, dict]], d
     cleaned = clean_polygons([g for _, g, _ in buildings])
     parts: list[tuple[int, str, BaseGeometry]] = []
     skipped = 0
-    for k, ((wit_id, _, attrs), geom) in enumerate(zip(buildings, cleaned)):
+    for k, ((wit_id, _, _), geom) in enumerate(zip(buildings, cleaned)):
         name = str(wit_id) if wit_id is not None else f"BLD_{k + 1}"
         if geom is None:
             skipped += 1

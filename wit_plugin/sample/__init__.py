@@ -72,9 +72,11 @@ def _square_in(target: str, center: np.ndarray, half: float) -> tuple[float, flo
     return float(np.min(x)), float(np.min(y)), float(np.max(x)), float(np.max(y))
 
 
-def generate_sample(output_dir: str | Path, config: SampleConfig = SampleConfig(),
+def generate_sample(output_dir: str | Path, config: SampleConfig | None = None,
                     feedback: Feedback = SILENT) -> SampleResult:
-    """Generate the sample into ``output_dir``; nothing appears there unless every file is complete."""
+    """Generate the sample into ``output_dir`` (the default ``SampleConfig`` without ``config``); nothing
+    appears there unless every file is complete."""
+    config = config or SampleConfig()  # a new one per call: a mutable default would be shared by all
     _check(config)
     folder = Path(output_dir)
     lon_lat = Transformer.from_crs("EPSG:4737", "EPSG:5179", always_xy=True)

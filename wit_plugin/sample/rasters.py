@@ -97,7 +97,8 @@ class Terrain:
                 rng = np.random.default_rng([self.seed, 21, c, r])
                 if rng.random() < 0.55:
                     px, py = (c + rng.random()) * _HILL_CELL, (r + rng.random()) * _HILL_CELL
-                    hills.append((px, py, rng.uniform(10.0, 45.0), rng.uniform(200.0, 450.0), rng.uniform(200.0, 450.0)))
+                    hills.append((px, py, rng.uniform(10.0, 45.0), rng.uniform(200.0, 450.0),
+                                  rng.uniform(200.0, 450.0)))
         return hills
 
 

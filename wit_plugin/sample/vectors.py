@@ -177,8 +177,8 @@ def road_columns(data: VectorData, rng: np.random.Generator) -> dict[str, list]:
             rn, eng, rn_cd, width, length, cls, wdr, alwnc_de, reason, ntfc, rbp, rep = road.arterial
             bsi, mvmn_reason, mvm_code = "20", "직권수정(속성변경)", "99"
         else:
-            rn, eng, rn_cd, width, length, cls, wdr = (road.name, road.eng, road.rn_cd, road.width,
-                                                       round(float(shapely.LineString(road.coords).length), 3), "4", "3")
+            length = round(float(shapely.LineString(road.coords).length), 3)
+            rn, eng, rn_cd, width, cls, wdr = road.name, road.eng, road.rn_cd, road.width, "4", "3"
             alwnc_de, ntfc = "20101018", "20101203"
             dong_kor, lot = DONGS[road.dong][2], DONGS[road.dong][5] + int(rng.integers(0, 60))
             reason = f"{road.name[:-len(str(road.branch_no)) - 1]} 시점에서 {road.branch_no}번째 분기된 도로"
@@ -290,7 +290,7 @@ def _append_sliver(data: VectorData, host: int) -> None:
     sliver = np.array([p0, p1, p1 + inward * width, p0 + inward * width, p0])
     data.building_rings.append([sliver])
     cols = data.building_columns
-    for key, values in cols.items():
+    for values in cols.values():
         values.append(values[host])
     mgt = cols["BD_MGT_SN"][host]
     cols["BD_MGT_SN"][-1] = mgt[:19] + f"{int(mgt[19:]) + 500:06d}"
