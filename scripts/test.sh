@@ -5,6 +5,10 @@
 #                                    (scripts/qgis-chroot.sh; WIT_TEST_CHROOT=0 leaves that out);
 #                                    ruff first (scripts/lint.sh: its verdict counts, the tests run anyway)
 #   bash scripts/test.sh ARGS...     pytest ARGS on this machine's QGIS only
+#   bash scripts/test.sh --core ARGS...  the core tests only (marker qgis deselected), with qgis and
+#                                    processing unimportable (tests/without_qgis), the pytest-qgis plugin off:
+#                                    proof that they need no QGIS (make test-fast: --core -m "not slow"); name
+#                                    core test files only (a file named on the command line is always imported)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/setup.sh"
@@ -16,6 +20,11 @@ if [ -z "${WIT_TEST_POSTGIS_DSN:-}" ]; then
     WIT_TEST_POSTGIS_DSN="$(bash "$ROOT/scripts/postgis.sh")" \
         || echo "[test] WARNING: no PostgreSQL + PostGIS server" >&2
     [ -z "$WIT_TEST_POSTGIS_DSN" ] || export WIT_TEST_POSTGIS_DSN
+fi
+if [ "${1:-}" = --core ]; then
+    shift
+    export PYTHONPATH="$ROOT/tests/without_qgis:$PYTHONPATH"
+    set -- -p no:pytest_qgis -W ignore::pytest.PytestConfigWarning "$@"  # (its ini option, unknown without it)
 fi
 QGIS_CUSTOM_CONFIG_PATH="$(mktemp -d)"
 export QGIS_CUSTOM_CONFIG_PATH

@@ -299,6 +299,7 @@ def test_a_second_run_resumes(local_run, sample):
     assert {p: p.stat().st_mtime_ns for p in out.glob("tiles/*/model.gml")} == stamps
 
 
+@pytest.mark.slow  # two tiled runs: 88 s on a loaded 2-core machine
 def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_are_asked_for(local_run, sample,
                                                                                            tmp_path):
     import shutil
