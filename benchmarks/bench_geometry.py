@@ -52,8 +52,9 @@ def _setup() -> None:
 def prepare_data() -> dict:
     """Generate the sample and prepare its vectors once; later runs reuse them."""
     _setup()
+    from wit_plugin.area import StudyArea
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+    from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
     sample = DATA / "sample"
     prepared = DATA / "prepared.gpkg"

@@ -52,12 +52,12 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
 
     from wit_plugin import model
     from wit_plugin.mapsheet import sheets_covering
+    from wit_plugin.polygons import transform
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.tiles.plan import owners, plan_tiles
     from wit_plugin.tiles3d.geo import Georeference, column_major
     from wit_plugin.tiles3d.glb import GlbBuilder
     from wit_plugin.vector_io import read_layer
-    from wit_plugin.vectors import transform
 
     sample, run = folder / "sample", folder / "run"
     if not (sample / "sample_manifest.json").is_file():

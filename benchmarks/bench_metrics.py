@@ -48,11 +48,12 @@ def prepare_data(data: Path, radius: float) -> dict:
     """Run the chain once; later runs reuse every file that exists. Returns the paths and step times."""
     _setup()
     from wit_plugin import extrude, georef
+    from wit_plugin.area import StudyArea
     from wit_plugin.citygml import writer as citygml
     from wit_plugin.mosaic import merge_tiles
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.texture import TextureConfig, texture_model
-    from wit_plugin.vectors import StudyArea, prepare_vectors
+    from wit_plugin.vectors import prepare_vectors
 
     data.mkdir(parents=True, exist_ok=True)
     p = {name: str(data / file) for name, file in (

@@ -55,8 +55,9 @@ def cpu_seconds() -> float:
 def prepare_data() -> dict:
     """The sample, and its vectors prepared in both CRSs (once; later runs reuse them)."""
     _setup()
+    from wit_plugin.area import StudyArea
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+    from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
     sample = DATA / "sample"
     if not (sample / "sample_manifest.json").exists():

@@ -59,8 +59,8 @@ def make_layers(folder: str) -> dict:
 def run_case(case: str, out: str, pixel: float, layers: dict) -> dict:
     """One case in this process: seconds, tiles, buildings and roads drawn, peak RSS."""
     _core()
+    from wit_plugin.area import StudyArea
     from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers, generate_sample
-    from wit_plugin.vectors import StudyArea
 
     kind, size = case.split("-")
     config = SampleConfig(ortho_pixel_size=pixel)

@@ -55,12 +55,12 @@ def main() -> int:
 
     import shapely
 
+    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.tiles.plan import tile_of
     from wit_plugin.tiles.runner import run_tiles
     from wit_plugin.tiles.worker import peak_mb
-    from wit_plugin.vectors import StudyArea
 
     def sample(name: str, config: SampleConfig) -> ChainInputs:
         folder = OUT / name

@@ -65,11 +65,11 @@ def run_tiles_case(key: int, tiles: int) -> dict:
     from benchmarks.bench_tiles import OUT as TILES_OUT
     from benchmarks.bench_tiles import blocks
     from wit_plugin import triangulators
+    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.tiles.plan import tile_of
     from wit_plugin.tiles.runner import run_tiles
-    from wit_plugin.vectors import StudyArea
 
     folder = TILES_OUT / "sample"
     if not (folder / "sample_manifest.json").is_file():  # the same sample as bench_tiles.py

@@ -147,7 +147,8 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         seconds = time.perf_counter() - start
         info = {"width": report.width, "height": report.height, "blended_pixels": report.blended_pixels}
     elif step == "prepare":
-        from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+        from wit_plugin.area import StudyArea
+        from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
         start = time.perf_counter()
         report = prepare_vectors(p["buildings"], p["roads"], p["districts"],

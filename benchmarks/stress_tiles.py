@@ -145,11 +145,11 @@ def stress(args: argparse.Namespace) -> int:
     import shapely
     from bench_tiles import blocks
 
+    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.tiles.plan import tile_of
     from wit_plugin.tiles.runner import run_tiles, worker_python
-    from wit_plugin.vectors import StudyArea
 
     folder = OUT / "sample"  # bench_tiles.py's
     if not (folder / "sample_manifest.json").is_file():

@@ -101,8 +101,8 @@ class CityModelTiles(CityModel):
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def execute(self, parameters, context, feedback):
+        from ..wit_plugin.area import StudyArea
         from ..wit_plugin.tiles.runner import run_tiles
-        from ..wit_plugin.vectors import StudyArea
 
         inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)

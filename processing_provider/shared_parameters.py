@@ -63,7 +63,7 @@ def add_area_parameters(algorithm, radius: float = 1000.0) -> None:
 
 def study_area(algorithm, parameters: dict, context, feedback=None):
     """The core's StudyArea: a district if one is named, else the area layer, else the circle."""
-    from ..wit_plugin.vectors import StudyArea
+    from ..wit_plugin.area import StudyArea
 
     code = algorithm.parameterAsString(parameters, DISTRICT_CODE, context).strip()
     if code:

@@ -5,6 +5,8 @@
 # extra packages, and compiled translations.
 # Every step checks whether it is already done, so running it again costs a second or two.
 # WIT_SETUP_VIEWER=0: no web viewer (scripts/setup-viewer.sh; the QGIS-version test chroot goes without).
+# WIT_TRIANGLE=0: no `triangle` (Triangle is free for non-commercial use only): the terrain uses CDT
+# (MPL-2.0) alone; `make demo` works so, `make test` needs both backends.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -96,7 +98,9 @@ fi
 # from installing another one into the venv.
 NUMPY_VERSION="$("$SYS_PY" -c 'import numpy; print(numpy.__version__)')"
 STAMP="$VENV/.wit-requirements"
-WANT="$(cat requirements.txt requirements-dev.txt; echo "numpy==$NUMPY_VERSION shapely=$SHAPELY geos=$QGIS_GEOS")"
+TRIANGLE="${WIT_TRIANGLE:-1}"
+WANT="$(cat requirements.txt requirements-dev.txt
+        echo "numpy==$NUMPY_VERSION shapely=$SHAPELY geos=$QGIS_GEOS triangle=$TRIANGLE")"
 if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
     log "installing Python packages (the platform's numpy $NUMPY_VERSION, shapely: $SHAPELY)"
     printf 'numpy==%s\n' "$NUMPY_VERSION" > "$VENV/constraints.txt"
@@ -113,7 +117,9 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
     fi
     # triangle: J. R. Shewchuk's Triangle as the module `triangle`, from the `triangle` wheels (none
     # for Python 3.14 yet) or `triangle3` (the same module, wheels for 3.11-3.14), else built
-    if ! "$VENV/bin/python" -c 'import triangle' 2>/dev/null; then
+    if [ "$TRIANGLE" = 0 ]; then
+        "$VENV/bin/python" -m pip uninstall -q -y triangle triangle3 2>/dev/null || true
+    elif ! "$VENV/bin/python" -c 'import triangle' 2>/dev/null; then
         for requirement in "triangle>=20230923" "triangle3"; do
             "$VENV/bin/python" -m pip install -q --disable-pip-version-check --only-binary :all: \
                 "$requirement" 2>/dev/null && break

@@ -309,9 +309,10 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     import shapely
     from osgeo import ogr, osr
 
+    from wit_plugin.polygons import transform
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.vector_io import read_layer
-    from wit_plugin.vectors import road_widths, transform
+    from wit_plugin.vectors import road_widths
 
     folder = tmp_path_factory.mktemp("suseo")
     synthetic = generate_sample(folder / "synthetic", SampleConfig(radius_m=350.0, with_ortho=False, with_dem=False))
@@ -375,3 +376,37 @@ def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False, 
                 or report["failedRequests"]), report
     assert report["externalRequests"] == []  # offline: nothing but the local server
     return report, np.moveaxis(gdal.Open(str(shot)).ReadAsArray()[:3], 0, -1).reshape(-1, 3).astype(int)
+
+
+@pytest.fixture(scope="module")
+def xvfb_display():
+    """An X display (Xvfb) for the real QGIS window."""
+    import subprocess
+
+    assert shutil.which("Xvfb"), "Xvfb is not installed: scripts/setup.sh installs it"
+    read, write = os.pipe()
+    server = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", "1600x1000x24",
+                               "-nolisten", "tcp"], pass_fds=(write,),
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(write)
+    with os.fdopen(read) as pipe:
+        number = pipe.readline().strip()
+    try:
+        assert number, "Xvfb did not report a display"
+        yield f":{number}"
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
+
+
+def qgis_gui_profile(folder: Path, locale: str | None = None) -> Path:
+    """A throwaway QGIS profile folder with this checkout as the enabled plugin (and ``locale`` forced)."""
+    plugins = folder / "profiles" / "default" / "python" / "plugins"
+    plugins.mkdir(parents=True)
+    (folder / "profiles" / "default" / "QGIS").mkdir()
+    (plugins / "wit_citymodel").symlink_to(ROOT)
+    settings = "[PythonPlugins]\nwit_citymodel=true\nprocessing=true\n\n[qgis]\ncheckVersion=false\n"
+    if locale:
+        settings += f"\n[locale]\noverrideFlag=true\nuserLocale={locale}\nglobalLocale={locale}\n"
+    (folder / "profiles" / "default" / "QGIS" / "QGIS3.ini").write_text(settings, encoding="utf-8")
+    return folder

@@ -16,15 +16,15 @@ from pathlib import Path
 import ngii
 import numpy as np
 import pytest
-from conftest import ROOT, ensure_wit_provider
+from conftest import ROOT, ensure_wit_provider, qgis_gui_profile
 from lxml import etree
 from osgeo import gdal, ogr
 
 from wit_plugin import model
+from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.colorstore import build_color_store
 from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers
-from wit_plugin.vectors import StudyArea
 
 pytestmark = pytest.mark.slow
 
@@ -271,17 +271,16 @@ def test_real_layers_through_qgis_process(algorithm, scene, tmp_path, profile):
     check(report["results"], scene, tmp_path)
 
 
-def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path, profile):
+def _ngii_tiled(scene: dict, out: Path) -> dict:
     """NGII buildings and road polygons as shipped (EUC-KR .cpg, Korean field names,
-    EPSG:5187), the DEM in EPSG:5186, the model in EPSG:5187, tiled on 1:5,000 sheets, through
-    qgis_process: no crash, no failed tile, roads in every tile, every building's height = 층수 × storey
-    height."""
-    out = tmp_path / "tiles"
-    report = qgis_process({"ORTHO_INPUT": [scene["ortho"]], "DEM": scene["dem_5186"], "BUILDINGS": scene["buildings"],
-                           "ROADS": scene["roads"], "TARGET_CRS": TARGET, "ALL_BUILDINGS": True, "TILE_SCALE": 0,
-                           "WORKERS": 1, "MAX_EDGE": 20.0, "TILES3D": False, "OUTPUT": str(out)},
-                          "wit:citymodeltiles", profile)
-    results = report["results"]
+    EPSG:5187), the DEM in EPSG:5186, the model in EPSG:5187, tiled on 1:5,000 sheets."""
+    return {"ORTHO_INPUT": [scene["ortho"]], "DEM": scene["dem_5186"], "BUILDINGS": scene["buildings"],
+            "ROADS": scene["roads"], "TARGET_CRS": TARGET, "ALL_BUILDINGS": True, "TILE_SCALE": 0,
+            "WORKERS": 1, "MAX_EDGE": 20.0, "TILES3D": False, "OUTPUT": str(out)}
+
+
+def _check_ngii_tiled(results: dict, log: str, scene: dict, out: Path) -> None:
+    """No failed tile, roads in every tile, every building's height = 층수 × storey height."""
     assert (results["TILES_DONE"], results["TILES_FAILED"], results["TILES_EMPTY"]) == (2, 0, 0)
     assert results["BUILDINGS_WRITTEN"] == 12
     heights = {}
@@ -290,8 +289,39 @@ def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path, profile):
         assert _roads_of(gml) >= 1, sheet
         heights.update(_buildings_of(gml))
     assert heights == _ids_and_floors(scene["footprints"])
-    log = json.dumps(report.get("log", ""), ensure_ascii=False)
     assert "road polygon(s) of N3A_A0010000.shp are road surfaces as they are" in log
+
+
+@pytest.mark.qgis_facing
+def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path, profile):
+    """NGII layers as shipped, through qgis_process: no crash (a crash is an exit code here)."""
+    out = tmp_path / "tiles"
+    report = qgis_process(_ngii_tiled(scene, out), "wit:citymodeltiles", profile)
+    _check_ngii_tiled(report["results"], json.dumps(report.get("log", ""), ensure_ascii=False), scene, out)
+
+
+@pytest.mark.qgis_facing
+def test_ngii_as_shipped_tiled_in_the_qgis_window(scene, tmp_path, xvfb_display):
+    """The same case from the real QGIS window (under Xvfb), as a user runs it from the toolbox: the
+    desktop's own GDAL settings (SHAPE_ENCODING=''), results loaded into the project; QGIS exits
+    normally (a crash would close it: its exit status)."""
+    out = tmp_path / "tiles"
+    parameters = tmp_path / "parameters.json"
+    parameters.write_text(json.dumps(_ngii_tiled(scene, out), ensure_ascii=False), encoding="utf-8")
+    report = tmp_path / "gui.json"
+    env = dict(os.environ, DISPLAY=xvfb_display, QT_QPA_PLATFORM="xcb",
+               QGIS_CUSTOM_CONFIG_PATH=str(qgis_gui_profile(tmp_path / "profile")), WIT_GUI_ALG="wit:citymodeltiles",
+               WIT_GUI_PARAMS=str(parameters), WIT_GUI_JSON=str(report))
+    command = (f'source "{ROOT}/scripts/env.sh" && '
+               f'exec qgis --nologo --noversioncheck --code "{ROOT}/scripts/gui_run.py"')
+    run = subprocess.run(["bash", "-c", command], env=env, capture_output=True, text=True, timeout=900, check=False)
+    assert report.exists(), f"QGIS exit {run.returncode}: {run.stdout[-2000:]}{run.stderr[-2000:]}"
+    shown = json.loads(report.read_text(encoding="utf-8"))
+    assert "error" not in shown, shown["error"]
+    assert run.returncode == 0, run.stderr[-2000:]
+    _check_ngii_tiled(shown["results"], "\n".join(shown["log"]), scene, out)
+    index = [layer for layer in shown["layers"] if layer["provider"] == "ogr"]
+    assert [(layer["valid"], layer["features"]) for layer in index] == [(True, 2)], shown["layers"]
 
 
 def test_a_layer_of_the_project_filtered_or_in_memory(scene, tmp_path, run_algorithm):

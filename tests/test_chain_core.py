@@ -15,12 +15,12 @@ from lxml import etree
 from osgeo import gdal, ogr, osr
 
 from wit_plugin import model
+from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import InputError
 from wit_plugin.heights import HeightOptions
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.vector_io import read_layer
-from wit_plugin.vectors import StudyArea
 
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "core": "http://www.opengis.net/citygml/3.0",
       "gen": "http://www.opengis.net/citygml/generics/3.0", "con": "http://www.opengis.net/citygml/construction/3.0",

@@ -12,6 +12,7 @@ from lxml import etree
 from osgeo import gdal, ogr, osr
 
 from wit_plugin import model
+from wit_plugin.citygml import inputs as citygml_inputs
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
@@ -197,8 +198,8 @@ def test_counts_and_report(written):
     assert report.triangles == 5 and report.textures == 2 and report.textured_surfaces == 5
     assert report.groups == 2 and report.group_members == 2
     assert report.envelope == pytest.approx((208990, 543110, 9.5, 209050, 543140, 18.6))
-    lower_corner = _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/gml:lowerCorner/text()")
-    assert lower_corner == ["208990.000 543110.000 9.500"]
+    assert _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/gml:lowerCorner/text()") == [
+        "208990.000 543110.000 9.500"]
     assert _all(doc, "/core:CityModel/gml:boundedBy/gml:Envelope/@srsName") == ["EPSG:5186"]  # easting first
 
 
@@ -373,7 +374,7 @@ def test_raw_polygon_markup_is_what_lxml_would_write():
     """The ready-made markup for the repeated geometry (``_Writer.raw``) equals lxml's element."""
     geometry = ogr.CreateGeometryFromWkt("POLYGON Z ((0 0 1, 10 0 1, 10 10 2.5, 0 0 1), "
                                          "(2 1 1, 8 1 1, 8 7 1.25, 2 1 1))")
-    gml = "{" + citygml.NS["gml"] + "}"
+    gml = f"{{{citygml.NS['gml']}}}"
     expected = etree.Element(gml + "Polygon", {gml + "id": "BLD_1_f3"}, nsmap={"gml": citygml.NS["gml"]})
     for i, side in enumerate(("exterior", "interior")):
         ring = etree.SubElement(etree.SubElement(expected, gml + side), gml + "LinearRing",
@@ -385,11 +386,11 @@ def test_raw_polygon_markup_is_what_lxml_would_write():
 
 
 def test_a_tin_triangle_id_must_be_an_integer():
-    assert citygml._tri_ids(np.array([12, -3], dtype=np.int32)) == ["tri_12", "tri_-3"]
-    assert citygml._tri_ids(np.array([b"12"])) == ["tri_12"]  # a text field holding integers
+    assert citygml_inputs.tri_ids(np.array([12, -3], dtype=np.int32)) == ["tri_12", "tri_-3"]
+    assert citygml_inputs.tri_ids(np.array([b"12"])) == ["tri_12"]  # a text field holding integers
     for bad in (np.array([b"12", b'1"><x']), np.ma.masked_array([5, 6], mask=[False, True])):
         with pytest.raises(InputError, match="not an integer"):
-            citygml._tri_ids(bad)
+            citygml_inputs.tri_ids(bad)
 
 
 def test_raw_road_texture_association_is_what_lxml_would_write(tmp_path):

@@ -57,8 +57,9 @@ def test_unwritable_output_folder_is_a_clear_error(tmp_path):
 
 def test_core_steps_refuse_an_output_over_their_input(tmp_path):
     """Scripts that call the core directly get the same refusal, before anything is read or written."""
+    from wit_plugin.area import StudyArea
     from wit_plugin.terrain import run as triangulate
-    from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+    from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
     source = tmp_path / "buildings.shp"
     source.write_bytes(b"not read")

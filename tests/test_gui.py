@@ -8,49 +8,18 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
 import subprocess
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, qgis_gui_profile
 
 HANGUL = re.compile("[\uac00-\ud7a3]")
 
 pytestmark = [pytest.mark.slow, pytest.mark.qgis_facing]
 
 
-@pytest.fixture(scope="module")
-def xvfb_display():
-    assert shutil.which("Xvfb"), "Xvfb is not installed: scripts/setup.sh installs it"
-    read, write = os.pipe()
-    server = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", "1600x1000x24",
-                               "-nolisten", "tcp"], pass_fds=(write,),
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(write)
-    with os.fdopen(read) as pipe:
-        number = pipe.readline().strip()
-    try:
-        assert number, "Xvfb did not report a display"
-        yield f":{number}"
-    finally:
-        server.terminate()
-        server.wait(timeout=10)
-
-
-def korean_profile(folder):
-    plugins = folder / "profiles" / "default" / "python" / "plugins"
-    plugins.mkdir(parents=True)
-    (folder / "profiles" / "default" / "QGIS").mkdir()
-    (plugins / "wit_citymodel").symlink_to(ROOT)
-    (folder / "profiles" / "default" / "QGIS" / "QGIS3.ini").write_text(
-        "[PythonPlugins]\nwit_citymodel=true\nprocessing=true\n\n"
-        "[locale]\noverrideFlag=true\nuserLocale=ko_KR\nglobalLocale=ko_KR\n\n"
-        "[qgis]\ncheckVersion=false\n", encoding="utf-8")
-    return folder
-
-
 def test_citymodel_dialog_is_korean(tmp_path, xvfb_display):
-    profile = korean_profile(tmp_path / "profile")
+    profile = qgis_gui_profile(tmp_path / "profile", locale="ko_KR")
     report = tmp_path / "dialog.json"
     picture = tmp_path / "dialog.png"
     env = dict(os.environ, DISPLAY=xvfb_display, QT_QPA_PLATFORM="xcb",

@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import math
 from itertools import pairwise
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,12 +12,14 @@ import shapely
 from osgeo import gdal, ogr, osr
 
 from wit_plugin import extrude, georef, metrics, model
+from wit_plugin.area import StudyArea
+from wit_plugin.citygml import reader
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.errors import InputError
 from wit_plugin.mosaic import merge_tiles
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.texture import TextureConfig, texture_model
-from wit_plugin.vectors import StudyArea, prepare_vectors
+from wit_plugin.vectors import prepare_vectors
 
 A = 255.0
 X0, Y0 = 209000.0, 543000.0  # near Suseo station, EPSG:5186
@@ -150,7 +153,7 @@ def test_texture_folder_masks_islands_with_texcoords(tmp_path):
 
 
 def test_ortho_is_streamed_like_in_memory(tmp_path, monkeypatch):
-    monkeypatch.setattr(metrics, "_BLOCK_PIXELS", 300 * 97)  # blocks of 97 rows: block joins are exercised
+    monkeypatch.setattr(metrics.texture, "_BLOCK_PIXELS", 300 * 97)  # blocks of 97 rows: block joins are exercised
     rng = np.random.default_rng(7)
     data = rng.integers(0, 256, (3, 1100, 300)).astype(np.uint8)
     data[:, 600:650, 100:180] = 0  # NoData hole
@@ -296,6 +299,23 @@ def test_half_metre_shift_is_measured_exactly(shifted, which):
     assert rows["BLD_extra"].status == metrics.MODEL_ONLY and rows["BLD_extra"].model_area == pytest.approx(16)
 
 
+def test_gml_read_in_small_parts_gives_the_same_buildings(shifted, monkeypatch, tmp_path):
+    """The CityGML reader hands a building's finished children out in parts (its solid too) while the parser is
+    still inside the building (here in the storeys after the solid)."""
+    sources, _, written, _ = shifted
+    gml = tmp_path / "storeys.gml"
+    gml.write_text(Path(written).read_text(encoding="utf-8").replace(
+        "</core:lod1Solid>", "</core:lod1Solid><bldg:storeysAboveGround>2</bldg:storeysAboveGround>"), encoding="utf-8")
+    gml = str(gml)
+    whole = metrics.geometry_metrics(gml, sources)
+    monkeypatch.setattr(reader, "CHUNK_BYTES", 97)
+    monkeypatch.setattr(reader, "MIN_PART", 1)
+    parted = metrics.geometry_metrics(gml, sources)
+    assert [(b.wit_id, b.status, b.solids, b.position_error, b.vertex_max_error, b.ssi) for b in parted.buildings] == [
+        (b.wit_id, b.status, b.solids, b.position_error, b.vertex_max_error, b.ssi) for b in whole.buildings]
+    assert (parted.model_count, parted.matched, parted.vertices) == (4, 3, 4 + 6 + 8)
+
+
 def test_geometry_input_errors(shifted, tmp_path):
     sources = shifted[0]
     with pytest.raises(InputError, match="does not exist"):
@@ -364,7 +384,7 @@ def test_seam_step_overwrite_vs_feather(tmp_path):
     merge_tiles(tiles, feather, mode="feather", gain=True)
     index = tmp_path / "footprints.gpkg"
     georef.write_footprint_index(
-        [georef.SheetResult(t, "0", 5000, georef.OK, "", t, metrics._raster_bounds(t)[0]) for t in tiles]
+        [georef.SheetResult(t, "0", 5000, georef.OK, "", t, metrics.seam._raster_bounds(t)[0]) for t in tiles]
         + [georef.SheetResult("skipped.tif")], index)
     hard = metrics.seam_metrics(overwrite, str(index))
     soft = metrics.seam_metrics(feather, tiles)

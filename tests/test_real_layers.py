@@ -19,9 +19,10 @@ from conftest import ROOT
 from osgeo import gdal, ogr
 
 from wit_plugin import bulk_read, model, roads, vector_io
+from wit_plugin.area import StudyArea
 from wit_plugin.errors import InputError
 from wit_plugin.feedback import Feedback
-from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
 AREA = StudyArea.polygon("POLYGON((217870 361780,218260 361780,218260 361940,217870 361940,217870 361780))",
                          "EPSG:5187")

@@ -353,9 +353,9 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
 @pytest.fixture(scope="module")
 def east_belt_run(tmp_path_factory):
     """The sample (DEM and sheets in EPSG:5186, the sheets georeferenced as GeoTIFFs) modelled in EPSG:5187."""
+    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vectors import StudyArea
 
     folder = tmp_path_factory.mktemp("east-belt")
     sample = generate_sample(folder / "sample", SampleConfig(radius_m=180.0, seed=4, ortho_pixel_size=1.0))
@@ -454,9 +454,9 @@ def test_a_mosaic_in_another_crs_is_reprojected_by_the_texture_step(east_belt_ru
 
 def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east_belt_run, dem_4326, tmp_path,
                                                                               monkeypatch):
+    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.tiles import runner
-    from wit_plugin.vectors import StudyArea
 
     def no_cluster(*args, **kwargs):
         raise AssertionError("a Dask cluster was started")
@@ -476,9 +476,9 @@ def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east
 
 def test_a_tiled_run_checks_the_orthoimage_sheets_before_any_worker_starts(east_belt_run, tmp_path, monkeypatch):
     """The sheet under the area missing (surfaces outside the orthoimage: fail): refused in seconds, naming it."""
+    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
     from wit_plugin.tiles import runner
-    from wit_plugin.vectors import StudyArea
 
     def no_cluster(*args, **kwargs):
         raise AssertionError("a Dask cluster was started")

@@ -22,6 +22,7 @@ from conftest import view_in_chromium
 from lxml import etree
 
 from wit_plugin import triangulators
+from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
@@ -30,7 +31,6 @@ from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.tiles import plan
 from wit_plugin.tiles.index import read_index
 from wit_plugin.tiles.runner import run_tiles, stop_workers, worker_python
-from wit_plugin.vectors import StudyArea
 
 ROOT = Path(__file__).resolve().parents[1]
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "gml": "http://www.opengis.net/gml/3.2",

@@ -17,9 +17,9 @@ import numpy as np
 import pyproj
 import pytest
 
+from wit_plugin.citygml import reader as streaming
 from wit_plugin.citygml import schemas, validate
 from wit_plugin.citygml.validation import ids as id_store
-from wit_plugin.citygml.validation import stream as streaming
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
@@ -337,8 +337,8 @@ def test_unknown_crs_is_read_as_metres_with_a_warning(schema_dir, tmp_path):
 
 def test_gml_id_syntax_is_checked(schema_dir, tmp_path):
     path = tmp_path / "badid.gml"
-    text = (DATA / "pos_2d.gml").read_text(encoding="utf-8")
-    path.write_text(text.replace('gml:id="bldg_1_wall_n"', 'gml:id="1wall"'), encoding="utf-8")
+    path.write_text((DATA / "pos_2d.gml").read_text(encoding="utf-8").replace('gml:id="bldg_1_wall_n"',
+                                                                            'gml:id="1wall"'), encoding="utf-8")
     [issue] = [i for i in _one(path, schema_dir).issues if i.check == "xsd"]
     assert issue.gml_id == "1wall" and "not a valid XML name" in issue.message
 
@@ -603,8 +603,8 @@ def _long_runs(path: Path, n: int, pad: int) -> list[tuple[str, int, str | None,
     expected.append(("reference", line, None, "xlink:href of grp:groupMember '#ghost' points to no gml:id"))
     put('</grp:CityObjectGroup></core:cityObjectMember>')
     put('<core:cityObjectMember><dem:ReliefFeature gml:id="relief"><dem:lod>1</dem:lod><dem:reliefComponent>'
-        '<dem:TINRelief gml:id="tin"><dem:lod>1</dem:lod><dem:tin>'
-        '<gml:TriangulatedSurface gml:id="tin_s"><gml:patches>')
+        '<dem:TINRelief gml:id="tin"><dem:lod>1</dem:lod><dem:tin><gml:TriangulatedSurface gml:id="tin_s">'
+        '<gml:patches>')
     for k in range(n):
         third = f"{k + 2} 0 10" if k in faulty else f"{k} 1 10"  # faulty: collinear corners
         line = put(f'<gml:Triangle{_FOO if k in faulty else ""}><gml:exterior><gml:LinearRing gml:id="t{k}_r">'
@@ -753,12 +753,14 @@ def test_without_libxml2_for_ctypes_lxml_reports_the_same_schema_errors_without_
 
 def _one_by_one(monkeypatch) -> None:
     """Make every check take its element-by-element path."""
-    from wit_plugin.citygml.validation import checks, stream
+    from wit_plugin.citygml import reader as stream
+    from wit_plugin.citygml.validation import context, solids, textures, tin
 
-    monkeypatch.setattr(checks, "_numbers", lambda texts, expected: None)  # triangles and solids one by one
-    monkeypatch.setattr(checks, "_UNEVEN_LISTS", lambda part: [True])  # texture lists one by one
+    for module in (tin, solids):
+        monkeypatch.setattr(module, "numbers", lambda texts, expected: None)  # triangles and solids one by one
+    monkeypatch.setattr(textures, "_UNEVEN_LISTS", lambda part: [True])  # texture lists one by one
     monkeypatch.setattr(stream.RawCounts, "any_dimension_not_3", property(lambda self: True))
-    monkeypatch.setattr(checks.FileCheck, "_own_crs_possible", lambda self: True)
+    monkeypatch.setattr(context.FileContext, "own_crs_possible", lambda self: True)
 
 
 @pytest.mark.parametrize("name", sorted(FAULTS) + ["long_runs"])

@@ -11,10 +11,11 @@ import shapely
 from ngii import shapefile_text
 from osgeo import ogr, osr
 
-from wit_plugin import model, vector_io, vectors
+from wit_plugin import model, polygons, simplify, vector_io, vectors
+from wit_plugin.area import StudyArea
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
-from wit_plugin.vectors import PrepareConfig, StudyArea, prepare_vectors
+from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
 SUSEO_5179 = (964814.9, 1943225.0)
 SUSEO_5186 = (209020.9, 543132.8)
@@ -102,7 +103,7 @@ def test_real_roads_read_in_cp949_with_their_crs(juso: Path):
     assert "남부순환로" in layer.columns["RN"]
     assert "강남구 수서동 329-21" in layer.columns["REP_CN"]
     assert layer.crs.name == "PCS_ITRF2000_TM"
-    suseo = vectors.transform(np.array([shapely.Point(*SUSEO_5179)]), layer.crs, vectors.pyproj.CRS("EPSG:5186"))
+    suseo = polygons.transform(np.array([shapely.Point(*SUSEO_5179)]), layer.crs, vectors.pyproj.CRS("EPSG:5186"))
     x, y = suseo[0].coords[0]
     assert (x, y) == pytest.approx(SUSEO_5186, abs=0.1)
 
@@ -302,7 +303,7 @@ def test_unclosed_rings_are_closed_and_counted(tmp_path: Path):
     layer = vector_io.read_layer(path)
     assert list(layer.unclosed_rings) == [1, 0]
     assert shapely.is_valid(layer.geoms).all() and list(shapely.area(layer.geoms)) == [100, 100]
-    repaired = vectors.repair_polygons(layer.geoms, layer.unclosed_rings)
+    repaired = polygons.repair_polygons(layer.geoms, layer.unclosed_rings)
     assert repaired.counts["unclosed_ring"] == 1
 
 
@@ -319,7 +320,7 @@ def test_each_defect_kind_is_repaired_and_counted():
         shapely.from_wkt("LINESTRING (0 0, 1 1)"),
         shapely.from_wkt("POLYGON ((0 40, 20 40, 20 60, 0 60, 0 40), (5 45, 15 45, 15 55, 5 55, 5 45))"),  # ccw hole
     ], dtype=object)
-    rep = vectors.repair_polygons(geoms, np.zeros(len(geoms), int))
+    rep = polygons.repair_polygons(geoms, np.zeros(len(geoms), int))
     assert rep.counts["orientation"] == 2  # the clockwise shell, the counter-clockwise hole
     assert rep.counts["repeated_vertex"] == 1
     assert rep.counts["invalid"] == 1 and rep.counts["multipart"] == 1
@@ -338,7 +339,7 @@ def test_each_defect_kind_is_repaired_and_counted():
 @pytest.mark.parametrize("tolerance", [0.5, 5.0])
 def test_simplification_keeps_shared_walls_shared(tolerance: float):
     before = terrace()
-    after, kept = vectors.simplify_shared(np.array(before, dtype=object), tolerance)
+    after, kept = simplify.simplify_shared(np.array(before, dtype=object), tolerance)
     assert shapely.is_valid(after).all()
     assert shapely.get_num_coordinates(after).sum() < shapely.get_num_coordinates(np.array(before)).sum() / 3
     assert_shared_walls(before, after)
@@ -352,7 +353,7 @@ def test_simplification_never_lets_a_small_neighbour_get_swallowed():
     """A building in a notch: simplifying the big one's notch away would overlap it; the arc stays."""
     big = shapely.Polygon([(0, 0), (30, 0), (30, 10), (16, 10), (16, 10.6), (14, 10.6), (14, 10), (0, 10)])
     small = shapely.box(14.2, 10.05, 15.8, 10.5)
-    after, kept = vectors.simplify_shared(np.array([big, small], dtype=object), 5.0)
+    after, kept = simplify.simplify_shared(np.array([big, small], dtype=object), 5.0)
     assert shapely.is_valid(after).all()
     assert after[0].intersection(after[1]).area < 1e-9
     assert kept >= 1
@@ -360,8 +361,8 @@ def test_simplification_never_lets_a_small_neighbour_get_swallowed():
 
 def test_simplification_on_real_districts_keeps_boundaries(juso: Path):
     layer = vector_io.read_layer(juso / "TL_SCCO_EMD.shp")
-    geoms = vectors.repair_polygons(vectors.transform(layer.geoms, layer.crs, vectors.pyproj.CRS("EPSG:5186"))).geoms
-    after, _ = vectors.simplify_shared(geoms, 5.0)
+    geoms = polygons.repair_polygons(polygons.transform(layer.geoms, layer.crs, vectors.pyproj.CRS("EPSG:5186"))).geoms
+    after, _ = simplify.simplify_shared(geoms, 5.0)
     assert shapely.is_valid(after).all()
     assert shapely.get_num_coordinates(after).sum() < 0.4 * shapely.get_num_coordinates(geoms).sum()
     a, b = shapely.STRtree(geoms).query(geoms, predicate="intersects")
@@ -487,11 +488,11 @@ def test_duplicates_and_shared_ids_in_the_core():
     turned = shapely.Polygon([(8, 0), (8, 8), (0, 8), (0, 0)])  # same footprint, other start and direction
     geoms = np.array([square, turned, square, shapely.box(20, 0, 28, 8), None], dtype=object)
     ids = ["BLD_1", "BLD_1", "BLD_2", "BLD_1", "BLD_3"]
-    duplicate = vectors.exact_duplicates(geoms, ids)
+    duplicate = polygons.exact_duplicates(geoms, ids)
     assert duplicate.tolist() == [False, True, False, False, False]
     assert vectors.unique_ids(ids, skip=duplicate) == ["BLD_1", "BLD_1", "BLD_2", "BLD_1_2", "BLD_3"]
     broken = shapely.Polygon([(0, 0), (np.inf, 0), (8, 8), (0, 0)])
-    assert vectors.non_finite(np.array([square, broken, None], dtype=object)).tolist() == [False, True, False]
+    assert vector_io.non_finite(np.array([square, broken, None], dtype=object)).tolist() == [False, True, False]
 
 
 @pytest.mark.parametrize("declaration", ["ldid_latin1", "ldid_cp1252", "cpg_latin1", "cpg_utf8"])

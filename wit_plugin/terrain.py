@@ -49,9 +49,9 @@ from .model import (
     TIN_TRIANGLE_ID,
     WIT_ID,
 )
+from .polygons import transform
 from .triangulators import edge_pairs, triangle_edge_keys
 from .vector_io import FieldDef, VectorLayer, read_layer, read_prepared
-from .vectors import transform
 
 #: snapping grid for constraint coordinates (m): far below survey accuracy, far above float noise
 GRID = 0.001

@@ -1,28 +1,15 @@
 """Prepare the building, road and district layers for the 3D chain (wit:preparevectors).
 
 Pipeline per layer: read (encoding and CRS detected, see ``vector_io``) → reproject to the target
-CRS → repair → select / clip to the study area → Douglas–Peucker simplification → GeoPackage.
+CRS → repair (``polygons.repair_polygons``) → select / clip to the study area (``area``) →
+Douglas–Peucker simplification that keeps shared walls shared (``simplify``) → GeoPackage.
 
-Decisions (SPEC §4):
+Decisions:
 
-* **Repairs** are counted per kind: ``unclosed_ring`` (OGR passes unclosed rings through; they
-  are detected in the raw WKB and closed), ``orientation`` (exteriors made counter-clockwise,
-  holes clockwise; shapefiles store exteriors clockwise, so nearly every shapefile feature counts),
-  ``repeated_vertex`` (consecutive vertices closer than 1 mm merged), ``invalid`` (``make_valid``,
-  method "structure", polygonal parts only), ``multipart`` (a repair split a feature, e.g. a
-  bow-tie into two triangles: all parts are kept as one multi-part feature, so the building keeps
-  its id and no area silently disappears) and ``sliver_part`` (a sliver part removed from a
-  feature that has other parts).
-* **Slivers**: a part is dropped when its area is below ``min_area`` (``too_small``) or when it is
-  both thin (Polsby–Popper 4πA/P² < ``sliver_thinness``) and narrow (mean width 2A/P <
-  ``sliver_width``) (``thin``). The width guard keeps real long buildings such as terraces.
-  A feature left without parts is dropped with that reason; every dropped feature is listed.
+* **Repairs and slivers** are counted per kind (see ``polygons``); every dropped feature is listed.
 * **Clipping**: buildings are kept whole when their representative point lies in the study area
   (cutting a building in half would create a fake wall); roads and districts are cut to it.
-* **Simplification** keeps shared boundaries shared (``simplify_shared``): boundaries are noded
-  into arcs between junctions, each arc is simplified once, polygons are rebuilt from their arcs,
-  and arcs whose simplification would break validity or topology are kept as they were
-  (``arcs_kept`` in the stats). Simplified layers have their vertices on a 1 mm grid. Districts
+* **Simplification** keeps shared boundaries shared (``simplify.simplify_shared``); districts
   are simplified before they are cut, so the study area's edge stays exact.
 * **Stats**: ``features_in`` counts the features read, i.e. those whose envelope meets the study
   area's bounding box (GDAL filters the rest out unread); ``outside_area`` those read but not in
@@ -60,11 +47,23 @@ import shapely
 from osgeo import ogr
 
 from . import model
+from .area import StudyArea
 from .errors import InputError
 from .feedback import SILENT, Feedback
 from .fileio import atomic_file, refuse_overlap
+from .polygons import (
+    REPAIR_KINDS,
+    REPEATED_POINT_TOLERANCE,
+    exact_duplicates,
+    orient,
+    polygonal,
+    repair_polygons,
+    transform,
+    vertex_count,
+)
 from .roads import WidthRule
 from .roads import widths as road_widths_of
+from .simplify import GRID_SIZE, simplify_shared
 from .vector_io import (
     BUILDING_FIELDS,
     DISTRICT_FIELDS,
@@ -78,136 +77,10 @@ from .vector_io import (
     write_gpkg,
 )
 
-REPAIR_KINDS = ("unclosed_ring", "orientation", "repeated_vertex", "invalid", "multipart", "sliver_part")
 DROP_REASONS = ("no_geometry", "non_finite", "wrong_type", "collapsed", "too_small", "thin", "covered", "duplicate")
-REPEATED_POINT_TOLERANCE = 0.001  # m
-GRID_SIZE = 0.001  # m: coordinates are snapped to this grid where boundaries are noded
-OVERLAP_TOLERANCE = 1e-4  # m²: growth of an overlap between two polygons that simplification may cause
-NODING_BATCH = 2000  # polygons noded together (see _arcs)
-CIRCLE_QUAD_SEGS = 64  # 256-gon: at most 0.08 m inside a 1 km circle
 ROAD_QUAD_SEGS = 4
 STATS_TABLE = "stats"
 DROPPED_TABLE = "dropped"
-
-
-@dataclass(frozen=True)
-class StudyArea:
-    """Where to build: a circle, a polygon, the union of a polygon layer, or a legal dong."""
-
-    kind: str  # "circle", "polygon", "layer" or "district"
-    x: float = 0.0
-    y: float = 0.0
-    radius: float = 0.0
-    crs: str | None = None  # circle: CRS of x/y; polygon: CRS of the WKT; layer: source CRS if the file has none
-    path: str | None = None
-    layer: str | None = None
-    code: str | None = None  # district: its code (EMD_CD) or its name (역삼동, Yeoksam-dong)
-    wkt: str | None = None
-    code_field: str | None = None  # district layers of another schema: the code / name fields
-    name_field: str | None = None
-
-    @classmethod
-    def circle(cls, x: float, y: float, radius: float, crs: str = "EPSG:4326") -> StudyArea:
-        """Centre (lon/lat by default, or x/y in ``crs``) and radius in metres of the target CRS."""
-        if not (radius > 0 and math.isfinite(radius)):
-            raise InputError(f"The study-area radius must be a positive number of metres, not {radius}.")
-        return cls("circle", x=float(x), y=float(y), radius=float(radius), crs=crs)
-
-    @classmethod
-    def polygon(cls, geometry: shapely.Geometry | str, crs: str) -> StudyArea:
-        """A polygon (or its WKT) in ``crs``: a bounding box, a map-sheet tile."""
-        wkt = geometry if isinstance(geometry, str) else shapely.to_wkt(geometry)
-        return cls("polygon", wkt=wkt, crs=crs)
-
-    @classmethod
-    def from_layer(cls, path: str | os.PathLike, layer: str | None = None, crs: str | None = None) -> StudyArea:
-        """The union of a polygon layer's features."""
-        return cls("layer", path=str(path), layer=layer, crs=crs)
-
-    @classmethod
-    def from_district_code(cls, code: str | int, code_field: str | None = None,
-                           name_field: str | None = None) -> StudyArea:
-        """A legal dong by its code (EMD_CD, 8 digits) or its name, looked up in the district layer.
-
-        ``code_field`` / ``name_field`` name the fields of a district layer of another schema.
-        """
-        return cls("district", code=str(code).strip(), code_field=code_field or None, name_field=name_field or None)
-
-    def geometry(self, target: pyproj.CRS, districts: VectorLayer | None = None,
-                 feedback: Feedback = SILENT) -> shapely.Geometry:
-        """The area as one polygon in ``target``; ``districts`` (already in ``target``) for a code."""
-        if self.kind in ("circle", "polygon"):
-            try:
-                source_crs = pyproj.CRS.from_user_input(self.crs)
-            except pyproj.exceptions.CRSError as exc:
-                raise InputError(f"Unknown CRS {self.crs!r} for the study area: {exc}") from exc
-            if self.kind == "polygon":
-                try:
-                    shape = shapely.from_wkt(self.wkt)
-                except shapely.errors.GEOSException as exc:
-                    raise InputError(f"The study-area polygon is not valid WKT: {exc}") from exc
-                area = transform(np.array([shape], dtype=object), source_crs, target)[0]
-            else:
-                x, y = pyproj.Transformer.from_crs(source_crs, target, always_xy=True).transform(self.x, self.y)
-                if not (math.isfinite(x) and math.isfinite(y)):
-                    raise InputError(f"The study-area centre ({self.x}, {self.y}) is outside the area of use "
-                                     f"of {self.crs}; check the coordinate order (x/lon first).")
-                area = shapely.Point(x, y).buffer(self.radius, quad_segs=CIRCLE_QUAD_SEGS)
-        elif self.kind == "layer":
-            src = read_layer(self.path, self.layer, crs=self.crs, feedback=feedback)
-            geoms = transform(src.geoms, src.crs, target)
-            polys = geoms[np.isin(shapely.get_type_id(geoms), (3, 6))]
-            bad = non_finite(polys)
-            if bad.any():
-                feedback.warning(f"The study-area layer {self.path}: {int(bad.sum())} polygon(s) with ±inf or NaN "
-                                 "coordinates left out.")
-                polys = polys[~bad]
-            if len(polys) == 0:
-                raise InputError(f"The study-area layer {self.path} has no polygons.")
-            area = shapely.union_all(shapely.make_valid(polys))
-        elif self.kind == "district":
-            area = self._district(districts)
-        else:
-            raise InputError(f"Unknown study-area kind {self.kind!r}.")
-        area = polygonal(np.array([area], dtype=object))[0]
-        if area is None or area.is_empty or area.area <= 0:
-            raise InputError("The study area is empty.")
-        return area
-
-    def _district(self, districts: VectorLayer | None) -> shapely.Geometry:
-        """The dong whose code, or else whose (Korean or English) name, is ``self.code``."""
-        if districts is None:
-            raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
-        layer = Path(districts.path).name
-        code_fields = [self.code_field] if self.code_field else ["EMD_CD"]
-        name_fields = [self.name_field] if self.name_field else ["EMD_KOR_NM", "EMD_ENG_NM"]
-        found = districts.field_map(code_fields + name_fields)
-        for wanted in (self.code_field, self.name_field):
-            if wanted and wanted not in found:
-                raise InputError(f"The district layer {layer} has no field {wanted!r}; its fields are "
-                                 f"{', '.join(f.name for f in districts.fields)}.")
-        if not found:
-            raise InputError(f"The district layer {layer} has none of the fields {', '.join(code_fields + name_fields)}"
-                             "; name its code and name fields (DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD).")
-
-        def values(name: str | None) -> list[str]:
-            column = districts.columns[found[name]] if name in found else [None] * len(districts)
-            return [str(v).strip() if v is not None else "" for v in column]
-
-        codes = values(code_fields[0])
-        names = [values(n) for n in name_fields]
-        wanted = self.code.casefold()
-        hits = [i for i, c in enumerate(codes) if c == self.code]
-        if not hits:
-            hits = [i for i in range(len(districts)) if any(column[i].casefold() == wanted for column in names)]
-        labels = [" ".join(v for v in (codes[i], names[0][i]) if v) for i in range(len(districts))]
-        if not hits:
-            raise InputError(f"District {self.code!r} is neither a code nor a name in {layer}; it has "
-                             f"{', '.join(labels[:8])}{' …' if len(labels) > 8 else ''}.")
-        if len({codes[i] for i in hits}) > 1:
-            raise InputError(f"The name {self.code!r} is ambiguous in {layer}: give the code of one of "
-                             f"{', '.join(labels[i] for i in hits)}.")
-        return shapely.union_all(districts.geoms[hits])
 
 
 class Owner(Protocol):
@@ -286,356 +159,6 @@ class PrepareReport:
     stats: list[LayerStats]
     dropped: list[DroppedFeature]
     area: shapely.Geometry
-
-
-# -- geometry helpers ---------------------------------------------------------------------------
-
-def transform(geoms: np.ndarray, source: pyproj.CRS, target: pyproj.CRS) -> np.ndarray:
-    """Reproject a geometry array in one vectorised PROJ call."""
-    if source.equals(target):
-        return geoms
-    tr = pyproj.Transformer.from_crs(source, target, always_xy=True)
-
-    def _apply(coords: np.ndarray) -> np.ndarray:
-        x, y = tr.transform(coords[:, 0], coords[:, 1])
-        return np.column_stack([x, y])
-
-    return shapely.transform(geoms, _apply)
-
-
-def polygonal(geoms: np.ndarray) -> np.ndarray:
-    """Keep only the polygonal parts (overlay and make_valid may add lines and points); None if none."""
-    out = geoms.copy()
-    mixed = np.flatnonzero(shapely.get_type_id(geoms) == 7)
-    if len(mixed):
-        parts, index = shapely.get_parts(geoms[mixed], return_index=True)
-        keep = np.isin(shapely.get_type_id(parts), (3, 6))
-        out[mixed] = None
-        for i in np.unique(index[keep]):
-            out[mixed[i]] = shapely.union_all(parts[keep & (index == i)])
-    areal = np.isin(shapely.get_type_id(out), (3, 6)) & ~shapely.is_empty(out)
-    out[~areal] = None
-    return out
-
-
-def _single_or_multi(parts: np.ndarray, index: np.ndarray, n: int) -> np.ndarray:
-    """Regroup polygon parts into features: a Polygon for one part, a MultiPolygon for more."""
-    out = np.full(n, None, dtype=object)
-    if len(parts) == 0:
-        return out
-    counts = np.bincount(index, minlength=n)
-    single = counts[index] == 1
-    out[index[single]] = parts[single]
-    multi = np.flatnonzero(counts > 1)
-    if len(multi):
-        sel = np.isin(index, multi)
-        grouped = shapely.multipolygons(parts[sel], indices=np.searchsorted(multi, index[sel]))
-        out[multi] = grouped
-    return out
-
-
-def orient(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Shells counter-clockwise, holes clockwise (OGC); also which features had a ring turned.
-
-    Vectorised on the rings: ``shapely.orient_polygons`` is a Python loop when shapely runs on
-    GEOS < 3.12 (as with the system GEOS that QGIS uses).
-    """
-    parts, part_of = shapely.get_parts(geoms, return_index=True)
-    rings, ring_of = shapely.get_rings(parts, return_index=True)
-    shell = np.r_[True, ring_of[1:] != ring_of[:-1]]  # get_rings lists each shell before its holes
-    turn = shapely.is_ccw(rings) != shell
-    rings[turn] = shapely.reverse(rings[turn])
-    changed = np.bincount(part_of[ring_of[turn]], minlength=len(geoms)) > 0
-    return _single_or_multi(shapely.polygons(rings, indices=ring_of), part_of, len(geoms)), changed
-
-
-def exact_duplicates(geoms: np.ndarray, ids: Sequence[str]) -> np.ndarray:
-    """Per feature: an earlier feature has the same id and the same geometry (ring start and order aside)."""
-    present = ~shapely.is_missing(geoms) & ~non_finite(geoms)  # those are dropped for their coordinates
-    keys = np.full(len(geoms), None, dtype=object)
-    keys[present] = shapely.to_wkb(shapely.normalize(geoms[present]))
-    seen: set[tuple[str, bytes]] = set()
-    duplicate = np.zeros(len(geoms), dtype=bool)
-    for i in np.flatnonzero(present):
-        key = (ids[i], keys[i])
-        duplicate[i] = key in seen
-        seen.add(key)
-    return duplicate
-
-
-def vertex_count(geoms: np.ndarray) -> int:
-    """Total vertices (the stats table's measure of simplification)."""
-    return int(shapely.get_num_coordinates(geoms[~shapely.is_missing(geoms)]).sum())
-
-
-@dataclass
-class Repaired:
-    """Result of repair_polygons: geometries (None where dropped), counts, per-feature drop reason."""
-
-    geoms: np.ndarray
-    counts: dict[str, int]
-    reasons: np.ndarray
-
-
-def repair_polygons(geoms: np.ndarray, unclosed: np.ndarray | None = None, min_area: float = 1.0,
-                    sliver_thinness: float = 0.05, sliver_width: float = 1.0) -> Repaired:
-    """Make every polygon valid, oriented (CCW shells, CW holes), free of repeated vertices and slivers."""
-    n = len(geoms)
-    reasons = np.full(n, None, dtype=object)
-    counts = dict.fromkeys(REPAIR_KINDS, 0)
-    counts["unclosed_ring"] = int(np.count_nonzero(unclosed)) if unclosed is not None else 0
-    g = geoms.copy()
-    reasons[shapely.is_missing(g) | shapely.is_empty(g)] = "no_geometry"
-    reasons[(reasons == None) & non_finite(g)] = "non_finite"  # noqa: E711 (numpy)
-    wrong = (reasons == None) & ~np.isin(shapely.get_type_id(g), (3, 6))  # noqa: E711 (numpy)
-    reasons[wrong] = "wrong_type"
-    g[reasons != None] = None  # noqa: E711
-    live = np.flatnonzero(reasons == None)  # noqa: E711
-    h = g[live]
-    counts["orientation"] = int(np.count_nonzero(orient(h)[1]))
-    deduped = shapely.remove_repeated_points(h, REPEATED_POINT_TOLERANCE)
-    counts["repeated_vertex"] = int(np.count_nonzero(shapely.get_num_coordinates(deduped)
-                                                     < shapely.get_num_coordinates(h)))
-    invalid = ~shapely.is_valid(deduped)
-    counts["invalid"] = int(np.count_nonzero(invalid))
-    if invalid.any():
-        fixed = polygonal(shapely.make_valid(deduped[invalid], method="structure", keep_collapsed=False))
-        counts["multipart"] = int(np.count_nonzero(shapely.get_num_geometries(fixed)
-                                                   > shapely.get_num_geometries(deduped[invalid])))
-        deduped[invalid] = fixed
-    collapsed = shapely.is_missing(deduped)
-    reasons[live[collapsed]] = "collapsed"
-    live, h = live[~collapsed], deduped[~collapsed]
-    parts, index = shapely.get_parts(h, return_index=True)
-    area, perimeter = shapely.area(parts), shapely.length(parts)
-    small = area < min_area
-    with np.errstate(divide="ignore", invalid="ignore"):
-        thin = (4 * np.pi * area / perimeter ** 2 < sliver_thinness) & (2 * area / perimeter < sliver_width)
-    bad = small | thin
-    kept_parts = np.bincount(index[~bad], minlength=len(h))
-    counts["sliver_part"] = int(np.count_nonzero((kept_parts > 0) & (np.bincount(index[bad], minlength=len(h)) > 0)))
-    all_small = np.bincount(index[small], minlength=len(h)) == np.bincount(index, minlength=len(h))
-    gone = kept_parts == 0
-    reasons[live[gone]] = np.where(all_small[gone], "too_small", "thin")
-    rebuilt = _single_or_multi(parts[~bad], index[~bad], len(h))
-    g[:] = None
-    g[live] = orient(rebuilt)[0]
-    return Repaired(g, counts, reasons)
-
-
-# -- topology-preserving simplification ---------------------------------------------------------
-
-def simplify_shared(geoms: np.ndarray, tolerance: float, grid_size: float = GRID_SIZE,
-                    feedback: Feedback = SILENT) -> tuple[np.ndarray, int]:
-    """Douglas–Peucker that keeps every polygon valid and every shared wall shared.
-
-    Coordinates are snapped to ``grid_size`` (so nearly equal walls become equal) and the
-    boundaries noded together (``_arcs``); ``line_merge`` joins the pieces into arcs that run
-    between junctions, so an arc is either owned by one polygon or shared whole by its
-    neighbours. Each arc is simplified once with its end points fixed, and each polygon is
-    rebuilt from its arcs (``build_area``), so neighbours see the very same simplified wall: no
-    gap, no overlap. An arc goes back to its original shape when its simplified form crosses or
-    touches another arc anywhere but at their common end points, or when a polygon built from it
-    is invalid or changes its number of parts or holes, or when two polygons overlap more than
-    before (an arc can flip across a thin gap or overlap of the source without crossing
-    anything: the arcs along the grown part go back). Returns the geometries (None stays None)
-    and the number of arcs kept unsimplified. Input polygons must be valid (``repair_polygons``).
-
-    Cost: batched noding, STRtree queries and vectorised GEOS calls; close to linear in the
-    number of vertices (100,000 buildings: see benchmarks/bench_vectors.py).
-    """
-    out = geoms.copy()
-    live = np.flatnonzero(~shapely.is_missing(geoms))
-    if tolerance <= 0 or len(live) == 0:
-        return out, 0
-    base = shapely.set_precision(geoms[live], grid_size)
-    usable = ~shapely.is_empty(base)
-    live, base = live[usable], base[usable]
-    feat_tree = shapely.STRtree(base)  # simplified polygons lie within their original's envelope
-    arcs0, arc_of, feat_of = _arcs(base, feat_tree, grid_size, feedback.scaled(0, 60))
-    arcs = shapely.simplify(arcs0, tolerance, preserve_topology=False)
-    arc_tree = shapely.STRtree(arcs0)  # likewise for arcs: DP keeps a subset of the vertices
-    starts, stops = shapely.get_point(arcs0, 0), shapely.get_point(arcs0, -1)
-    ends = shapely.multipoints(np.column_stack([shapely.get_coordinates(starts), shapely.get_coordinates(stops)])
-                               .reshape(-1, 2, 2))
-    closed = shapely.is_closed(arcs0)
-    n_rings = np.bincount(shapely.get_rings(base, return_index=True)[1], minlength=len(base))
-    n_parts = shapely.get_num_geometries(base)
-    kept = np.zeros(len(arcs0), dtype=bool)
-    result = base.copy()
-
-    def revert(which: np.ndarray) -> np.ndarray:
-        which = np.unique(which[~kept[which]])
-        arcs[which] = arcs0[which]
-        kept[which] = True
-        return which
-
-    def arc_conflicts(check: np.ndarray) -> np.ndarray:
-        """Arcs (among ``check`` and their neighbours) whose current shapes conflict."""
-        bad = check[(shapely.get_num_coordinates(arcs[check]) < 4) & closed[check] | ~shapely.is_simple(arcs[check])]
-        a, b = arc_tree.query(arcs[check])
-        a = check[a]
-        in_check = np.zeros(len(arcs), dtype=bool)
-        in_check[check] = True
-        pairs = (a < b) | ((a != b) & ~in_check[b])  # each pair once
-        a, b = a[pairs], b[pairs]
-        pairs = shapely.intersects(arcs[a], arcs[b])
-        a, b = a[pairs], b[pairs]
-        # open arcs may only touch at common end points: touching, and no end point on the other's inside
-        wrong = ~shapely.touches(arcs[a], arcs[b])
-        for p, q in ((a, b), (b, a)):
-            for end in (starts, stops):
-                wrong |= shapely.intersects(end[p], arcs[q]) & ~shapely.intersects(end[p], ends[q])
-        # closed arcs have no boundary in the OGC sense: compare the contact with the common end points
-        ring = closed[a] | closed[b]
-        wrong[ring] = ~shapely.equals(shapely.intersection(arcs[a[ring]], arcs[b[ring]]),
-                                      shapely.intersection(ends[a[ring]], ends[b[ring]]))
-        a, b = a[wrong], b[wrong]
-        # one arc of a conflicting pair goes back (the other is re-checked against it next round)
-        return np.concatenate([bad, np.where(kept[b], a, b)])
-
-    def rebuild(features: np.ndarray) -> np.ndarray:
-        """Rebuild ``features`` from their current arcs; return those that fail a check."""
-        sel = np.isin(feat_of, features)
-        arc_sel, feat_sel = arc_of[sel], feat_of[sel]
-        groups, local = np.unique(feat_sel, return_inverse=True)
-        lines = shapely.multilinestrings(arcs[arc_sel], indices=local)
-        built = shapely.build_area(lines)
-        arc_len = np.bincount(local, weights=shapely.length(arcs[arc_sel]), minlength=len(groups))
-        ok = (shapely.is_valid(built) & ~shapely.is_empty(built)
-              & (shapely.get_num_geometries(built) == n_parts[groups])
-              & (np.bincount(shapely.get_rings(built, return_index=True)[1], minlength=len(groups)) == n_rings[groups])
-              & np.isclose(shapely.length(built), arc_len, rtol=1e-9, atol=grid_size))
-        result[groups[ok]] = built[ok]
-        result[groups[~ok]] = base[groups[~ok]]
-        return groups[~ok]
-
-    owner_key = feat_of.astype(np.int64) * len(arcs0) + arc_of
-
-    def grown_overlaps(features: np.ndarray) -> np.ndarray:
-        """Arcs of two polygons that now overlap more than before (an arc may flip across a thin gap)."""
-        a, b = feat_tree.query(result[features])
-        a = features[a]
-        pairs = (a != b) & shapely.intersects(result[a], result[b])
-        a, b = a[pairs], b[pairs]
-        now = shapely.relate_pattern(result[a], result[b], "T********")  # interiors meet
-        a, b = a[now], b[now]
-        grown = shapely.difference(shapely.intersection(result[a], result[b]), shapely.intersection(base[a], base[b]))
-        parts, pair = shapely.get_parts(grown, return_index=True)
-        big = shapely.area(parts) > OVERLAP_TOLERANCE
-        parts, pair = parts[big], pair[big]
-        region, arc = arc_tree.query(parts, predicate="intersects")
-        owned = (np.isin(a[pair[region]].astype(np.int64) * len(arcs0) + arc, owner_key)
-                 | np.isin(b[pair[region]].astype(np.int64) * len(arcs0) + arc, owner_key))
-        region, arc = region[owned], arc[owned]
-        # the arcs along or through the grown part (not those that merely touch a corner of it)
-        interior_contact = shapely.relate(arcs[arc], parts[region]).astype("U2")  # DE-9IM II and IB
-        return arc[np.char.count(interior_contact, "1") > 0]
-
-    check = np.flatnonzero(~shapely.equals_exact(arcs, arcs0, 0.0))
-    features = np.arange(len(base))
-    while True:  # every round reverts at least one more arc, so this ends
-        feedback.check_canceled()
-        while len(check):
-            check = revert(arc_conflicts(check))
-        failed = rebuild(features)
-        reverted = revert(np.concatenate([arc_of[np.isin(feat_of, failed)], grown_overlaps(features)]))
-        if len(reverted) == 0:
-            break
-        check = reverted
-        features = np.unique(feat_of[np.isin(arc_of, reverted)])
-        feedback.progress(90)
-    out[live] = orient(result)[0]
-    feedback.progress(100)
-    return out, int(np.count_nonzero(kept))
-
-
-def _components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Connected-component label per node of the graph with edges (a, b) (label propagation + pointer jumping)."""
-    labels = np.arange(n)
-    while True:
-        low = np.minimum(labels[a], labels[b])
-        before = labels.copy()
-        np.minimum.at(labels, a, low)
-        np.minimum.at(labels, b, low)
-        while not np.array_equal(labels, labels[labels]):
-            labels = labels[labels]
-        if np.array_equal(labels, before):
-            return labels
-
-
-def _arcs(polygons: np.ndarray, tree: shapely.STRtree, grid_size: float,
-          feedback: Feedback) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Noded boundary arcs and their (arc, polygon) ownership pairs, sorted by polygon.
-
-    Noding everything at once grows faster than linearly in GEOS, so polygons are grouped into
-    batches of whole connected groups (polygons that touch or overlap always share a batch: arcs
-    never interact across batches) of about ``NODING_BATCH`` polygons, spatially sorted.
-    """
-    a, b = tree.query(polygons, predicate="intersects")
-    labels = _components(len(polygons), a, b)
-    centre = shapely.get_coordinates(shapely.centroid(polygons))
-    cell = max(np.ptp(centre[:, 0]), np.ptp(centre[:, 1]), 1.0) / max(np.sqrt(len(polygons) / NODING_BATCH), 1.0)
-    key = np.floor((centre - centre.min(axis=0)) / cell)
-    first = np.unique(labels, return_index=True)[1]  # one representative per group
-    group_rank = np.empty(labels.max() + 1, dtype=int)
-    group_rank[labels[first[np.lexsort((key[first, 1], key[first, 0]))]]] = np.arange(len(first))
-    order = np.lexsort((labels, group_rank[labels]))
-    boundaries = shapely.boundary(polygons)
-    arcs, arc_of, feat_of = [], [], []
-    start, n_arcs = 0, 0
-    while start < len(order):
-        stop = min(start + NODING_BATCH, len(order))
-        while stop < len(order) and labels[order[stop]] == labels[order[stop - 1]]:
-            stop += 1
-        batch = order[start:stop]
-        feedback.check_canceled()
-        noded = shapely.get_parts(shapely.line_merge(_node(boundaries[batch], grid_size)))
-        arc_i, poly_i = _arc_owners(noded, polygons[batch], grid_size)
-        arcs.append(noded)
-        arc_of.append(arc_i + n_arcs)
-        feat_of.append(batch[poly_i])
-        n_arcs += len(noded)
-        start = stop
-        feedback.progress(100.0 * stop / len(order))
-    arc_of, feat_of = np.concatenate(arc_of), np.concatenate(feat_of)
-    order = np.lexsort((arc_of, feat_of))
-    return np.concatenate(arcs), arc_of[order], feat_of[order]
-
-
-def _node(lines: np.ndarray, grid_size: float) -> shapely.Geometry:
-    """Node and dissolve linework: GEOS's noder (fast), else snap-rounding union (robust, slower)."""
-    try:
-        return shapely.node(shapely.multilinestrings(shapely.get_parts(lines)))
-    except shapely.errors.GEOSException:
-        return shapely.union_all(lines, grid_size=grid_size)
-
-
-def _arc_owners(arcs: np.ndarray, polygons: np.ndarray, grid_size: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs (arc, polygon) such that the arc is part of the polygon's boundary.
-
-    Works on the faces of the noded arcs (``polygonize``), whose edges are exactly the arcs, so no
-    tolerance wider than rounding is needed even where source polygons overlap by a sliver: a face
-    belongs to the polygons that contain its interior point, and an arc bounds a polygon when
-    exactly one of the (one or two) faces beside it belongs to that polygon.
-    """
-    faces = shapely.get_parts(shapely.polygonize(arcs))
-    face_of, poly_of = shapely.STRtree(polygons).query(shapely.point_on_surface(faces), predicate="intersects")
-    first_mid = (shapely.get_coordinates(shapely.get_point(arcs, 0))
-                 + shapely.get_coordinates(shapely.get_point(arcs, 1))) / 2
-    arc_at, face_at = shapely.STRtree(shapely.boundary(faces)).query(shapely.points(first_mid), predicate="dwithin",
-                                                                     distance=grid_size * 1e-3)
-    # expand (arc, face) by the polygons of each face: CSR over faces
-    order = np.argsort(face_of, kind="stable")
-    face_of, poly_of = face_of[order], poly_of[order]
-    starts = np.searchsorted(face_of, np.arange(len(faces) + 1))
-    per_face = np.diff(starts)[face_at]
-    arc_rep = np.repeat(arc_at, per_face)
-    within_face = np.arange(per_face.sum()) - np.repeat(np.cumsum(per_face) - per_face, per_face)
-    offsets = np.repeat(starts[face_at], per_face) + within_face
-    key, counts = np.unique(poly_of[offsets].astype(np.int64) * len(arcs) + arc_rep, return_counts=True)
-    key = key[counts % 2 == 1]
-    return key % len(arcs), key // len(arcs)
 
 
 # -- ids ----------------------------------------------------------------------------------------
@@ -901,9 +424,9 @@ def _road_lines(layer: VectorLayer, area: shapely.Geometry, config: PrepareConfi
     g = layer.geoms
     reasons = np.full(len(g), None, dtype=object)
     reasons[shapely.is_missing(g) | shapely.is_empty(g)] = "no_geometry"
-    reasons[(reasons == None) & non_finite(g)] = "non_finite"
-    reasons[(reasons == None) & ~np.isin(shapely.get_type_id(g), (1, 5))] = "wrong_type"
-    live = reasons == None
+    reasons[(reasons == None) & non_finite(g)] = "non_finite"  # noqa: E711 (numpy)
+    reasons[(reasons == None) & ~np.isin(shapely.get_type_id(g), (1, 5))] = "wrong_type"  # noqa: E711 (numpy)
+    live = reasons == None  # noqa: E711 (numpy)
     layer.geoms = g.copy()
     layer.geoms[live] = shapely.remove_repeated_points(g[live], REPEATED_POINT_TOLERANCE)
     stats.repaired = dict.fromkeys(REPAIR_KINDS, 0)

@@ -30,6 +30,7 @@ from pathlib import Path
 from shapely.geometry.base import BaseGeometry
 
 from .. import extrude, model, terrain
+from ..area import StudyArea
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
@@ -48,7 +49,7 @@ from ..tiles.prepare import clip_context, prepare_tile_buildings
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
 from ..vector_io import read_prepared
-from ..vectors import PrepareConfig, StudyArea, prepare_vectors
+from ..vectors import PrepareConfig, prepare_vectors
 from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")

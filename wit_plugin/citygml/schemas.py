@@ -2,9 +2,10 @@
 
 Schemas come from a configured folder (an override, e.g. for an ADE), else the copy the plugin
 ships in ``xsd/`` (see its NOTICE.md), else — only when that copy was removed from an install —
-the plugin's cache, filled once by a download from schemas.opengis.net / www.w3.org. The download mirrors the layout of the shared
-offline copy (``opengis/...``, ``w3/...``) and rewrites every import to a relative path, so the
-cached copy validates offline exactly like the shared one (libxml2 never sees an absolute URL).
+the plugin's cache, filled once by a download from schemas.opengis.net / www.w3.org. The download
+mirrors the layout of the shared offline copy (``opengis/...``, ``w3/...``) and rewrites every
+import to a relative path, so the cached copy validates offline exactly like the shared one
+(libxml2 never sees an absolute URL).
 """
 from __future__ import annotations
 
@@ -167,8 +168,10 @@ def _entry_point_xsd() -> str:
     imports = "\n".join(f'  <xs:import namespace="{ns}" schemaLocation="{local_path(url)}"/>'
                         for ns, url in CITYGML_MODULES.items())
     return ('<?xml version="1.0" encoding="UTF-8"?>\n'
-            "<!-- Validation entry point for CityGML 3.0 documents mixing any modules (written by WIT City Model). -->\n"
-            f'<xs:schema xmlns:xs="{XSD_NS}" elementFormDefault="qualified" version="3.0.0">\n{imports}\n</xs:schema>\n')
+            "<!-- Validation entry point for CityGML 3.0 documents mixing any modules (written by WIT City Model). "
+            "-->\n"
+            f'<xs:schema xmlns:xs="{XSD_NS}" elementFormDefault="qualified" version="3.0.0">\n{imports}\n'
+            "</xs:schema>\n")
 
 
 def load_schema(schema_dir: Path) -> etree.XMLSchema:

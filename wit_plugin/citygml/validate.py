@@ -26,10 +26,11 @@ from pathlib import Path
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
+from . import reader as streaming
+from .namespaces import CITYGML3_NAMESPACES
 from .schemas import load_schema, schema_namespaces
-from .validation import stream as streaming
 from .validation.checks import FileCheck
-from .validation.names import CITYGML3_NAMESPACES, FileReport, Issue, IssueList, qname
+from .validation.names import FileReport, Issue, IssueList, qname
 from .validation.xsd import (
     StreamingValidation,
     describe,

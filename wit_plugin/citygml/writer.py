@@ -1,4 +1,4 @@
-"""Streaming CityGML 3.0 writer: the core of ``wit:writecitygml`` (SPEC §6).
+"""Streaming CityGML 3.0 writer: the core of ``wit:writecitygml``.
 
 Reads the step outputs named in ``model`` (LoD1 faces, TIN, prepared roads and districts, the
 texture table) and writes one ``core:CityModel``, element by element, with constant memory in
@@ -32,8 +32,6 @@ import mimetypes
 import os
 import re
 import shutil
-import sqlite3
-import tempfile
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from itertools import chain, groupby, islice
@@ -43,7 +41,6 @@ from typing import Any, Callable
 from xml.sax.saxutils import escape
 
 import numpy as np
-import shapely
 from lxml import etree
 from osgeo import ogr
 
@@ -53,7 +50,18 @@ from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
 from ..gc_pause import collector_paused
 from ..numtext import ring_texts
-from ..vector_io import open_step_layer, split_source
+from .inputs import (
+    BULK,
+    InputLayer,
+    Membership,
+    checked_wit_id,
+    columns_of,
+    envelope_of,
+    fields_of,
+    texture_images,
+    tin_triangles,
+)
+from .namespaces import APP, BLDG, CON, CORE, DEM, GEN, GML, GML_ID, GRP, TRAN, URIS, XLINK, XSI
 from .schemas import CITYGML_MODULES
 
 APPEARANCE_THEME = "rgbTexture"
@@ -61,27 +69,13 @@ DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-ad
 RELIEF_ID, TIN_RELIEF_ID, TIN_SURFACE_ID = "DEM_relief", "DEM_tin", "DEM_tin_surface"
 RELIEF_LOD, ROAD_LOD_PROPERTY = "1", "lod2MultiSurface"
 
-NS = {
-    "core": "http://www.opengis.net/citygml/3.0",
-    "bldg": "http://www.opengis.net/citygml/building/3.0",
-    "con": "http://www.opengis.net/citygml/construction/3.0",
-    "tran": "http://www.opengis.net/citygml/transportation/3.0",
-    "dem": "http://www.opengis.net/citygml/relief/3.0",
-    "app": "http://www.opengis.net/citygml/appearance/3.0",
-    "gen": "http://www.opengis.net/citygml/generics/3.0",
-    "grp": "http://www.opengis.net/citygml/cityobjectgroup/3.0",
-    "gml": "http://www.opengis.net/gml/3.2",
-    "xlink": "http://www.w3.org/1999/xlink",
-    "xsi": "http://www.w3.org/2001/XMLSchema-instance",
-}
-CORE, BLDG, CON, TRAN, DEM, APP, GEN, GRP, GML, XLINK, XSI = ("{%s}" % NS[p] for p in NS)
-GML_ID = GML + "id"
+NS = {prefix: URIS[prefix] for prefix in ("core", "bldg", "con", "tran", "dem", "app", "gen", "grp", "gml", "xlink",
+                                          "xsi")}
+"""The namespaces the model declares on its root (those of the modules it uses)."""
 
 # characters XML 1.0 cannot carry (C0 controls except tab/LF/CR, lone surrogates, U+FFFE/U+FFFF)
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
-_NCNAME = re.compile(r"[^\W\d][\w.\-]*")
-_BATCH = 10_000  # rows between progress/cancel checks and district-lookup batches
-_BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
+_BATCH = 10_000  # rows between progress/cancel checks
 
 
 @dataclass(frozen=True)
@@ -120,8 +114,8 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
     with contextlib.ExitStack() as stack:
         stack.enter_context(collector_paused())
 
-        def layer(path: str | None, *args: Any, **kwargs: Any) -> _Layer | None:
-            return stack.enter_context(_Layer.open(path, *args, **kwargs)) if path else None
+        def layer(path: str | None, *args: Any, **kwargs: Any) -> InputLayer | None:
+            return stack.enter_context(InputLayer.open(path, *args, **kwargs)) if path else None
 
         lod1 = layer(inputs.lod1, model.LOD1_LAYER, model.LOD1_ROLE,
                      (model.WIT_ID, model.FACE_NUMBER, model.FACE_TYPE), geometry_z=True)
@@ -138,14 +132,14 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         for source in (lod1, tin):
             if source:
                 source.check_crs(srs_name)
-        images = _texture_images(texcoords, Path(inputs.textures)) if texcoords else {}
-        report.envelope = _envelope([source for source in (lod1, tin) if source])
+        images = texture_images(texcoords, Path(inputs.textures)) if texcoords else {}
+        report.envelope = envelope_of([source for source in (lod1, tin) if source])
         if report.envelope is None:
             raise InputError(f"{inputs.lod1 or inputs.tin} has no geometries: re-run the step that wrote it.")
         tex_dir = out.parent / f"{out.stem}_textures"
         uris = {image: _image_uri(src, image, out.parent, tex_dir if copy_textures else None)
                 for image, src in images.items()}
-        members = stack.enter_context(_Membership(districts)) if districts else None
+        members = stack.enter_context(Membership(districts)) if districts else None
         total = sum(source.count() for source in (lod1, tin, texcoords) if source) or 1
         tmp = stack.enter_context(atomic_file(out))
         with open(tmp, "wb") as fh, _Writer.document(fh, srs_uri, report, _Progress(feedback, total)) as writer:
@@ -192,115 +186,6 @@ def srs_name_of(srs_name: str) -> str:
     raise InputError(f"CRS '{srs_name}' is neither EPSG:<code> nor a CRS URI/URN (e.g. EPSG:5186).")
 
 
-# --- inputs -------------------------------------------------------------------------------------
-
-class _Layer:
-    """One input layer of a GeoPackage, opened read-only, with ordered SQL reads."""
-
-    def __init__(self, ds: ogr.DataSource, layer: ogr.Layer, path: str, name: str):
-        self.ds, self.layer, self.path, self.name = ds, layer, path, name
-
-    @classmethod
-    @contextlib.contextmanager
-    def open(cls, path: str, name: str, role: str, fields: Iterable[str],
-             geometry_z: bool = False) -> Iterator[_Layer]:
-        ds, layer, _ = open_step_layer(path, name, role, fields)
-        path, name = split_source(path)[0], layer.GetName()
-        if geometry_z and not ogr.GT_HasZ(layer.GetGeomType()):
-            raise InputError(f"Layer '{name}' in {path} has no Z coordinates: give the output of the {role}.")
-        yield cls(ds, layer, path, name)
-
-    def count(self) -> int:
-        return max(self.layer.GetFeatureCount(), 0)
-
-    def check_crs(self, srs_name: str) -> None:
-        """Refuse a layer whose EPSG code differs from the output's: coordinates are written as read."""
-        srs = self.layer.GetSpatialRef()
-        wanted = re.fullmatch(r"(?i)EPSG:(\d+)", srs_name.strip())
-        code = srs.GetAuthorityCode(None) if srs is not None else None
-        if wanted and code and srs.GetAuthorityName(None) == "EPSG" and code != wanted.group(1):
-            raise InputError(f"Layer '{self.name}' in {self.path} is in EPSG:{code}, not {srs_name}: "
-                             f"run the earlier steps with the target CRS {srs_name}.")
-
-    def fields(self) -> list[tuple[int, str, int]]:
-        return _fields(self.layer)
-
-    @contextlib.contextmanager
-    def select(self, where: str = "", order: Iterable[str] = (), columns: str = "*") -> Iterator[ogr.Layer]:
-        """Features in a stable order (SQLite sorts on disk, so memory stays flat)."""
-        sql = f'SELECT {columns} FROM "{self.name}"'
-        if where:
-            sql += f" WHERE {where}"
-        if order:
-            sql += " ORDER BY " + ", ".join(f'"{c}"' for c in order)
-        result = self.ds.ExecuteSQL(sql)
-        if result is None:
-            raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
-        try:
-            yield result
-        finally:
-            self.ds.ReleaseResultSet(result)
-
-    def scalar(self, sql: str) -> Any:
-        result = self.ds.ExecuteSQL(sql)
-        if result is None:
-            raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
-        try:
-            feature = result.GetNextFeature()
-            return feature.GetField(0) if feature is not None else None
-        finally:
-            self.ds.ReleaseResultSet(result)
-
-
-def _fields(layer: ogr.Layer) -> list[tuple[int, str, int]]:
-    """(index, name, OGR type) of every attribute field (of a table or an SQL result)."""
-    defn = layer.GetLayerDefn()
-    return [(i, defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in range(defn.GetFieldCount())]
-
-
-def _columns(layer: ogr.Layer) -> dict[str, int]:
-    """Field name → index: typed getters by index are several times faster than by name."""
-    return {name: index for index, name, _ in _fields(layer)}
-
-
-def _envelope(layers: list[_Layer]) -> tuple[float, ...] | None:
-    """3D bounding box of all geometries, read geometry-only through OGR's Arrow stream."""
-    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for source in layers:
-        layer = source.layer
-        # all but one field: GDAL 3.6's GPKG Arrow reader returns empty geometries when every field is ignored
-        bulk_read.ignore_fields(layer, [name for _, name, _ in source.fields()[1:]])
-        try:
-            for batch in bulk_read.batches(layer, _BULK):
-                wkb = batch["geometry"]
-                corners = bulk_read.triangles(wkb)
-                xyz = (corners.reshape(-1, 3) if corners is not None
-                       else shapely.get_coordinates(shapely.from_wkb(wkb), include_z=True))
-                if len(xyz):
-                    lo, hi = np.fmin(lo, np.nanmin(xyz, axis=0)), np.fmax(hi, np.nanmax(xyz, axis=0))
-        finally:
-            layer.SetIgnoredFields([])
-            layer.ResetReading()
-    return None if not np.all(np.isfinite(lo)) else tuple(map(float, (*lo, *hi)))
-
-
-def _texture_images(texcoords: _Layer, folder: Path) -> dict[str, Path]:
-    """Image name → source path of every image the texture table uses; refuses missing images."""
-    images: dict[str, Path] = {}
-    with texcoords.select(columns=f'DISTINCT "{model.TEX_IMAGE}"', order=(model.TEX_IMAGE,)) as result:
-        for feature in result:
-            image = feature.GetField(0)
-            rel = Path(image or "")
-            if not image or rel.is_absolute() or ".." in rel.parts:
-                raise InputError(f"Texture table in {texcoords.path} has an invalid image path {image!r}: "
-                                 "paths must be relative to the texture folder.")
-            if not (folder / rel).is_file():
-                raise InputError(f"Texture image {folder / rel} listed in {texcoords.path} does not exist: "
-                                 "re-run wit:wittexture.")
-            images[image] = folder / rel
-    return images
-
-
 def _image_uri(src: Path, image: str, out_dir: Path, tex_dir: Path | None) -> str:
     """Relative URI of the image from the .gml: in the copied folder, else the original file."""
     target = tex_dir / image if tex_dir else src
@@ -308,13 +193,6 @@ def _image_uri(src: Path, image: str, out_dir: Path, tex_dir: Path | None) -> st
         return Path(os.path.relpath(target, out_dir)).as_posix()
     except ValueError:  # another drive on Windows: no relative path exists
         return target.resolve().as_uri()
-
-
-def _wit_id(value: Any, what: str) -> str:
-    if not isinstance(value, str) or not _NCNAME.fullmatch(value):
-        raise InputError(f"{what} has wit_id {value!r}, which cannot be a gml:id (letters, digits, '_', '-', '.'; "
-                         "not starting with a digit): re-create the layer with wit:preparevectors.")
-    return value
 
 
 def _clean(text: str) -> str:
@@ -337,34 +215,6 @@ def _polygon_markup(gml_id: str, poslists: list[str]) -> str:
                     f'<gml:posList srsDimension="3">{poslist}</gml:posList></gml:LinearRing>'
                     f'</gml:{"interior" if i else "exterior"}>' for i, poslist in enumerate(poslists))
     return f'<gml:Polygon gml:id="{gml_id}">{rings}</gml:Polygon>'
-
-
-def _tri_ids(column: np.ndarray) -> list[str]:
-    """``tri_<n>`` from the TIN's integer ``tri_id`` column (a batch of ``bulk_read``)."""
-    if column.dtype.kind in "iu" and not np.ma.is_masked(column):
-        return [f"tri_{value}" for value in column.tolist()]
-    values = bulk_read.texts(column)
-    for value in values:
-        if not value.lstrip("-").isdigit():
-            raise InputError(f"TIN triangle id {value!r} is not an integer: re-run wit:triangulateterrain.")
-    return [f"tri_{value}" for value in values]
-
-
-def _tin_triangles(tin: _Layer, where: str, order: tuple[str, ...]
-                   ) -> Iterator[tuple[list[str], list[str], dict[str, np.ndarray]]]:
-    """Batches of the TIN triangles matching ``where`` in ``order``: (ids ``tri_<n>``, posList texts, the batch).
-
-    Read in bulk (``bulk_read``); each distinct corner is formatted once (``numtext``).
-    """
-    with tin.select(where, order) as result:
-        for batch in bulk_read.batches(result, _BULK):
-            ids = _tri_ids(batch[model.TIN_TRIANGLE_ID])
-            points, counts, rings = bulk_read.exterior_rings(batch["geometry"])
-            bad = np.flatnonzero((rings != 1) | (counts != 4))
-            if len(bad):
-                raise InputError(f"TIN feature tri_id={ids[bad[0]][4:]} is not a closed triangle: "
-                                 "re-run wit:triangulateterrain.")
-            yield ids, ring_texts(points, counts, "%.3f %.3f %.3f"), batch
 
 
 def _batches(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
@@ -414,65 +264,6 @@ class _Progress:
         if self.done % _BATCH < count:  # passed a multiple of _BATCH
             self.feedback.check_canceled()
             self.feedback.progress(min(99.0, 100.0 * self.done / self.total))
-
-
-class _Membership:
-    """Building → district assignment, spooled to a temporary SQLite table (constant memory)."""
-
-    def __init__(self, districts: _Layer):
-        self.rows: list[tuple[str, ogr.Feature]] = []  # (wit_id, feature) sorted by wit_id
-        geoms = []
-        districts.layer.ResetReading()
-        features = sorted(((_wit_id(f.GetField(model.WIT_ID), f"A district in {districts.path}"), f)
-                           for f in districts.layer), key=lambda pair: pair[0])
-        for wit_id, group in groupby(features, key=lambda pair: pair[0]):
-            feature = next(group)[1]
-            geometry = feature.GetGeometryRef()
-            if geometry is not None and not geometry.IsEmpty():
-                self.rows.append((wit_id, feature))
-                geoms.append(shapely.from_wkb(bytes(geometry.ExportToIsoWkb())))
-        self.fields = districts.fields()
-        self.tree = shapely.STRtree(geoms)
-        self.pending: list[tuple[str, bytes]] = []
-        self.tmp = tempfile.TemporaryDirectory(prefix="wit-citygml-")
-        self.db = sqlite3.connect(Path(self.tmp.name) / "members.sqlite")
-        self.db.execute("CREATE TABLE m (district INTEGER, building TEXT)")
-
-    def __enter__(self) -> _Membership:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.db.close()
-        self.tmp.cleanup()
-
-    def add(self, building: str, footprint_wkb: bytes) -> None:
-        self.pending.append((building, footprint_wkb))
-        if len(self.pending) >= _BATCH:
-            self.flush()
-
-    def flush(self) -> None:
-        """Assign the pending buildings: the district containing the footprint's representative point.
-
-        A point on a shared border goes to the district with the smallest wit_id (deterministic).
-        """
-        if not self.pending:
-            return
-        points = shapely.point_on_surface(shapely.from_wkb([wkb for _, wkb in self.pending]))
-        pairs = self.tree.query(points, predicate="intersects")
-        first: dict[int, int] = {}
-        for building, district in zip(*pairs.tolist()):
-            first[building] = min(district, first.get(building, district))
-        self.db.executemany("INSERT INTO m VALUES (?, ?)",
-                            ((district, self.pending[b][0]) for b, district in first.items()))
-        self.pending.clear()
-
-    def groups(self) -> Iterator[tuple[str, Any, Iterator[str]]]:
-        """(district wit_id, district feature, member wit_ids sorted) for districts with members."""
-        self.flush()
-        cursor = self.db.execute("SELECT district, building FROM m ORDER BY district, building")
-        for district, rows in groupby(cursor, key=lambda row: row[0]):
-            wit_id, feature = self.rows[district]
-            yield wit_id, feature, (building for _, building in rows)
 
 
 # --- writing ------------------------------------------------------------------------------------
@@ -560,15 +351,15 @@ class _Writer:
         self.raw(_polygon(gml_id, geometry))
 
     # content ------------------------------------------------------------------------------------
-    def buildings(self, lod1: _Layer, members: _Membership | None) -> None:
+    def buildings(self, lod1: InputLayer, members: Membership | None) -> None:
         with lod1.select(order=(model.WIT_ID, model.FACE_NUMBER)) as result:
-            fields, col = _fields(result), _columns(result)
+            fields, col = fields_of(result), columns_of(result)
             key = col[model.WIT_ID]
             for wit_id, faces in groupby(result, key=lambda f: f.GetFieldAsString(key)):
-                self.building(_wit_id(wit_id, f"A face in {lod1.path}"), faces, fields, col, members)
+                self.building(checked_wit_id(wit_id, f"A face in {lod1.path}"), faces, fields, col, members)
 
     def building(self, wit_id: str, faces: Iterator[ogr.Feature], fields: list[tuple[int, str, int]],
-                 col: dict[str, int], members: _Membership | None) -> None:
+                 col: dict[str, int], members: Membership | None) -> None:
         first = next(faces)
         number_col, type_col, last = col[model.FACE_NUMBER], col[model.FACE_TYPE], -1
         with self.member(BLDG + "Building", wit_id):
@@ -611,7 +402,7 @@ class _Writer:
             self.leaf(CON + "status", "measured" if source == "field" else "estimated")
             self.leaf(CON + "value", f"{value:.3f}", {"uom": "m"})
 
-    def roads(self, roads: _Layer | None, tin: _Layer | None) -> None:
+    def roads(self, roads: InputLayer | None, tin: InputLayer | None) -> None:
         """One ``tran:Road`` per road wit_id in the road layer or among the road triangles."""
         fields: list[tuple[int, str, int]] = []
         with contextlib.ExitStack() as stack:
@@ -619,15 +410,15 @@ class _Writer:
             tri_rows: Iterator[tuple[str, Any]] = iter(())
             if roads:
                 result = stack.enter_context(roads.select(order=(model.WIT_ID,)))
-                fields, key = _fields(result), _columns(result)[model.WIT_ID]
+                fields, key = fields_of(result), columns_of(result)[model.WIT_ID]
                 road_rows = ((k, next(g)) for k, g in groupby(result, key=lambda f: f.GetFieldAsString(key)))
             if tin:
                 triangles = chain.from_iterable(
                     zip(bulk_read.texts(batch[model.TIN_FEATURE_ID]), ids, poslists) for ids, poslists, batch in
-                    _tin_triangles(tin, _ROAD_TRIANGLES, (model.TIN_FEATURE_ID, model.TIN_TRIANGLE_ID)))
+                    tin_triangles(tin, _ROAD_TRIANGLES, (model.TIN_FEATURE_ID, model.TIN_TRIANGLE_ID)))
                 tri_rows = groupby(triangles, key=itemgetter(0))
             for wit_id, road, triangles in _join_sorted(road_rows, tri_rows):
-                self.road(_wit_id(wit_id, "A road"), road, fields, triangles)
+                self.road(checked_wit_id(wit_id, "A road"), road, fields, triangles)
 
     def road(self, wit_id: str, road: ogr.Feature | None, fields: list[tuple[int, str, int]],
              triangles: Iterator[tuple[str, str, str]] | None) -> None:
@@ -647,7 +438,7 @@ class _Writer:
                     self.leaf(TRAN + "granularity", "way")
         self.report.roads += 1
 
-    def relief(self, tin: _Layer) -> None:
+    def relief(self, tin: InputLayer) -> None:
         """The TIN triangles not written as road surfaces, as one ``dem:TINRelief``."""
         where = f"NOT ({_ROAD_TRIANGLES})"
         if not tin.scalar(f'SELECT EXISTS (SELECT 1 FROM "{tin.name}" WHERE {where})'):
@@ -658,7 +449,7 @@ class _Writer:
                 self.leaf(DEM + "lod", RELIEF_LOD)
                 with self.el(DEM + "tin"), self.el(GML + "TriangulatedSurface", {GML_ID: TIN_SURFACE_ID}), \
                         self.el(GML + "patches"):
-                    for ids, poslists, _ in _tin_triangles(tin, where, (model.TIN_TRIANGLE_ID,)):
+                    for ids, poslists, _ in tin_triangles(tin, where, (model.TIN_TRIANGLE_ID,)):
                         self.raw("".join(
                             f'\n<gml:Triangle><gml:exterior><gml:LinearRing gml:id="{gml_id}_r">'
                             f'<gml:posList srsDimension="3">{poslist}'
@@ -667,7 +458,7 @@ class _Writer:
                         self.report.triangles += len(ids)
                         self.progress.tick(len(ids))
 
-    def groups(self, members: _Membership) -> None:
+    def groups(self, members: Membership) -> None:
         for wit_id, district, buildings in members.groups():
             with self.member(GRP + "CityObjectGroup", wit_id):
                 index = district.GetFieldIndex(DISTRICT_NAME_FIELD)
@@ -681,13 +472,13 @@ class _Writer:
                     self.report.group_members += 1
             self.report.groups += 1
 
-    def appearance(self, texcoords: _Layer, uris: dict[str, str]) -> None:
+    def appearance(self, texcoords: InputLayer, uris: dict[str, str]) -> None:
         """Per image one ``app:Appearance`` (``app_1``…) with its ``ParameterizedTexture`` (``tex_1``…)."""
         order = (model.TEX_IMAGE, model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE)
         with texcoords.select(order=order) as result:
             rows = chain.from_iterable(
                 zip(*(bulk_read.texts(batch[name]) for name in order + (model.TEX_COORDS,)))
-                for batch in bulk_read.batches(result, _BULK))
+                for batch in bulk_read.batches(result, BULK))
             for number, (image, group) in enumerate(groupby(rows, key=itemgetter(0)), 1):
                 # one appearanceMember per image: a reader (or validator) streaming member by member
                 # then holds one image's associations, not the whole model's

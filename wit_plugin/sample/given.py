@@ -31,14 +31,16 @@ import pyproj
 import shapely
 
 from .. import mapsheet
+from ..area import StudyArea
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_files, refuse_overlap, source_file
 from ..heights import HeightOptions, building_height
+from ..polygons import polygonal, repair_polygons, transform
 from ..terrain import covering_area
 from ..tiles.plan import plan_tiles
 from ..vector_io import VectorLayer, layer_extent, non_finite, read_layer
-from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, StudyArea, polygonal, repair_polygons, road_widths, transform
+from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, road_widths
 from .config import MANIFEST, SampleConfig, check_rasters
 from .layout import GROUND_LANE
 from .ortho import DEM_NAME, ORTHO_DIR, RASTER_CRS, render_tiles, sheet_envelopes, write_sample_dem

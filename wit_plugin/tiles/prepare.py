@@ -18,10 +18,11 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from .. import model
+from ..area import StudyArea
 from ..feedback import SILENT, Feedback
 from ..fileio import atomic_file
 from ..vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
-from ..vectors import PrepareConfig, StudyArea, prepare_vectors
+from ..vectors import PrepareConfig, prepare_vectors
 from .plan import TileOwner
 
 #: neighbours within this distance of a tile take part in simplifying its buildings (m)

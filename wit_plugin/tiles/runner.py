@@ -28,6 +28,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from .. import triangulators
+from ..area import StudyArea
 from ..chain import ChainInputs, ChainOptions
 from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
 from ..chain.coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
@@ -37,10 +38,10 @@ from ..feedback import SILENT, Feedback
 from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import core_env, core_python
+from ..polygons import repair_polygons, transform
 from ..tiles3d.combine import TILE_TILESET, tile_areas, write_run_tileset
 from ..tiles3d.web import require_web_profile
 from ..vector_io import read_layer
-from ..vectors import StudyArea, repair_polygons, transform
 from .index import (
     DONE,
     EMPTY,

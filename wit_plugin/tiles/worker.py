@@ -19,11 +19,11 @@ import time
 import traceback
 from pathlib import Path
 
+from ..area import StudyArea
 from ..chain import ChainInputs, ChainOptions, run_city_model
 from ..errors import WitError
 from ..feedback import LoggingFeedback
 from ..heights import HeightOptions
-from ..vectors import StudyArea
 from .index import DONE, EMPTY, FAILED
 from .job import TileJob
 from .plan import TileOwner

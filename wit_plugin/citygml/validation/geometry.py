@@ -211,7 +211,8 @@ class SolidCheck:
                 p = np.zeros(3)
                 p[a1[f]], p[a2[f]] = float(m.group(1)), float(m.group(2))
                 n, c = unit[f], centroid[f]
-                p[axis[f]] = c[axis[f]] - (n[a1[f]] * (p[a1[f]] - c[a1[f]]) + n[a2[f]] * (p[a2[f]] - c[a2[f]])) / n[axis[f]]
+                p[axis[f]] = c[axis[f]] - (n[a1[f]] * (p[a1[f]] - c[a1[f]])
+                                           + n[a2[f]] * (p[a2[f]] - c[a2[f]])) / n[axis[f]]
                 where = " near " + self._xyz(p, self.face_solid[f])
             self.issues.add("self-intersection", node.line, node.gml_id, f"Face {node.label} intersects itself"
                             f"{where} ({reason.split('[')[0].strip()}).")

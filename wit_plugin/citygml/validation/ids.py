@@ -66,7 +66,8 @@ class IdStore:
         return found, points
 
 
-def _merge_runs(new: tuple[np.ndarray, np.ndarray], old: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+def _merge_runs(new: tuple[np.ndarray, np.ndarray],
+                old: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """One sorted run (hashes, points) from two whose hashes differ: linear, no temporary copy of either."""
     at = np.searchsorted(old[0], new[0])
     at += np.arange(len(at))  # where the new run's hashes land in the merged run

@@ -1,4 +1,4 @@
-"""Namespaces, element names and the issue records shared by the validation modules."""
+"""Element names and the issue records shared by the validation modules (namespaces: ``citygml.namespaces``)."""
 from __future__ import annotations
 
 import re
@@ -8,13 +8,10 @@ from functools import cache
 
 from lxml import etree
 
-GML = "http://www.opengis.net/gml/3.2"
-XLINK = "http://www.w3.org/1999/xlink"
-CORE = "http://www.opengis.net/citygml/3.0"
-APP = "http://www.opengis.net/citygml/appearance/3.0"
-GML_ID = f"{{{GML}}}id"
-HREF = f"{{{XLINK}}}href"
-NAMESPACES = {"gml": GML, "app": APP, "xlink": XLINK, "core": CORE}
+from ..namespaces import GML_ID, PREFIXES, URIS
+
+GML, XLINK, CORE, APP = (URIS[prefix] for prefix in ("gml", "xlink", "core", "app"))
+NAMESPACES = {prefix: URIS[prefix] for prefix in ("gml", "app", "xlink", "core")}  # for XPath
 G = {name: f"{{{GML}}}{name}" for name in (
     "Solid", "Shell", "exterior", "interior", "surfaceMember", "Polygon", "PolygonPatch", "LinearRing", "posList",
     "pos", "lowerCorner", "upperCorner", "Triangle", "CompositeSurface", "OrientableSurface", "baseSurface",
@@ -22,18 +19,6 @@ G = {name: f"{{{GML}}}{name}" for name in (
 A = {name: f"{{{APP}}}{name}" for name in (
     "imageURI", "TexCoordList", "textureCoordinates", "ring", "target")}
 POSITIONS = (G["posList"], G["pos"], G["lowerCorner"], G["upperCorner"])
-PREFIXES = {  # conventional prefixes, for messages that read like the XML
-    CORE: "core", GML: "gml", XLINK: "xlink", APP: "app",
-    "http://www.opengis.net/citygml/building/3.0": "bldg", "http://www.opengis.net/citygml/construction/3.0": "con",
-    "http://www.opengis.net/citygml/relief/3.0": "dem", "http://www.opengis.net/citygml/transportation/3.0": "tran",
-    "http://www.opengis.net/citygml/generics/3.0": "gen", "http://www.opengis.net/citygml/cityobjectgroup/3.0": "grp",
-    "http://www.opengis.net/citygml/bridge/3.0": "brid", "http://www.opengis.net/citygml/tunnel/3.0": "tun",
-    "http://www.opengis.net/citygml/cityfurniture/3.0": "frn", "http://www.opengis.net/citygml/landuse/3.0": "luse",
-    "http://www.opengis.net/citygml/vegetation/3.0": "veg", "http://www.opengis.net/citygml/waterbody/3.0": "wtr",
-    "http://www.opengis.net/citygml/dynamizer/3.0": "dyn", "http://www.opengis.net/citygml/pointcloud/3.0": "pcl",
-    "http://www.opengis.net/citygml/versioning/3.0": "vers", "urn:oasis:names:tc:ciq:xal:3": "xAL",
-    "http://www.w3.org/2001/XMLSchema": "xs"}
-CITYGML3_NAMESPACES = frozenset(ns for ns in PREFIXES if ns.startswith("http://www.opengis.net/citygml/"))
 _QNAME_IN_MSG = re.compile(r"\{([^}]*)\}([\w.\-]+)")
 
 

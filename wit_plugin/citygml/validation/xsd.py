@@ -30,9 +30,9 @@ from pathlib import Path
 
 from lxml import etree
 
+from ..reader import PARSE_OPTIONS, Stream, SyntaxProblem
 from ..schemas import ENTRY_POINT, content_model
 from .names import IssueList, owner_id, remove_keep_tail, short
-from .stream import PARSE_OPTIONS, Stream, SyntaxProblem
 
 _ELEMENT_IN_MSG = re.compile(r"^Element '([^']+)'")
 _BAD_ID = re.compile(r"^Element '[^']+', attribute '\{http://www\.opengis\.net/gml/3\.2\}id': '([^']*)' is not a valid "

@@ -1,4 +1,6 @@
-"""One streaming parse of a file, handed out in finished parts that are freed once checked.
+"""The CityGML reader: one streaming parse of a file, handed out in finished parts that are freed once read.
+
+The validator checks every part; the metrics read the buildings' solids from them.
 
 The file is fed to lxml's push parser a chunk at a time. After each chunk, the elements along the
 path to the parser's position are open; the children before the last child of an open element are
@@ -14,12 +16,12 @@ still be appending its tail text.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from lxml import etree
 
-from .names import G
+from .namespaces import GML
 
 _POSITION = re.compile(r", line \d+, column \d+$")
 CHUNK_BYTES = 1 << 20
@@ -63,7 +65,8 @@ class Stream:
         self.raw = RawCounts()
 
     def parts(self, chunk_bytes: int | None = None) -> Iterator[tuple[etree._Element, int]]:
-        """Yield (parent, n): the first n children of ``parent`` are finished; they go when the next part is asked for."""
+        """Yield (parent, n): the first n children of ``parent`` are finished; they go when the next part is
+        asked for."""
         size = chunk_bytes or CHUNK_BYTES
         with open(self.path, "rb") as stream:
             while True:
@@ -96,12 +99,21 @@ class Stream:
     def _finished(self) -> Iterator[tuple[etree._Element, int]]:
         node, depth, in_solid = self.root, 0, False
         while node is not None:
-            in_solid = in_solid or node.tag == G["Solid"]
+            in_solid = in_solid or node.tag == GML + "Solid"
             done = len(node) - 1
             if done > 0 and (depth == 0 or (done >= MIN_PART and not in_solid)):
                 yield node, done
                 del node[:done]
             node, depth = (node[-1] if len(node) else None), depth + 1
+
+
+def envelope_srs(children: Iterable[etree._Element]) -> str | None:
+    """The srsName of the model's envelope (``gml:boundedBy/gml:Envelope``) among the root's ``children``."""
+    for child in children:
+        if child.tag == GML + "boundedBy":
+            envelope = child.find(GML + "Envelope")
+            return envelope.get("srsName") if envelope is not None else None
+    return None
 
 
 class RawCounts:

@@ -1,0 +1,231 @@
+"""What the CityGML writer reads: the step outputs it combines, read in bulk and in a stable order.
+
+Each input is a layer opened read-only (``InputLayer``: ordered SQL reads, CRS check); besides come
+the 3D envelope of the geometries, the texture images the texture table uses, the TIN triangles in
+batches with their ids, and the building → district assignment (``Membership``), spooled to a
+temporary SQLite table so memory stays flat.
+"""
+from __future__ import annotations
+
+import contextlib
+import re
+import sqlite3
+import tempfile
+from collections.abc import Iterable, Iterator
+from itertools import groupby
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+from osgeo import ogr
+
+from .. import bulk_read, model
+from ..errors import InputError
+from ..numtext import ring_texts
+from ..vector_io import open_step_layer, split_source
+
+BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
+_LOOKUP_BATCH = 10_000  # buildings per district lookup (as many as the writer's progress batch)
+_NCNAME = re.compile(r"[^\W\d][\w.\-]*")
+
+
+class InputLayer:
+    """One input layer of a GeoPackage, opened read-only, with ordered SQL reads."""
+
+    def __init__(self, ds: ogr.DataSource, layer: ogr.Layer, path: str, name: str):
+        self.ds, self.layer, self.path, self.name = ds, layer, path, name
+
+    @classmethod
+    @contextlib.contextmanager
+    def open(cls, path: str, name: str, role: str, fields: Iterable[str],
+             geometry_z: bool = False) -> Iterator[InputLayer]:
+        ds, layer, _ = open_step_layer(path, name, role, fields)
+        path, name = split_source(path)[0], layer.GetName()
+        if geometry_z and not ogr.GT_HasZ(layer.GetGeomType()):
+            raise InputError(f"Layer '{name}' in {path} has no Z coordinates: give the output of the {role}.")
+        yield cls(ds, layer, path, name)
+
+    def count(self) -> int:
+        return max(self.layer.GetFeatureCount(), 0)
+
+    def check_crs(self, srs_name: str) -> None:
+        """Refuse a layer whose EPSG code differs from the output's: coordinates are written as read."""
+        srs = self.layer.GetSpatialRef()
+        wanted = re.fullmatch(r"(?i)EPSG:(\d+)", srs_name.strip())
+        code = srs.GetAuthorityCode(None) if srs is not None else None
+        if wanted and code and srs.GetAuthorityName(None) == "EPSG" and code != wanted.group(1):
+            raise InputError(f"Layer '{self.name}' in {self.path} is in EPSG:{code}, not {srs_name}: "
+                             f"run the earlier steps with the target CRS {srs_name}.")
+
+    def fields(self) -> list[tuple[int, str, int]]:
+        return fields_of(self.layer)
+
+    @contextlib.contextmanager
+    def select(self, where: str = "", order: Iterable[str] = (), columns: str = "*") -> Iterator[ogr.Layer]:
+        """Features in a stable order (SQLite sorts on disk, so memory stays flat)."""
+        sql = f'SELECT {columns} FROM "{self.name}"'
+        if where:
+            sql += f" WHERE {where}"
+        if order:
+            sql += " ORDER BY " + ", ".join(f'"{c}"' for c in order)
+        result = self.ds.ExecuteSQL(sql)
+        if result is None:
+            raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
+        try:
+            yield result
+        finally:
+            self.ds.ReleaseResultSet(result)
+
+    def scalar(self, sql: str) -> Any:
+        result = self.ds.ExecuteSQL(sql)
+        if result is None:
+            raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
+        try:
+            feature = result.GetNextFeature()
+            return feature.GetField(0) if feature is not None else None
+        finally:
+            self.ds.ReleaseResultSet(result)
+
+
+def fields_of(layer: ogr.Layer) -> list[tuple[int, str, int]]:
+    """(index, name, OGR type) of every attribute field (of a table or an SQL result)."""
+    defn = layer.GetLayerDefn()
+    return [(i, defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in range(defn.GetFieldCount())]
+
+
+def columns_of(layer: ogr.Layer) -> dict[str, int]:
+    """Field name → index: typed getters by index are several times faster than by name."""
+    return {name: index for index, name, _ in fields_of(layer)}
+
+
+def envelope_of(layers: list[InputLayer]) -> tuple[float, ...] | None:
+    """3D bounding box of all geometries, read geometry-only through OGR's Arrow stream."""
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for source in layers:
+        layer = source.layer
+        # all but one field: GDAL 3.6's GPKG Arrow reader returns empty geometries when every field is ignored
+        bulk_read.ignore_fields(layer, [name for _, name, _ in source.fields()[1:]])
+        try:
+            for batch in bulk_read.batches(layer, BULK):
+                wkb = batch["geometry"]
+                corners = bulk_read.triangles(wkb)
+                xyz = (corners.reshape(-1, 3) if corners is not None
+                       else shapely.get_coordinates(shapely.from_wkb(wkb), include_z=True))
+                if len(xyz):
+                    lo, hi = np.fmin(lo, np.nanmin(xyz, axis=0)), np.fmax(hi, np.nanmax(xyz, axis=0))
+        finally:
+            layer.SetIgnoredFields([])
+            layer.ResetReading()
+    return None if not np.all(np.isfinite(lo)) else tuple(map(float, (*lo, *hi)))
+
+
+def texture_images(texcoords: InputLayer, folder: Path) -> dict[str, Path]:
+    """Image name → source path of every image the texture table uses; refuses missing images."""
+    images: dict[str, Path] = {}
+    with texcoords.select(columns=f'DISTINCT "{model.TEX_IMAGE}"', order=(model.TEX_IMAGE,)) as result:
+        for feature in result:
+            image = feature.GetField(0)
+            rel = Path(image or "")
+            if not image or rel.is_absolute() or ".." in rel.parts:
+                raise InputError(f"Texture table in {texcoords.path} has an invalid image path {image!r}: "
+                                 "paths must be relative to the texture folder.")
+            if not (folder / rel).is_file():
+                raise InputError(f"Texture image {folder / rel} listed in {texcoords.path} does not exist: "
+                                 "re-run wit:wittexture.")
+            images[image] = folder / rel
+    return images
+
+
+def checked_wit_id(value: Any, what: str) -> str:
+    if not isinstance(value, str) or not _NCNAME.fullmatch(value):
+        raise InputError(f"{what} has wit_id {value!r}, which cannot be a gml:id (letters, digits, '_', '-', '.'; "
+                         "not starting with a digit): re-create the layer with wit:preparevectors.")
+    return value
+
+
+def tri_ids(column: np.ndarray) -> list[str]:
+    """``tri_<n>`` from the TIN's integer ``tri_id`` column (a batch of ``bulk_read``)."""
+    if column.dtype.kind in "iu" and not np.ma.is_masked(column):
+        return [f"tri_{value}" for value in column.tolist()]
+    values = bulk_read.texts(column)
+    for value in values:
+        if not value.lstrip("-").isdigit():
+            raise InputError(f"TIN triangle id {value!r} is not an integer: re-run wit:triangulateterrain.")
+    return [f"tri_{value}" for value in values]
+
+
+def tin_triangles(tin: InputLayer, where: str, order: tuple[str, ...]
+                   ) -> Iterator[tuple[list[str], list[str], dict[str, np.ndarray]]]:
+    """Batches of the TIN triangles matching ``where`` in ``order``: (ids ``tri_<n>``, posList texts, the batch).
+
+    Read in bulk (``bulk_read``); each distinct corner is formatted once (``numtext``).
+    """
+    with tin.select(where, order) as result:
+        for batch in bulk_read.batches(result, BULK):
+            ids = tri_ids(batch[model.TIN_TRIANGLE_ID])
+            points, counts, rings = bulk_read.exterior_rings(batch["geometry"])
+            bad = np.flatnonzero((rings != 1) | (counts != 4))
+            if len(bad):
+                raise InputError(f"TIN feature tri_id={ids[bad[0]][4:]} is not a closed triangle: "
+                                 "re-run wit:triangulateterrain.")
+            yield ids, ring_texts(points, counts, "%.3f %.3f %.3f"), batch
+
+
+class Membership:
+    """Building → district assignment, spooled to a temporary SQLite table (constant memory)."""
+
+    def __init__(self, districts: InputLayer):
+        self.rows: list[tuple[str, ogr.Feature]] = []  # (wit_id, feature) sorted by wit_id
+        geoms = []
+        districts.layer.ResetReading()
+        features = sorted(((checked_wit_id(f.GetField(model.WIT_ID), f"A district in {districts.path}"), f)
+                           for f in districts.layer), key=lambda pair: pair[0])
+        for wit_id, group in groupby(features, key=lambda pair: pair[0]):
+            feature = next(group)[1]
+            geometry = feature.GetGeometryRef()
+            if geometry is not None and not geometry.IsEmpty():
+                self.rows.append((wit_id, feature))
+                geoms.append(shapely.from_wkb(bytes(geometry.ExportToIsoWkb())))
+        self.fields = districts.fields()
+        self.tree = shapely.STRtree(geoms)
+        self.pending: list[tuple[str, bytes]] = []
+        self.tmp = tempfile.TemporaryDirectory(prefix="wit-citygml-")
+        self.db = sqlite3.connect(Path(self.tmp.name) / "members.sqlite")
+        self.db.execute("CREATE TABLE m (district INTEGER, building TEXT)")
+
+    def __enter__(self) -> Membership:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.db.close()
+        self.tmp.cleanup()
+
+    def add(self, building: str, footprint_wkb: bytes) -> None:
+        self.pending.append((building, footprint_wkb))
+        if len(self.pending) >= _LOOKUP_BATCH:
+            self.flush()
+
+    def flush(self) -> None:
+        """Assign the pending buildings: the district containing the footprint's representative point.
+
+        A point on a shared border goes to the district with the smallest wit_id (deterministic).
+        """
+        if not self.pending:
+            return
+        points = shapely.point_on_surface(shapely.from_wkb([wkb for _, wkb in self.pending]))
+        pairs = self.tree.query(points, predicate="intersects")
+        first: dict[int, int] = {}
+        for building, district in zip(*pairs.tolist()):
+            first[building] = min(district, first.get(building, district))
+        self.db.executemany("INSERT INTO m VALUES (?, ?)",
+                            ((district, self.pending[b][0]) for b, district in first.items()))
+        self.pending.clear()
+
+    def groups(self) -> Iterator[tuple[str, Any, Iterator[str]]]:
+        """(district wit_id, district feature, member wit_ids sorted) for districts with members."""
+        self.flush()
+        cursor = self.db.execute("SELECT district, building FROM m ORDER BY district, building")
+        for district, rows in groupby(cursor, key=lambda row: row[0]):
+            wit_id, feature = self.rows[district]
+            yield wit_id, feature, (building for _, building in rows)

@@ -1,0 +1,380 @@
+"""Texture quality, the paper's Table 19: sharpness and contrast of the model's textures and of their source.
+
+**Texture quality (Table 19).** Intensity I = 0.299 R + 0.587 G + 0.114 B (ITU-R BT.601, as a
+float, not rounded to 8 bits; a single-band image is its own intensity).
+
+* *sharpness* = variance of the Laplacian: L = I ∗ [[0, 1, 0], [1, −4, 1], [0, 1, 0]] evaluated
+  at every pixel with reflect-101 borders (…c b | a b c … ; OpenCV's BORDER_DEFAULT), and
+  var(L) = mean((L − mean L)²) over those pixels (population variance). This is
+  ``cv2.Laplacian(gray, cv2.CV_64F).var()``; OpenCV's ``cvtColor`` rounds the intensity to 8
+  bits first, which changes the figure by about 1.7 (the variance of the rounding noise under
+  the kernel), nothing at the scale of the paper's 898–3008. ``border="valid"`` instead uses only
+  pixels whose four neighbours are inside the image. With a mask, L counts at a pixel only if the
+  pixel and its four neighbours are inside the mask (no step against the background).
+* *contrast* = standard deviation of I (population, over the masked pixels).
+
+Model textures: the images of a wit:wittexture folder (mip files left out). If the folder holds
+``model.TEXCOORD_FILE``, only texels inside the textured rings (their UV polygons rasterised,
+pixel centres inside) count, so atlas background and gutters do not; otherwise whole images
+count. Values are pooled over all counted pixels of all images (not averaged per image). The
+source orthoimage is measured the same way, read in row blocks, NoData excluded: over the model's
+area (the bounding box of the source buildings) or a given box, and, given polygons (the
+building footprints), over the pixels whose centres are inside them: the pixels the roof
+atlases copy, so roof textures and their source compare pixel set for pixel set.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import shapely
+from osgeo import gdal, ogr
+
+from .. import bulk_read, model
+from ..arrays import ragged_indices
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..gdal_env import open_raster, read_window
+from ..vector_io import gdal_quiet
+
+BORDERS = ("reflect101", "valid")
+IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
+_MIP = re.compile(r"_mip\d+$")
+_BLOCK_PIXELS = 1 << 21  # pixels per block when streaming a raster (16 MB per float64 array)
+
+
+def grayscale(image: np.ndarray) -> np.ndarray:
+    """Intensity 0.299 R + 0.587 G + 0.114 B of a (bands, rows, cols) or (rows, cols) array, as float64."""
+    a = np.asarray(image)
+    if a.ndim == 2:
+        return a.astype(np.float64)
+    if a.ndim != 3 or a.shape[0] not in (1, 3, 4):
+        raise InputError(f"An image of shape {a.shape} is neither single-band nor RGB(A).")
+    if a.shape[0] == 1:
+        return a[0].astype(np.float64)
+    return 0.299 * a[0].astype(np.float64) + 0.587 * a[1] + 0.114 * a[2]
+
+
+def _laplacian_valid(padded: np.ndarray) -> np.ndarray:
+    """The 4-neighbour Laplacian at the interior pixels of ``padded`` (one pixel smaller on each side)."""
+    c = padded[1:-1, 1:-1]
+    return padded[:-2, 1:-1] + padded[2:, 1:-1] + padded[1:-1, :-2] + padded[1:-1, 2:] - 4.0 * c
+
+
+def _eroded(mask_padded: np.ndarray) -> np.ndarray:
+    """Interior pixels of ``mask_padded`` that are set together with their four neighbours."""
+    m = mask_padded
+    return m[1:-1, 1:-1] & m[:-2, 1:-1] & m[2:, 1:-1] & m[1:-1, :-2] & m[1:-1, 2:]
+
+
+class _Moments:
+    """Count, mean and sum of squared deviations, merged block by block (Chan et al.) for exact pooling."""
+
+    def __init__(self) -> None:
+        self.n, self.mean, self.m2 = 0, 0.0, 0.0
+
+    def add(self, values: np.ndarray) -> None:
+        n = values.size
+        if n == 0:
+            return
+        mean = float(values.mean())
+        m2 = float(np.square(values - mean).sum())
+        total = self.n + n
+        delta = mean - self.mean
+        self.mean += delta * n / total
+        self.m2 += m2 + delta * delta * self.n * n / total
+        self.n = total
+
+    def merge(self, other: _Moments) -> None:
+        if other.n:
+            total = self.n + other.n
+            delta = other.mean - self.mean
+            self.mean += delta * other.n / total
+            self.m2 += other.m2 + delta * delta * self.n * other.n / total
+            self.n = total
+
+    @property
+    def variance(self) -> float:
+        return self.m2 / self.n if self.n else math.nan
+
+
+def _check_border(border: str) -> None:
+    if border not in BORDERS:
+        raise InputError(f"Unknown border mode {border!r}: use one of {', '.join(BORDERS)}.")
+
+
+def _laplacian_moments(gray: np.ndarray, mask: np.ndarray | None, border: str) -> _Moments:
+    moments = _Moments()
+    g = np.asarray(gray, dtype=np.float64)
+    if g.ndim != 2 or min(g.shape) < (2 if border == "reflect101" else 3):
+        return moments
+    m = np.ones(g.shape, bool) if mask is None else np.asarray(mask, bool)
+    if border == "reflect101":
+        g, m = np.pad(g, 1, mode="reflect"), np.pad(m, 1, mode="reflect")
+    moments.add(_laplacian_valid(g)[_eroded(m)])
+    return moments
+
+
+def laplacian_variance(gray: np.ndarray, mask: np.ndarray | None = None, border: str = "reflect101") -> float:
+    """Sharpness: population variance of the 4-neighbour Laplacian (see the module docstring).
+
+    ``border="reflect101"`` equals ``cv2.Laplacian(gray, cv2.CV_64F).var()``; ``"valid"`` drops the
+    outermost pixels. NaN if no pixel counts (image smaller than the kernel, empty mask).
+    """
+    _check_border(border)
+    return _laplacian_moments(gray, mask, border).variance
+
+
+def contrast(gray: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """Contrast: population standard deviation of the intensity (over ``mask`` if given); NaN if empty."""
+    g = np.asarray(gray, dtype=np.float64)
+    values = g if mask is None else g[np.asarray(mask, bool)]
+    return float(values.std()) if values.size else math.nan
+
+
+@dataclass
+class ImageQuality:
+    """Sharpness and contrast of one image (or of the orthoimage window)."""
+
+    image: str
+    pixels: int  # pixels counted for the contrast (inside the mask)
+    laplacian_variance: float
+    contrast: float
+
+
+@dataclass
+class TextureMetrics:
+    """Pooled texture measures of the model's images and, if given, of the source orthoimage."""
+
+    images: list[ImageQuality] = field(default_factory=list)
+    laplacian_variance: float = math.nan
+    contrast: float = math.nan
+    pixels: int = 0
+    masked: bool = False  # True if texcoords limited the pixels to textured rings
+    ortho: ImageQuality | None = None
+    ortho_area: tuple[float, float, float, float] | None = None
+    ortho_inside: ImageQuality | None = None  # the ortho inside ``ortho_mask`` (e.g. the building footprints)
+
+
+class _Stats:
+    """Moments of the Laplacian and of the intensity, pooled over images or blocks."""
+
+    def __init__(self) -> None:
+        self.lap, self.gray = _Moments(), _Moments()
+
+    def merge(self, other: _Stats) -> None:
+        self.lap.merge(other.lap)
+        self.gray.merge(other.gray)
+
+    def result(self, name: str) -> ImageQuality:
+        return ImageQuality(name, self.gray.n, self.lap.variance, math.sqrt(self.gray.variance))
+
+
+def _image_stats(gray: np.ndarray, mask: np.ndarray | None) -> _Stats:
+    stats = _Stats()
+    stats.lap = _laplacian_moments(gray, mask, "reflect101")
+    stats.gray.add(gray if mask is None else gray[mask])
+    return stats
+
+
+def open_vector(path: str | os.PathLike) -> ogr.DataSource | None:
+    """The OGR data source, or None if GDAL cannot read it as vector data (with or without UseExceptions)."""
+    with gdal_quiet():
+        try:
+            return ogr.Open(str(path))
+        except RuntimeError:
+            return None
+
+
+def _read_gray(ds: gdal.Dataset, xoff: int, yoff: int, xsize: int, ysize: int) -> tuple[np.ndarray, np.ndarray]:
+    """Intensity and validity (band 1's GDAL mask: NoData, alpha) of a window."""
+    bands = [ds.GetRasterBand(i + 1) for i in range(3 if ds.RasterCount >= 3 else 1)]  # RGB(A) or grey(+alpha)
+    what = f"the image {ds.GetDescription()}"
+    data = np.stack([read_window(b, xoff, yoff, xsize, ysize, what) for b in bands])
+    valid = read_window(ds.GetRasterBand(1).GetMaskBand(), xoff, yoff, xsize, ysize, f"the mask of {what[4:]}") > 0
+    return grayscale(data), valid
+
+
+def _list_images(images: Sequence[str] | str) -> tuple[list[Path], Path | None]:
+    """Image paths (mip levels left out) and the folder's texcoords file, if any."""
+    if isinstance(images, (str, os.PathLike)):
+        folder = Path(images)
+        if not folder.is_dir():
+            return [folder], None
+        paths = sorted(p for p in folder.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES
+                       and not _MIP.search(p.stem) and not p.name.startswith("."))
+        if not paths:
+            raise InputError(f"{folder} holds no texture images (.jpg, .png, .tif): give the wit:wittexture "
+                             "output folder.")
+        texcoords = folder / model.TEXCOORD_FILE
+        return paths, texcoords if texcoords.exists() else None
+    return [Path(p) for p in images], None
+
+
+def _texcoord_rings(texcoords: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """UV rings per image (relative path as stored) from the wit:wittexture table: (points, points per ring),
+    read in bulk (the 1 km demo has ~600,000 rings)."""
+    ds = open_vector(texcoords)
+    layer = None if ds is None else ds.GetLayerByName(model.TEXCOORD_TABLE)
+    if layer is None:
+        raise InputError(f"{texcoords} has no table '{model.TEXCOORD_TABLE}': re-run wit:wittexture.")
+    images: list[str] = []
+    uvs: list[str] = []
+    for batch in bulk_read.batches(layer):
+        images += bulk_read.texts(batch[model.TEX_IMAGE])
+        uvs += bulk_read.texts(batch[model.TEX_COORDS])
+    if not uvs:
+        return {}
+    counts = np.fromiter((text.count(" ") + 1 for text in uvs), dtype=np.int64, count=len(uvs)) // 2
+    try:
+        points = np.array(" ".join(uvs).split(), dtype=np.float64).reshape(-1, 2)
+    except ValueError as exc:
+        raise InputError(f"{texcoords}: texture coordinates that are not numbers ({exc}): "
+                         "re-run wit:wittexture.") from exc
+    if len(points) != counts.sum():
+        raise InputError(f"{texcoords}: texture coordinates that are not u v pairs: re-run wit:wittexture.")
+    names, image_of = np.unique(np.array(images, dtype=object), return_inverse=True)
+    order = np.argsort(image_of, kind="stable")  # rings grouped by image, in table order within each
+    ring, within = ragged_indices(counts[order])
+    points = points[(np.cumsum(counts) - counts)[order][ring] + within]
+    ends = np.cumsum(np.bincount(image_of, minlength=len(names)))  # rings per image, cumulated
+    point_ends = np.concatenate([[0], np.cumsum(counts[order])])[ends]
+    rings, first, first_point = {}, 0, 0
+    for name, last, last_point in zip(names, ends, point_ends):
+        rings[name] = (points[first_point:last_point], counts[order][first:last])
+        first, first_point = last, last_point
+    return rings
+
+
+class _Burner:
+    """Polygons in an in-memory OGR layer, rasterised onto any grid: pixels whose centres are inside."""
+
+    def __init__(self, polygons: Sequence[shapely.Geometry]):
+        self._source = ogr.GetDriverByName("Memory").CreateDataSource("")
+        self._layer = self._source.CreateLayer("polygons", None, ogr.wkbUnknown)
+        defn = self._layer.GetLayerDefn()
+        for polygon in polygons:
+            feature = ogr.Feature(defn)
+            feature.SetGeometryDirectly(ogr.CreateGeometryFromWkb(shapely.to_wkb(polygon)))
+            self._layer.CreateFeature(feature)
+
+    def mask(self, width: int, height: int, gt: tuple[float, ...]) -> np.ndarray:
+        target = gdal.GetDriverByName("MEM").Create("", width, height, 1, gdal.GDT_Byte)
+        target.SetGeoTransform(gt)
+        with gdal_quiet():  # "no spatial reference on layer": both sides share one, as intended
+            gdal.RasterizeLayer(target, [1], self._layer, burn_values=[1])
+        return read_window(target, 0, 0, width, height, "the rasterised polygons (in memory)").astype(bool)
+
+
+def _uv_mask(rings: tuple[np.ndarray, np.ndarray] | None, width: int, height: int) -> np.ndarray:
+    """Texels whose centres are inside any UV ring (U right, V up from the bottom edge).
+
+    All rings of an image go to GDAL as one multipolygon (one call, not one feature per ring): the
+    rings of an image never overlap (roof islands, TIN triangles), so its even-odd fill is their union.
+    """
+    if rings is None or not len(rings[1]):
+        return np.zeros((height, width), dtype=bool)
+    points, counts = rings
+    keep = counts >= 3
+    ring_of = np.repeat(np.arange(len(counts)), counts)
+    kept = np.repeat(keep, counts)
+    polygons = shapely.polygons(shapely.linearrings(points[kept] * [width, height], indices=ring_of[kept]))
+    burner = _Burner([shapely.multipolygons(polygons)])
+    return burner.mask(width, height, (0.0, 1.0, 0.0, float(height), 0.0, -1.0))  # ground = (u·W, v·H)
+
+
+def _ortho_stats(ortho: str, area: tuple[float, float, float, float] | shapely.Geometry | None,
+                 feedback: Feedback) -> tuple[_Stats, tuple[float, float, float, float]]:
+    """Streamed measures of the ortho over ``area`` (the window it covers, reflect-101 at its border).
+
+    A polygonal ``area`` also limits the pixels to those whose centres lie inside it.
+    """
+    ds = open_raster(ortho, "orthoimage")
+    gt = ds.GetGeoTransform()
+    if gt[2] or gt[4]:
+        raise InputError(f"{ortho} is rotated; give a north-up orthoimage (wit:mergetiles writes one).")
+    burner = None
+    if isinstance(area, shapely.Geometry):  # one pixel of margin: border pixels see their real neighbours
+        burner = _Burner(shapely.get_parts(area))
+        x_min, y_min, x_max, y_max = area.bounds
+        area = (x_min - abs(gt[1]), y_min - abs(gt[5]), x_max + abs(gt[1]), y_max + abs(gt[5]))
+    if area is None:
+        x0, y0, x1, y1 = 0, 0, ds.RasterXSize, ds.RasterYSize
+    else:
+        cols = sorted(((area[0] - gt[0]) / gt[1], (area[2] - gt[0]) / gt[1]))
+        rows = sorted(((area[1] - gt[3]) / gt[5], (area[3] - gt[3]) / gt[5]))
+        x0, x1 = max(math.floor(cols[0]), 0), min(math.ceil(cols[1]), ds.RasterXSize)
+        y0, y1 = max(math.floor(rows[0]), 0), min(math.ceil(rows[1]), ds.RasterYSize)
+        if x1 - x0 < 2 or y1 - y0 < 2:
+            raise InputError(f"The orthoimage {ortho} does not cover the model's area "
+                             f"{tuple(round(v, 1) for v in area)}"
+                             ": give the merged orthoimage of the study area.")
+    width, height = x1 - x0, y1 - y0
+    stats = _Stats()
+    block_rows = max(8, _BLOCK_PIXELS // width)
+    for r0 in range(0, height, block_rows):
+        feedback.check_canceled()
+        r1 = min(r0 + block_rows, height)
+        a, b = max(r0 - 1, 0), min(r1 + 1, height)
+        gray, valid = _read_gray(ds, x0, y0 + a, width, b - a)
+        if burner is not None:
+            valid &= burner.mask(width, b - a, (gt[0] + x0 * gt[1], gt[1], 0.0, gt[3] + (y0 + a) * gt[5], 0.0, gt[5]))
+        stats.gray.add(gray[r0 - a:r0 - a + r1 - r0][valid[r0 - a:r0 - a + r1 - r0]])
+        if height >= 2 and width >= 2:
+            pad = ((1 if r0 == 0 else 0, 1 if r1 == height else 0), (1, 1))
+            g, m = np.pad(gray, pad, mode="reflect"), np.pad(valid, pad, mode="reflect")
+            stats.lap.add(_laplacian_valid(g)[_eroded(m)])
+        feedback.progress(100.0 * r1 / height)
+    bounds = (gt[0] + x0 * gt[1], gt[3] + y1 * gt[5], gt[0] + x1 * gt[1], gt[3] + y0 * gt[5])
+    return stats, bounds
+
+
+def texture_metrics(images: Sequence[str] | str | None, ortho: str | None = None,
+                    ortho_area: tuple[float, float, float, float] | None = None,
+                    ortho_mask: shapely.Geometry | None = None, feedback: Feedback = SILENT) -> TextureMetrics:
+    """Sharpness and contrast of the model's texture images (a folder or a list) and of the source ortho.
+
+    ``ortho_area`` (xmin, ymin, xmax, ymax in the ortho's CRS) limits the ortho to the model's area;
+    by default the whole ortho is measured. ``ortho_mask`` (polygons in the ortho's CRS, e.g. the
+    building footprints) adds ``ortho_inside``: the ortho's pixels that roof textures show, so the
+    model's roof atlases and their source can be compared pixel set for pixel set.
+    """
+    if not images and not ortho:
+        raise InputError("Give the texture folder (wit:wittexture output), the orthoimage or both.")
+    result = TextureMetrics()
+    paths, texcoords = _list_images(images) if images else ([], None)
+    rings = _texcoord_rings(texcoords) if texcoords else None
+    result.masked = rings is not None
+    share = 60.0 if ortho else 100.0
+    pooled = _Stats()
+    folder = Path(images) if isinstance(images, (str, os.PathLike)) and Path(images).is_dir() else None
+    for k, path in enumerate(paths):
+        feedback.check_canceled()
+        ds = open_raster(str(path), "texture image")
+        gray, valid = _read_gray(ds, 0, 0, ds.RasterXSize, ds.RasterYSize)
+        if rings is not None:
+            valid &= _uv_mask(rings.get(path.relative_to(folder).as_posix()), ds.RasterXSize, ds.RasterYSize)
+        stats = _image_stats(gray, valid)
+        pooled.merge(stats)
+        result.images.append(stats.result(str(path.relative_to(folder) if folder else path)))
+        feedback.progress(share * (k + 1) / len(paths))
+    if paths:
+        pooled_result = pooled.result("model")
+        result.laplacian_variance, result.contrast, result.pixels = (
+            pooled_result.laplacian_variance, pooled_result.contrast, pooled_result.pixels)
+        if result.pixels == 0:
+            feedback.warning("No textured pixel found in the texture images (empty texcoords rings?).")
+    if ortho:
+        middle = (share + 100.0) / 2 if ortho_mask is not None else 100.0
+        stats, result.ortho_area = _ortho_stats(ortho, ortho_area, feedback.scaled(share, middle))
+        result.ortho = stats.result(str(ortho))
+        if ortho_mask is not None:
+            inside = _ortho_stats(ortho, ortho_mask, feedback.scaled(middle, 100.0))[0]
+            result.ortho_inside = inside.result(f"{ortho} (inside the footprints)")
+    feedback.progress(100.0)
+    return result
