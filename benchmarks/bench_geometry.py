@@ -5,14 +5,14 @@ Data: the generated sample around Suseo station (``wit_plugin.sample``: about 5,
 and cached under ``out/bench/geometry_data``. Each case then runs in its own child process so
 that its peak RSS (``ru_maxrss``) is its own:
 
-* ``terrain``: ``terrain.triangulate`` with the defaults (max edge 5 m, tolerance 0.5 m, footprints
+* ``terrain``: ``terrain.mesh.triangulate`` with the defaults (max edge 5 m, tolerance 0.5 m, footprints
   as holes); the time inside is split into *mesh* (cleaning the constraints and every Triangle
   call) and *DEM mapping* (reading the DEM window, bilinear Z of every vertex, the exact vertical
   error measure that drives refinement), then writing the TIN GeoPackage;
 * ``mesh_only``: the same with a flat DEM, so no vertical refinement (the DEM code still runs,
   on a trivial grid, so this is an upper bound of the mesh alone);
 * ``dem_only``: reading the DEM and mapping the final TIN's vertices and error, alone;
-* ``extrude``: ``extrude.run`` (base heights, solids, writing the LoD1 GeoPackage).
+* ``extrude``: ``extrude.extrude_buildings`` (base heights, solids, writing the LoD1 GeoPackage).
 
 The paper (Table 20) gives mesh 6.5 s and DEM mapping 8 s for its 1 km area (15 s in all, with
 0.5 s loading). Our goal: mesh + DEM mapping ≤ 1.5 s. Prints a table; writes
@@ -77,7 +77,7 @@ def _study_area():
 
 def _inputs(paths: dict):
     from wit_plugin import model, terrain
-    from wit_plugin.vector_io import read_layer
+    from wit_plugin.io.vector_io import read_layer
 
     buildings = read_layer(paths["prepared"], model.PREPARED_BUILDINGS)
     roads = read_layer(paths["prepared"], model.PREPARED_ROADS)
@@ -138,13 +138,13 @@ def case_terrain(paths: dict) -> dict:
     clock = terrain_clock()
     start = time.perf_counter()
     dem = Dem.open(paths["dem"], area.bounds)
-    tin, stats = terrain.triangulate(area, footprints, roads, dem)
+    tin, stats = terrain.mesh.triangulate(area, footprints, roads, dem)
     together = time.perf_counter() - start
     start = time.perf_counter()
-    terrain.write_tin(OUT / "geometry_tin.gpkg", tin, buildings.crs)
+    terrain.output.write_tin(OUT / "geometry_tin.gpkg", tin, buildings.crs)
     write = time.perf_counter() - start
     start = time.perf_counter()
-    terrain.write_tin(OUT / "geometry_tin_noindex.gpkg", tin, buildings.crs, spatial_index=False)
+    terrain.output.write_tin(OUT / "geometry_tin_noindex.gpkg", tin, buildings.crs, spatial_index=False)
     write_no_index = time.perf_counter() - start
     np.savez(DATA / "tin.npz", vertices=tin.vertices, triangles=tin.triangles)
     return {"mesh_s": clock.seconds.get("mesh", 0.0), "dem_mapping_s": clock.seconds.get("dem_mapping", 0.0),
@@ -166,7 +166,7 @@ def case_mesh_only(paths: dict) -> dict:
     cx, cy = (x1 - x0 + 2) / 2, (y1 - y0 + 2) / 2  # 4 x 4 cells: the area lies between the cell centres
     flat = Dem(np.zeros((4, 4)), (x0 - 1 - cx, cx, 0.0, y1 + 1 + cy, 0.0, -cy))
     start = time.perf_counter()
-    _, stats = terrain.triangulate(area, footprints, roads, flat)
+    _, stats = terrain.mesh.triangulate(area, footprints, roads, flat)
     return {"seconds": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb(), "triangles": stats.triangles,
             "refinement_iterations": stats.refinement_iterations}
 
@@ -185,7 +185,8 @@ def case_dem_only(paths: dict) -> dict:
     dem = Dem.open(paths["dem"], area.bounds)
     z = dem.sample(vertices[:, 0], vertices[:, 1])
     xyz = np.column_stack([vertices[:, :2], z])
-    max_error = terrain.max_vertical_error(dem, xyz, triangles, terrain.vertical_error(dem, xyz, triangles, 0.5), 0.5)
+    error = terrain.mesh.vertical_error(dem, xyz, triangles, 0.5)
+    max_error = terrain.mesh.max_vertical_error(dem, xyz, triangles, error, 0.5)
     return {"seconds": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb(), "vertices": len(vertices),
             "max_vertical_error": max_error, "nodata_filled": dem.nodata_cells}
 
@@ -197,7 +198,7 @@ def case_extrude(paths: dict) -> dict:
     clock = _Clock()
     clock.wrap(extrude, "write_solids", "write")
     start = time.perf_counter()
-    stats = extrude.run(paths["prepared"], paths["dem"], OUT / "geometry_lod1.gpkg")
+    stats = extrude.extrude_buildings(paths["prepared"], paths["dem"], OUT / "geometry_lod1.gpkg")
     seconds = time.perf_counter() - start
     return {"seconds": seconds, "write_s": clock.seconds["write"], "build_s": seconds - clock.seconds["write"],
             "peak_rss_mb": peak_rss_mb(), "stats": stats.as_dict()}

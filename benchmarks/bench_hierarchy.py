@@ -51,13 +51,13 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
     from osgeo import gdal, ogr, osr
 
     from wit_plugin import model
+    from wit_plugin.io.vector_io import read_layer
     from wit_plugin.mapsheet import sheets_covering
     from wit_plugin.polygons import transform
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.tiles.plan import owners, plan_tiles
     from wit_plugin.tiles3d.geo import Georeference, column_major
     from wit_plugin.tiles3d.glb import GlbBuilder
-    from wit_plugin.vector_io import read_layer
 
     sample, run = folder / "sample", folder / "run"
     if not (sample / "sample_manifest.json").is_file():
@@ -141,8 +141,8 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
         layer = ds.CreateLayer(model.LOD1_LAYER, srs, ogr.wkbPolygon)
         for name, kind in ((model.WIT_ID, ogr.OFTString), (model.FACE_TYPE, ogr.OFTString),
                            (model.FACE_NUMBER, ogr.OFTInteger), (model.BASE_Z, ogr.OFTReal),
-                           (model.HEIGHT, ogr.OFTReal),
-                           (model.STOREYS_ABOVE, ogr.OFTInteger), ("BULD_NM", ogr.OFTString)):
+                           (model.HEIGHT, ogr.OFTReal), (model.STOREYS_ABOVE, ogr.OFTInteger),
+                           ("BULD_NM", ogr.OFTString)):
             layer.CreateField(ogr.FieldDefn(name, kind))
         ds.StartTransaction()
         for i in mine.tolist():

@@ -83,7 +83,7 @@ def prepare_data(data: Path, radius: float) -> dict:
     step("merge_feather", p["feather"], lambda: merge_tiles(sheets, p["feather"], mode="feather"))
     step("prepare_vectors", p["prepared"], lambda: prepare_vectors(
         sample / "TL_SPBD_BULD.shp", None, None, StudyArea.circle(*CENTER, radius, "EPSG:4737"), p["prepared"]))
-    step("extrude", p["lod1"], lambda: extrude.run(p["prepared"], sample / "dem_5186.tif", p["lod1"]))
+    step("extrude", p["lod1"], lambda: extrude.extrude_buildings(p["prepared"], sample / "dem_5186.tif", p["lod1"]))
     step("texture", str(Path(p["textures"]) / "texcoords.gpkg"),
          lambda: texture_model(p["feather"], p["lod1"], None, p["textures"], TextureConfig()))
     step("citygml", p["gml"], lambda: citygml.write_citygml(

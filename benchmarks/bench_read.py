@@ -34,8 +34,8 @@ def make_layer(path: Path, count: int) -> None:
     for k in range(count):
         x, y = 200000.0 + 25 * (k % side), 350000.0 + 25 * (k // side)
         rows.append({"명칭": ngii.NAMES[k % 12] or None, "구분": "건물", "종류": ngii.KINDS[k % 12],
-                     "용도": ngii.USES[k % 12],
-                     "층수": ngii.FLOORS[k % 12], "측량방법": "사진측량", "UFID": f"B001{k:030d}"})
+                     "용도": ngii.USES[k % 12], "층수": ngii.FLOORS[k % 12], "측량방법": "사진측량",
+                     "UFID": f"B001{k:030d}"})
         wkts.append(ngii.building_wkt(x, y))
     ngii.write_shapefile(path, ngii.ogr.wkbPolygon, ngii.BUILDING_FIELDS, rows, wkts, cpg=None)
 
@@ -46,7 +46,7 @@ def run_case(case: str, path: str) -> dict:
     from osgeo import gdal
 
     gdal.SetConfigOption("SHAPE_ENCODING", "")
-    from wit_plugin import bulk_read, vector_io
+    from wit_plugin.io import bulk_read, vector_io
 
     if case == "features":
         bulk_read.arrow_ready = lambda layer: False  # the fallback, as for non-UTF-8 names

@@ -7,8 +7,8 @@ holes), its vectors prepared once in EPSG:5186 and once in EPSG:5187 (the East B
 
 * ``open``: ``Dem.open`` of the study area's window: the plain read (layers in 5186) against the
   reprojection (layers in 5187: a 5 m grid warped in memory);
-* ``terrain``: ``terrain.run`` (5 m edge, 0.5 m tolerance, without spatial index) in both CRSs;
-* ``extrude``: ``extrude.run`` in both CRSs;
+* ``terrain``: ``terrain.triangulate_terrain`` (5 m edge, 0.5 m tolerance, without spatial index) in both CRSs;
+* ``extrude``: ``extrude.extrude_buildings`` in both CRSs;
 * ``coverage``: ``chain.coverage.require_dem`` in both CRSs.
 
 Accuracy (in the parent): at 200,000 random points of the area, the reprojected surface against the
@@ -75,7 +75,7 @@ def prepare_data() -> dict:
 
 def _area(prepared: str):
     from wit_plugin import model
-    from wit_plugin.vector_io import read_prepared
+    from wit_plugin.io.vector_io import read_prepared
 
     return read_prepared(f"{prepared}|layername={model.STUDY_AREA}", model.STUDY_AREA).geoms[0]
 
@@ -93,13 +93,13 @@ def run_case(case: str, kind: str, paths: dict) -> dict:
         dem = Dem.open(paths["dem"], area.bounds, crs=crs)
         result = {"cells": int(dem.values.size), "cell_m": dem.geotransform[1]}
     elif case == "terrain":
-        stats = terrain.run(paths["dem"], f"{prepared}|layername={model.PREPARED_BUILDINGS}",
-                            f"{prepared}|layername={model.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg", area,
-                            spatial_index=False)
+        stats = terrain.triangulate_terrain(paths["dem"], f"{prepared}|layername={model.PREPARED_BUILDINGS}",
+                                            f"{prepared}|layername={model.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg",
+                                            area, terrain.TerrainConfig(spatial_index=False))
         result = {"triangles": stats.triangles, "max_vertical_error": stats.max_vertical_error}
     elif case == "extrude":
-        stats = extrude.run(f"{prepared}|layername={model.PREPARED_BUILDINGS}", paths["dem"],
-                            DATA / f"lod1_{kind}.gpkg", spatial_index=False)
+        stats = extrude.extrude_buildings(f"{prepared}|layername={model.PREPARED_BUILDINGS}", paths["dem"],
+                                          DATA / f"lod1_{kind}.gpkg", spatial_index=False)
         result = {"solids": stats.solids}
     else:
         require_dem(paths["dem"], area, crs)

@@ -42,8 +42,8 @@ def make_layers(folder: str) -> dict:
     import shapely
     from pyproj import Transformer
 
+    from wit_plugin.io.vector_io import read_layer
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vector_io import read_layer
 
     districts = read_layer(JUSO / "TL_SCCO_EMD.shp")
     dong = districts.geoms[districts.columns["EMD_KOR_NM"].index("역삼동")]
@@ -95,8 +95,7 @@ CASES = ("synthetic-500", "drawn-500", "synthetic-1000", "drawn-1000", "drawn-ye
 #: the printed table: (key, title, alignment, width, format)
 COLUMNS = (("case", "case", "<", 16, ""), ("seconds", "time s", ">", 8, ".1f"), ("tiles", "tiles", ">", 7, ""),
            ("megapixels", "Mpx", ">", 7, ".0f"), ("buildings", "buildings", ">", 11, ""),
-           ("roads", "roads", ">", 7, ""),
-           ("peak_rss_mb", "peak RSS MB", ">", 13, ".0f"))
+           ("roads", "roads", ">", 7, ""), ("peak_rss_mb", "peak RSS MB", ">", 13, ".0f"))
 
 
 def main() -> None:

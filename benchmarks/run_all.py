@@ -162,8 +162,9 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
 
         clock = terrain_clock()
         start = time.perf_counter()
-        stats = terrain.run(p["dem"], p["prepared"], p["prepared"], p["tin"],
-                            f"{p['prepared']}|layername={model.STUDY_AREA}", spatial_index=False)  # as wit:citymodel
+        stats = terrain.triangulate_terrain(p["dem"], p["prepared"], p["prepared"], p["tin"],
+                                            f"{p['prepared']}|layername={model.STUDY_AREA}",
+                                            terrain.TerrainConfig(spatial_index=False))  # as wit:citymodel
         seconds = time.perf_counter() - start
         split = {k: round(v, 3) for k, v in clock.seconds.items()}
         split["other"] = round(seconds - sum(clock.seconds.values()), 3)  # reading the layers, bookkeeping
@@ -173,7 +174,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         from wit_plugin import extrude
 
         start = time.perf_counter()
-        stats = extrude.run(p["prepared"], p["dem"], p["lod1"], spatial_index=False)
+        stats = extrude.extrude_buildings(p["prepared"], p["dem"], p["lod1"], spatial_index=False)
         seconds = time.perf_counter() - start
         info = stats.as_dict()
     elif step == "texture":
@@ -677,8 +678,7 @@ def main() -> int:
     quick = args.quick
     for skip, title, script, extra in (
             (args.skip_chain, "The whole chain as users run it (qgis_process) beside xmllint --stream",
-             "bench_chain.py",
-             ["--radius", "300", "--no-core"] if quick else []),
+             "bench_chain.py", ["--radius", "300", "--no-core"] if quick else []),
             (args.skip_tiles, "Tiled runs on Dask (1:1,000 sheets)", "bench_tiles.py",
              ["--tiles", "1", "4"] if quick else []),
             (args.skip_triangulators, "Terrain triangulators: Triangle beside CDT", "bench_triangulators.py",

@@ -1,7 +1,7 @@
 """Stress test of tiled runs (not in CI, not timed): the 16-tile run and the killed-worker scenario, many times.
 
 A rare failure (a tile failed once with ``TypeError: 'NoneType' object is not subscriptable`` inside
-``terrain.run``; the killed-worker test failed once in CI) needs many runs to show again. Each
+``terrain.triangulate_terrain``; the killed-worker test failed once in CI) needs many runs to show again. Each
 repetition must give the reference result exactly — every tile's status, buildings, triangles and
 the bytes of its ``model.gml`` — and no failed tile; anything else is printed with the tile's error.
 

@@ -22,10 +22,11 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
-from ..wit_plugin import deps, fileio
+from ..wit_plugin import deps
 from ..wit_plugin.errors import CanceledError, WitError
 from ..wit_plugin.feedback import Feedback
 from ..wit_plugin.gdal_env import no_sidecars
+from ..wit_plugin.io import fileio
 from .dependency_notice import NOTICE
 from .help_links import help_url
 from .qgis_compat import ParameterFlag

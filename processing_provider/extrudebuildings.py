@@ -27,8 +27,8 @@ class ExtrudeBuildings(WitAlgorithm):
         "floats, or the median. Height: GRO_FLO_CO × "
         "storey height when the road-name-address floor count is known, else the height field, else the "
         "expression; with neither given, the height and floor fields of common layers are recognised by "
-        "name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 "
-        "A16 height, A26 floors; "
+        "name (NGII digital map BFLR_CO, or 층수 as NGII ships it; building-integrated information AL_D010 A16 "
+        "height, A26 floors; "
         "OpenStreetMap height, building:levels; Korean 높이, 지상층수); else the default height, which is "
         "a warning with the count. The log says which rule was used, and every building records it "
         "(wit_height_src, wit_height_rule). Output: PolygonZ faces with the building id (wit_id), face "
@@ -60,15 +60,16 @@ class ExtrudeBuildings(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
-        from ..wit_plugin.extrude import run
+        from ..wit_plugin.extrude import extrude_buildings
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        stats = run(self.vector_source(parameters, self.BUILDINGS, context, feedback),
-                    self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
-                    heights, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
-                    self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
+        stats = extrude_buildings(
+            self.vector_source(parameters, self.BUILDINGS, context, feedback),
+            self.parameterAsRasterLayer(parameters, self.DEM, context).source(), output,
+            heights, BASES[self.parameterAsEnum(parameters, self.BASE, context)],
+            self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {self.OUTPUT: output, "LOD1": f"{output}|layername={model.LOD1_LAYER}", "SOLIDS": stats.solids,

@@ -75,20 +75,22 @@ class TriangulateTerrain(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin import model
-        from ..wit_plugin.terrain import run
+        from ..wit_plugin.terrain import TerrainConfig, triangulate_terrain
 
         def source(name):
             return self.vector_source(parameters, name, context, feedback)
 
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        stats = run(
+        stats = triangulate_terrain(
             self.parameterAsRasterLayer(parameters, self.DEM, context).source(),
             source(self.BUILDINGS), source(self.ROADS), output, source(self.AREA),
-            max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
-            tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
-            footprints_as_holes=self.parameterAsEnum(parameters, self.FOOTPRINTS, context) == 0,
-            spatial_index=self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context),
-            feedback=feedback, triangulator=triangulator(self, parameters, context, feedback),
+            TerrainConfig(
+                max_edge=self.parameterAsDouble(parameters, self.MAX_EDGE, context),
+                tolerance=self.parameterAsDouble(parameters, self.TOLERANCE, context),
+                footprints_as_holes=self.parameterAsEnum(parameters, self.FOOTPRINTS, context) == 0,
+                spatial_index=self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context),
+                triangulator=triangulator(self, parameters, context, feedback)),
+            feedback,
         )
         return {self.OUTPUT: output, "TIN": f"{output}|layername={model.TIN_LAYER}",
                 "TRIANGLES": stats.triangles, "MAX_VERTICAL_ERROR": stats.max_vertical_error,

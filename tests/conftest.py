@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
 os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
 
-from osgeo import gdal  # noqa: E402  (after PROJ_DATA: GDAL reads it when it loads)
+from osgeo import gdal  # noqa: E402 (after PROJ_DATA is set, which GDAL reads when loaded)
 
 _SESSION_GDAL_EXCEPTIONS = bool(gdal.GetUseExceptions())
 
@@ -309,9 +309,9 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     import shapely
     from osgeo import ogr, osr
 
+    from wit_plugin.io.vector_io import read_layer
     from wit_plugin.polygons import transform
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vector_io import read_layer
     from wit_plugin.vectors import road_widths
 
     folder = tmp_path_factory.mktemp("suseo")

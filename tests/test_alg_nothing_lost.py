@@ -211,7 +211,7 @@ def test_links_to_an_input_are_refused(data, tmp_path, run_algorithm):
 def test_atomic_writes_refuse_to_replace_a_protected_input(tmp_path):
     """The core-level guard: whoever calls, a write inside ``protect`` never replaces an input."""
     from wit_plugin.errors import InputError
-    from wit_plugin.fileio import atomic_file, atomic_files, protect, refuse_overlap
+    from wit_plugin.io.fileio import atomic_file, atomic_files, protect, refuse_overlap
 
     source = tmp_path / "a.shp"
     source.write_bytes(b"shape")
@@ -266,8 +266,8 @@ def test_a_layer_of_the_wrong_geometry_type_is_refused(algorithm, parameter, dat
 @pytest.fixture
 def floors(data):
     """Buildings with floor counts, as wit:preparevectors writes them."""
-    return vector(data["folder"] / "floors.gpkg", "buildings",
-                  [SQUARE, "POLYGON((209015 543015,209025 543015,209025 543025,209015 543025,209015 543015))"],
+    second = "POLYGON((209015 543015,209025 543015,209025 543025,209015 543025,209015 543015))"
+    return vector(data["folder"] / "floors.gpkg", "buildings", [SQUARE, second],
                   fields={"wit_id": ogr.OFTString, "GRO_FLO_CO": ogr.OFTInteger},
                   rows=[{"wit_id": "BLD_1", "GRO_FLO_CO": 0}, {"wit_id": "BLD_2", "GRO_FLO_CO": 0}])
 

@@ -54,9 +54,8 @@ def scene(tmp_path_factory) -> dict:
     inputs = {"buildings": ngii.buildings(raw), "roads": ngii.road_polygons(raw), "lines": ngii.centre_lines(raw),
               "area": ngii.area(raw), "dem": ngii.dem(folder / "dem_5187.tif"),
               "dem_5186": ngii.dem(folder / "dem_5186.tif", epsg=5186)}
-    sample = draw_from_layers(folder / "sample",
-                              GivenLayers(buildings=str(inputs["buildings"]), roads=str(inputs["roads"])),
-                              SampleConfig(ortho_pixel_size=2.0, with_dem=False))
+    given = GivenLayers(buildings=str(inputs["buildings"]), roads=str(inputs["roads"]))
+    sample = draw_from_layers(folder / "sample", given, SampleConfig(ortho_pixel_size=2.0, with_dem=False))
     assert sample.sheets == ["35901058", "35901059"]
     inputs["ortho"] = str(sample.ortho_tiles[0].parent)
     chain = folder / "chain"

@@ -12,8 +12,8 @@ from qgis.core import QgsProcessingException
 from test_sample_given import snapshot
 
 from wit_plugin import mapsheet
+from wit_plugin.io.vector_io import read_layer
 from wit_plugin.polygons import transform
-from wit_plugin.vector_io import read_layer
 
 pytestmark = pytest.mark.qgis_facing
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from osgeo import ogr
 
-from wit_plugin import bulk_read
+from wit_plugin.io import bulk_read
 from wit_plugin.numtext import ring_texts
 
 TRIANGLE = "POLYGON Z ((200000.125 540000 10.5, 200004 540000 11, 200000 540003.3 12.25, 200000.125 540000 10.5))"

@@ -19,8 +19,8 @@ from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import InputError
 from wit_plugin.heights import HeightOptions
+from wit_plugin.io.vector_io import read_layer
 from wit_plugin.sample import SampleConfig, generate_sample
-from wit_plugin.vector_io import read_layer
 
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "core": "http://www.opengis.net/citygml/3.0",
       "gen": "http://www.opengis.net/citygml/generics/3.0", "con": "http://www.opengis.net/citygml/construction/3.0",

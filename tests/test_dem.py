@@ -180,7 +180,7 @@ def test_seoul_dem_never_samples_nodata(seoul):
 def test_plane_deviation_bound_never_underestimates(cell):
     """The cheap bound ≥ the exact error on random triangles, small and large against the cells,
     and infinite for slivers and for triangles reaching the flat rim beyond the outermost centres."""
-    from wit_plugin.terrain import exact_vertical_error
+    from wit_plugin.terrain.mesh import exact_vertical_error
 
     rng = np.random.default_rng(5)
     rows = cols = 30

@@ -174,7 +174,7 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
     dem_ds = None
 
     out = tmp_path / "lod1.gpkg"
-    stats = extrude.run(gpkg, dem_path, out, HeightOptions(storey_height=3.5))
+    stats = extrude.extrude_buildings(gpkg, dem_path, out, HeightOptions(storey_height=3.5))
     assert stats.solids == 2 and stats.nodata_filled == 4
     ds = ogr.Open(str(out))
     lyr = ds.GetLayerByName(model.LOD1_LAYER)

@@ -1,4 +1,4 @@
-"""gdal_env: opening and reading input rasters is checked, named, and writes nothing beside them."""
+"""io.raster_io and gdal_env: opening and reading input rasters is checked, named, and writes nothing beside them."""
 from __future__ import annotations
 
 import shutil
@@ -9,12 +9,8 @@ from osgeo import gdal
 
 from wit_plugin import mosaic
 from wit_plugin.errors import InputError
-from wit_plugin.gdal_env import (
-    no_sidecars,
-    open_raster,
-    raster_file_problem,
-    read_window,
-)
+from wit_plugin.gdal_env import no_sidecars
+from wit_plugin.io.raster_io import open_raster, raster_file_problem, read_window
 
 
 @pytest.fixture

@@ -339,7 +339,7 @@ def test_sample_pipeline_matches_sources(tmp_path):
     prepared = tmp_path / "prepared.gpkg"
     prepare_vectors(sample.buildings, None, None, StudyArea.circle(127.1020, 37.4876, 200, "EPSG:4737"), prepared)
     lod1 = tmp_path / "lod1.gpkg"
-    extrude.run(prepared, sample.dem, lod1)
+    extrude.extrude_buildings(prepared, sample.dem, lod1)
     gml = tmp_path / "city.gml"
     citygml.write_citygml(citygml.CityGMLInputs(lod1=str(lod1)), str(gml))
     result = metrics.geometry_metrics(str(gml), str(prepared))

@@ -133,7 +133,7 @@ def near(picture: np.ndarray, rgb: tuple[int, int, int], tolerance: int = 12) ->
 @pytest.fixture
 def no_haze(monkeypatch):
     """Exact surface colours: no distance haze."""
-    monkeypatch.setattr(preview, "HAZE_MAX", 0.0)
+    monkeypatch.setattr(preview.shading, "HAZE_MAX", 0.0)
 
 
 def test_textured_roofs_ground_and_shaded_walls(tmp_path, no_haze):
@@ -150,7 +150,7 @@ def test_textured_roofs_ground_and_shaded_walls(tmp_path, no_haze):
     assert near(picture, BLUE).sum() > 300
     assert near(picture, GREEN).sum() > 5000
     # walls: the beige wall colour, visible in at least two clearly different brightnesses (lit / in shade)
-    wall = np.array(preview.WALL_RGB, float)
+    wall = np.array(preview.shading.WALL_RGB, float)
     factor = picture[..., 0] / wall[0]
     beige = np.all(np.abs(picture - factor[..., None] * wall) <= 4, axis=-1) & (factor > 0.3)
     levels = np.round(factor[beige], 2)
@@ -199,7 +199,7 @@ def test_without_tin_and_textures_flat_colours(tmp_path, no_haze):
     out = str(tmp_path / "preview.png")
     report = preview.render_preview(lod1, None, None, out, width=200, height=150)
     assert report.textured_triangles == 0 and report.triangles["terrain"] == 0
-    assert near(read_png(out), preview.ROOF_RGB, 3).sum() > 200
+    assert near(read_png(out), preview.shading.ROOF_RGB, 3).sum() > 200
 
 
 def test_self_intersecting_roof_is_still_drawn(tmp_path):
@@ -245,10 +245,11 @@ def test_feature_loop_reads_like_arrow(tmp_path):
                                (tin, model.TIN_LAYER, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE)),
                                (str(Path(tex) / model.TEXCOORD_FILE), model.TEXCOORD_TABLE,
                                 (model.TEX_TARGET, model.TEX_FEATURE, model.TEX_FACE, model.TEX_COORDS))):
-        with preview._open_layer(path, name, "test", fields) as layer:
-            arrow = preview._read_columns(layer, fields, lambda g: shapely.get_coordinates(g, include_z=True))
+        with preview.scene._open_layer(path, name, "test", fields) as layer:
+            arrow = preview.scene._read_columns(layer, fields, lambda g: shapely.get_coordinates(g, include_z=True))
             layer.ResetReading()
-            loop = preview._read_columns(_NoArrow(layer), fields, lambda g: shapely.get_coordinates(g, include_z=True))
+            loop = preview.scene._read_columns(_NoArrow(layer), fields,
+                                               lambda g: shapely.get_coordinates(g, include_z=True))
         for key in (*fields, None):
             assert [v or 0 for v in loop[key].tolist()] == [v or 0 for v in arrow[key].tolist()], key
 

@@ -18,10 +18,11 @@ import shapely
 from conftest import ROOT
 from osgeo import gdal, ogr
 
-from wit_plugin import bulk_read, model, roads, vector_io
+from wit_plugin import model, roads
 from wit_plugin.area import StudyArea
 from wit_plugin.errors import InputError
 from wit_plugin.feedback import Feedback
+from wit_plugin.io import bulk_read, vector_io
 from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
 AREA = StudyArea.polygon("POLYGON((217870 361780,218260 361780,218260 361940,217870 361940,217870 361780))",
@@ -83,7 +84,7 @@ def test_gdal_36_arrow_reader_crashes_on_such_a_layer_and_arrow_ready_refuses_it
     guarded = _json(in_subprocess(f"""
         import json
         from osgeo import ogr
-        from wit_plugin import bulk_read
+        from wit_plugin.io import bulk_read
         ds = ogr.Open({str(layers['buildings'])!r})
         layer = ds.GetLayer(0)
         names = [layer.GetLayerDefn().GetFieldDefn(i).GetName() for i in range(8)]
@@ -97,7 +98,7 @@ def test_gdal_36_arrow_reader_crashes_on_such_a_layer_and_arrow_ready_refuses_it
 READ_EVERY_WAY = """
     import json
     import numpy as np
-    from wit_plugin import bulk_read, vector_io
+    from wit_plugin.io import bulk_read, vector_io
     path = {path!r}
     plain = vector_io.read_layer(path)
     near = vector_io.read_layer(path, bbox=(217890.0, 361790.0, 217980.0, 361900.0))
@@ -146,7 +147,7 @@ def test_korean_field_names_with_ascii_text_are_still_decoded(tmp_path):
                                 [{"층수": 3, "구분": "A1"}], [ngii.building_wkt(0, 0)], cpg=None)
     found = _json(in_subprocess(f"""
         import json
-        from wit_plugin import vector_io
+        from wit_plugin.io import vector_io
         layer = vector_io.read_layer({str(path)!r})
         print(json.dumps([[f.name for f in layer.fields], layer.columns["층수"], layer.encoding], ensure_ascii=False))
         """))
@@ -160,7 +161,7 @@ def test_a_csv_with_cp949_field_names_is_read_feature_by_feature(tmp_path):
     path.write_bytes('WKT,층수,용도\n"POLYGON((0 0,10 0,10 10,0 10,0 0))",3,단독주택\n'.encode("cp949"))
     found = _json(in_subprocess(f"""
         import json
-        from wit_plugin import vector_io
+        from wit_plugin.io import vector_io
         from wit_plugin.feedback import Feedback
         class F(Feedback):
             warnings = []
@@ -172,8 +173,8 @@ def test_a_csv_with_cp949_field_names_is_read_feature_by_feature(tmp_path):
                           feedback.warnings], ensure_ascii=False))
         """))
     assert found[:3] == [["WKT", "층수", "용도"], ["단독주택"], 100.0]
-    assert found[3] == [
-        "건물.csv: 2 field name(s) are not UTF-8 (read as 층수, 용도); the layer is read feature by feature."]
+    assert found[3] == ["건물.csv: 2 field name(s) are not UTF-8 (read as 층수, 용도); "
+                        "the layer is read feature by feature."]
 
 
 def test_the_feature_api_gives_the_arrow_readers_columns(tmp_path):

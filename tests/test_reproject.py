@@ -256,8 +256,8 @@ def test_the_coverage_check_judges_a_dem_in_its_own_crs(dem_4326, tmp_path):
     message = _refusal(require_dem, path, east, "EPSG:5187")
     assert message.startswith("The DEM dem_4326.tif (x 127.080000–127.121667, y 37.468333–37.510000 in its CRS, "
                               "EPSG:4326) does not cover the area (x 127.")
-    assert re.search(r"\(the area's box in EPSG:5187, reprojected\)\): "
-                     r"it stops short by 0\.0\d{5}° to the east\. ", message)
+    assert re.search(r"\(the area's box in EPSG:5187, reprojected\)\): it stops short by 0\.0\d{5}° "
+                     r"to the east\. ", message)
     assert sorted(p.name for p in folder.iterdir()) == before  # nothing written beside the DEM (no .aux.xml)
 
 

@@ -21,11 +21,11 @@ from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 from wit_plugin.georef import OK, georeference_sheets
+from wit_plugin.io.vector_io import read_layer
 from wit_plugin.polygons import repair_polygons, transform
 from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers
 from wit_plugin.sample.ortho import RASTER_CRS
 from wit_plugin.sample.rasters import _PALETTE, ASPHALT, ROOF_COLOURS, roof_styles
-from wit_plugin.vector_io import read_layer
 from wit_plugin.vectors import ROAD_QUAD_SEGS, road_widths
 
 SUSEO = (127.1020, 37.4876)
@@ -269,8 +269,8 @@ def test_roads_without_width_get_the_class_or_default_width_with_a_warning(tmp_p
     defaulted = [w for w in feedback.warnings if "1 of 1 centre line(s) have no width, lane count or known class" in w]
     assert len(defaulted) == warned and all("default width 6 m" in w for w in defaulted)
     source = "default" if warned else f"highway={highway}"
-    rule = f"Road width rule: OpenStreetMap roads: highway class default → default 6 m; 1 from {source}"
-    assert rule in feedback.infos
+    assert (f"Road width rule: OpenStreetMap roads: highway class default → default 6 m; 1 from {source}"
+            in feedback.infos)
     geo = georeference_sheets([str(t) for t in result.ortho_tiles], tmp_path / "geo", RASTER_CRS, fmt="VRT")
     tiles = [(g.output, np.ones(3)) for g in geo]
     asphalt = _chroma(_PALETTE[ASPHALT])

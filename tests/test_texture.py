@@ -12,7 +12,8 @@ from osgeo import gdal, ogr, osr
 from wit_plugin import model, texture
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
-from wit_plugin.texture import TextureConfig, mip_chain, texture_model
+from wit_plugin.texture import TextureConfig, texture_model
+from wit_plugin.texture.images import mip_chain
 
 X0, Y0, PX = 200000.0, 500000.0, 0.5  # ortho origin (top-left) and pixel size, EPSG:5186
 
@@ -431,7 +432,7 @@ def test_layers_read_in_several_runs_give_the_same_output(scene: dict, tmp_path:
         return rows, {p.name: p.read_bytes() for p in out.iterdir() if p.suffix == ".jpg"}
 
     whole = run("whole")
-    monkeypatch.setattr(texture, "_POINTS_IN_MEMORY", 500)  # ~125 triangles: one tile at a time
+    monkeypatch.setattr(texture.sources, "_POINTS_IN_MEMORY", 500)  # ~125 triangles: one tile at a time
     assert run("runs") == whole
     assert len(whole[0]) == 4 + sum(s != "footprint" for s, _ in scene["triangles"]) and len(whole[1]) > 9
 

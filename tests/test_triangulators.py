@@ -22,18 +22,18 @@ BACKENDS = pytest.mark.parametrize("backend", triangulators.BACKENDS, ids=["tria
 
 
 def _pslg(buildings=BUILDINGS, roads=ROADS, holes=True, max_edge=None):
-    cons = terrain.clean_constraints(AREA, buildings, roads, holes)
+    cons = terrain.constraints.clean_constraints(AREA, buildings, roads, holes)
     vertices, segments = cons.vertices, cons.segments
     if max_edge:
-        vertices, segments = terrain._split_long_segments(vertices, segments, max_edge)
-    return cons, triangulators.Pslg(vertices, segments, cons.holes, cons.regions, terrain._face_locator(cons))
+        vertices, segments = terrain.mesh._split_long_segments(vertices, segments, max_edge)
+    return cons, triangulators.Pslg(vertices, segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
 
 
 def _edges(tris: np.ndarray) -> set[int]:
     return set(triangulators.triangle_edge_keys(tris).ravel().tolist())
 
 
-def _lone_inner_edges(tin: terrain.Tin) -> int:
+def _lone_inner_edges(tin: terrain.mesh.Tin) -> int:
     """Edges that one triangle alone uses, farther than 1 cm from the area's rim and the footprints."""
     tris = tin.triangles
     keys, count = np.unique(triangulators.triangle_edge_keys(tris).ravel(), return_counts=True)
@@ -125,8 +125,8 @@ def test_refinement_meets_the_area_limits_without_touching_a_segment():
 
 def test_a_point_goes_to_the_circumcentre_or_the_longest_free_edge():
     cdt = triangulators.BACKENDS[triangulators.CDT]
-    cons = terrain.clean_constraints(shapely.box(0, 0, 40, 40), [], [])
-    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain._face_locator(cons))
+    cons = terrain.constraints.clean_constraints(shapely.box(0, 0, 40, 40), [], [])
+    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
     acute = np.array([[10.0, 10.0], [20.0, 10.5], [14.0, 19.0]])
     obtuse = np.array([[14.0, 38.0], [26.0, 38.0], [20.0, 39.0]])  # its circumcircle holds no other vertex
     expected = (steiner.circumcentres(*acute[:, None, :])[0], [20.0, 38.0])  # the obtuse: its longest edge's middle
@@ -144,20 +144,20 @@ def test_both_backends_give_the_same_guarantees(backend):
     """Same input: a valid TIN with every constraint, edges ≤ MAX_EDGE, DEM error ≤ TOLERANCE, and —
     on the millimetre grid — no edge that only one triangle uses away from the rim and the footprints."""
     dem = hill_dem()
-    tin, stats = terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, tolerance=0.3,
+    tin, stats = terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, tolerance=0.3,
                                      triangulator=backend.key)
     check_mesh(tin, dem, True)
     assert stats.max_edge <= 4.0 * (1 + 1e-9) and stats.max_vertical_error <= 0.3
-    exact = terrain.exact_vertical_error(dem, tin.vertices, tin.triangles)
+    exact = terrain.mesh.exact_vertical_error(dem, tin.vertices, tin.triangles)
     assert exact.max() == pytest.approx(stats.max_vertical_error, abs=1e-9)
-    snapped = terrain.snap_to_grid(tin, dem)
+    snapped = terrain.output.snap_to_grid(tin, dem)
     assert _lone_inner_edges(snapped) == 0
     np.testing.assert_allclose(snapped.vertices[:, :2], np.round(snapped.vertices[:, :2], 3), rtol=0, atol=1e-9)
 
 
 def test_the_backends_differ_little_in_triangle_count():
     dem = hill_dem()
-    counts = [terrain.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, triangulator=b.key)[1].triangles
+    counts = [terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, triangulator=b.key)[1].triangles
               for b in triangulators.BACKENDS]
     assert 0.7 * counts[0] <= counts[1] <= 1.1 * counts[0], counts
 
@@ -167,24 +167,24 @@ def test_snapping_welds_millimetre_neighbours_and_mends_flat_triangles():
     a road's edge falls onto it and the road triangle across it is split there: on the grid, no triangle
     without area and no edge that one triangle alone uses, and the road keeps its triangles."""
     flat = Dem(np.full((4, 4), 7.0), (-10.0, 10.0, 0.0, 30.0, 0.0, -10.0))
-    cons = terrain.clean_constraints(shapely.box(0, 0, 10, 10), [], [("R", shapely.box(2, 8, 6, 9))])
-    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain._face_locator(cons))
+    cons = terrain.constraints.clean_constraints(shapely.box(0, 0, 10, 10), [], [("R", shapely.box(2, 8, 6, 9))])
+    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
     points = np.array([[5.0004, 5.0], [5.0, 5.0], [4.0, 7.9997], [2.0, 2.0], [8.0, 2.0], [8.0, 6.0], [2.0, 5.0],
                        [4.0, 8.6]])
     mesh = triangulators.BACKENDS[triangulators.CDT].triangulate(pslg, points, pslg.locate(points))
-    road = int(np.flatnonzero(cons.region_surface == terrain.ROAD)[0])
+    road = int(np.flatnonzero(cons.region_surface == terrain.constraints.ROAD)[0])
     surface = np.where(mesh.region == road, "road", "terrain").astype(object)
     xyz = np.column_stack([mesh.vertices, np.full(len(mesh.vertices), 7.0)])
-    tin = terrain.Tin(xyz, mesh.triangles, surface, np.full(len(surface), None), cons)
+    tin = terrain.mesh.Tin(xyz, mesh.triangles, surface, np.full(len(surface), None), cons)
     assert _lone_inner_edges(tin) == 0
-    snapped = terrain.snap_to_grid(tin, flat)
+    snapped = terrain.output.snap_to_grid(tin, flat)
     assert len(snapped.triangles) == len(tin.triangles) - 2 - 1 + 1  # weld: −2; flat one: −1, road split: +1
     assert _lone_inner_edges(snapped) == 0
-    assert (terrain._areas_3d(snapped.vertices, snapped.triangles) > terrain.DEGENERATE_AREA).all()
-    assert (terrain._triangle_areas(snapped.vertices, snapped.triangles) > 0).all()
+    assert (terrain.mesh._areas_3d(snapped.vertices, snapped.triangles) > terrain.output.DEGENERATE_AREA).all()
+    assert (terrain.mesh._triangle_areas(snapped.vertices, snapped.triangles) > 0).all()
     np.testing.assert_allclose(snapped.vertices[:, :2], np.round(snapped.vertices[:, :2], 3), rtol=0, atol=1e-9)
     assert (snapped.surface == "road").sum() == (surface == "road").sum() + 1
-    assert terrain._triangle_areas(snapped.vertices, snapped.triangles).sum() == pytest.approx(100.0)
+    assert terrain.mesh._triangle_areas(snapped.vertices, snapped.triangles).sum() == pytest.approx(100.0)
 
 
 def test_the_default_is_cdt_where_triangle_cannot_be_imported(tmp_path):

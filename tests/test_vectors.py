@@ -11,10 +11,11 @@ import shapely
 from ngii import shapefile_text
 from osgeo import ogr, osr
 
-from wit_plugin import model, polygons, simplify, vector_io, vectors
+from wit_plugin import model, polygons, simplify, vectors
 from wit_plugin.area import StudyArea
 from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
+from wit_plugin.io import vector_io
 from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
 SUSEO_5179 = (964814.9, 1943225.0)

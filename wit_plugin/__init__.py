@@ -5,6 +5,6 @@ so the core runs in tests, scripts and worker processes without QGIS.
 """
 
 __all__ = [
-    "citygml", "deps", "errors", "feedback", "fileio", "gdal_env", "georef", "mapsheet", "model", "mosaic",
-    "sample", "schemas", "texture", "validate", "vector_io", "vectors",
+    "citygml", "deps", "errors", "feedback", "gdal_env", "georef", "io", "mapsheet", "model", "mosaic",
+    "sample", "schemas", "texture", "validate", "vectors",
 ]

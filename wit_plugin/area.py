@@ -12,8 +12,8 @@ import shapely
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
+from .io.vector_io import VectorLayer, non_finite, read_layer
 from .polygons import polygonal, transform
-from .vector_io import VectorLayer, non_finite, read_layer
 
 CIRCLE_QUAD_SEGS = 64  # 256-gon: at most 0.08 m inside a 1 km circle
 

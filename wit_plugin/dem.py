@@ -1,5 +1,4 @@
-"""Read a DEM window and interpolate heights bilinearly between cell centres (as the paper,
-Kang et al. 2025, §3.1).
+"""Read a DEM window and interpolate heights bilinearly between cell centres.
 
 The terrain TIN and the building bases both take their Z from here, so they agree exactly.
 Cells that hold NoData (the declared value, else anything ≤ −1000 because real files such as the
@@ -28,7 +27,7 @@ from osgeo import gdal
 from .arrays import ragged_indices
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .gdal_env import open_raster, read_window
+from .io.raster_io import open_raster, read_window
 from .raster_crs import (
     aligned,
     cell_size,
@@ -41,7 +40,7 @@ from .raster_crs import (
     warp,
 )
 
-#: values at or below this are NoData in files that declare no NoData value (no real height is that low)
+#: values at or below this are NoData in files that declare no NoData value (real DEMs store −9999 so)
 NODATA_THRESHOLD = -1000.0
 
 Bounds = tuple[float, float, float, float]  # xmin, ymin, xmax, ymax

@@ -38,8 +38,9 @@ from shapely.geometry.base import BaseGeometry
 from .dem import Dem
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .gpkg_bulk import write_layer
 from .heights import DEFAULT, HeightOptions, HeightRule, building_height
+from .io.gpkg_bulk import write_layer
+from .io.vector_io import FieldDef, keep_source_fields, read_prepared
 from .model import (
     BASE_Z,
     FACE_NUMBER,
@@ -53,8 +54,7 @@ from .model import (
     STOREYS_BELOW,
     WIT_ID,
 )
-from .terrain import clean_polygons
-from .vector_io import FieldDef, keep_source_fields, read_prepared
+from .terrain.constraints import clean_polygons
 
 BASE_MODES = ("min", "median")
 
@@ -224,8 +224,9 @@ def write_solids(path: str | Path, solids: Sequence[Solid], crs: pyproj.CRS,
                        spatial_index=spatial_index, feedback=feedback)
 
 
-def run(vectors: str | Path, dem_path: str | Path, output: str | Path, heights: HeightOptions | None = None,
-        base: str = "min", spatial_index: bool = True, feedback: Feedback = SILENT) -> ExtrudeStats:
+def extrude_buildings(vectors: str | Path, dem_path: str | Path, output: str | Path,
+                      heights: HeightOptions | None = None, base: str = "min", spatial_index: bool = True,
+                      feedback: Feedback = SILENT) -> ExtrudeStats:
     """wit:extrudebuildings: read the prepared buildings and the DEM, write the LoD1 faces GeoPackage.
 
     ``vectors`` is the prepared buildings layer (``file.gpkg|layername=…``) or the prepared GeoPackage.

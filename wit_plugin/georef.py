@@ -1,7 +1,7 @@
 """Georeference NGII orthoimage TIFs from the sheet number in their file names (wit:georeferencemapsheets).
 
 NGII hands out orthoimage tiles without any georeferencing; each covers its map sheet's projected
-envelope plus about 50 m, pixels aligned with the target CRS axes (as NGII's real sheets are). So the geotransform
+envelope plus about 50 m, pixels aligned with the target CRS axes. So the geotransform
 follows from the name alone: origin at the envelope's top-left corner, pixel size = extent / pixels.
 
 Outputs go to a staging folder inside the output folder and are moved into place only when the
@@ -25,8 +25,9 @@ from shapely.geometry.base import BaseGeometry
 
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file, atomic_files, ensure_writable_dir
-from .gdal_env import open_raster, quiet_gdal, thread_config
+from .gdal_env import quiet_gdal, thread_config
+from .io.fileio import atomic_file, atomic_files, ensure_writable_dir
+from .io.raster_io import open_raster
 from .mapsheet import find_sheet_in_name, projected_envelope
 from .raster_crs import (
     aligned,
@@ -266,7 +267,7 @@ def _process(result: SheetResult, staging: Path, out_dir: Path, target_crs: str,
 
 def _own_crs(src: gdal.Dataset, target_crs: str) -> pyproj.CRS | None:
     """The CRS of a TIF that carries its own georeference in another CRS than the target, else None (its
-    sheet number then places it: pixels aligned with the target CRS's axes)."""
+    sheet number then places it, pixels aligned with the target CRS's axes)."""
     return foreign_crs(src, target_crs) if src.GetGeoTransform(can_return_null=True) is not None else None
 
 

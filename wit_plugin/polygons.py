@@ -24,7 +24,7 @@ import numpy as np
 import pyproj
 import shapely
 
-from .vector_io import non_finite
+from .io.vector_io import non_finite
 
 REPAIR_KINDS = ("unclosed_ring", "orientation", "repeated_vertex", "invalid", "multipart", "sliver_part")
 REPEATED_POINT_TOLERANCE = 0.001  # m

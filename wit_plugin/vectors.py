@@ -50,7 +50,19 @@ from . import model
 from .area import StudyArea
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .fileio import atomic_file, refuse_overlap
+from .io.fileio import atomic_file, refuse_overlap
+from .io.vector_io import (
+    BUILDING_FIELDS,
+    DISTRICT_FIELDS,
+    ROAD_FIELDS,
+    FieldDef,
+    OutputLayer,
+    VectorLayer,
+    keep_source_fields,
+    non_finite,
+    read_layer,
+    write_gpkg,
+)
 from .polygons import (
     REPAIR_KINDS,
     REPEATED_POINT_TOLERANCE,
@@ -64,18 +76,6 @@ from .polygons import (
 from .roads import WidthRule
 from .roads import widths as road_widths_of
 from .simplify import GRID_SIZE, simplify_shared
-from .vector_io import (
-    BUILDING_FIELDS,
-    DISTRICT_FIELDS,
-    ROAD_FIELDS,
-    FieldDef,
-    OutputLayer,
-    VectorLayer,
-    keep_source_fields,
-    non_finite,
-    read_layer,
-    write_gpkg,
-)
 
 DROP_REASONS = ("no_geometry", "non_finite", "wrong_type", "collapsed", "too_small", "thin", "covered", "duplicate")
 ROAD_QUAD_SEGS = 4

@@ -36,19 +36,19 @@ from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import ensure_writable_dir
 from ..georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..heights import HeightOptions
 from ..interpreter import core_env, core_python
+from ..io.fileio import ensure_writable_dir
+from ..io.vector_io import read_prepared
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
-from ..terrain import Seam
+from ..terrain.constraints import Seam
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
 from ..tiles.job import TileJob
 from ..tiles.prepare import clip_context, prepare_tile_buildings
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
-from ..vector_io import read_prepared
 from ..vectors import PrepareConfig, prepare_vectors
 from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 
@@ -245,15 +245,16 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("terrain") as fb:
         tin = str(work / "tin.gpkg")
-        tin_stats = terrain.run(inputs.dem, layers.buildings, layers.roads, tin, layers.study, options.max_edge,
-                                options.tolerance, spatial_index=options.keep_work, feedback=fb,
-                                foreign=layers.foreign, fixed_segments=options.tile is not None, seam=layers.seam,
-                                triangulator=options.triangulator)
+        config = terrain.TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
+                                       triangulator=options.triangulator)
+        tile_context = terrain.TileContext(layers.foreign, layers.seam) if options.tile is not None else None
+        tin_stats = terrain.triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
+                                                fb, tile_context)
 
     with clock.step("extrude") as fb:  # a tile that owns no building: terrain and roads only
         lod1 = str(work / "lod1.gpkg") if layers.buildings else None
-        lod1_stats = extrude.run(layers.buildings, inputs.dem, lod1, options.heights,
-                                 spatial_index=options.keep_work, feedback=fb) if lod1 else None
+        lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
+                                               spatial_index=options.keep_work, feedback=fb) if lod1 else None
 
     with clock.step("texture") as fb:
         textures = str(work / "textures")

@@ -21,8 +21,8 @@ from shapely.geometry.base import BaseGeometry
 from ..dem import NODATA_THRESHOLD, reprojection, shortfall
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..gdal_env import open_raster, read_window
 from ..georef import sheet_footprint
+from ..io.raster_io import open_raster, read_window
 from ..mapsheet import MapSheet, find_sheet_in_name, projected_envelope, sheets_covering
 from ..raster_crs import (
     cell_size,

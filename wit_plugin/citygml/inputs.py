@@ -20,10 +20,11 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import bulk_read, model
+from .. import model
 from ..errors import InputError
+from ..io import bulk_read
+from ..io.vector_io import open_step_layer, split_source
 from ..numtext import ring_texts
-from ..vector_io import open_step_layer, split_source
 
 BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
 _LOOKUP_BATCH = 10_000  # buildings per district lookup (as many as the writer's progress batch)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
+from ..io.fileio import atomic_file
 from . import reader as streaming
 from .namespaces import CITYGML3_NAMESPACES
 from .schemas import load_schema, schema_namespaces

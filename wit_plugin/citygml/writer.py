@@ -44,11 +44,12 @@ import numpy as np
 from lxml import etree
 from osgeo import ogr
 
-from .. import bulk_read, model
+from .. import model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
 from ..gc_pause import collector_paused
+from ..io import bulk_read
+from ..io.fileio import atomic_file
 from ..numtext import ring_texts
 from .inputs import (
     BULK,

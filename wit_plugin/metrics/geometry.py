@@ -43,7 +43,7 @@ from ..citygml.reader import Stream, SyntaxProblem, envelope_srs
 from ..citygml.validation.crs import frame_of
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..vector_io import open_step_layer, split_source
+from ..io.vector_io import open_step_layer, split_source
 
 MATCHED, MODEL_ONLY, SOURCE_ONLY = "matched", "model_only", "source_only"
 _PART = re.compile(r"^(.*)_part\d+$")

@@ -22,10 +22,10 @@ from osgeo import ogr
 from .. import model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
-from ..gdal_env import open_raster
+from ..io.fileio import atomic_file
+from ..io.raster_io import open_raster
+from ..io.vector_io import FieldDef, OutputLayer, write_gpkg
 from ..raster_crs import crs_name, foreign_crs, transform_geometry
-from ..vector_io import FieldDef, OutputLayer, write_gpkg
 from .geometry import MATCHED, MODEL_ONLY, BuildingMetrics, GeometryMetrics, geometry_metrics
 from .seam import SeamMetrics, seam_metrics
 from .texture import TextureMetrics, texture_metrics

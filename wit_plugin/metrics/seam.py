@@ -21,8 +21,8 @@ from osgeo import gdal, osr
 
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..gdal_env import open_raster, read_window
-from ..vector_io import split_source
+from ..io.raster_io import open_raster, read_window
+from ..io.vector_io import split_source
 from .texture import open_vector
 
 

@@ -35,12 +35,13 @@ import numpy as np
 import shapely
 from osgeo import gdal, ogr
 
-from .. import bulk_read, model
+from .. import model
 from ..arrays import ragged_indices
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..gdal_env import open_raster, read_window
-from ..vector_io import gdal_quiet
+from ..gdal_env import quiet_gdal
+from ..io import bulk_read
+from ..io.raster_io import open_raster, read_window
 
 BORDERS = ("reflect101", "valid")
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
@@ -184,7 +185,7 @@ def _image_stats(gray: np.ndarray, mask: np.ndarray | None) -> _Stats:
 
 def open_vector(path: str | os.PathLike) -> ogr.DataSource | None:
     """The OGR data source, or None if GDAL cannot read it as vector data (with or without UseExceptions)."""
-    with gdal_quiet():
+    with quiet_gdal():
         try:
             return ogr.Open(str(path))
         except RuntimeError:
@@ -266,7 +267,7 @@ class _Burner:
     def mask(self, width: int, height: int, gt: tuple[float, ...]) -> np.ndarray:
         target = gdal.GetDriverByName("MEM").Create("", width, height, 1, gdal.GDT_Byte)
         target.SetGeoTransform(gt)
-        with gdal_quiet():  # "no spatial reference on layer": both sides share one, as intended
+        with quiet_gdal():  # "no spatial reference on layer": both sides share one, as intended
             gdal.RasterizeLayer(target, [1], self._layer, burn_values=[1])
         return read_window(target, 0, 0, width, height, "the rasterised polygons (in memory)").astype(bool)
 

@@ -21,7 +21,7 @@ from pyproj import Transformer
 from .. import mapsheet
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_files
+from ..io.fileio import atomic_files
 from .config import MANIFEST, SampleConfig, check_rasters
 from .given import DrawnSample, GivenLayers, draw_from_layers
 from .layout import CityLayout
@@ -74,9 +74,8 @@ def _square_in(target: str, center: np.ndarray, half: float) -> tuple[float, flo
 
 def generate_sample(output_dir: str | Path, config: SampleConfig | None = None,
                     feedback: Feedback = SILENT) -> SampleResult:
-    """Generate the sample into ``output_dir`` (the default ``SampleConfig`` without ``config``); nothing
-    appears there unless every file is complete."""
-    config = config or SampleConfig()  # a new one per call: a mutable default would be shared by all
+    """Generate the sample into ``output_dir``; nothing appears there unless every file is complete."""
+    config = config or SampleConfig()
     _check(config)
     folder = Path(output_dir)
     lon_lat = Transformer.from_crs("EPSG:4737", "EPSG:5179", always_xy=True)

@@ -34,15 +34,15 @@ from .. import mapsheet
 from ..area import StudyArea
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_files, refuse_overlap, source_file
 from ..heights import HeightOptions, building_height
+from ..io.fileio import atomic_files, refuse_overlap, source_file
+from ..io.vector_io import VectorLayer, layer_extent, non_finite, read_layer
 from ..polygons import polygonal, repair_polygons, transform
 from ..terrain import covering_area
 from ..tiles.plan import plan_tiles
-from ..vector_io import VectorLayer, layer_extent, non_finite, read_layer
 from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, road_widths
 from .config import MANIFEST, SampleConfig, check_rasters
-from .layout import GROUND_LANE
+from .gangnam import GROUND_LANE
 from .ortho import DEM_NAME, ORTHO_DIR, RASTER_CRS, render_tiles, sheet_envelopes, write_sample_dem
 from .rasters import NATURAL, SIDEWALK, Terrain, assemble_scene, grouped, roof_styles, street_trees
 
@@ -81,12 +81,13 @@ class DrawnSample:
     tile_gains: dict[str, list[float]] = field(default_factory=dict)
 
 
-def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: SampleConfig = SampleConfig(),
+def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: SampleConfig | None = None,
                      feedback: Feedback = SILENT) -> DrawnSample:
     """Render the ortho tiles (and the DEM) for ``layers`` into ``output_dir``, with a manifest.
 
     Nothing appears in ``output_dir`` unless every file is complete; the given layers are read only.
     """
+    config = config or SampleConfig()
     check_rasters(config)
     if not (layers.buildings or layers.roads):
         raise InputError("Give a building or a road layer to draw the orthoimage from.")

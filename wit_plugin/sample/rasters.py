@@ -21,17 +21,10 @@ from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
 from ..feedback import SILENT, Feedback
-from ..gdal_env import read_window
-from .layout import (
-    GROUND_BARE,
-    GROUND_FOREST,
-    GROUND_LANE,
-    GROUND_LAWN,
-    GROUND_PARKING,
-    PITCHED_ROOFS,
-    CityLayout,
-    footprints,
-)
+from ..io.raster_io import read_window
+from .blocks import footprints
+from .gangnam import GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS
+from .layout import CityLayout
 
 NO_DATA_HOLE = -9999.0
 SUSEO_STATION_5186 = (209020.888, 543132.772)

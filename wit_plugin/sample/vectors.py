@@ -17,7 +17,9 @@ import shapely
 from osgeo import osr
 
 from ..errors import InputError
-from .layout import DONGS, PITCHED_ROOFS, Building, CityLayout, Superblock, footprints
+from .blocks import Building, Superblock, footprints
+from .gangnam import DONGS, PITCHED_ROOFS
+from .layout import CityLayout
 from .shapefile_writer import SHP_POLYGON, SHP_POLYLINE, Field, write_shapefile
 
 SIG_CD = "11680"  # Gangnam-gu

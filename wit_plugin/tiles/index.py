@@ -14,8 +14,8 @@ import numpy as np
 import pyproj
 from osgeo import ogr
 
-from ..fileio import atomic_file
-from ..vector_io import FieldDef, OutputLayer, write_gpkg
+from ..io.fileio import atomic_file
+from ..io.vector_io import FieldDef, OutputLayer, write_gpkg
 from .plan import Tile
 
 INDEX_FILE = "index.gpkg"

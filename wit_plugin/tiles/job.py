@@ -7,8 +7,8 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from .. import model
-from ..terrain import Seam
-from ..vector_io import read_prepared
+from ..io.vector_io import read_prepared
+from ..terrain.constraints import Seam
 from .plan import TileOwner, tile_of
 from .seams import tile_seam
 

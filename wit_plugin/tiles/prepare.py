@@ -20,8 +20,8 @@ from shapely.geometry.base import BaseGeometry
 from .. import model
 from ..area import StudyArea
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
-from ..vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
+from ..io.fileio import atomic_file
+from ..io.vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
 from ..vectors import PrepareConfig, prepare_vectors
 from .plan import TileOwner
 

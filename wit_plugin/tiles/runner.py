@@ -35,13 +35,13 @@ from ..chain.coverage import ortho_coverage, require_dem, require_ortho, require
 from ..deps import require
 from ..errors import CanceledError, InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import ensure_writable_dir
 from ..georef import list_tifs
 from ..interpreter import core_env, core_python
+from ..io.fileio import ensure_writable_dir
+from ..io.vector_io import read_layer
 from ..polygons import repair_polygons, transform
 from ..tiles3d.combine import TILE_TILESET, tile_areas, write_run_tileset
 from ..tiles3d.web import require_web_profile
-from ..vector_io import read_layer
 from .index import (
     DONE,
     EMPTY,

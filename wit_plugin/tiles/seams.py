@@ -17,7 +17,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from ..terrain import Seam
+from ..terrain.constraints import Seam
 
 GRID_DECIMALS = 3  # the 1 mm grid of the terrain's constraints
 

@@ -30,8 +30,8 @@ from shapely.geometry.base import BaseGeometry
 
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
 from ..georef import OK, georeference_sheets
+from ..io.fileio import atomic_file
 from .geo import Georeference, column_major, union_region
 from .group_buildings import GROUP_BUILDINGS, Candidates, read_tile_buildings
 from .groups import GROUP_DIR, Terrain, join_terrain, plan_groups, raster_extent, sample_terrain, write_group

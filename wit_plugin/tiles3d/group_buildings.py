@@ -24,8 +24,8 @@ import numpy as np
 import shapely
 
 from .. import model
+from ..io.vector_io import open_step_layer
 from ..meshes import triangulate
-from ..vector_io import open_step_layer
 from .geo import Georeference
 from .glb import GlbBuilder
 from .metadata import BUILDING_CLASS, building_schema, property_columns

@@ -30,7 +30,7 @@ from shapely.geometry.base import BaseGeometry
 
 from ..dem import Dem
 from ..errors import InputError, WitError
-from ..gdal_env import open_raster
+from ..io.raster_io import open_raster
 from ..mapsheet import parse_sheet_number, sheet_at
 from .coarse import Patch, grid_triangles
 from .geo import Georeference

@@ -31,11 +31,12 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import bulk_read, model
+from .. import model
 from ..errors import InputError
 from ..feedback import Feedback
+from ..io import bulk_read
+from ..io.vector_io import open_step_layer
 from ..meshes import parse_texcoords, triangle_vertices
-from ..vector_io import open_step_layer
 
 FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not exported
 SURFACES = {name: number for number, name in enumerate(model.TIN_SURFACES)}

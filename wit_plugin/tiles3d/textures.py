@@ -3,7 +3,7 @@
 Full-detail tiles reference the atlases and ground images of ``wit:wittexture`` as they are (same
 files, same texture coordinates: nothing is re-cut). Coarser tiles reference mip level k of the same
 atlas (``<image>_mip<k>.<ext>``, the texture step's naming): taken from the texture folder when it
-wrote its mip chain, else computed with ``texture.mip_chain`` (the same box filter) and written
+wrote its mip chain, else computed with ``texture.images.mip_chain`` (the same box filter) and written
 here. Texture coordinates are relative, so they hold for every level. Each image is decoded once
 while its smaller levels stay cached (they serve the coarse terrain's sampling and the mip files);
 the cache is bounded in bytes, so memory does not grow with the model.
@@ -18,7 +18,7 @@ import numpy as np
 from osgeo import gdal
 
 from ..errors import InputError
-from ..texture import mip_chain
+from ..texture.images import mip_chain
 
 TEXTURE_DIR = "textures"
 _CACHE_BYTES = 96 * 2 ** 20

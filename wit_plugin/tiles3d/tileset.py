@@ -41,9 +41,9 @@ from osgeo import osr
 from .. import model
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_files, refuse_overlap
+from ..io.fileio import atomic_files, refuse_overlap
+from ..io.vector_io import open_step_layer
 from ..meshes import fan_triangles, planar_triangles
-from ..vector_io import open_step_layer
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
 from .geo import Georeference, column_major, union_region
 from .glb import GlbBuilder

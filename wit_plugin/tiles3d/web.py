@@ -27,7 +27,7 @@ import pygltflib as gl
 
 from ..deps import require
 from ..feedback import SILENT, Feedback
-from ..fileio import atomic_file
+from ..io.fileio import atomic_file
 
 MESHOPT = "EXT_meshopt_compression"
 QUANTIZATION = "KHR_mesh_quantization"

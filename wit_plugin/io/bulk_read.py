@@ -43,7 +43,8 @@ def arrow_ready(layer: ogr.Layer) -> bool:
     if not hasattr(layer, "GetArrowStreamAsNumPy"):
         return False
     defn = layer.GetLayerDefn()
-    names = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount()) if not defn.GetFieldDefn(i).IsIgnored()]
+    names = [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())
+             if not defn.GetFieldDefn(i).IsIgnored()]
     names += [defn.GetGeomFieldDefn(i).GetName() for i in range(defn.GetGeomFieldCount())]
     return all(is_utf8(n) for n in names + [layer.GetFIDColumn()])
 

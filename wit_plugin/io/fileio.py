@@ -18,7 +18,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from .errors import InputError
+from ..errors import InputError
 
 #: files that travel with a main file (same stem): what replacing the main file also replaces
 SIDECARS = {

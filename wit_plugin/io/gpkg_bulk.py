@@ -29,10 +29,11 @@ import pyproj
 import shapely
 from osgeo import gdal, ogr, osr
 
-from .errors import InputError
-from .feedback import SILENT, Feedback
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..gdal_env import quiet_gdal
 from .fileio import atomic_file
-from .vector_io import FieldDef, gdal_quiet
+from .vector_io import FieldDef, create_fields
 
 #: GeoPackage geometry header: "GP", version 0, flags (little-endian, XY envelope), srs_id, envelope
 _HEADER = np.dtype([("magic", "S2"), ("version", "u1"), ("flags", "u1"), ("srs_id", "<i4"),
@@ -76,8 +77,7 @@ def geometry_blobs(geoms: np.ndarray, srs_id: int) -> list[bytes]:
 
 def _spatial_index(path: Path, layer: str, column: str) -> None:
     """OGR's R-tree of the layer, built in one go (checked like every write here)."""
-    with gdal_quiet():
-        gdal.ErrorReset()
+    with quiet_gdal():
         try:
             ds = ogr.Open(str(path), update=1)
             if ds is not None:
@@ -190,19 +190,13 @@ def _create_layer(path: Path, layer: str, fields: Sequence[FieldDef], crs: pypro
         srs.ImportFromWkt(crs.to_wkt())
         srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
     failed, reason, column = True, "GDAL gave no reason", ""
-    with gdal_quiet():
-        gdal.ErrorReset()
+    with quiet_gdal():
         try:
             ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
             lyr = None if ds is None else ds.CreateLayer(layer, srs, geometry_type,
                                                          options=["SPATIAL_INDEX=NO"] if srs else [])
             if lyr is not None:
-                for fd in fields:
-                    defn = ogr.FieldDefn(fd.name, fd.type)
-                    defn.SetSubType(fd.subtype)
-                    defn.SetWidth(fd.width)
-                    defn.SetPrecision(fd.precision)
-                    lyr.CreateField(defn)
+                create_fields(lyr, fields)
                 column = lyr.GetGeometryColumn() if srs else ""
                 synced = lyr.SyncToDisk() == ogr.OGRERR_NONE  # the table now, not when ds is destroyed
                 failed = not synced or gdal.GetLastErrorType() >= gdal.CE_Failure

@@ -1,0 +1,147 @@
+"""The TIN as it is written: on the model's millimetre grid, still watertight, one GeoPackage feature per triangle."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyproj
+from osgeo import ogr
+
+from ..dem import Dem
+from ..feedback import SILENT, Feedback
+from ..io.gpkg_bulk import write_layer
+from ..io.vector_io import FieldDef
+from ..model import (
+    TIN_FEATURE_ID,
+    TIN_LAYER,
+    TIN_SURFACE,
+    TIN_TRIANGLE_ID,
+)
+from ..triangulators import triangle_edge_keys
+from .constraints import Constraints
+from .mesh import ROUNDING, Tin, _areas_3d, _triangle_areas, _with_heights
+
+DEGENERATE_AREA = 2e-6  # m² at mm precision; validators reject ≤ 1e-6
+
+
+def snap_to_grid(tin: Tin, dem: Dem, max_passes: int = 8) -> Tin:
+    """The TIN with its vertices on the model's millimetre grid, as they are written, and still watertight.
+
+    The one place where coordinates are rounded: road and relief triangles (and neighbouring tiles)
+    then write a shared vertex with the same digits. Vertices that round to the same point become one
+    (the triangles between them vanish; no crack, both sides lose them); heights are the DEM's at the
+    rounded points. A triangle left without area (three points in a row to the millimetre) or turned
+    over by rounding is taken out by splitting the triangle across its longest edge at its third
+    corner, so the ground keeps no T-junction; at the rim or a footprint it is simply dropped.
+    Vertex indices are kept (a merged vertex points to the first of its group).
+    """
+    steps = np.rint(tin.vertices[:, :2] / ROUNDING).astype(np.int64)
+    low = steps.min(axis=0) if len(steps) else np.zeros(2, dtype=np.int64)
+    _, first, inverse = np.unique((steps[:, 0] - low[0]) * (1 << 32) + (steps[:, 1] - low[1]),
+                                  return_index=True, return_inverse=True)
+    xyz = _with_heights(dem, steps * ROUNDING)
+    tris = first[inverse.ravel()][tin.triangles]
+    surface, feature = tin.surface, tin.feature_id
+    alive = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 2] != tris[:, 0])
+    tris, surface, feature = tris[alive], surface[alive], feature[alive]
+    return _mend_flat(xyz, tris, surface, feature, tin.constraints, max_passes)
+
+
+def _key(a: int, b: int) -> int:
+    """``triangulators.edge_keys`` of one edge, in plain integers."""
+    return (min(a, b) << 31) | max(a, b)
+
+
+def _flat(xyz: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Triangles without area at the model's precision, or turned over."""
+    return (_areas_3d(xyz, tris) <= DEGENERATE_AREA) | (_triangle_areas(xyz, tris) <= 0)
+
+
+def _mend_flat(xyz: np.ndarray, tris: np.ndarray, surface: np.ndarray, feature: np.ndarray, cons: Constraints,
+               max_passes: int) -> Tin:
+    """Remove the flat (or turned) triangles; each one's neighbour across its longest edge a–c is split in two
+    at the flat one's third corner b, which lies on (or a rounding beyond) a–c. New triangles that are flat
+    in turn are mended in the next pass. The few edges looked for are found among all in one vectorised
+    search; the new triangles are searched one by one."""
+    keys = triangle_edge_keys(tris).ravel()
+    todo = list(np.flatnonzero(_flat(xyz, tris)))
+    wanted = np.unique(keys.reshape(-1, 3)[todo]) if todo else np.empty(0, dtype=np.int64)
+    at = np.minimum(np.searchsorted(wanted, keys), max(len(wanted) - 1, 0))
+    owners: dict[int, list[int]] = {}
+    for r in np.flatnonzero(wanted[at] == keys) if len(wanted) else []:
+        owners.setdefault(int(keys[r]), []).append(int(r) // 3)
+    rows = [tris]
+    labels = [(surface, feature)]
+    removed = np.zeros(len(tris), dtype=bool)
+    extra: list[list[int]] = []  # new triangles (3 corners, the row their labels come from)
+    extra_at: dict[int, list[int]] = {}  # edge key → rows of the new triangles with that edge
+
+    def triangle(k: int) -> np.ndarray:
+        return tris[k] if k < len(tris) else np.array(extra[k - len(tris)][:3])
+
+    def across(k: int, key: int) -> int | None:
+        found = owners[key] if key in owners else [int(r) // 3 for r in np.flatnonzero(keys == key)]
+        found = found + extra_at.get(key, [])
+        live = [r for r in found if r != k and not (removed[r] if r < len(tris) else extra[r - len(tris)][4])]
+        return live[0] if live else None
+
+    for _ in range(max_passes):
+        if not todo:
+            break
+        made = len(extra)
+        for k in todo:
+            if k < len(tris) and removed[k] or k >= len(tris) and extra[k - len(tris)][4]:
+                continue
+            corners = triangle(k)
+            lengths = [np.hypot(*(xyz[corners[(i + 1) % 3], :2] - xyz[corners[i], :2])) for i in range(3)]
+            i = int(np.argmax(lengths))
+            a, c, b = int(corners[i]), int(corners[(i + 1) % 3]), int(corners[(i + 2) % 3])
+            n = across(k, _key(a, c))
+            for r in (k, n):
+                if r is None:
+                    continue
+                if r < len(tris):
+                    removed[r] = True
+                else:
+                    extra[r - len(tris)][4] = True
+            if n is not None:  # the neighbour runs c → a; at b it becomes c → b → d and b → a → d
+                d = next(int(v) for v in triangle(n) if v != a and v != c)
+                source = n if n < len(tris) else extra[n - len(tris)][3]
+                for corners_new in ((c, b, d), (b, a, d)):
+                    extra.append([*corners_new, source, False])
+                    u, v, w = corners_new
+                    for edge in (_key(u, v), _key(v, w), _key(w, u)):
+                        extra_at.setdefault(edge, []).append(len(tris) + len(extra) - 1)
+        new = np.array([e[:3] for e in extra[made:]], dtype=tris.dtype).reshape(-1, 3)
+        todo = [len(tris) + made + int(k) for k in np.flatnonzero(_flat(xyz, new))] if len(new) else []
+    keep = ~removed
+    if extra:
+        alive = np.array([not e[4] for e in extra])
+        new = np.array([e[:3] for e in extra], dtype=tris.dtype)[alive]
+        source = np.array([e[3] for e in extra])[alive]
+        rows.append(new)
+        labels.append((surface[source], feature[source]))
+    return Tin(xyz, np.vstack([rows[0][keep], *rows[1:]]),
+               np.concatenate([labels[0][0][keep], *[lab[0] for lab in labels[1:]]]),
+               np.concatenate([labels[0][1][keep], *[lab[1] for lab in labels[1:]]]), cons)
+
+
+def write_tin(path: str | Path, tin: Tin, crs: pyproj.CRS, spatial_index: bool = True,
+              feedback: Feedback = SILENT) -> int:
+    """Write the TIN as PolygonZ triangles (layer ``model.TIN_LAYER``), one feature per triangle.
+
+    Give it a TIN on the millimetre grid (``snap_to_grid``): it is written as it is, and only a triangle
+    that would be degenerate at that precision (none after ``snap_to_grid``) is left out, with a count.
+    ``tri_id`` keeps the mesh's numbering. Returns the number written.
+    """
+    grid = np.round(tin.vertices / ROUNDING) * ROUNDING
+    kept = np.flatnonzero((_areas_3d(grid, tin.triangles) > DEGENERATE_AREA)
+                          & (_triangle_areas(grid, tin.triangles) > 0))
+    if len(kept) < len(tin.triangles):
+        feedback.warning(f"{len(tin.triangles) - len(kept)} triangle(s) without area at millimetre precision "
+                         "not written.")
+    triangles = tin.vertices[tin.triangles[kept]]
+    fields = [FieldDef(TIN_TRIANGLE_ID, ogr.OFTInteger), FieldDef(TIN_SURFACE, ogr.OFTString),
+              FieldDef(TIN_FEATURE_ID, ogr.OFTString)]
+    return write_layer(path, TIN_LAYER, crs, fields, triangles, [kept, tin.surface[kept], tin.feature_id[kept]],
+                       spatial_index=spatial_index, feedback=feedback)

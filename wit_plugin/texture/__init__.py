@@ -1,0 +1,241 @@
+"""Texture roofs, terrain and roads from the merged orthoimage (``wit:wittexture``).
+
+Inputs follow ``model``: the LoD1 faces layer (``lod1_faces``), the TIN layer (``tin``) and the
+merged orthoimage (north-up RGB GeoTIFF; in another CRS than the layers', the window over them
+is reprojected as it is read, bilinear, ``_Ortho.reproject_to``). Outputs, in ``output_dir`` (the texture
+folder): JPEG or PNG images and ``texcoords.gpkg`` holding the attribute table ``texcoords``
+(one row per textured ring, ``model.TEX_*`` columns, image names relative to the folder).
+
+What is textured, and how:
+
+* **Roofs** (LoD1 faces ``roof``): each roof face is an *island* cut from the ortho over its 2D
+  bounding box, packed into **roof atlases** (``roof_atlas_NNNN``) by shelf packing. Islands are
+  padded by ``gutter`` texels of dilated edge pixels and placed on a grid of
+  A = 2^⌊log2 gutter⌋ texels with slot sizes rounded up to A (the extra texels are dilated too),
+  so mip levels 0…log2 A average texels of one island only: no neighbour bleeds in. An atlas is
+  written when the next island does not fit; its sides are cropped to the next power of two of
+  the used area (≤ ``atlas_size``).
+* **Terrain and roads** (TIN triangles ``terrain`` and ``road``): a ``road`` triangle with a
+  ``feature_id`` gets target ``road`` (the CityGML writer puts it in its road's traffic area),
+  every other one target ``tin`` (it stays in the relief, as the writer places it). Triangles
+  are grouped by **ground tile**, a square grid anchored on the ortho's origin whose side is 7/8
+  of ``atlas_size`` texels. A triangle belongs to the tile holding its first vertex;
+  each non-empty tile becomes one image (``ground_rRRRR_cCCCC``) covering the bounding box of its
+  triangles plus ``gutter`` texels of real ortho context. Per-triangle islands would cost an
+  island (and a gutter) per 5 m triangle; a ground tile needs no packing and keeps neighbouring
+  triangles continuous.
+* A surface (or ground tile) whose texture exceeds ``atlas_size`` (minus the gutters) is
+  downscaled to fit, keeping its extent; the report counts such images (``downscaled``).
+* **Not textured**: LoD1 ``wall`` faces (an orthoimage shows no facades: the CityGML writer gives
+  walls no texture or a plain material), ``ground`` faces (never visible) and TIN ``footprint``
+  triangles (under the buildings). The report counts them (``untextured``); the table has no rows
+  for them.
+
+UV mapping: for an image covering the ground extent [xmin, xmax] × [ymin, ymax],
+U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin), V measured from the bottom (CityGML /
+OpenGL). The half-pixel correction is built in: xmin…ymax are the *outer edges* of the image's
+edge texels (their centres ± half a texel), so with S = 1 a vertex at the centre of ortho pixel i
+gets u·W = i' + ½, the centre of the texel holding that pixel. In an atlas the island's extent
+maps onto its texel rectangle and U, V are taken over the atlas.
+
+Scale S: a texel is about 1/S ortho pixels; windows are snapped to multiples of round(1/S)
+pixels, so S = 1/n averages exact n × n pixel blocks (GDAL average resampling). Every texture
+window is read with a windowed ``ReadAsArray``; the ortho is never loaded whole, and GDAL's block
+cache is capped during the run as in wit:mergetiles. Features are read in bulk (``bulk_read``): a
+first pass places each in its ground tile (4 bytes a feature kept), then runs of tiles whose
+points fit in ``_POINTS_IN_MEMORY`` are read together (one run for the 1 km demo's 592,000
+triangles). Memory is bounded by the cache cap, one atlas and one run of tiles, whatever the
+size of the ortho. Images are encoded and table rows inserted in a worker thread.
+
+Coverage: if a textured layer's extent is not inside the ortho's, the run stops before writing
+anything (``InputError``): merge the tiles that cover the study area or clip the study area.
+NoData pixels inside the ortho are textured as they are.
+
+Mipmaps (paper Table 10): ``mip_chain`` gives the box-filtered chain to 1 × 1 for any image;
+with ``write_mipmaps`` each image's levels 1… are written as ``<image>_mip<k>.<ext>``. KTX2 is
+not written: the Khronos Python binding (pyktx) is source-only and needs libktx, which Debian
+does not package; the only installable wheel (alktx2) is a young single-author project.
+
+Modules: ``config`` (settings, report, names), ``sources`` (the layers and the ortho as read),
+``images`` (images, atlases and the texture-coordinate table as written); this one runs the step.
+"""
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from .. import model
+from ..errors import InputError
+from ..feedback import SILENT, Feedback
+from ..gc_pause import collector_paused
+from ..gdal_env import capped_block_cache
+from ..io import bulk_read
+from ..io.fileio import atomic_files
+from .config import (
+    FORMATS,
+    OUTSIDE_ORTHO,
+    ROAD_TARGET,
+    ROOF_TARGET,
+    TEXCOORDS_FILE,
+    TEXTURED_TIN_SURFACES,
+    TIN_TARGET,
+    TextureConfig,
+    TextureReport,
+)
+from .images import _AtlasPacker, _Output
+from .sources import _Grid, _Layer, _Ortho, _Rings
+
+
+def texture_model(
+    ortho: str,
+    lod1_gpkg: str | None,
+    tin_gpkg: str | None,
+    output_dir: str,
+    config: TextureConfig | None = None,
+    feedback: Feedback = SILENT,
+    coverage: BaseGeometry | None = None,
+) -> TextureReport:
+    """Cut roof, terrain and road textures from ``ortho`` into ``output_dir``; see the module docstring.
+
+    Either layer file may be None (then its surfaces are not textured), not both. With ``coverage``
+    (where the ortho has pixels, e.g. the union of its sheets), surfaces not inside it are left
+    untextured and counted (``untextured["outside_ortho"]``) instead of refusing the layers. Raises
+    ``InputError`` for unusable inputs or parameters and ``CanceledError`` on cancel; in both
+    cases nothing is written to ``output_dir``.
+    """
+    config = config or TextureConfig()
+    _check_config(config)
+    if not lod1_gpkg and not tin_gpkg:
+        raise InputError("Give the LoD1 faces layer, the TIN layer or both: there is nothing to texture.")
+    with contextlib.ExitStack() as stack:  # datasets closed on any exit, not when a traceback dies
+        stack.enter_context(collector_paused())
+        image = _Ortho(ortho, config)
+        stack.callback(image.close)
+        roofs = tin = None
+        untextured: dict[str, int] = {}
+        if lod1_gpkg:
+            roofs = _Layer(lod1_gpkg, model.LOD1_LAYER, model.FACE_TYPE,
+                           (model.WIT_ID, model.FACE_TYPE, model.FACE_NUMBER), (ROOF_TARGET,),
+                           model.LOD1_ROLE)
+            stack.callback(roofs.close)
+            untextured.update({k: roofs.count((k,)) for k in ("wall", "ground")})
+        if tin_gpkg:
+            tin = _Layer(tin_gpkg, model.TIN_LAYER, model.TIN_SURFACE,
+                         (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), TEXTURED_TIN_SURFACES,
+                         model.TIN_ROLE)
+            stack.callback(tin.close)
+            untextured["footprint"] = tin.count(("footprint",))
+        layers = [layer for layer in (roofs, tin) if layer is not None]
+        image.reproject_to(layers, feedback)
+        for layer in layers:
+            image.check_covers(layer, extent=coverage is None)
+        inside = _Inside(coverage, untextured)
+        if not any(layer.surfaces for layer in layers):
+            raise InputError("Nothing to texture: the LoD1 layer has no 'roof' faces and the TIN no 'terrain' or "
+                             "'road' triangles.")
+        report = TextureReport(output_dir=str(output_dir), texcoords=str(Path(output_dir) / TEXCOORDS_FILE),
+                               untextured=untextured, texel_size=image.texel_size,
+                               texels_per_m2=1.0 / image.texel_size ** 2)
+        feedback.info(f"Texel {image.texel_size:g} m (S = {config.scale:g}); {roofs.surfaces if roofs else 0} roof "
+                      f"face(s), {tin.surfaces if tin else 0} terrain/road triangle(s); walls are not textured.")
+        grid = _Grid(image, config)
+        share = 100.0 * (roofs.surfaces if roofs else 0) / sum(layer.surfaces for layer in layers)
+        with capped_block_cache(), atomic_files([report.texcoords]) as tmp:
+            out = _Output(tmp, FORMATS[config.image_format.upper()], config, report)
+            try:
+                if roofs is not None:
+                    _texture_roofs(roofs, image, grid, out, config, inside, feedback.scaled(0.0, share))
+                if tin is not None:
+                    _texture_ground(tin, image, grid, out, config, inside, feedback.scaled(share, 100.0))
+                out.finish()
+            finally:
+                out.close()
+            report.bytes_written = sum(p.stat().st_size for p in tmp.iterdir())
+    if untextured.get(OUTSIDE_ORTHO):
+        feedback.warning(f"{untextured[OUTSIDE_ORTHO]} surface(s) lie outside the orthoimage and are left untextured.")
+    feedback.info(f"Wrote {len(report.images)} image(s) ({report.atlases} roof atlas(es), {report.ground_images} "
+                  f"ground tile(s)), {report.mip_files} mip file(s), {report.bytes_written / 1e6:.1f} MB.")
+    feedback.progress(100.0)
+    return report
+
+
+def _check_config(config: TextureConfig) -> None:
+    if not 0.0 < config.scale <= 1.0:
+        raise InputError(f"Texture scale S = {config.scale:g} is out of range: use 0 < S ≤ 1 (1 = ortho resolution).")
+    if config.image_format.upper() not in FORMATS:
+        raise InputError(f"Image format {config.image_format!r} is not supported: use one of {', '.join(FORMATS)}.")
+    if not 1 <= config.jpeg_quality <= 100:
+        raise InputError(f"JPEG quality {config.jpeg_quality} is out of range: use 1–100.")
+    size = config.atlas_size
+    if size < 64 or size > 16384 or size & (size - 1):
+        raise InputError(f"Atlas size {size} must be a power of two between 64 and 16384.")
+    if not 0 <= config.gutter <= size // 8:
+        raise InputError(f"Gutter {config.gutter} px is out of range: use 0–{size // 8} px for atlases of {size} px.")
+
+
+class _Inside:
+    """Keeps the surfaces inside the ortho's coverage (all when there is none) and counts the others."""
+
+    def __init__(self, coverage: BaseGeometry | None, untextured: dict[str, int]):
+        self.coverage, self.untextured = coverage, untextured
+        if coverage is not None:
+            shapely.prepare(coverage)
+
+    def __call__(self, rings: _Rings) -> _Rings:
+        if self.coverage is None or not len(rings):
+            return rings
+        keep = shapely.covers(self.coverage, shapely.box(*rings.bboxes().T))
+        self.untextured[OUTSIDE_ORTHO] = self.untextured.get(OUTSIDE_ORTHO, 0) + int((~keep).sum())
+        return rings.take(np.flatnonzero(keep))
+
+
+def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
+                   inside: _Inside, feedback: Feedback) -> None:
+    """Roof islands tile by tile (spatial order), tallest first within a tile for tighter shelves."""
+    def roof(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        wit_id, face_no = columns
+        faces = np.ma.filled(face_no, 0).astype(object)  # as OGR's GetFieldAsInteger: NULL is 0
+        return np.full(len(faces), ROOF_TARGET, dtype=object), np.array(bulk_read.texts(wit_id), dtype=object), faces
+
+    packer = _AtlasPacker(config, out)
+    limit = config.atlas_size - 2 * config.gutter
+    count = len(grid.keys(layer.extent))
+    for n, (_, rings) in enumerate(layer.tiles(grid, (model.WIT_ID, model.FACE_NUMBER), roof)):
+        feedback.check_canceled()
+        rings = inside(rings)
+        patches = [ortho.patch(rings.bbox(i), limit) for i in range(len(rings))]
+        for i, patch in sorted(enumerate(patches), key=lambda ip: -ip[1].pixels.shape[0]):
+            packer.add(rings.take(np.array([i])), patch)
+            out.report.downscaled += patch.downscaled
+        feedback.progress(100.0 * (n + 1) / count)
+    packer.flush()
+
+
+def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
+                    inside: _Inside, feedback: Feedback) -> None:
+    """One image per non-empty ground tile, covering its triangles' bounding box plus the gutter."""
+    def triangle(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        tri_id, surface, feature_id = columns
+        on_road = (np.ma.filled(surface, b"") == b"road") & bulk_read.valid(feature_id)
+        features = tri_id if not np.ma.is_masked(tri_id) else np.array(bulk_read.texts(tri_id), dtype=object)
+        return (np.array([TIN_TARGET, ROAD_TARGET], dtype=object)[on_road.astype(np.intp)], np.asarray(features),
+                np.full(len(on_road), None, dtype=object))
+
+    count = len(grid.keys(layer.extent))
+    tiles = layer.tiles(grid, (model.TIN_TRIANGLE_ID, model.TIN_SURFACE, model.TIN_FEATURE_ID), triangle)
+    for n, ((r, c), batch) in enumerate(tiles):
+        feedback.check_canceled()
+        batch = inside(batch)
+        if len(batch):
+            bbox = (*batch.xy.min(axis=0), *batch.xy.max(axis=0))
+            patch = ortho.patch(bbox, config.atlas_size, margin=config.gutter)
+            h, w = patch.pixels.shape[:2]
+            placement = np.array([(0, 0, w, h, *patch.extent)], dtype=np.float64)
+            out.write(f"ground_r{r:04d}_c{c:04d}", patch.pixels, batch, placement)
+            out.report.ground_images += 1
+            out.report.downscaled += patch.downscaled
+        feedback.progress(100.0 * (n + 1) / count)
