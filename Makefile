@@ -1,6 +1,6 @@
 # The two commands a new user needs (README): `make demo` and `make test`.
 # Each does its own set-up (scripts/setup.sh is idempotent).
-.PHONY: setup demo view test bench stress package translations clean
+.PHONY: setup demo view test test-fast lint bench stress package translations clean
 
 setup:
 	bash scripts/setup.sh
@@ -14,6 +14,14 @@ view: setup
 
 test: setup
 	bash scripts/test.sh
+
+# the fast subset: core tests (no QGIS: qgis made unimportable), not the slow end-to-end ones
+test-fast: setup
+	bash scripts/test.sh --core -m "not slow"
+
+# ruff, as make test runs it (bash scripts/lint.sh --fix to apply its safe fixes)
+lint: setup
+	bash scripts/lint.sh
 
 bench: setup
 	bash scripts/bench.sh

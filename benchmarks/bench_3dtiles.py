@@ -153,8 +153,8 @@ def _run_child(kind: str, model: Path, output: Path, profile: bool = False) -> d
 
 
 def browse(viewer: Path, fps_seconds: float, shot: str = "3dtiles-view.png") -> dict:
-    server = subprocess.Popen([sys.executable, str(ROOT / "scripts" / "viewer.py"), "serve", str(viewer), "--port", "0"],
-                              stdout=subprocess.PIPE, text=True)
+    server = subprocess.Popen([sys.executable, str(ROOT / "scripts" / "viewer.py"), "serve", str(viewer),
+                               "--port", "0"], stdout=subprocess.PIPE, text=True)
     try:
         url = server.stdout.readline().strip()
         result = subprocess.run(["node", str(ROOT / "viewer" / "browse.mjs"), url, str(OUT / shot),
@@ -200,7 +200,8 @@ def _profile_rows(results: dict, views: dict) -> list[str]:
     for name in ("default", "web"):
         v = views[name]
         rows.append(f"| {name} | {results[name + '_mb']} MB ({results[name + '_glb_mb']} MB of .glb) | "
-                    f"{_mean([x['firstViewBytes'] / 1e6 for x in v])} MB | {_mean([x['navigationSeconds'] for x in v])} s "
+                    f"{_mean([x['firstViewBytes'] / 1e6 for x in v])} MB | "
+                    f"{_mean([x['navigationSeconds'] for x in v])} s "
                     f"| {_mean([x['loadSeconds'] for x in v])} s | {v[0]['loadedTiles']} |")
     return rows
 
@@ -269,7 +270,8 @@ def main() -> int:
     document = json.loads((outputs["3dtiles"] / "tileset.json").read_text(encoding="utf-8"))
     results = {
         "radius_m": args.radius, "max_edge_m": args.max_edge, "runs": args.runs, "load_average": os.getloadavg(),
-        "citygml_mb": gml_mb, "default_mb": _folder_mb(outputs["3dtiles"]), "web_mb": _folder_mb(outputs["3dtiles-web"]),
+        "citygml_mb": gml_mb, "default_mb": _folder_mb(outputs["3dtiles"]),
+        "web_mb": _folder_mb(outputs["3dtiles-web"]),
         "default_glb_mb": _tiles_mb(outputs["3dtiles"]), "web_glb_mb": _tiles_mb(outputs["3dtiles-web"]),
         "tiles": len(list(outputs["3dtiles"].rglob("*.glb"))),
         "root_geometric_error": document["root"]["geometricError"],
@@ -291,7 +293,8 @@ def main() -> int:
           f"{_mean([v['fps'] for v in views['default']])} (software WebGL, SwiftShader, no GPU) |")
     for kind, label in (("3dtiles", "export"), ("3dtiles-web", "export, web profile")):
         print(f"| {label} time (reference: CityGML writer, same inputs) | – | {_mean(seconds[kind])} s vs "
-              f"{_mean(seconds['citygml'])} s (ratio {statistics.mean(seconds[kind]) / statistics.mean(seconds['citygml']):.2f};"
+              f"{_mean(seconds['citygml'])} s "
+              f"(ratio {statistics.mean(seconds[kind]) / statistics.mean(seconds['citygml']):.2f};"
               f" CPU {_mean(cpu[kind])} s vs {_mean(cpu['citygml'])} s) |")
     print(f"| export peak memory (CityGML writer) | – | {max(r['peak_mb'] for r in runs['3dtiles'])} MB "
           f"({max(r['peak_mb'] for r in runs['citygml'])} MB) |")

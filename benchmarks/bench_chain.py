@@ -5,8 +5,8 @@ output file, measured in the same run so the machine's load cancels out of the r
 
     .venv/bin/python benchmarks/bench_chain.py [--radius 1000] [--max-edge 5] [--runs 1] [--no-core]
 
-Prints the seconds per step (steps.json), the whole chain, the xmllint time and the ratios (issue 15
-goals: whole chain ≤ 30 s through qgis_process; validation ≤ 1.5 × xmllint; chain ≤ 3 × xmllint);
+Prints the seconds per step (steps.json), the whole chain, the xmllint time and the ratios (the
+project's goals: whole chain ≤ 30 s through qgis_process; validation ≤ 1.5 × xmllint; chain ≤ 3 × xmllint);
 writes out/bench/chain.json.
 """
 from __future__ import annotations
@@ -60,7 +60,8 @@ def through_qgis_process(inputs: dict, radius: float, max_edge: float, output: P
     if result.returncode != 0:
         raise SystemExit(f"wit:citymodel failed:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}")
     recorded = json.loads((output / "steps.json").read_text(encoding="utf-8"))
-    return {"wall": round(wall, 2), "steps": recorded["seconds"], "chain": recorded["wall"], "gml": str(output / "model.gml")}
+    return {"wall": round(wall, 2), "steps": recorded["seconds"], "chain": recorded["wall"],
+            "gml": str(output / "model.gml")}
 
 
 def in_python(inputs: dict, radius: float, max_edge: float, output: Path) -> dict:
@@ -85,7 +86,7 @@ def main() -> int:
     args = parser.parse_args()
     inputs = sample(args.radius)
     runs = []
-    for k in range(args.runs):
+    for _ in range(args.runs):
         user = through_qgis_process(inputs, args.radius, args.max_edge, OUT / "qgis")
         user["xmllint"] = round(xmllint_seconds(user["gml"]), 2)
         core = None if args.no_core else in_python(inputs, args.radius, args.max_edge, OUT / "core")
@@ -101,7 +102,8 @@ def main() -> int:
         print(f"| {step} | {seconds:.2f} | {core['steps'].get(step, float('nan')) if core else float('nan'):.2f} |")
     print(f"| **whole chain** | **{user['chain']:.1f}** (wall {user['wall']:.1f} with start-up) | "
           f"{core['chain'] if core else float('nan'):.1f} |")
-    print(f"| xmllint --stream on the same file | {user['xmllint']:.2f} | {core['xmllint'] if core else float('nan'):.2f} |")
+    print(f"| xmllint --stream on the same file | {user['xmllint']:.2f} | "
+          f"{core['xmllint'] if core else float('nan'):.2f} |")
     print(f"| validation / xmllint | {user['steps']['validate'] / user['xmllint']:.2f} (goal ≤ 1.5) | |")
     print(f"| whole chain / xmllint | {user['chain'] / user['xmllint']:.1f} (goal ≤ 3) | |")
     print(f"| whole chain ≤ 30 s | {'met' if user['chain'] <= 30 else 'not met'} | |")

@@ -27,7 +27,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-import measure  # noqa: E402 — benchmarks/measure.py, on the path just above
+import measure  # noqa: E402  (benchmarks/measure.py, on the path set just above)
 
 ORIGIN = (200000.0, 540000.0)  # EPSG:5186 metres, Seoul
 SPACING, SIDE = 20.0, 12.0  # building pitch and footprint side (m)

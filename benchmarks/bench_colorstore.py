@@ -1,4 +1,4 @@
-"""Benchmark the colour store against raster reads, like the paper's Tables 14–16 (SPEC §8).
+"""Benchmark the colour store against raster reads, like the paper's Tables 14–16 (Kang et al. 2025, §4.1).
 
 Data: the project's sample generator (radius 300 m, 0.5 m ortho: two 1:5,000 sheets), the tiles
 georeferenced and merged (wit:georeference, wit:mergetiles), then a centred ``--size`` px square

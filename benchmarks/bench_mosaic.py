@@ -52,7 +52,7 @@ def make_tiles(folder: Path, scale: float) -> list[str]:
     srs = osr.SpatialReference()
     srs.ImportFromEPSG(5186)
     paths = []
-    x_origin, y_origin = 206619.31, 497391.01  # sheet 37713074 with its margin (SPEC §3)
+    x_origin, y_origin = 206619.31, 497391.01  # sheet 37713074 with its 50 m margin
     for k, (col, row) in enumerate([(0, 0), (1, 0), (0, 1), (1, 1)]):
         path = folder / f"tile_{k + 1}.tif"
         paths.append(str(path))

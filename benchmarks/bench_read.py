@@ -1,4 +1,4 @@
-"""Benchmark reading a real-shaped NGII building layer (issue 21): the Arrow fast path against the
+"""Benchmark reading a real-shaped NGII building layer: the Arrow fast path against the
 feature API that layers with non-UTF-8 field names take (``bulk_read.arrow_ready``).
 
 The layer: ``--buildings`` (default 100,000) NGII-shaped buildings (``N3A_B0010000``: Korean field

@@ -94,8 +94,8 @@ def run_case(case: str, kind: str, paths: dict) -> dict:
         result = {"cells": int(dem.values.size), "cell_m": dem.geotransform[1]}
     elif case == "terrain":
         stats = terrain.triangulate_terrain(paths["dem"], f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}",
-                                            f"{prepared}|layername={step_layers.PREPARED_ROADS}", DATA / f"tin_{kind}.gpkg",
-                                            area, terrain.TerrainConfig(spatial_index=False))
+                                            f"{prepared}|layername={step_layers.PREPARED_ROADS}",
+                                            DATA / f"tin_{kind}.gpkg", area, terrain.TerrainConfig(spatial_index=False))
         result = {"triangles": stats.triangles, "max_vertical_error": stats.max_vertical_error}
     elif case == "extrude":
         stats = extrude.extrude_buildings(f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}", paths["dem"],

@@ -29,10 +29,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-import measure  # noqa: E402 — benchmarks/measure.py, on the path just above
+import measure  # noqa: E402  (benchmarks/measure.py, on the path set just above)
 
 SIZE, PIXEL = 8000, 0.25
-X0, Y0 = 208842.55, 544511.46  # north-west corner of sheet 37709005 (Suseo station; wit_plugin.mapsheet)
+X0, Y0 = 208842.55, 544511.46  # north-west corner of sheet 37709005 (Suseo station)
 BUILDINGS_PER_SIDE = 71  # 5,041 buildings
 TIN_CELLS = 224  # 224 × 224 cells × 2 = 100,352 triangles
 CONFIGS = {

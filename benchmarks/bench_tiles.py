@@ -7,8 +7,8 @@ single-process chain on the same 1-tile area beside it (the reference measured i
 
 Data: the generated sample around Suseo (cached in out/bench/tiles/sample); the areas are blocks of
 whole 1:1,000 sheets (1×1, 2×2, 4×4) so every tile is full. Results: a table, and
-out/bench/tiles/results.json. Goals, so that a city is a matter of workers: 16 tiles ≤ 17 × one tile; 2 workers
-≥ 1.8 × faster than 1; peak memory per worker flat (≤ 1.5 GB) whatever the area.
+out/bench/tiles/results.json. Goals: 16 tiles ≤ 17 × one tile; 2 workers ≥ 1.8 × faster
+than 1; peak memory per worker flat (≤ 1.5 GB) whatever the area.
 """
 from __future__ import annotations
 
@@ -86,7 +86,8 @@ def main() -> int:
                   "triangles": sum(r["triangles"] for r in done),
                   "peak_mb_per_worker": max((r["peak_mb"] for r in done), default=0)}
         print(json.dumps(result), flush=True)
-        print("\n| district (40 km²) | workers | wall | tiles (failed) | buildings | TIN triangles | peak MB/worker |\n"
+        print("\n| district (40 km²) | workers | wall | tiles (failed) | buildings | TIN triangles | "
+              "peak MB/worker |\n"
               f"|---|---:|---:|---:|---:|---:|---:|\n| generated, 1:1,000 sheets | {workers} | "
               f"{seconds / 60:.1f} min | {result['tiles']} ({result['failed']}) | {result['buildings']:,} | "
               f"{result['triangles']:,} | {result['peak_mb_per_worker']:.0f} |\n(goal: a Gangnam-size area in "

@@ -1,5 +1,5 @@
-"""The two terrain triangulators side by side: Triangle (TRIANGULATOR 0, non-commercial licence) and CDT
-(TRIANGULATOR 1, MPL-2.0, with our Steiner points: offered so that commercial users have one), on the same inputs.
+"""The two terrain triangulators side by side: Triangle (TRIANGULATOR 0, non-commercial licence)
+and CDT (TRIANGULATOR 1, MPL-2.0, with our Steiner points), on the same inputs.
 
 * ``area``: ``terrain.mesh.triangulate`` + the snap to the millimetre grid on the 1 km / 5 m sample (the data of
   ``bench_geometry.py``: ~5,000 buildings, roads, 5 m DEM; max edge 5 m, tolerance 0.5 m), each backend in

@@ -167,7 +167,8 @@ def run_pair(path: Path, repeat: int, row: dict) -> dict:
     ratio = ours["seconds"] / ref["seconds"]
     print(f"{path.name:>28} {mb:8.1f} MB  ours {ours['seconds']:7.2f} s (cpu {ours['cpu_seconds']:6.1f})  "
           f"xmllint --stream {ref['seconds']:6.2f} s (cpu {ref['cpu_seconds']:5.1f})  ratio {ratio:5.2f}  "
-          f"peak {ours['peak_rss_mb']:6.1f} MB (xmllint {ref['peak_rss_mb']:.0f})  valid={ours['valid']}/{ref['valid']}  "
+          f"peak {ours['peak_rss_mb']:6.1f} MB (xmllint {ref['peak_rss_mb']:.0f})  "
+          f"valid={ours['valid']}/{ref['valid']}  "
           f"load {os.getloadavg()[0]:.1f}", flush=True)
     return {**row, "file_mb": round(mb, 1), "seconds": round(ours["seconds"], 2),
             "xmllint_stream_seconds": round(ref["seconds"], 2), "ratio": round(ratio, 2),
@@ -181,7 +182,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000])
     ap.add_argument("--textured", action="store_true", help="generated files also carry roof and TIN textures")
-    ap.add_argument("--file", nargs="+", type=Path, metavar="PATH", help="measure these files instead of generated ones")
+    ap.add_argument("--file", nargs="+", type=Path, metavar="PATH",
+                    help="measure these files instead of generated ones")
     ap.add_argument("--repeat", type=int, default=2, help="alternated runs per file; the best time of each is kept")
     ap.add_argument("--tmp", default="/tmp")
     ap.add_argument("--out", help="JSON results (default out/bench/validate.json, with --file validate_files.json)")
@@ -204,7 +206,8 @@ def main() -> None:
         start = time.perf_counter()
         generate(path, n, args.textured)
         gen_s = time.perf_counter() - start
-        rows.append(run_pair(path, args.repeat, {"buildings": n, "textured": args.textured, "generate_s": round(gen_s, 1)}))
+        rows.append(run_pair(path, args.repeat,
+                             {"buildings": n, "textured": args.textured, "generate_s": round(gen_s, 1)}))
         os.unlink(path)
         path.with_suffix(".jpg").unlink(missing_ok=True)
     out = Path(args.out or ROOT / "out" / "bench" / ("validate_files.json" if args.file else "validate.json"))

@@ -28,11 +28,11 @@ from ..wit_plugin.gdal_env import no_sidecars
 from ..wit_plugin.io import fileio
 from . import safeguards
 from .dependency_notice import NOTICE
+from .help_links import help_url
 from .qgis_compat import ParameterFlag
 from .translation import tr
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1]
-HELP_URL = "https://github.com/wit-citymodel/wit-citymodel#algorithms"
 
 
 def crs_string(crs: QgsCoordinateReferenceSystem) -> str:
@@ -100,7 +100,7 @@ class WitAlgorithm(QgsProcessingAlgorithm):
         return QIcon(str(PLUGIN_DIR / "icon.svg"))
 
     def helpUrl(self) -> str:  # noqa: N802
-        return f"{HELP_URL}-{self.algorithm_id}"
+        return help_url(self.algorithm_id)
 
     def shortHelpString(self) -> str:  # noqa: N802
         text = self.tr(self.help_text)

@@ -1,4 +1,4 @@
-"""wit:buildcolorstore and wit:querycolorstore — the paper's vector-based colour store (§4.1)."""
+"""wit:buildcolorstore and wit:querycolorstore — the paper's vector-based colour store (Kang et al. 2025, §4.1)."""
 from qgis.core import (
     QgsCoordinateReferenceSystem,
     QgsCoordinateTransform,

@@ -79,7 +79,8 @@ class Export3DTiles(WitAlgorithm):
         web = self.parameterAsBool(parameters, self.WEB_PROFILE, context)
         report = export_tileset(
             self.vector_source(parameters, self.LOD1, context, feedback),
-            self.vector_source(parameters, self.TIN, context, feedback), self.parameterAsFile(parameters, self.TEXTURES, context) or None,
+            self.vector_source(parameters, self.TIN, context, feedback),
+            self.parameterAsFile(parameters, self.TEXTURES, context) or None,
             output, crs_string(crs), feedback,
             TilesetConfig(leaf_size=self.parameterAsDouble(parameters, self.LEAF_SIZE, context), web=web))
         if not web:  # QGIS cannot read the web profile

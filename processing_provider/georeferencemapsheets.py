@@ -32,7 +32,8 @@ class GeoreferenceMapSheets(WitAlgorithm):
         "the source datum (Korea 2000 / GRS80, EPSG:4737, by default) plus a margin (NGII tiles "
         "cover the sheet + about 50 m), and writes a georeferenced, tiled, compressed GeoTIFF — or "
         "a VRT that points at the untouched pixels. A TIF that already carries a georeference in another "
-        "CRS than the target is reprojected from it instead (bilinear, its pixel size in metres). Names without a valid sheet number and files "
+        "CRS than the target is reprojected from it instead (bilinear, its pixel size in metres). "
+        "Names without a valid sheet number and files "
         "GDAL cannot open are skipped with the reason in the log and in the footprint index; "
         "nothing is guessed. Input: TIF files and/or folders (their *.tif, not recursive)."
     )

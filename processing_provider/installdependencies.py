@@ -33,8 +33,8 @@ class InstallDependencies(WitAlgorithm):
     group_name = "Tools"
     help_text = (
         "Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, "
-        "pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your "
-        "QGIS profile (python/wit_citymodel_deps), which the plugin "
+        "pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of "
+        "your QGIS profile (python/wit_citymodel_deps), which the plugin "
         "puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. "
         "Packages that are present already are left alone. The log shows each pip command; Cancel stops pip "
         "and installs nothing.<br><br>"

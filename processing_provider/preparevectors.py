@@ -34,8 +34,8 @@ class PrepareVectors(WitAlgorithm):
         "share it. Road polygons (NGII N3A_A0010000) are the road surfaces as they are; centre lines become "
         "polygons buffered by width / 2, the width from the layer's width field (ROAD_BT, NGII 도로폭 / RVWD, "
         "OpenStreetMap width), else its lanes × 3.25 m (CARTRK_CO, 차로수, RDLN, lanes), else its class (ROA_CLS_SE, "
-        "highway), else the default width; the log names the rule and counts. Study area: a legal-dong code if "
-        "given, else a polygon layer if given, else the "
+        "highway), else the default width; the log names the rule and counts. Study area: a legal-dong "
+        "code if given, else a polygon layer if given, else the "
         "centre point and radius. Writes one GeoPackage (buildings, roads, districts, stats, dropped) "
         "and a stats CSV: features in/out, repairs, drops and vertices per layer."
     )

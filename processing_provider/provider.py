@@ -1,4 +1,6 @@
 """The ``wit`` Processing provider."""
+import configparser
+
 from qgis.core import QgsApplication, QgsProcessingModelAlgorithm, QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
@@ -68,6 +70,13 @@ class ShippedModel(QgsProcessingModelAlgorithm):
         return ShippedModel(self.sourceFilePath(), self._display_name)
 
 
+def plugin_version() -> str:
+    """The plugin's version from metadata.txt, its one source (what QGIS's plugin manager shows)."""
+    card = configparser.ConfigParser(interpolation=None)
+    card.read(PLUGIN_DIR / "metadata.txt", encoding="utf-8")
+    return card["general"]["version"]
+
+
 class WitProvider(QgsProcessingProvider):
     def id(self) -> str:
         return "wit"
@@ -80,6 +89,9 @@ class WitProvider(QgsProcessingProvider):
 
     def icon(self) -> QIcon:
         return QIcon(str(PLUGIN_DIR / "icon.svg"))
+
+    def versionInfo(self) -> str:  # noqa: N802
+        return plugin_version()
 
     def load(self) -> bool:
         # A model's steps (wit:…) resolve only once this provider is registered, i.e. after load():

@@ -60,7 +60,8 @@ def main() -> int:
     work = OUT / "model" / "work"
     print("== preview picture", flush=True)
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "wit_plugin.preview", str(OUT / "model" / "lod1.gpkg"), str(OUT / "model" / "tin.gpkg"),
+    subprocess.run([sys.executable, "-m", "wit_plugin.preview", str(OUT / "model" / "lod1.gpkg"),
+                    str(OUT / "model" / "tin.gpkg"),
                     str(work / "textures"), str(OUT / "preview.png")], check=True, cwd=ROOT)
     times["preview"] = time.perf_counter() - start
     (OUT / "3dtiles").symlink_to(Path("model") / "3dtiles")  # the chain's tileset, where the viewer expects it

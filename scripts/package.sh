@@ -7,13 +7,14 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 bash scripts/setup.sh >/dev/null
+.venv/bin/python scripts/changelog.py --check >&2  # the card's changelog= as CHANGELOG.md says
 .venv/bin/python - <<'PY'
 import configparser, subprocess, zipfile
 from pathlib import Path
 
-INCLUDE = ["metadata.txt", "__init__.py", "plugin.py", "icon.svg", "LICENSE", "README.md",
+INCLUDE = ["metadata.txt", "__init__.py", "plugin.py", "icon.svg", "LICENSE", "README.md", "CHANGELOG.md",
            "requirements.txt", "wit_plugin", "processing_provider", "i18n"]
-version = configparser.ConfigParser()
+version = configparser.ConfigParser(interpolation=None)
 version.read("metadata.txt", encoding="utf-8")
 version = version["general"]["version"]
 listed = subprocess.run(["git", "ls-files", "-z", "--", *INCLUDE], capture_output=True)

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Idempotent: a real local PostgreSQL + PostGIS server for the colour store's tests (SPEC §11).
+# Idempotent: a real local PostgreSQL + PostGIS server for the colour store's tests (the colour store
+# writes to PostGIS, so its tests run against a real server, never a mock).
 # Installs Debian's packages if missing, starts the cluster if it is down, creates the role `wit`
 # (password `wit`, TCP login on 127.0.0.1) and the database `wit_test` with the postgis extension,
 # then prints the DSN on stdout. When all that is already in place it costs one psql call.

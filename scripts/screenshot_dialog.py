@@ -48,8 +48,7 @@ def _open_dialog():
         if alg is None:
             _state["tries"] += 1
             if _state["tries"] > 40:
-                _fail("none of %s is registered; providers: %s"
-                      % (_ALGS, [p.id() for p in registry.providers()]))
+                _fail(f"none of {_ALGS} is registered; providers: {[p.id() for p in registry.providers()]}")
             else:
                 QTimer.singleShot(250, _open_dialog)
             return

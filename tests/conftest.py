@@ -2,10 +2,16 @@
 
 The checkout folder may have any name (CI clones into an arbitrary one), so the plugin package
 is registered under its installed name from the repository root.
+
+Markers given here: ``qgis`` on every test that needs QGIS (see ``needs_qgis``); the others are core
+tests, which ``scripts/test.sh --core`` (``make test-fast``) runs with qgis unimportable.
 """
 from __future__ import annotations
 
+import ast
+import functools
 import importlib.util
+import inspect
 import os
 import shutil
 import sys
@@ -30,6 +36,114 @@ if "wit_citymodel" not in sys.modules:
     _module = importlib.util.module_from_spec(_spec)
     sys.modules["wit_citymodel"] = _module
     _spec.loader.exec_module(_module)
+
+
+# -- which tests need QGIS: the marker qgis ---------------------------------------------------------------
+
+#: modules that exist only with QGIS: QGIS's own, and the plugin's glue (which imports them)
+QGIS_MODULES = ("qgis", "processing", "wit_citymodel.processing_provider", "wit_citymodel.plugin")
+#: the commands (a string constant in a test's code) that run QGIS in another process
+QGIS_COMMANDS = ("qgis-process", "qgis_process", "qgis_process.bin")
+
+try:
+    import qgis  # noqa: F401
+    QGIS_IMPORTABLE = True
+except ImportError:  # scripts/test.sh --core, or a machine without QGIS
+    QGIS_IMPORTABLE = False
+
+
+def _imports_qgis(node: ast.AST) -> bool:
+    for child in ast.walk(node):
+        if isinstance(child, ast.Import):
+            names = [alias.name for alias in child.names]
+        elif isinstance(child, ast.ImportFrom) and child.level == 0 and child.module:
+            names = [child.module] + [f"{child.module}.{alias.name}" for alias in child.names]
+        else:
+            continue
+        if any(name == m or name.startswith(m + ".") for name in names for m in QGIS_MODULES):
+            return True
+    return False
+
+
+def _runs_qgis(node: ast.AST) -> bool:
+    return any(isinstance(n, ast.Constant) and n.value in QGIS_COMMANDS for n in ast.walk(node))
+
+
+@functools.cache
+def module_needs_qgis(path: Path) -> bool:
+    """A test module whose own top-level statements import QGIS (it cannot even be imported without)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    top_level = [n for n in tree.body if not isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))]
+    return any(_imports_qgis(n) for n in top_level)
+
+
+def _function_needs_qgis(function, seen: set | None = None) -> bool:
+    """The function's code imports QGIS or runs qgis_process, itself or in a function of its module it calls."""
+    seen = set() if seen is None else seen
+    if function is None or function in seen:
+        return False
+    seen.add(function)
+    try:
+        tree = ast.parse(inspect.getsource(function).lstrip())  # (a method's source is indented)
+    except (OSError, TypeError, SyntaxError):
+        return False
+    if _imports_qgis(tree) or _runs_qgis(tree):
+        return True
+    module = getattr(function, "__module__", None)
+    called = {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+    helpers = (getattr(function, "__globals__", {}).get(name) for name in called)
+    return any(inspect.isfunction(h) and h.__module__ == module and _function_needs_qgis(h, seen) for h in helpers)
+
+
+def _requests_qgis_fixture(item) -> bool:
+    """The test asks, itself or through its fixtures, for a pytest-qgis fixture (``qgis_*``). pytest-qgis's
+    autouse fixtures, which every test gets, do not count: they do nothing for a test that asks nothing."""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return False
+    todo, seen = list(info.argnames), set()
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        if name.startswith("qgis_"):
+            return True
+        for definition in info.name2fixturedefs.get(name, ()):
+            todo.extend(definition.argnames)
+            if _function_needs_qgis(definition.func):
+                return True
+    return False
+
+
+def needs_qgis(item) -> bool:
+    """A test needs QGIS when its module imports QGIS at the top, its own code imports QGIS or runs
+    qgis_process, or it asks for a QGIS fixture; the QGIS-facing tests are QGIS tests by definition, and a
+    test can say so itself (``pytest.mark.qgis``)."""
+    return (module_needs_qgis(Path(str(item.fspath))) or item.get_closest_marker("qgis_facing") is not None
+            or item.get_closest_marker("qgis") is not None
+            or _function_needs_qgis(getattr(item, "function", None)) or _requests_qgis_fixture(item))
+
+
+def pytest_ignore_collect(collection_path, config):
+    """Without QGIS, a module that imports it at the top is not even imported (all its tests need QGIS)."""
+    if not QGIS_IMPORTABLE and collection_path.suffix == ".py" and collection_path.name.startswith("test_"):
+        return module_needs_qgis(collection_path) or None
+    return None
+
+
+@pytest.hookimpl(tryfirst=True)  # before -m chooses by marker
+def pytest_collection_modifyitems(config, items):
+    """Mark the QGIS tests ``qgis``; without QGIS, leave them out (deselected, so counted)."""
+    deselected = []
+    for item in items:
+        if needs_qgis(item):
+            item.add_marker(pytest.mark.qgis)
+            if not QGIS_IMPORTABLE:
+                deselected.append(item)
+    if deselected:
+        config.hook.pytest_deselected(items=deselected)
+        items[:] = [item for item in items if item not in deselected]
 
 
 @pytest.fixture(scope="session")

@@ -117,7 +117,8 @@ def road_polygons(folder: Path, cpg: str | None = None, name: str = "N3A_A001000
 
 
 def centre_lines(folder: Path, cpg: str | None = "CP949", name: str = "N3L_A0020000") -> Path:
-    rows = [{"도로번호": "35", "명칭": "화랑로", "도로구분": "국도", "포장재질": "아스팔트", "차로수": lanes, "도로폭": width,
+    rows = [{"도로번호": "35", "명칭": "화랑로", "도로구분": "국도", "포장재질": "아스팔트", "차로수": lanes,
+             "도로폭": width,
              "일방통행": "양방통행", "자동차전용": "일반", "UFID": f"A00220213590105800000{k + 1:02d}"}
             for k, (_, lanes, width) in enumerate(CENTRE_LINES)]
     return write_shapefile(folder / f"{name}.shp", ogr.wkbLineString, CENTRE_LINE_FIELDS, rows,
@@ -126,7 +127,8 @@ def centre_lines(folder: Path, cpg: str | None = "CP949", name: str = "N3L_A0020
 
 def area(folder: Path, name: str = "대상지역") -> Path:
     """A study-area polygon shapefile (Korean file and field name) around both blocks."""
-    return write_shapefile(folder / f"{name}.shp", ogr.wkbPolygon, [("이름", ogr.OFTString, 20)], [{"이름": "시험지역"}],
+    return write_shapefile(folder / f"{name}.shp", ogr.wkbPolygon, [("이름", ogr.OFTString, 20)],
+                           [{"이름": "시험지역"}],
                            ["POLYGON((217870 361780,218260 361780,218260 361940,217870 361940,217870 361780))"])
 
 

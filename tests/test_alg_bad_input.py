@@ -70,7 +70,8 @@ CASES = {
          r"failed, The orthoimage .* is empty \(0 bytes\).*\n  \(B060\)정사영상_2022_37709004.tif: failed")),
     "citymodel: no sheet-named TIF": ("wit:citymodel", lambda i, o: {
         "ORTHO_INPUT": [i["rgb"]], "DEM": i["far_dem"], "BUILDINGS": i["footprints"],
-        "OUTPUT": str(o / "out")}, r"No orthoimage TIF has a valid map-sheet number in its name .*rgb.tif: no 5–9 digit"),
+        "OUTPUT": str(o / "out")},
+        r"No orthoimage TIF has a valid map-sheet number in its name .*rgb.tif: no 5–9 digit"),
 }
 
 
@@ -105,7 +106,8 @@ def _corrupted(source, target) -> str:
         bx, by = band.GetBlockSize()
         for y in range(-(-ds.RasterYSize // by)):
             for x in range(-(-ds.RasterXSize // bx)):
-                blocks.append(tuple(int(band.GetMetadataItem(f"BLOCK_{k}_{x}_{y}", "TIFF")) for k in ("OFFSET", "SIZE")))
+                blocks.append(tuple(int(band.GetMetadataItem(f"BLOCK_{k}_{x}_{y}", "TIFF"))
+                                    for k in ("OFFSET", "SIZE")))
     ds = None
     data = bytearray(Path(target).read_bytes())
     for offset, size in blocks:

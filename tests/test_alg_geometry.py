@@ -46,7 +46,8 @@ def test_prepare_real_gangnam_roads_by_district_code(tmp_path, shared_dir, run_a
 
 def test_unknown_district_code_is_a_clear_error(tmp_path, shared_dir, run_algorithm):
     data = shared_dir / "data" / "juso_gangnam_11680_2019"
-    with pytest.raises(QgsProcessingException, match="neither a code nor a name in TL_SCCO_EMD.shp; it has 11680101 역삼동"):
+    with pytest.raises(QgsProcessingException,
+                       match="neither a code nor a name in TL_SCCO_EMD.shp; it has 11680101 역삼동"):
         run_algorithm("wit:preparevectors", {
             "DISTRICTS": str(data / "TL_SCCO_EMD.shp"), "DISTRICT_CODE": "99999999",
             "OUTPUT": str(tmp_path / "x.gpkg")})

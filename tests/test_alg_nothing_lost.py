@@ -471,8 +471,8 @@ def _dem(path: Path, epsg: int | None) -> str:
 
 @pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])
 def test_a_dem_in_another_crs_is_judged_in_its_own_crs(algorithm, data, tmp_path, run_algorithm):
-    """A DEM in EPSG:4326 is reprojected, never refused for its CRS (users' DEMs come in any CRS): this one stops
-    at 127.1°E, 150 m west of the buildings, and the message says so in its own degrees."""
+    """A DEM in EPSG:4326 is reprojected, never refused for its CRS: this one stops at 127.1°E,
+    150 m west of the buildings, and the message says so in its own degrees."""
     dem = _dem(data["folder"] / "dem4326.tif", 4326)
     parameters = {"BUILDINGS": data["buildings"], "DEM": dem, "OUTPUT": str(tmp_path / "out" / "o.gpkg")}
     if algorithm == "wit:triangulateterrain":

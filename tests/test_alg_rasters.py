@@ -38,7 +38,8 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
     assert any(w.startswith("Failed ") and "37709006.tif is empty (0 bytes)" in w for w in feedback.warnings)
     ds = gdal.Open(str(tmp_path / "geo" / "37709005.tif"))
     x0, dx, _, y0, _, dy = ds.GetGeoTransform()
-    # SPEC §3 worked example: x 208842.55–211056.87, y 541734.15–544511.46, plus the 50 m margin
+    # sheet 37709005 (127.100–127.125°E, 37.475–37.500°N on EPSG:4737) projected to EPSG:5186:
+    # x 208842.55–211056.87, y 541734.15–544511.46, plus the 50 m margin NGII's orthoimages have
     assert x0 == pytest.approx(208842.55 - 50, abs=0.01)
     assert y0 == pytest.approx(544511.46 + 50, abs=0.01)
     assert x0 + 200 * dx == pytest.approx(211056.87 + 50, abs=0.01)
@@ -55,7 +56,8 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
         "OUTPUT": str(tmp_path / "mosaic.tif")})
     mosaic = gdal.Open(merged["OUTPUT"])
     assert mosaic.RasterCount == 3
-    assert mosaic.GetGeoTransform()[0] == pytest.approx(x0 - (x0 - gdal.Open(str(tmp_path / "geo" / "37709004.tif")).GetGeoTransform()[0]))
+    west_sheet_x0 = gdal.Open(str(tmp_path / "geo" / "37709004.tif")).GetGeoTransform()[0]
+    assert mosaic.GetGeoTransform()[0] == pytest.approx(x0 - (x0 - west_sheet_x0))
     assert merged["BLENDED_PIXELS"] > 0
 
     box = (x0 + 1000.0, y0 - 2000.0, x0 + 1600.0, y0 - 1000.0)  # in 37709005's part of the mosaic

@@ -272,7 +272,7 @@ def test_real_layers_through_qgis_process(algorithm, scene, tmp_path, profile):
 
 
 def _ngii_tiled(scene: dict, out: Path) -> dict:
-    """The issue's case: NGII buildings and road polygons as shipped (EUC-KR .cpg, Korean field names,
+    """NGII buildings and road polygons as shipped (EUC-KR .cpg, Korean field names,
     EPSG:5187), the DEM in EPSG:5186, the model in EPSG:5187, tiled on 1:5,000 sheets."""
     return {"ORTHO_INPUT": [scene["ortho"]], "DEM": scene["dem_5186"], "BUILDINGS": scene["buildings"],
             "ROADS": scene["roads"], "TARGET_CRS": TARGET, "ALL_BUILDINGS": True, "TILE_SCALE": 0,
@@ -294,7 +294,7 @@ def _check_ngii_tiled(results: dict, log: str, scene: dict, out: Path) -> None:
 
 @pytest.mark.qgis_facing
 def test_ngii_as_shipped_tiled_on_map_sheets_headless(scene, tmp_path, profile):
-    """The issue's case through qgis_process: no crash (a crash is an exit code here)."""
+    """NGII layers as shipped, through qgis_process: no crash (a crash is an exit code here)."""
     out = tmp_path / "tiles"
     report = qgis_process(_ngii_tiled(scene, out), "wit:citymodeltiles", profile)
     _check_ngii_tiled(report["results"], json.dumps(report.get("log", ""), ensure_ascii=False), scene, out)

@@ -161,7 +161,9 @@ def test_citymodel_in_one_call_gives_the_same_model(chain, shared_dir, tmp_path)
     assert list(json.loads(result["STEP_TIMES"])) == ["prepare", "coverage", "georeference", "merge", "terrain",
                                                        "extrude", "texture", "citygml", "3dtiles", "validate",
                                                        "metrics"]
-    assert result["TILESET"] == str(tmp_path / "city" / "3dtiles" / "tileset.json") and Path(result["TILESET"]).is_file()
+    assert result["TILESET"] == str(tmp_path / "city" / "3dtiles" / "tileset.json")
+    assert Path(result["TILESET"]).is_file()
     assert {"lod1.gpkg", "tin.gpkg", "3dtiles"} <= produced
-    assert result["DEFAULT_HEIGHTS"] == chain["lod1"]["DEFAULT_HEIGHTS"] == 1  # the sample's one building without floors here
+    # the sample's one building without floors here
+    assert result["DEFAULT_HEIGHTS"] == chain["lod1"]["DEFAULT_HEIGHTS"] == 1
     assert result["UNTEXTURED"] == 0

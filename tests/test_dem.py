@@ -1,4 +1,5 @@
-"""Bilinear DEM sampling (SPEC §4): exactness, NoData handling, windowed reads, the real Seoul DEM."""
+"""Bilinear DEM sampling (as the paper, Kang et al. 2025, §3.1): exactness, NoData handling, windowed
+reads, the real Seoul DEM."""
 from __future__ import annotations
 
 import numpy as np

@@ -13,7 +13,7 @@ from wit_plugin.errors import CanceledError, InputError
 from wit_plugin.feedback import Feedback
 
 W, H = 200, 250
-# SPEC §3: 37713074 + 50 m ↔ ULLR 206619.31 497391.01 208945.34 494514.49
+# sheet 37713074's envelope + 50 m: the extent of NGII's real orthoimage of that sheet (../shared/data)
 ULLR_37713074 = (206619.31, 497391.01, 208945.34, 494514.49)
 
 
@@ -91,7 +91,7 @@ def test_geotiff_mode(inputs, tmp_path):
 
     other = r["37612093.tif"]
     gt = gdal.Open(other.output).GetGeoTransform()
-    # SPEC §3: x 182256.11–184479.23, y 516772.30–519551.27, + 50 m
+    # 126.800–126.825°E, 37.250–37.275°N in EPSG:5186: x 182256.11–184479.23, y 516772.30–519551.27, + 50 m
     assert (gt[0], gt[3], gt[1] * W, -gt[5] * H) == pytest.approx(
         (182206.11, 519601.27, 184479.23 - 182256.11 + 100, 519551.27 - 516772.30 + 100), abs=0.01)
 

@@ -39,7 +39,8 @@ def test_ngii_digital_map_building_layer_uses_bflr_co():
     assert rule.floors_field == "BFLR_CO"
 
 
-@pytest.mark.parametrize("fields", [["UFID", "명칭", "구분", "종류", "용도", "주기", "층수", "측량방법"], ["층수", "용도"]])
+@pytest.mark.parametrize("fields", [["UFID", "명칭", "구분", "종류", "용도", "주기", "층수", "측량방법"],
+                                    ["층수", "용도"]])
 def test_ngii_digital_map_buildings_as_shipped_use_their_korean_floor_field(fields):
     """N3A_B0010000 as NGII ships it: Korean field names (층수 = floors above ground)."""
     rule = _rule(fields, storey_height=3.0)
@@ -81,7 +82,7 @@ def test_user_choice_replaces_recognition_but_floors_of_juso_stay_first():
     rule = _rule(OSM, height_field="HEIGHT")  # case-insensitive lookup, the layer's spelling is used
     assert [(s.kind, s.name) for s in rule.sources] == [(FIELD, "height")]
     juso = _rule(JUSO + ["H_M"], height_field="H_M")
-    assert [s.name for s in juso.sources] == ["GRO_FLO_CO", "H_M"]  # SPEC §4: GRO_FLO_CO first
+    assert [s.name for s in juso.sources] == ["GRO_FLO_CO", "H_M"]  # the national layer's floor count first
     with pytest.raises(InputError, match="height field 'HGT' is not in the building layer"):
         _rule(OSM, height_field="HGT")
     with pytest.raises(InputError, match="must be positive"):

@@ -1,4 +1,4 @@
-"""NGII sheet numbers: SPEC §3 worked examples, every scale, bad names, and the real 1:5,000 index."""
+"""NGII sheet numbers: sheets with known footprints, every scale, bad names, and the real 1:5,000 index."""
 from __future__ import annotations
 
 import numpy as np

@@ -16,7 +16,8 @@ def test_package_zip_installs_and_loads_in_qgis_process(tmp_path):
     assert all(n.startswith("wit_citymodel/") for n in names)
     for required in ("metadata.txt", "__init__.py", "plugin.py", "icon.svg", "LICENSE",
                      "processing_provider/provider.py", "wit_plugin/errors.py",
-                     "i18n/wit_citymodel_ko.qm", "i18n/wit_citymodel_ko.ts"):
+                     "i18n/wit_citymodel_ko.qm", "i18n/wit_citymodel_ko.ts",
+                     "README.md", "CHANGELOG.md"):  # README: the Help buttons open it
         assert f"wit_citymodel/{required}" in names, required
     for forbidden in ("tests/", ".ci/", "scripts/", "benchmarks/", "out/", ".venv/", "__pycache__"):
         assert not any(forbidden in n for n in names), forbidden

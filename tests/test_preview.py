@@ -242,10 +242,12 @@ class _NoArrow:
 
 def test_feature_loop_reads_like_arrow(tmp_path):
     lod1, tin, tex = write_scene(tmp_path, [("A", square(0, 0, 20, 20), [], 15.0, RED)], ground=(-30, -30, 50, 50))
-    for path, name, fields in ((lod1, step_layers.LOD1_LAYER, (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER)),
+    for path, name, fields in ((lod1, step_layers.LOD1_LAYER,
+                                (step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER)),
                                (tin, step_layers.TIN_LAYER, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE)),
                                (str(Path(tex) / step_layers.TEXCOORD_FILE), step_layers.TEXCOORD_TABLE,
-                                (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_COORDS))):
+                                (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE,
+                                 step_layers.TEX_COORDS))):
         with preview.scene._open_layer(path, name, "test", fields) as layer:
             arrow = preview.scene._read_columns(layer, fields, lambda g: shapely.get_coordinates(g, include_z=True))
             layer.ResetReading()

@@ -1,14 +1,18 @@
 """The plugin and its provider inside QGIS: registration, unloading, help, translation, deps."""
 from __future__ import annotations
 
+import configparser
+import re
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 import wit_citymodel
 from conftest import ROOT
 from qgis.core import QgsApplication
+from qgis.PyQt.QtCore import QUrl
 from wit_citymodel import plugin as plugin_module
 from wit_citymodel.processing_provider.provider import ALGORITHMS, MODELS
 from wit_citymodel.processing_provider.translation import tr
@@ -110,8 +114,8 @@ def test_plugin_loads_without_optional_packages_and_explains_how_to_install(tmp_
            "XDG_RUNTIME_DIR": str(tmp_path), "QGIS_CUSTOM_CONFIG_PATH": str(tmp_path / "profile")}
     result = subprocess.run(["/usr/bin/python3", "-c", script], capture_output=True, text=True,
                             env=env, timeout=120)
-    algorithms = next(line for line in result.stdout.splitlines() if line.startswith("ALGS"))
-    assert "wit:generatesample" in algorithms, result.stdout + result.stderr
+    listed = next(line for line in result.stdout.splitlines() if line.startswith("ALGS"))
+    assert "wit:generatesample" in listed, result.stdout + result.stderr
     assert "HELP True" in result.stdout
     assert "OK False" in result.stdout
     error = next(line for line in result.stdout.splitlines() if line.startswith("ERROR"))
@@ -119,3 +123,51 @@ def test_plugin_loads_without_optional_packages_and_explains_how_to_install(tmp_
     assert '/usr/bin/python3 -m pip install --user --break-system-packages --no-binary shapely "shapely>=2"' in error
     assert "OSGeo4W Shell" in error
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def _github_anchors(markdown: str) -> set[str]:
+    """The anchors GitHub gives a Markdown file's headings: lower case, punctuation dropped (letters, digits,
+    '_', '-' and spaces kept), spaces as '-', a repeated anchor suffixed -1, -2, ...; code blocks skipped."""
+    anchors: set[str] = set()
+    counts: dict[str, int] = {}
+    fenced = False
+    for line in markdown.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        heading = re.match(r"#{1,6} +(.*?) *#* *$", line)
+        if fenced or not heading:
+            continue
+        slug = re.sub(r"[^\w\- ]", "", heading.group(1).lower()).replace(" ", "-")
+        anchors.add(slug if slug not in counts else f"{slug}-{counts[slug]}")
+        counts[slug] = counts.get(slug, 0) + 1
+    return anchors
+
+
+def test_github_anchors_as_github_forms_them():
+    assert _github_anchors("# WIT City Model — textured (QGIS plugin)\n## Sample data (`wit:generatesample`)\n"
+                           "```sh\n# not a heading\n```\n## Sample data (`wit:generatesample`)\n") == {
+        "wit-city-model--textured-qgis-plugin", "sample-data-witgeneratesample", "sample-data-witgeneratesample-1"}
+
+
+def test_every_help_button_opens_a_readme_section_that_exists(loaded_plugin):
+    """The Help button: the README shipped in the plugin folder, at a heading's anchor."""
+    anchors = _github_anchors((ROOT / "README.md").read_text(encoding="utf-8"))
+    provider = QgsApplication.processingRegistry().providerById("wit")
+    targets = {}
+    for algorithm in provider.algorithms():
+        if algorithm.id() == "wit:citymodelmodel":  # a model: QGIS shows the model's own help
+            continue
+        url = QUrl(algorithm.helpUrl())
+        assert url.isLocalFile(), (algorithm.id(), url.toString())
+        assert Path(url.toLocalFile()) == ROOT / "README.md"
+        assert url.fragment() in anchors, (algorithm.id(), url.fragment())
+        targets[algorithm.id()] = url.fragment()
+    assert len(targets) == len(ALGORITHMS)
+    assert targets["wit:generatesample"] == "sample-data-witgeneratesample"
+    assert targets["wit:mergetiles"] == "algorithms-provider-wit"
+
+
+def test_provider_version_is_the_plugin_cards(loaded_plugin):
+    card = configparser.ConfigParser(interpolation=None)
+    card.read(ROOT / "metadata.txt", encoding="utf-8")
+    assert QgsApplication.processingRegistry().providerById("wit").versionInfo() == card["general"]["version"]

@@ -104,8 +104,8 @@ def test_an_output_over_its_input_fails_headless_and_leaves_the_input_intact(tmp
                              f"--BUILDINGS={tmp_path / 'buildings.shp'}", f"--OUTPUT={tmp_path / 'buildings.dbf'}"],
                             capture_output=True, text=True, env=env, timeout=600)
     assert result.returncode != 0
-    assert f"would overwrite the input 'Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)' ({tmp_path / 'buildings.shp'})" in (
-        result.stdout + result.stderr)
+    assert ("would overwrite the input 'Buildings (TL_SPBD_BULD, NGII, AL_D010, OpenStreetMap…)' "
+            f"({tmp_path / 'buildings.shp'})") in result.stdout + result.stderr
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 
 
@@ -145,7 +145,8 @@ def test_sample_drawn_from_real_roads_then_the_whole_chain_headless(tmp_path, pr
 
 
 def test_validate_without_an_html_report_writes_a_temporary_one(tmp_path, profile, shared_dir):
-    """OUTPUT is optional: batch users only want VALID; the report then goes to a temporary file, never beside the input."""
+    """OUTPUT is optional: batch users only want VALID; the report then goes to a temporary file, never beside the
+    input."""
     source = tmp_path / "in" / "LocalCRS_CityGML3.gml"
     source.parent.mkdir()
     source.write_bytes((shared_dir / "schemas" / "examples" / source.name).read_bytes())

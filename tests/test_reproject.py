@@ -91,8 +91,8 @@ def _refusal(function, *args) -> str:
 
 
 def _bilinear(values: np.ndarray, gt: tuple, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Bilinear interpolation of the four surrounding cell centres, straight on the source grid (this test's
-    own, independent of the core)."""
+    """The paper's bilinear formula (Kang et al. 2025, §3.1) straight on the source grid (this test's own,
+    independent of the core)."""
     u = (x - gt[0]) / gt[1] - 0.5
     v = (y - gt[3]) / gt[5] - 0.5
     j, i = np.floor(u).astype(int), np.floor(v).astype(int)

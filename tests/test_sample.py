@@ -216,7 +216,8 @@ def test_buildings_share_walls_without_overlaps(small):
                                                  shapely.boundary(geoms[[b for _, b in pairs]])))
     assert (shared > 2.0).sum() >= 10
     a, b = pairs[int(np.argmax(shared))]
-    common = {tuple(p) for p in shapely.get_coordinates(geoms[a])} & {tuple(p) for p in shapely.get_coordinates(geoms[b])}
+    common = ({tuple(p) for p in shapely.get_coordinates(geoms[a])}
+              & {tuple(p) for p in shapely.get_coordinates(geoms[b])})
     assert len(common) >= 2  # the shared wall's ends are the very same vertices
 
 

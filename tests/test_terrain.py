@@ -152,6 +152,7 @@ def test_bad_input_is_an_input_error():
         terrain.mesh.triangulate(AREA, [("BLD_X", shapely.box(-10, -10, 130, 130))], [], dem)
 
 
+@pytest.mark.slow  # 200 examples per backend: 2.5 and 5 min on a loaded 2-core machine
 @BACKENDS
 def test_messy_input_never_crashes_the_triangulator(tmp_path, triangulator):
     """Random invalid, overlapping, duplicated, near-coincident polygons: a valid mesh or InputError.

@@ -279,7 +279,7 @@ def _lone_ground_edges(gmls: list[Path], rim, walls: list) -> np.ndarray:
 def test_the_ground_is_watertight_to_the_millimetre(run, request, single):
     """Every ground edge away from the area's rim and the buildings is shared by two triangles as written
     (a road triangle and a relief one meet at the same digits), in each tile, across the tiles' borders,
-    and in a single run: no vertex written twice a millimetre apart (a gap a viewer would show as a crack)."""
+    and in a single run: no vertex written twice a millimetre apart (once seen on real road layers)."""
     out, report = request.getfixturevalue(run)
     rim = AREA.geometry(pyproj.CRS("EPSG:5186"))
     gmls = [out / r["gml"] for r in _modelled(report)]
@@ -299,6 +299,7 @@ def test_a_second_run_resumes(local_run, sample):
     assert {p: p.stat().st_mtime_ns for p in out.glob("tiles/*/model.gml")} == stamps
 
 
+@pytest.mark.slow  # two tiled runs: 88 s on a loaded 2-core machine
 def test_tiles_an_earlier_run_made_without_3d_tiles_are_built_again_when_they_are_asked_for(local_run, sample,
                                                                                            tmp_path):
     import shutil
@@ -871,7 +872,7 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
 
 def _check_from_afar(output: Path, tmp_path: Path) -> None:
     """Zoomed out (4 radii of the run's bounding sphere), the viewer loads the top group's content alone and
-    shows buildings (from afar the groups once held terrain only): a click names one."""
+    shows buildings (a bug once: from afar the groups held terrain only): a click names one."""
     import json
 
     report, picture = view_in_chromium(output, tmp_path, click=True, query="?range=4")

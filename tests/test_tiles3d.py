@@ -170,7 +170,7 @@ def test_tileset_structure(chain):
 
 
 def test_a_layer_without_floor_values_gives_complete_property_tables(chain, tmp_path):
-    """The official validator rejected tiles whose buildings had no storeys at all ("The property
+    """The official 3D Tiles validator once rejected tiles whose buildings had no storeys at all ("The property
     table does not define property wit_storeys_below"): every table now holds every numeric property."""
     lod1 = tmp_path / "lod1.gpkg"
     gdal.VectorTranslate(str(lod1), chain["lod1"])

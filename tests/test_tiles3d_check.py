@@ -1,8 +1,8 @@
 """Our tileset checker (wit_plugin.tiles3d.check) on good and bad examples: the metadata rules the official
 3D Tiles validator applies (every property of a class in each property table, types, counts, offsets,
 feature ids) and the structure rules (regions nested, errors falling, contents on disk); and the
-writer's tables for a tile whose buildings have no value at all in some fields (the official validator
-rejected such a tile)."""
+writer's tables for a tile whose buildings have no value at all in some fields (the official
+validator once rejected such a tile)."""
 from __future__ import annotations
 
 import copy
@@ -51,7 +51,7 @@ def test_a_good_table_passes_and_holds_every_numeric_property():
 
 
 def test_a_tile_without_floor_fields_still_writes_them_as_no_data():
-    """The official validator's "The property table does not define property wit_storeys_below"."""
+    """The validator's "The property table does not define property wit_storeys_below" no more."""
     gltf, blob = _glb([["BLD_1", 12.5, None, None, None, None], ["BLD_2", 6.0, None, None, None, None]])
     assert check_glb_metadata(gltf, blob) == ([], 1)
     table = _table(gltf)

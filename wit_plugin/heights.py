@@ -1,11 +1,12 @@
-"""Where a building's height comes from, for any real building layer (SPEC §4).
+"""Where a building's height comes from, for any real building layer.
 
 A :class:`HeightRule` is an ordered list of sources; the first that gives a finite height > 0
 wins, else the default (recorded per building, so the model says which buildings used it).
 
 Order: the road-name-address floor count ``GRO_FLO_CO`` × storey height when the layer has it
-(SPEC), then the field and/or expression the user chose; with none chosen, the height and floor
-fields of the common Korean and open layers, recognised by name:
+(the national building layer's own count, the paper's height source), then the field and/or
+expression the user chose; with none chosen, the height and floor fields of the common Korean and open
+layers, recognised by name:
 
 =====================================================  ==========================  ==================
 layer                                                  height (m)                  floors (× storey)
@@ -138,7 +139,7 @@ class HeightOptions:
     default_height: float = 3.0
 
     def rule_for(self, field_names: Sequence[str], layer: str = "the building layer") -> HeightRule:
-        """SPEC's order (``GRO_FLO_CO`` first), then the user's field/expression, else recognition."""
+        """The national floor count first (``GRO_FLO_CO``), then the user's field/expression, else recognition."""
         if not (self.storey_height > 0 and self.default_height > 0):
             raise InputError("Storey height and default height must be positive.")
         chosen = _lookup(field_names, [self.height_field]) if self.height_field else None

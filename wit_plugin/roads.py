@@ -1,4 +1,4 @@
-"""Where a road's surface comes from, for any real road layer (issue 21), as ``heights`` does for buildings.
+"""Where a road's surface comes from, for any real road layer, as ``heights`` does for buildings.
 
 Road polygons — the NGII digital map's road boundary ``N3A_A0010000`` or any other polygon layer —
 are the road surfaces as they are (repaired, cut to the study area). Centre lines are buffered by

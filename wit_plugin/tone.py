@@ -17,7 +17,8 @@ out. From the quantiles q (per tile):
 * gains: gᵢ·sᵢ = gⱼ·sⱼ for every overlap, i.e. log gᵢ − log gⱼ = log(sⱼ/sᵢ);
 * offsets, given the gains: gᵢ·mᵢ + oᵢ = gⱼ·mⱼ + oⱼ, i.e. oᵢ − oⱼ = gⱼmⱼ − gᵢmᵢ.
 
-Both are solved by weighted least squares over *all* overlaps at once (weight = usable blocks), not by chaining pairs, so errors do not accumulate along a row of tiles. Each connected
+Both are solved by weighted least squares over *all* overlaps at once (weight = usable blocks), not by
+chaining pairs, so errors do not accumulate along a row of tiles. Each connected
 group of tiles is anchored to its mean: geometric mean of the gains 1, mean offset 0, so the
 mosaic keeps the tiles' average tone and no tile is privileged. Identical overlaps give gain 1
 and offset 0 exactly (the correction is the identity).

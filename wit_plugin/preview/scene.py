@@ -116,7 +116,8 @@ class _TexTable:
     @classmethod
     def read(cls, folder: str, images: list[str]) -> _TexTable:
         path = Path(folder) / step_layers.TEXCOORD_FILE
-        fields = (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_IMAGE, step_layers.TEX_COORDS)
+        fields = (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_IMAGE,
+                  step_layers.TEX_COORDS)
         with _open_layer(str(path), step_layers.TEXCOORD_TABLE, step_layers.TEXCOORD_ROLE, fields) as layer:
             cols = _read_columns(layer, fields)
         try:
@@ -128,7 +129,8 @@ class _TexTable:
         names, image = np.unique(cols[step_layers.TEX_IMAGE].astype(str), return_inverse=True)
         images.extend(names.tolist())
         keys = {}
-        columns = (cols[step_layers.TEX_TARGET].tolist(), cols[step_layers.TEX_FEATURE].tolist(), cols[step_layers.TEX_FACE].tolist())
+        columns = (cols[step_layers.TEX_TARGET].tolist(), cols[step_layers.TEX_FEATURE].tolist(),
+                   cols[step_layers.TEX_FACE].tolist())
         for i, (target, feature, face) in enumerate(zip(*columns)):
             keys[(feature, int(face or 0)) if target == "roof" else feature] = i
         return cls(keys, uv, starts, counts, image.astype(np.int32))

@@ -205,7 +205,8 @@ def exact_vertical_error(dem: Dem, xyz: np.ndarray, tris: np.ndarray) -> np.ndar
 
 def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature], dem: Dem,
                 max_edge: float = triangulators.MAX_EDGE, tolerance: float = triangulators.VERTICAL_TOLERANCE,
-                footprints_as_holes: bool = True, max_iterations: int = 10, fixed_segments: bool = False, seam: Seam | None = None,
+                footprints_as_holes: bool = True, max_iterations: int = 10, fixed_segments: bool = False,
+                seam: Seam | None = None,
                 feedback: Feedback = SILENT, triangulator: int | None = None) -> tuple[Tin, TinStats]:
     """Mesh the area with footprints and roads as constraints, refined to ``max_edge`` and ``tolerance``.
 

@@ -125,8 +125,8 @@ def texture_model(
             untextured.update({k: roofs.count((k,)) for k in ("wall", "ground")})
         if tin_gpkg:
             tin = _Layer(tin_gpkg, step_layers.TIN_LAYER, step_layers.TIN_SURFACE,
-                         (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID), TEXTURED_TIN_SURFACES,
-                         step_layers.TIN_ROLE)
+                         (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID),
+                         TEXTURED_TIN_SURFACES, step_layers.TIN_ROLE)
             stack.callback(tin.close)
             untextured["footprint"] = tin.count(("footprint",))
         layers = [layer for layer in (roofs, tin) if layer is not None]
@@ -226,7 +226,8 @@ def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, con
                 np.full(len(on_road), None, dtype=object))
 
     count = len(grid.keys(layer.extent))
-    tiles = layer.tiles(grid, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID), triangle)
+    tiles = layer.tiles(grid, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID),
+                        triangle)
     for n, ((r, c), batch) in enumerate(tiles):
         feedback.check_canceled()
         batch = inside(batch)

@@ -148,8 +148,10 @@ class _Output:
     def finish(self) -> None:
         """Index the table in the order the CityGML writer reads it (image, target, feature, face)."""
         self._wait()
-        columns = ", ".join(f'"{c}"' for c in (step_layers.TEX_IMAGE, step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE))
-        self._table.db.execute(f'CREATE INDEX "{step_layers.TEXCOORD_TABLE}_order" ON "{step_layers.TEXCOORD_TABLE}" ({columns})')
+        order = (step_layers.TEX_IMAGE, step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE)
+        columns = ", ".join(f'"{c}"' for c in order)
+        table = step_layers.TEXCOORD_TABLE
+        self._table.db.execute(f'CREATE INDEX "{table}_order" ON "{table}" ({columns})')
 
     def close(self) -> None:
         """Stop the worker (after its current image) and close the table; on success after ``finish``."""

@@ -349,8 +349,8 @@ def _region(region) -> bool:
     if not (isinstance(region, list) and len(region) == 6 and all(_number(v) for v in region)):
         return False
     west, south, east, north, low, high = region
-    return (-math.pi <= west <= math.pi and -math.pi <= east <= math.pi and -math.pi / 2 <= south <= north <= math.pi / 2
-            and west <= east and low <= high)
+    return (-math.pi <= west <= math.pi and -math.pi <= east <= math.pi
+            and -math.pi / 2 <= south <= north <= math.pi / 2 and west <= east and low <= high)
 
 
 def _number(value) -> bool:

@@ -173,6 +173,7 @@ def grid_triangles(patch: Patch, rect: tuple[float, float, float, float]) -> tup
     nw, ne, sw, se = (corner[0, 0], corner[0, 1], corner[1, 0], corner[1, 1])
     valid = np.isfinite(patch.heights)
     keep = (valid[nw] & valid[ne] & valid[sw] & valid[se]).ravel()
-    quads = [np.stack([points[a].reshape(-1, 3) for a in order], axis=1)[keep] for order in ((nw, sw, se), (nw, se, ne))]
-    quad_uv = [np.stack([uv[a].reshape(-1, 2) for a in order], axis=1)[keep] for order in ((nw, sw, se), (nw, se, ne))]
+    orders = ((nw, sw, se), (nw, se, ne))
+    quads = [np.stack([points[a].reshape(-1, 3) for a in order], axis=1)[keep] for order in orders]
+    quad_uv = [np.stack([uv[a].reshape(-1, 2) for a in order], axis=1)[keep] for order in orders]
     return np.concatenate(quads), np.concatenate(quad_uv)

@@ -154,7 +154,8 @@ class GlbBuilder:
                                              "stringOffsetType": "UINT32"}
             else:
                 fill = spec["noData"]
-                array = np.array([fill if v is None else v for v in values], dtype=_PROPERTY_DTYPE[spec["componentType"]])
+                array = np.array([fill if v is None else v for v in values],
+                                 dtype=_PROPERTY_DTYPE[spec["componentType"]])
                 table["properties"][name] = {"values": self._view(array.tobytes())}
         self.gltf.extensions[METADATA] = {"schema": schema, "propertyTables": [table]}
         self._extensions.add(METADATA)
