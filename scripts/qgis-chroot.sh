@@ -159,6 +159,10 @@ EOF
 # compiled translations): the chroot keeps its own of those between runs.
 sync_checkout() {
     mkdir -p "$DIR$CHECKOUT" "$DIR$SHARED"
+    # byte-code caches go first: ignored, rsync would keep them, and with them a package moved away
+    # (a folder holding only __pycache__ imports as a namespace package)
+    find "$DIR$CHECKOUT" \( -path "$DIR$CHECKOUT/.venv" -o -path "$DIR$CHECKOUT/viewer/node_modules" \) -prune \
+        -o -type d -name __pycache__ -exec rm -rf {} +
     rsync -a --delete --exclude=/.git --filter=':- .gitignore' "$ROOT/" "$DIR$CHECKOUT/"
 }
 
