@@ -128,14 +128,15 @@ class WidthRule:
         lanes = positive(row.get(self.lanes)) if self.lanes else None
         if lanes is not None:
             return lanes * LANE_WIDTH, f"{self.lanes} × {LANE_WIDTH:g} m"
-        value = _class_value(row.get(self.class_field)) if self.class_field else None
+        value = field_text(row.get(self.class_field)) if self.class_field else None
         if value is not None and value in self.schema.class_widths:
             return self.schema.class_widths[value], f"{self.class_field}={value}"
         return self.default_width, "default"
 
 
-def _class_value(value: Any) -> str | None:
-    """A class code as text: ``3.0`` → ``"3"``, text stripped; None when empty."""
+def field_text(value: Any) -> str | None:
+    """An attribute value as text, as a code or an id part: ``3.0`` → ``"3"``, text stripped; None when
+    empty or not finite."""
     if value is None:
         return None
     if isinstance(value, float):

@@ -33,7 +33,6 @@ Decisions:
 from __future__ import annotations
 
 import csv
-import math
 import os
 import re
 from collections.abc import Sequence
@@ -73,7 +72,7 @@ from .polygons import (
     transform,
     vertex_count,
 )
-from .roads import WidthRule
+from .roads import WidthRule, field_text
 from .roads import widths as road_widths_of
 from .simplify import GRID_SIZE, simplify_shared
 
@@ -164,14 +163,8 @@ class PrepareReport:
 # -- ids ----------------------------------------------------------------------------------------
 
 def _id_part(value: object) -> str | None:
-    if value is None:
-        return None
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            return None
-        value = int(value) if value.is_integer() else value
-    text = re.sub(r"[^\w.\-]", "_", str(value).strip())  # an id part stays part of an XML name (gml:id)
-    return text or None
+    text = field_text(value)
+    return re.sub(r"[^\w.\-]", "_", text) if text else None  # an id part stays part of an XML name (gml:id)
 
 
 def source_ids(layer: VectorLayer, prefix: str, keys: Sequence[Sequence[str]]) -> list[str]:
