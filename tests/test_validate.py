@@ -813,3 +813,20 @@ def test_an_error_met_at_the_end_tag_is_reported_on_the_start_tag_as_xmllint_doe
         run = subprocess.run(["xmllint", "--noout", "--schema", str(schema_dir / "citygml3-all.xsd"), str(path)],
                              capture_output=True, text=True, timeout=60)
         assert f"{path}:13:" in run.stderr
+
+
+def test_reading_the_root_element_closes_the_file_itself(tmp_path):
+    """iterparse on a path left a file it had not read to the end to the garbage collector: a
+    ResourceWarning ("unclosed file") at the end of every validation through qgis_process."""
+    import gc
+    import warnings
+
+    path = tmp_path / "big.gml"  # larger than what the parser reads ahead for the first element
+    path.write_text('<core:CityModel xmlns:core="http://www.opengis.net/citygml/3.0">'
+                    + "<!-- filler -->\n" * 100_000 + "</core:CityModel>\n", encoding="utf-8")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        root = streaming.first_element(path)
+        gc.collect()
+    assert root.tag == "{http://www.opengis.net/citygml/3.0}CityModel"
+    assert [str(w.message) for w in caught if issubclass(w.category, ResourceWarning)] == []

@@ -43,14 +43,18 @@ class SyntaxProblem(Exception):
 
 
 def first_element(path: Path) -> etree._Element:
-    """The root element as parsed from the start of the file (raises ``SyntaxProblem``)."""
-    events = etree.iterparse(str(path), events=("start",), **PARSE_OPTIONS)
-    try:
-        return next(events)[1]
-    except etree.XMLSyntaxError as exc:
-        raise _problem(exc, events.error_log, at_end=False) from None
-    except StopIteration:
-        raise SyntaxProblem(None, "no element found", at_end=True) from None
+    """The root element as parsed from the start of the file (raises ``SyntaxProblem``).
+
+    The file is opened and closed here: iterparse leaves a path it opened to the garbage collector to
+    close (a ResourceWarning, "unclosed file", after every validation)."""
+    with open(path, "rb") as stream:
+        events = etree.iterparse(stream, events=("start",), **PARSE_OPTIONS)
+        try:
+            return next(events)[1]
+        except etree.XMLSyntaxError as exc:
+            raise _problem(exc, events.error_log, at_end=False) from None
+        except StopIteration:
+            raise SyntaxProblem(None, "no element found", at_end=True) from None
 
 
 class Stream:
