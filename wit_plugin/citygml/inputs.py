@@ -173,6 +173,36 @@ def tin_triangles(tin: InputLayer, where: str, order: tuple[str, ...]
             yield ids, ring_texts(points, counts, "%.3f %.3f %.3f"), batch
 
 
+class FacadeRows:
+    """The texture step's facade table (one row per building with a generated facade), read in wit_id order
+    beside the buildings, which come in the same order: ``of`` gives a building's row, if it has one."""
+
+    def __init__(self, result: ogr.Layer):
+        self.fields = fields_of(result)
+        self._rows = iter(result)
+        self._column = columns_of(result)[step_layers.WIT_ID]
+        self._row = next(self._rows, None)
+
+    @classmethod
+    @contextlib.contextmanager
+    def open(cls, folder: Path) -> Iterator[FacadeRows | None]:
+        """The rows of ``folder``'s facade table; None when the texture step generated no facade."""
+        path = folder / step_layers.FACADE_FILE
+        if not path.is_file():
+            yield None
+            return
+        with InputLayer.open(str(path), step_layers.FACADE_TABLE, step_layers.TEXCOORD_ROLE,
+                             step_layers.FACADE_FIELDS) as table, table.select(order=(step_layers.WIT_ID,)) as result:
+            yield cls(result)
+
+    def of(self, wit_id: str) -> ogr.Feature | None:
+        while self._row is not None and self._row.GetFieldAsString(self._column) < wit_id:
+            self._row = next(self._rows, None)
+        if self._row is not None and self._row.GetFieldAsString(self._column) == wit_id:
+            return self._row
+        return None
+
+
 class Membership:
     """Building → district assignment, spooled to a temporary SQLite table (constant memory)."""
 

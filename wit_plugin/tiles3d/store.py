@@ -7,7 +7,9 @@ the model (the inputs need no spatial index of their own, and are never written 
   its footprint (a Morton code, so a subtree of the quadtree is one range of codes), its size (the
   larger of footprint diagonal and height, to keep the largest ones in coarse tiles) and its
   attributes (JSON, every field of the LoD1 layer but the per-face ones).
-* ``face``: roof and wall faces (WKB), joined to their building; ``tex_roof`` their texture rows.
+* ``face``: roof and wall faces (WKB), joined to their building; ``tex_face`` their texture rows (roofs from the
+  orthoimage, walls' generated facades); ``facade`` the buildings' facade attributes (how the walls' texture
+  was made), which join their attributes.
 * ``tri_block``: TIN triangles in blocks, one row per leaf of their centroids and batch read (ids,
   surfaces, corners as 9 float64, image numbers, 3 uv pairs: columns of numbers in one blob each);
   ``spill_block`` the same for the triangles whose extent reaches another leaf (a leaf's coarse
@@ -90,15 +92,15 @@ def morton(col: np.ndarray, row: np.ndarray) -> np.ndarray:
 
 @dataclass
 class BuildingRows:
-    """The buildings of one tile and their faces (roof uv where the texture row fits the ring)."""
+    """The buildings of one tile and their faces (uv where the texture row fits the ring)."""
 
     ids: list[str]
     attributes: list[list]
     face_building: np.ndarray  # (f,) index into ids
     face_kind: np.ndarray  # (f,) FACE_KINDS value
     polygons: np.ndarray  # (f,) shapely PolygonZ
-    roof_image: np.ndarray  # (f,) image number, -1 = untextured
-    roof_uv: list[np.ndarray | None]  # per face: (ring points, 2) or None
+    face_image: np.ndarray  # (f,) image number, -1 = untextured
+    face_uv: list[np.ndarray | None]  # per face: (ring points, 2) or None
 
 
 @dataclass
@@ -122,14 +124,16 @@ class Store:
             CREATE TABLE image (id INTEGER PRIMARY KEY, name TEXT UNIQUE);
             CREATE TABLE building (wit_id TEXT PRIMARY KEY, leaf INTEGER, size REAL, attrs TEXT) WITHOUT ROWID;
             CREATE TABLE face (wit_id TEXT, face_no INTEGER, kind INTEGER, wkb BLOB);
-            CREATE TABLE tex_roof (wit_id TEXT, face_no INTEGER, image INTEGER, uv BLOB,
+            CREATE TABLE tex_face (wit_id TEXT, face_no INTEGER, image INTEGER, uv BLOB,
                                    PRIMARY KEY (wit_id, face_no)) WITHOUT ROWID;
+            CREATE TABLE facade (wit_id TEXT PRIMARY KEY, attrs TEXT) WITHOUT ROWID;
             CREATE TABLE tri_block (leaf INTEGER, ids BLOB, surface BLOB, xyz BLOB, image BLOB, uv BLOB);
             CREATE TABLE spill_block (leaf INTEGER, own BLOB, surface BLOB, xyz BLOB, image BLOB, uv BLOB);
             CREATE TABLE tex_block (first INTEGER, last INTEGER, ids BLOB, image BLOB, uv BLOB);
         """)
         self.images: list[str] = []
         self.fields: list[tuple[str, int]] = []  # building attributes: (name, OGR field type)
+        self.facade_fields: list[tuple[str, int]] = []  # of the facade table, after the LoD1 layer's
         self.orphan_faces = 0
 
     def close(self) -> None:
@@ -155,14 +159,14 @@ class Store:
             names, image = _unique_texts(batch[step_layers.TEX_IMAGE])
             image = np.array([numbers.setdefault(name, len(numbers)) for name in names], dtype=np.int64)[image]
             kinds, target = _unique_texts(batch[step_layers.TEX_TARGET])
-            is_roof = np.isin(target, [k for k, kind in enumerate(kinds) if kind == "roof"])
-            roof = np.flatnonzero(is_roof)
+            is_face = np.isin(target, [k for k, kind in enumerate(kinds) if kind in FACE_KINDS])
+            face_rows = np.flatnonzero(is_face)
             features = np.asarray(batch[step_layers.TEX_FEATURE])
-            faces = batch[step_layers.TEX_FACE][roof].tolist()
-            self.db.executemany("INSERT OR REPLACE INTO tex_roof VALUES (?, ?, ?, ?)", [
+            faces = batch[step_layers.TEX_FACE][face_rows].tolist()
+            self.db.executemany("INSERT OR REPLACE INTO tex_face VALUES (?, ?, ?, ?)", [
                 (feature, int(face or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
-                for feature, face, i in zip(_texts(features[roof]), faces, roof.tolist())])
-            tri = np.flatnonzero(~is_roof & (counts == 4))
+                for feature, face, i in zip(_texts(features[face_rows]), faces, face_rows.tolist())])
+            tri = np.flatnonzero(~is_face & (counts == 4))
             try:
                 ids = features[tri].astype(np.int64)
             except ValueError:
@@ -179,6 +183,22 @@ class Store:
         del layer, ds
         self.images = sorted(numbers, key=numbers.get)
         self.db.executemany("INSERT INTO image VALUES (?, ?)", [(n, name) for name, n in numbers.items()])
+        if (Path(folder) / step_layers.FACADE_FILE).is_file():
+            self._add_facades(Path(folder) / step_layers.FACADE_FILE)
+
+    def _add_facades(self, path: Path) -> None:
+        """The facade table's attributes of each building (all but its id and image)."""
+        ds, layer, _ = open_step_layer(str(path), step_layers.FACADE_TABLE, step_layers.TEXCOORD_ROLE,
+                                       step_layers.FACADE_FIELDS)
+        defn = layer.GetLayerDefn()
+        kept = [i for i in range(defn.GetFieldCount())
+                if defn.GetFieldDefn(i).GetName() not in (step_layers.WIT_ID, step_layers.FACADE_IMAGE)]
+        self.facade_fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept]
+        self.db.executemany("INSERT OR REPLACE INTO facade VALUES (?, ?)", (
+            (feature.GetField(step_layers.WIT_ID),
+             json.dumps([None if feature.IsFieldNull(i) else feature.GetField(i) for i in kept], ensure_ascii=False))
+            for feature in layer))
+        del layer, ds
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
         """Buildings from their ground faces, then their roof and wall faces; returns the building count."""
@@ -187,7 +207,8 @@ class Store:
                                         step_layers.HEIGHT))
         defn = layer.GetLayerDefn()
         kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
-        self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept]
+        self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept] \
+            + self.facade_fields
         wit_id, height = defn.GetFieldIndex(step_layers.WIT_ID), defn.GetFieldIndex(step_layers.HEIGHT)
         layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground'")
         rows: list[tuple] = []
@@ -297,19 +318,21 @@ class Store:
     def buildings(self, first: int, end: int, min_size: float = 0.0, limit: int = -1) -> BuildingRows:
         """Buildings whose leaf is in [first, end) and size ≥ ``min_size``, the largest first, at most ``limit``."""
         chosen = self.db.execute(
-            "SELECT wit_id, attrs FROM building WHERE leaf >= ? AND leaf < ? AND size >= ? "
-            "ORDER BY size DESC, wit_id LIMIT ?", (first, end, min_size, limit)).fetchall()
-        ids = [wit_id for wit_id, _ in chosen]
+            "SELECT b.wit_id, b.attrs, f.attrs FROM building b LEFT JOIN facade f ON f.wit_id = b.wit_id "
+            "WHERE leaf >= ? AND leaf < ? AND size >= ? ORDER BY size DESC, b.wit_id LIMIT ?",
+            (first, end, min_size, limit)).fetchall()
+        ids = [wit_id for wit_id, _, _ in chosen]
+        no_facade = json.dumps([None] * len(self.facade_fields))
         number = {wit_id: i for i, wit_id in enumerate(ids)}
         faces = []
         for part in range(0, len(ids), 500):
             marks = ",".join("?" * len(ids[part:part + 500]))
             faces += self.db.execute(
-                f"SELECT f.wit_id, f.kind, f.wkb, x.image, x.uv FROM face f LEFT JOIN tex_roof x "
+                f"SELECT f.wit_id, f.kind, f.wkb, x.image, x.uv FROM face f LEFT JOIN tex_face x "
                 f"ON x.wit_id = f.wit_id AND x.face_no = f.face_no WHERE f.wit_id IN ({marks})",
                 ids[part:part + 500]).fetchall()
         return BuildingRows(
-            ids, [json.loads(attrs) for _, attrs in chosen],
+            ids, [json.loads(attrs) + json.loads(facade or no_facade) for _, attrs, facade in chosen],
             np.array([number[f[0]] for f in faces], dtype=np.int64), np.array([f[1] for f in faces], dtype=np.int8),
             shapely.from_wkb(np.array([f[2] for f in faces], dtype=object), on_invalid="ignore"),
             np.array([-1 if f[3] is None else f[3] for f in faces], dtype=np.int64),

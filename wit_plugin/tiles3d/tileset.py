@@ -3,7 +3,8 @@
 Tiles form a quadtree over the model's extent (model CRS), with square leaves of ``leaf_size``:
 
 * **Leaves** (geometric error 0) hold the full detail: every building whose footprint centre lies in
-  the leaf (roofs with the texture step's atlases, walls plain and lit) and every TIN triangle whose
+  the leaf (roofs with the texture step's atlases, walls lit, with their generated facades where the texture
+  step made them, else plain) and every TIN triangle whose
   centroid lies in it (terrain and roads with the ground images). Images are the texture folder's,
   copied once into ``textures/`` and referenced by every tile that uses them.
 * **Upper tiles** (``refine: REPLACE``) hold a coarse version of their square: the terrain as a
@@ -43,10 +44,10 @@ from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..io.fileio import atomic_files, refuse_overlap
 from ..io.vector_io import open_step_layer
-from ..meshes import fan_triangles, planar_triangles
+from ..meshes import fan_corners, planar_triangles
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
 from .geo import Georeference, column_major, union_region
-from .glb import GlbBuilder
+from .glb import GlbBuilder, unit_normals
 from .metadata import BUILDING_CLASS, building_schema, property_columns
 from .store import FACE_KINDS, Grid, Store
 from .textures import TextureSet, encode_image
@@ -230,6 +231,12 @@ def _distinct_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return points[first], inverse
 
 
+def _fits(rows, faces: np.ndarray, ring_counts: np.ndarray) -> np.ndarray:
+    """Which of the ``faces`` have a texture row with one (u, v) per point of their ring."""
+    return np.array([rows.face_uv[i] is not None and len(rows.face_uv[i]) == n
+                     for i, n in zip(faces.tolist(), np.asarray(ring_counts).tolist())], dtype=bool)
+
+
 def _face_up(xyz: np.ndarray, *others: np.ndarray) -> None:
     """Swap two corners of the triangles wound clockwise seen from above (in place), so they face up."""
     d1, d2 = xyz[:, 1, :2] - xyz[:, 0, :2], xyz[:, 2, :2] - xyz[:, 0, :2]
@@ -331,16 +338,15 @@ class _Writer:
                                                           return_index=True)
             ring_counts = np.bincount(ring_face, minlength=len(roofs))
             values = np.column_stack([ring_xyz[:, 2], np.zeros((len(ring_xyz), 2))])
-            textured = np.array([rows.roof_uv[i] is not None and len(rows.roof_uv[i]) == n
-                                 for i, n in zip(roofs.tolist(), ring_counts.tolist())], dtype=bool)
+            textured = _fits(rows, roofs, ring_counts)
             for k in np.flatnonzero(textured).tolist():
-                values[ring_face == k, 1:] = rows.roof_uv[roofs[k]]
+                values[ring_face == k, 1:] = rows.face_uv[roofs[k]]
             xy, fitted, face = planar_triangles(polygons, values)
             xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
             uv = fitted[:, :, 1:].copy()
             _face_up(xyz, uv)
             uv[:, :, 1] = 1.0 - uv[:, :, 1]
-            image = np.where(textured[face], rows.roof_image[roofs][face], -1)
+            image = np.where(textured[face], rows.face_image[roofs][face], -1)
             feature = rows.face_building[roofs][face]
             for number in np.unique(image).tolist():
                 mine = image == number
@@ -354,13 +360,40 @@ class _Writer:
             corners.append(xyz.reshape(-1, 3))
         walls = np.flatnonzero(kind == FACE_KINDS["wall"])
         if len(walls):
-            xyz, owner = fan_triangles(rows.polygons[walls])
-            local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
-            glb.triangles(local, glb.plain_material(WALL_RGB, lit=True, name="wall"),
-                          feature=rows.face_building[walls][owner], normals=True)
-            corners.append(xyz.reshape(-1, 3))
+            corners.append(self._walls(glb, frame, rows, walls, mip))
         glb.property_table(self.schema, BUILDING_CLASS, property_columns(self.schema, rows.ids, rows.attributes))
         return corners
+
+    def _walls(self, glb: GlbBuilder, frame: np.ndarray, rows, walls: np.ndarray, mip: int) -> np.ndarray:
+        """Walls with their generated facade (where the texture row fits the ring), else plain; their corners."""
+        polygons = rows.polygons[walls]
+        ring_xyz = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True)
+        counts = shapely.get_num_coordinates(shapely.get_exterior_ring(polygons))
+        textured = _fits(rows, walls, counts)
+        uv = np.zeros((len(ring_xyz), 2))
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        for k in np.flatnonzero(textured).tolist():
+            uv[starts[k]:starts[k] + counts[k]] = rows.face_uv[walls[k]]
+        index, owner = fan_corners(polygons)
+        xyz = ring_xyz[index]
+        local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
+        feature = rows.face_building[walls][owner]
+        image = np.where(textured, rows.face_image[walls], -1)[owner]
+        first = np.concatenate([[True], owner[1:] != owner[:-1]])  # each face's first fan triangle
+        normals = unit_normals(local[first])[np.cumsum(first) - 1]  # one per face: its corners are shared
+        for number in np.unique(image).tolist():
+            mine = image == number
+            if number >= 0:
+                material = glb.facade_material(uri="../../" + self.textures.uri(number, mip),
+                                               name=self.store.images[number])
+                corner_uv = uv[index[mine]].copy()
+                corner_uv[:, :, 1] = 1.0 - corner_uv[:, :, 1]  # texture table: v up; glTF: v down
+                glb.triangles(local[mine], material, corner_uv, feature=feature[mine], normals=normals[mine],
+                              facade=True)
+            else:
+                glb.triangles(local[mine], glb.plain_material(WALL_RGB, lit=True, name="wall"), feature=feature[mine],
+                              normals=normals[mine])
+        return xyz.reshape(-1, 3)
 
     # --- tile bookkeeping --------------------------------------------------------------------
 
