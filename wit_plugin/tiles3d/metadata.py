@@ -5,10 +5,11 @@ One class, ``building``, with a property per field of the LoD1 layer except the 
 and every source attribute kept by wit:extrudebuildings (e.g. ``BULD_NM``, the building's name, in
 Korean), then those of the texture step's facade table (``wit_facade`` = generated, its style, rule and
 storeys: the walls' texture is generated, not measured). OGR strings → STRING (UTF-8), integers →
-INT32 / INT64, reals → FLOAT64, anything else → its text. A NULL is stored as the property's ``noData`` value (the empty string for text). No property
-is ``required``; every tile's table holds every numeric property, and a text property is left out of
-a tile's table only when it is empty for all its buildings: it then reads as its ``default``, the
-empty string (3D Tiles 1.1 metadata: a missing or noData value reads as the ``default``).
+INT32 / INT64, reals → FLOAT64, anything else → its text. A NULL is stored as the property's ``noData``
+value (the empty string for text). No property is ``required``; every tile's table holds every numeric
+property, and a text property is left out of a tile's table only when it is empty for all its buildings:
+it then reads as its ``default``, the empty string (3D Tiles 1.1 metadata: a missing or noData value reads
+as the ``default``).
 """
 from __future__ import annotations
 
