@@ -40,8 +40,8 @@
       <translation>Chain</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -114,14 +114,6 @@
     <message>
       <source>Target CRS</source>
       <translation>Target CRS</translation>
-    </message>
-    <message>
-      <source>Maximum edge length (m)</source>
-      <translation>Maximum edge length (m)</translation>
-    </message>
-    <message>
-      <source>Vertical tolerance (m)</source>
-      <translation>Vertical tolerance (m)</translation>
     </message>
     <message>
       <source>Texture scale S (0 &lt; S ≤ 1)</source>
@@ -832,6 +824,14 @@
       <translation>CDT (MPL-2.0)</translation>
     </message>
     <message>
+      <source>None: plain walls</source>
+      <translation>None: plain walls</translation>
+    </message>
+    <message>
+      <source>Generated from each building's use and storeys (marked as generated)</source>
+      <translation>Generated from each building's use and storeys (marked as generated)</translation>
+    </message>
+    <message>
       <source>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</source>
       <translation>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</translation>
     </message>
@@ -854,6 +854,14 @@
     <message>
       <source>Triangulator (licence: Triangle is free for non-commercial use only)</source>
       <translation>Triangulator (licence: Triangle is free for non-commercial use only)</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>Maximum edge length (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>Vertical tolerance (m)</translation>
     </message>
     <message>
       <source>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</source>
@@ -882,6 +890,10 @@
     <message>
       <source>Terrain TIN (wit:triangulateterrain)</source>
       <translation>Terrain TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Wall textures (an orthoimage sees no facades)</source>
+      <translation>Wall textures (an orthoimage sees no facades)</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
@@ -980,8 +992,8 @@
       <translation>WIT texturing</translation>
     </message>
     <message>
-      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
-      <translation>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</translation>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</translation>
     </message>
     <message>
       <source>Merged orthoimage</source>
@@ -1018,6 +1030,10 @@
     <message>
       <source>Textured surfaces</source>
       <translation>Textured surfaces</translation>
+    </message>
+    <message>
+      <source>Buildings with a generated facade</source>
+      <translation>Buildings with a generated facade</translation>
     </message>
     <message>
       <source>Give the LoD1 buildings, the TIN, or both.</source>

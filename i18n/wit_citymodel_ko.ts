@@ -40,8 +40,8 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고(벽: 각 건물의 용도와 층수로 생성한 외벽 텍스처, 생성된 것임을 표시; FACADES) CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -114,14 +114,6 @@
     <message>
       <source>Target CRS</source>
       <translation>대상 좌표계</translation>
-    </message>
-    <message>
-      <source>Maximum edge length (m)</source>
-      <translation>최대 변 길이 (m)</translation>
-    </message>
-    <message>
-      <source>Vertical tolerance (m)</source>
-      <translation>수직 허용오차 (m)</translation>
     </message>
     <message>
       <source>Texture scale S (0 &lt; S ≤ 1)</source>
@@ -832,6 +824,14 @@
       <translation>CDT (MPL-2.0)</translation>
     </message>
     <message>
+      <source>None: plain walls</source>
+      <translation>없음: 민무늬 벽</translation>
+    </message>
+    <message>
+      <source>Generated from each building's use and storeys (marked as generated)</source>
+      <translation>각 건물의 용도와 층수로 생성(생성된 것임을 표시)</translation>
+    </message>
+    <message>
       <source>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</source>
       <translation>3D Tiles 웹 프로파일: 브라우저용 압축 지오메트리 (QGIS에서는 읽을 수 없음)</translation>
     </message>
@@ -854,6 +854,14 @@
     <message>
       <source>Triangulator (licence: Triangle is free for non-commercial use only)</source>
       <translation>삼각분할 라이브러리 (라이선스: Triangle은 비상업적 이용에만 무료)</translation>
+    </message>
+    <message>
+      <source>Maximum edge length (m)</source>
+      <translation>최대 변 길이 (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>수직 허용오차 (m)</translation>
     </message>
     <message>
       <source>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</source>
@@ -882,6 +890,10 @@
     <message>
       <source>Terrain TIN (wit:triangulateterrain)</source>
       <translation>지형 TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Wall textures (an orthoimage sees no facades)</source>
+      <translation>벽 텍스처(정사영상에는 벽면이 보이지 않음)</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
@@ -980,8 +992,8 @@
       <translation>WIT 텍스처링</translation>
     </message>
     <message>
-      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
-      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 텍스처를 입히지 않습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽으며, 레이어와 다른 좌표계의 정사영상은 읽는 대로 재투영합니다(쌍선형). 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 생성된 외벽 텍스처를 입힙니다(FACADES, 기본값): 각 건물의 용도(국가 건축물 용도코드 BDTYP_CD, 국토지리정보원의 용도/종류, AL_D010, OpenStreetMap building 태그, 없으면 층수)에 맞는 층 모듈을 플러그인이 직접 그리며, 층마다 이미지 한 줄(레이어의 층수, 없으면 높이로 계산)에 대응하고, 측정값과 분리해 생성된 것임을 표시합니다(facades.gpkg, CityGML 테마 generatedFacade). 없음을 고를 수도 있습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽으며, 레이어와 다른 좌표계의 정사영상은 읽는 대로 재투영합니다(쌍선형). 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
     </message>
     <message>
       <source>Merged orthoimage</source>
@@ -1018,6 +1030,10 @@
     <message>
       <source>Textured surfaces</source>
       <translation>텍스처가 입혀진 면 수</translation>
+    </message>
+    <message>
+      <source>Buildings with a generated facade</source>
+      <translation>생성된 외벽 텍스처를 받은 건물</translation>
     </message>
     <message>
       <source>Give the LoD1 buildings, the TIN, or both.</source>

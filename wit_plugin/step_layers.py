@@ -76,7 +76,10 @@ TEX_COORDS = "uv"  # "u1 v1 u2 v2 …", one pair per ring point, closing point i
 # texture was made; the writers carry these fields into the model (CityGML generic attributes, 3D Tiles metadata).
 FACADE_FILE = "facades.gpkg"  # in the texture folder
 FACADE_TABLE = "facades"
-FACADE = "wit_facade"  # "generated": drawn by the plugin from the building's use and storeys, not measured
+FACADES_NONE, FACADES_GENERATED = "none", "generated"
+FACADE_CHOICES = (FACADES_NONE, FACADES_GENERATED)  # wit:wittexture's FACADES: walls untextured, or generated
+DEFAULT_FACADES = FACADES_GENERATED
+FACADE = "wit_facade"  # FACADES_GENERATED: drawn by the plugin from the building's use and storeys, not measured
 FACADE_STYLE = "wit_facade_style"  # house, villa, apartment, retail, office, curtain_wall, public, industrial, other
 FACADE_RULE = "wit_facade_rule"  # what chose the style, e.g. "BDTYP_CD 02001", "용도 공동주택, 15 storeys"
 FACADE_STOREYS = "wit_facade_storeys"  # storeys drawn (one image row each)

@@ -17,9 +17,8 @@ TEXTURED_TIN_SURFACES = ("terrain", "road")
 ROOF_TARGET, WALL_TARGET, TIN_TARGET, ROAD_TARGET = step_layers.TEX_TARGETS
 
 
-FACADES_NONE, FACADES_GENERATED = "none", "generated"
-FACADE_CHOICES = (FACADES_NONE, FACADES_GENERATED)  # TextureConfig.facades: walls untextured, or generated
-
+FACADES_NONE, FACADES_GENERATED, FACADE_CHOICES = (step_layers.FACADES_NONE, step_layers.FACADES_GENERATED,
+                                                   step_layers.FACADE_CHOICES)  # TextureConfig.facades
 
 OUTSIDE_ORTHO = "outside_ortho"  # TextureReport.untextured key: surfaces beyond the ortho's coverage
 
@@ -39,7 +38,7 @@ class TextureConfig:
     """Texels of padding around each roof island (and of context around ground tiles)."""
     write_mipmaps: bool = False
     """Write each image's mip chain to 1 × 1 as files (otherwise it is derivable by the viewer)."""
-    facades: str = FACADES_GENERATED
+    facades: str = step_layers.DEFAULT_FACADES
     """Walls: "generated" (storey modules drawn from each building's use and storeys, ``texture.facade``) or
     "none" (left untextured)."""
 

@@ -30,7 +30,6 @@ from .walls import QUAD_POINTS, wall_texcoords
 
 FACADE_PREFIX = "facade_"
 FACADE_EXT = "png"  # drawn flat colours: lossless, and a stack of equal storeys compresses to almost one storey
-GENERATED = "generated"
 _BATCH = 20_000
 
 
@@ -119,7 +118,8 @@ def plan_facades(source: FacadeSource, report: FacadeReport,
             report.rows[name] = max(report.rows.get(name, 0), facade.storeys)
             report.styles[facade.style] += 1
             report.storeys_from_height += facade.storeys_source.startswith("height")
-            rows.append((wit_id, GENERATED, facade.style, facade.rule, facade.storeys, facade.storeys_source, name))
+            rows.append((wit_id, step_layers.FACADES_GENERATED, facade.style, facade.rule, facade.storeys,
+                         facade.storeys_source, name))
         report.buildings += len(rows)
         yield rows
 
