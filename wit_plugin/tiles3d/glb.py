@@ -18,6 +18,9 @@ view of 0 bytes, which glTF forbids) and reads as the class's ``default``, the e
 """
 from __future__ import annotations
 
+import json
+import struct
+
 import numpy as np
 import pygltflib as gl
 
@@ -196,5 +199,21 @@ class GlbBuilder:
         self.gltf.extensionsUsed = sorted(self._extensions)
         self.blob.extend(b"\0" * (-len(self.blob) % 4))
         self.gltf.buffers = [gl.Buffer(byteLength=len(self.blob))]
-        self.gltf.set_binary_blob(bytes(self.blob))
-        return b"".join(self.gltf.save_to_bytes())
+        return glb_bytes(self.gltf, bytes(self.blob))
+
+
+def glb_bytes(gltf: gl.GLTF2, blob: bytes) -> bytes:
+    """The GLB container of ``gltf`` and its binary chunk ``blob``: the JSON compact, UTF-8, without the accessors'
+    properties at their default values (``byteOffset`` 0, ``normalized`` false), which pygltflib writes and a
+    tile with a primitive per facade image would repeat a few hundred times."""
+    document = json.loads(gltf.to_json(separators=(",", ":")))
+    for accessor in document.get("accessors", []):
+        if accessor.get("byteOffset") == 0:
+            del accessor["byteOffset"]
+        if accessor.get("normalized") is False:
+            del accessor["normalized"]
+    text = json.dumps(document, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    return b"".join([struct.pack("<4sII", b"glTF", 2, 28 + len(text) + len(blob)),
+                     struct.pack("<I4s", len(text), b"JSON"), text, struct.pack("<I4s", len(blob), b"BIN\0"), blob])
