@@ -208,3 +208,20 @@ def test_no_facades_when_asked(tmp_path):
     assert report.surfaces["wall"] == 0 and report.untextured["wall"] == 12 and report.facades == {}
     assert not (tmp_path / "tex" / step_layers.FACADE_FILE).exists()
     assert not any(p.name.startswith("facade_") for p in (tmp_path / "tex").iterdir())
+
+
+def test_texture_measures_leave_the_generated_facades_out(tmp_path):
+    """Sharpness and contrast (paper Table 19) are of the textures cut from the orthoimage: the drawn facades,
+    with their sharp edges, do not change them."""
+    from wit_plugin.metrics.texture import texture_metrics
+
+    rng = np.random.default_rng(3)
+    ortho = make_ortho(tmp_path / "ortho.tif", pixels=rng.integers(0, 255, (200, 200, 3), dtype=np.uint8))
+    lod1 = _lod1_with_uses(tmp_path / "lod1.gpkg")
+    texture_model(ortho, lod1, None, str(tmp_path / "with"))
+    texture_model(ortho, lod1, None, str(tmp_path / "without"), TextureConfig(facades="none"))
+    assert any(p.name.startswith("facade_") for p in (tmp_path / "with").iterdir())
+    measured = [texture_metrics(str(tmp_path / name)) for name in ("with", "without")]
+    assert [m.images for m in measured[0:1]] == [m.images for m in measured[1:2]]
+    assert measured[0].laplacian_variance == measured[1].laplacian_variance > 0
+    assert measured[0].contrast == measured[1].contrast > 0

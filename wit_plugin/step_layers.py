@@ -75,6 +75,7 @@ TEX_COORDS = "uv"  # "u1 v1 u2 v2 …", one pair per ring point, closing point i
 # "wall") in TEXCOORD_TABLE, and one row per building in FACADE_TABLE of FACADE_FILE saying how its wall
 # texture was made; the writers carry these fields into the model (CityGML generic attributes, 3D Tiles metadata).
 FACADE_FILE = "facades.gpkg"  # in the texture folder
+FACADE_IMAGE_PREFIX = "facade_"  # the generated facade images' names: facade_<style>_<variant>.png
 FACADE_TABLE = "facades"
 FACADES_NONE, FACADES_GENERATED = "none", "generated"
 FACADE_CHOICES = (FACADES_NONE, FACADES_GENERATED)  # wit:wittexture's FACADES: walls untextured, or generated

@@ -28,7 +28,7 @@ from .modules import facade_image
 from .uses import Facade, UseRule
 from .walls import QUAD_POINTS, wall_texcoords
 
-FACADE_PREFIX = "facade_"
+FACADE_PREFIX = step_layers.FACADE_IMAGE_PREFIX
 FACADE_EXT = "png"  # drawn flat colours: lossless, and a stack of equal storeys compresses to almost one storey
 _BATCH = 20_000
 
