@@ -1,7 +1,9 @@
 // Offline viewer of the WIT City Model tileset: CesiumJS with no imagery, no Ion, no network but this
 // server. ?tileset=URL overrides the tileset (default 3dtiles/tileset.json beside the page); ?range=R sets the
 // first view's distance in radii of the tileset's bounding sphere (default 1.2; larger: zoomed out), ?heading=
-// and ?pitch= its direction in degrees (default -30 and -35: from the south-east, looking down obliquely).
+// and ?pitch= its direction in degrees (default -30 and -35: from the south-east, looking down obliquely);
+// ?target=LON,LAT,HEIGHT (degrees, metres) with ?distance=M looks at that point from M metres instead, the same
+// view of any tileset (before/after screenshots).
 // The "Generated facades" switch shows walls with their generated facade textures (vertices marked _FACADE by
 // the export) or in the plain wall colour: a custom shader, set only while they are switched off (it is
 // disabled, by CesiumJS, on the primitives without that attribute).
@@ -60,8 +62,17 @@ async function main() {
   scene.primitives.add(tileset);
   tileset.tileFailed.addEventListener((error) => fail(`tile ${error.url}: ${error.message}`));
   const radius = tileset.boundingSphere.radius;
-  await viewer.zoomTo(tileset, new Cesium.HeadingPitchRange(Cesium.Math.toRadians(heading),
-                                                             Cesium.Math.toRadians(pitch), radius * range));
+  const direction = (distance) => new Cesium.HeadingPitchRange(Cesium.Math.toRadians(heading),
+                                                                Cesium.Math.toRadians(pitch), distance);
+  const target = query.get("target");
+  if (target) {
+    const [lon, lat, height] = target.split(",").map(Number);
+    viewer.camera.lookAt(Cesium.Cartesian3.fromDegrees(lon, lat, height || 0),
+                         direction(Number(query.get("distance")) || radius * range));
+    viewer.camera.lookAtTransform(Cesium.Matrix4.IDENTITY);
+  } else {
+    await viewer.zoomTo(tileset, direction(radius * range));
+  }
   // Ready: tiles have loaded, none is pending for this view, and two frames have been drawn since.
   let loadedTiles = 0;
   let settledFrames = 0;
