@@ -347,6 +347,36 @@ def test_viewer_in_headless_chromium_shows_the_model_and_a_buildings_attributes(
     assert name and info["title"] == name == info["rows"]["BULD_NM"]  # Korean, intact
 
 
+def test_generated_facades_are_textured_walls_marked_and_switched_off_in_the_viewer(chain, tmp_path):
+    """Walls carry their facade image (repeating along the wall, lit), their vertices are marked _FACADE and the
+    buildings say so in their metadata; the viewer's switch (a real click) draws the same walls plain."""
+    walls = 0
+    for path in (chain["folder"] / "tiles").rglob("*.glb"):
+        gltf = pygltflib.GLTF2().load_binary(str(path))
+        for primitive in gltf.meshes[0].primitives:
+            material = gltf.materials[primitive.material]
+            if not (material.name or "").startswith("facade_"):
+                continue
+            walls += 1
+            texture = gltf.textures[material.pbrMetallicRoughness.baseColorTexture.index]
+            sampler = gltf.samplers[texture.sampler]
+            assert (sampler.wrapS, sampler.wrapT) == (10497, 33071)  # REPEAT along, CLAMP up
+            assert "KHR_materials_unlit" not in (material.extensions or {}) and material.doubleSided
+            assert primitive.attributes.NORMAL is not None and primitive.attributes._FACADE is not None
+        if "EXT_structural_metadata" in gltf.extensions:
+            properties = gltf.extensions["EXT_structural_metadata"]["schema"]["classes"]["building"]["properties"]
+            assert {step_layers.FACADE, step_layers.FACADE_STYLE, step_layers.FACADE_STOREYS} <= set(properties)
+    assert walls > 10
+    query = "?target=127.1020,37.4876,20&distance=180&pitch=-10"
+    report, on = view_in_chromium(chain["folder"], tmp_path / "on", query=query)
+    report_off, off = view_in_chromium(chain["folder"], tmp_path / "off", query=query, options=("--no-facades",))
+    assert report_off["facadesShown"] is False
+    changed = np.abs(on - off).sum(axis=1) > 30
+    assert 0.03 < changed.mean() < 0.8  # the walls, not the ground and roofs
+    grey = off[changed].max(axis=1) - off[changed].min(axis=1) < 40  # the plain beige, lit or in shade
+    assert grey.mean() > 0.8 and (on[changed].max(axis=1) - on[changed].min(axis=1) < 40).mean() < grey.mean()
+
+
 def test_bad_inputs_and_outputs_are_refused_before_anything_is_written(chain, tmp_path):
     lod1, tin, textures = chain["lod1"], chain["tin"], chain["textures"]
     with pytest.raises(InputError, match="LoD1 buildings, the TIN, or both"):

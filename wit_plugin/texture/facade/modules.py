@@ -15,7 +15,7 @@ import zlib
 
 import numpy as np
 
-from .uses import APARTMENT, CURTAIN_WALL, HOUSE, INDUSTRIAL, OFFICE, OTHER, PUBLIC, RETAIL, STYLES, VARIANTS, VILLA
+from .uses import APARTMENT, CURTAIN_WALL, HOUSE, INDUSTRIAL, OFFICE, OTHER, PUBLIC, RETAIL, VARIANTS, VILLA
 
 MODULE_PX = 64  # texels across a module
 STOREY_PX = 32  # texels up a storey
@@ -208,7 +208,3 @@ class _Module:
         self.rgb[-1:] *= 0.8
         return self
 
-
-def all_styles() -> tuple[str, ...]:
-    """Every style that has a drawing (all of ``uses.STYLES``)."""
-    return tuple(style for style in STYLES if style in _PALETTES)
