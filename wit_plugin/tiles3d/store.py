@@ -203,17 +203,19 @@ class Store:
             self._add_facades(Path(folder) / step_layers.FACADE_FILE)
 
     def _add_facades(self, path: Path) -> None:
-        """The facade table's attributes of each building (all but its id and image)."""
+        """The facade table's attributes of each building (all but its id and image), read in bulk."""
         ds, layer, _ = open_step_layer(str(path), step_layers.FACADE_TABLE, step_layers.TEXCOORD_ROLE,
                                        step_layers.FACADE_FIELDS)
         defn = layer.GetLayerDefn()
-        kept = [i for i in range(defn.GetFieldCount())
+        kept = [defn.GetFieldDefn(i) for i in range(defn.GetFieldCount())
                 if defn.GetFieldDefn(i).GetName() not in (step_layers.WIT_ID, step_layers.FACADE_IMAGE)]
-        self.facade_fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept]
-        self.db.executemany("INSERT OR REPLACE INTO facade VALUES (?, ?)", (
-            (feature.GetField(step_layers.WIT_ID),
-             json.dumps([None if feature.IsFieldNull(i) else feature.GetField(i) for i in kept], ensure_ascii=False))
-            for feature in layer))
+        self.facade_fields = [(f.GetName(), f.GetType()) for f in kept]
+        for batch in bulk_read.batches(layer):
+            columns = [[None if v is None else v.decode("utf-8") if isinstance(v, bytes) else v
+                        for v in batch[f.GetName()].tolist()] for f in kept]
+            self.db.executemany("INSERT OR REPLACE INTO facade VALUES (?, ?)", (
+                (wit_id, json.dumps(list(values), ensure_ascii=False))
+                for wit_id, values in zip(_texts(batch[step_layers.WIT_ID]), zip(*columns))))
         del layer, ds
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
