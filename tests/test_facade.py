@@ -77,6 +77,11 @@ def test_without_use_or_storeys_the_height_decides_at_the_style_storey_height():
     assert factory.storeys == 2 and factory.storeys_source == "height ÷ 6 m"
 
 
+def test_a_building_without_a_height_still_gets_a_facade():
+    assert _facade(JUSO, {"BDTYP_CD": "02001"}, height=float("nan"), storeys=None).storeys == 1
+    assert _facade(JUSO, {"BDTYP_CD": "02001"}, height=float("nan"), storeys=9).storeys == 9
+
+
 def test_variant_and_phase_are_seeded_by_the_id():
     rule = uses.UseRule.for_fields(JUSO)
     first = [rule.facade(f"BLD_{k}", {"BDTYP_CD": "02001"}, 45.0, 15, "GRO_FLO_CO") for k in range(200)]

@@ -108,8 +108,7 @@ class FacadeSource:
             self._ds.ReleaseResultSet(result)
 
 
-def plan_facades(source: FacadeSource, report: FacadeReport,
-                 table_rows: list[tuple] | None = None) -> Iterator[list[tuple]]:
+def plan_facades(source: FacadeSource, report: FacadeReport) -> Iterator[list[tuple]]:
     """Pass 1: each building's facade, counted in ``report`` (images' rows too); yields the facade table's rows."""
     for batch in source.buildings():
         rows = []

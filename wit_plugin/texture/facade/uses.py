@@ -131,6 +131,8 @@ class UseRule:
         """The facade of one building (``storeys``: the layer's count above ground, from ``floors_field``)."""
         style, rule = self._style(attributes)
         counted = storeys is not None and storeys >= 1
+        if not math.isfinite(height) or height <= 0:  # (the extrusion always gives one; another layer may not)
+            height = (storeys if counted else 1) * STOREY_HEIGHT[style or VILLA]
         if style is None:  # housing of no stated kind, or no use at all: by storeys
             guess = storeys if counted else max(1, round(height / STOREY_HEIGHT[VILLA]))
             style = HOUSE if guess <= 2 else VILLA if guess <= 4 else APARTMENT
@@ -138,7 +140,7 @@ class UseRule:
         if counted:
             count, source = int(storeys), str(floors_field)
         else:
-            count = max(1, round(height / STOREY_HEIGHT[style])) if math.isfinite(height) else 1
+            count = max(1, round(height / STOREY_HEIGHT[style]))
             source = f"height ÷ {STOREY_HEIGHT[style]:g} m"
         if style == OFFICE and count >= CURTAIN_WALL_STOREYS:
             style, rule = CURTAIN_WALL, f"{rule}, {count} storeys"
