@@ -8,10 +8,12 @@ temporary SQLite table so memory stays flat.
 from __future__ import annotations
 
 import contextlib
+import math
 import re
 import sqlite3
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 from itertools import groupby
 from pathlib import Path
 from typing import Any
@@ -29,6 +31,17 @@ from ..numtext import ring_texts
 BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
 _LOOKUP_BATCH = 10_000  # buildings per district lookup (as many as the writer's progress batch)
 _NCNAME = re.compile(r"[^\W\d][\w.\-]*")
+
+
+@dataclass(frozen=True)
+class CityGMLInputs:
+    """Paths of the step outputs to combine: the LoD1 faces, or (a tile that owns no building) the TIN alone."""
+
+    lod1: str | None
+    tin: str | None = None
+    roads: str | None = None
+    districts: str | None = None
+    textures: str | None = None  # wit:wittexture folder: images + step_layers.TEXCOORD_FILE
 
 
 class InputLayer:
@@ -89,6 +102,47 @@ class InputLayer:
             self.ds.ReleaseResultSet(result)
 
 
+@dataclass
+class ModelLayers:
+    """The model's inputs opened and checked up front: layers (None where not given), images, envelope."""
+
+    lod1: InputLayer | None
+    tin: InputLayer | None
+    roads: InputLayer | None
+    districts: InputLayer | None
+    texcoords: InputLayer | None
+    images: dict[str, Path]  # image name → file, of every image the texture table uses
+    envelope: tuple[float, float, float, float, float, float]  # min x y z, max x y z
+
+    @classmethod
+    def open(cls, inputs: CityGMLInputs, srs_name: str, stack: contextlib.ExitStack) -> ModelLayers:
+        """Open every given input (closed with ``stack``); one ``InputError`` naming the file for a bad one."""
+        def layer(path: str | None, *args: Any, **kwargs: Any) -> InputLayer | None:
+            return stack.enter_context(InputLayer.open(path, *args, **kwargs)) if path else None
+
+        lod1 = layer(inputs.lod1, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE,
+                     (step_layers.WIT_ID, step_layers.FACE_NUMBER, step_layers.FACE_TYPE), geometry_z=True)
+        tin = layer(inputs.tin, step_layers.TIN_LAYER, step_layers.TIN_ROLE,
+                    (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID), geometry_z=True)
+        roads = layer(inputs.roads, step_layers.PREPARED_ROADS, step_layers.PREPARED_ROADS_ROLE, (step_layers.WIT_ID,))
+        districts = layer(inputs.districts, step_layers.PREPARED_DISTRICTS, step_layers.PREPARED_DISTRICTS_ROLE,
+                          (step_layers.WIT_ID,))
+        texcoords = layer(inputs.textures and str(Path(inputs.textures) / step_layers.TEXCOORD_FILE),
+                          step_layers.TEXCOORD_TABLE, step_layers.TEXCOORD_ROLE,
+                          (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_IMAGE,
+                           step_layers.TEX_COORDS))
+        if (lod1 is None or lod1.count() == 0) and (tin is None or inputs.lod1):
+            raise InputError(f"{inputs.lod1} has no building faces: run wit:extrudebuildings on a non-empty area.")
+        for source in (lod1, tin):
+            if source:
+                source.check_crs(srs_name)
+        images = texture_images(texcoords, Path(inputs.textures)) if texcoords else {}
+        envelope = envelope_of([source for source in (lod1, tin) if source])
+        if envelope is None:
+            raise InputError(f"{inputs.lod1 or inputs.tin} has no geometries: re-run the step that wrote it.")
+        return cls(lod1, tin, roads, districts, texcoords, images, envelope)
+
+
 def fields_of(layer: ogr.Layer) -> list[tuple[int, str, int]]:
     """(index, name, OGR type) of every attribute field (of a table or an SQL result)."""
     defn = layer.GetLayerDefn()
@@ -136,6 +190,73 @@ def texture_images(texcoords: InputLayer, folder: Path) -> dict[str, Path]:
                                  "re-run wit:wittexture.")
             images[image] = folder / rel
     return images
+
+
+#: OGR field type → the kind of generic attribute it is written as (anything else: a string)
+ATTRIBUTE_KINDS = {ogr.OFTInteger: "int", ogr.OFTInteger64: "int", ogr.OFTReal: "double", ogr.OFTDate: "date"}
+# characters XML 1.0 cannot carry (C0 controls except tab/LF/CR, lone surrogates, U+FFFE/U+FFFF)
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def clean_text(text: str) -> str:
+    """The text without the characters XML 1.0 cannot carry (so both encodings hold the same text)."""
+    return _NOT_XML.sub("", text)
+
+
+def typed_attributes(feature: ogr.Feature, fields: list[tuple[int, str, int]], skip: set[str]
+                     ) -> Iterator[tuple[str, str, int | float | str]]:
+    """(name, kind, value) of every set, finite attribute: the model's generic attributes, in field order.
+
+    ``kind`` is int, double, date (value ``YYYY-MM-DD``) or string (value without XML-illegal characters).
+    """
+    for index, name, ftype in fields:
+        if name in skip or not feature.IsFieldSetAndNotNull(index):
+            continue
+        kind = ATTRIBUTE_KINDS.get(ftype, "string")
+        if kind == "int":
+            value: int | float | str = feature.GetFieldAsInteger64(index)
+        elif kind == "double":
+            value = feature.GetFieldAsDouble(index)
+            if not math.isfinite(value):
+                continue
+        elif kind == "date":
+            year, month, day = feature.GetFieldAsDateTime(index)[:3]
+            value = f"{year:04d}-{month:02d}-{day:02d}"
+        else:
+            value = clean_text(feature.GetFieldAsString(index))
+        yield clean_text(name), kind, value
+
+
+def uv_values(texts: list[str], what: Callable[[int], str], triangles: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Validated texture coordinates: the (u, v) pairs of all texts one after another, and pairs per text.
+
+    Each text must hold u v pairs: 4 for a triangle (closing point included), at least 4 for a
+    ring; ``what(i)`` names the surface of text i for the error message. Texts of numbers
+    separated by single spaces (as wit:wittexture writes them) are parsed in one go.
+    """
+    joined = " ".join(texts)
+    tokens = joined.split()
+    counts = np.fromiter((text.count(" ") + 1 for text in texts), dtype=np.int64, count=len(texts))
+    try:  # the counts hold when the texts are the tokens joined by single spaces, none empty
+        values = np.array(tokens, dtype=np.float64) if joined == " ".join(tokens) else None
+    except ValueError:
+        values = None
+    if values is None or ((counts != 8) if triangles else (counts < 8) | (counts % 2 == 1)).any() \
+            or not np.isfinite(values).all():  # irregular spacing, or a text to report: one by one
+        rows = []
+        for i, text in enumerate(texts):
+            try:
+                numbers = [float(v) for v in text.split()]
+            except ValueError:
+                numbers = []
+            if not numbers or len(numbers) % 2 or (len(numbers) != 8 if triangles else len(numbers) < 8) \
+                    or not all(map(math.isfinite, numbers)):
+                raise InputError(f"Texture coordinates of {what(i)} are not a valid list of u v pairs: {text!r}. "
+                                 "Re-run wit:wittexture.")
+            rows.append(numbers)
+        counts = np.array([len(numbers) for numbers in rows], dtype=np.int64)
+        values = np.array([v for numbers in rows for v in numbers], dtype=np.float64)
+    return values.reshape(-1, 2), counts // 2
 
 
 def checked_wit_id(value: Any, what: str) -> str:
@@ -252,6 +373,12 @@ class Membership:
         self.db.executemany("INSERT INTO m VALUES (?, ?)",
                             ((district, self.pending[b][0]) for b, district in first.items()))
         self.pending.clear()
+
+    def parents(self) -> Iterator[tuple[str, str]]:
+        """(building wit_id, its district's wit_id) for every assigned building, in building order."""
+        self.flush()
+        for building, district in self.db.execute("SELECT building, district FROM m ORDER BY building"):
+            yield building, self.rows[district][0]
 
     def groups(self) -> Iterator[tuple[str, Any, Iterator[str]]]:
         """(district wit_id, district feature, member wit_ids sorted) for districts with members."""

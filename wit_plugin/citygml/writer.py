@@ -40,7 +40,6 @@ from pathlib import Path
 from typing import Any, Callable
 from xml.sax.saxutils import escape
 
-import numpy as np
 from lxml import etree
 from osgeo import ogr
 
@@ -53,15 +52,18 @@ from ..io.fileio import atomic_file
 from ..numtext import ring_texts
 from .inputs import (
     BULK,
+    CityGMLInputs,
     FacadeRows,
     InputLayer,
     Membership,
+    ModelLayers,
     checked_wit_id,
+    clean_text,
     columns_of,
-    envelope_of,
     fields_of,
-    texture_images,
     tin_triangles,
+    typed_attributes,
+    uv_values,
 )
 from .namespaces import APP, BLDG, CON, CORE, DEM, GEN, GML, GML_ID, GRP, TRAN, URIS, XLINK, XSI
 from .schemas import CITYGML_MODULES
@@ -78,20 +80,7 @@ NS = {prefix: URIS[prefix] for prefix in ("core", "bldg", "con", "tran", "dem", 
                                           "xsi")}
 """The namespaces the model declares on its root (those of the modules it uses)."""
 
-# characters XML 1.0 cannot carry (C0 controls except tab/LF/CR, lone surrogates, U+FFFE/U+FFFF)
-_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 _BATCH = 10_000  # rows between progress/cancel checks
-
-
-@dataclass(frozen=True)
-class CityGMLInputs:
-    """Paths of the step outputs to combine: the LoD1 faces, or (a tile that owns no building) the TIN alone."""
-
-    lod1: str | None
-    tin: str | None = None
-    roads: str | None = None
-    districts: str | None = None
-    textures: str | None = None  # wit:wittexture folder: images + step_layers.TEXCOORD_FILE
 
 
 @dataclass
@@ -119,33 +108,13 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
     with contextlib.ExitStack() as stack:
         stack.enter_context(collector_paused())
 
-        def layer(path: str | None, *args: Any, **kwargs: Any) -> InputLayer | None:
-            return stack.enter_context(InputLayer.open(path, *args, **kwargs)) if path else None
-
-        lod1 = layer(inputs.lod1, step_layers.LOD1_LAYER, step_layers.LOD1_ROLE,
-                     (step_layers.WIT_ID, step_layers.FACE_NUMBER, step_layers.FACE_TYPE), geometry_z=True)
-        tin = layer(inputs.tin, step_layers.TIN_LAYER, step_layers.TIN_ROLE,
-                    (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID), geometry_z=True)
-        roads = layer(inputs.roads, step_layers.PREPARED_ROADS, step_layers.PREPARED_ROADS_ROLE, (step_layers.WIT_ID,))
-        districts = layer(inputs.districts, step_layers.PREPARED_DISTRICTS, step_layers.PREPARED_DISTRICTS_ROLE,
-                          (step_layers.WIT_ID,))
-        texcoords = layer(inputs.textures and str(Path(inputs.textures) / step_layers.TEXCOORD_FILE),
-                          step_layers.TEXCOORD_TABLE, step_layers.TEXCOORD_ROLE,
-                          (step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_IMAGE,
-                           step_layers.TEX_COORDS))
-        if (lod1 is None or lod1.count() == 0) and (tin is None or inputs.lod1):
-            raise InputError(f"{inputs.lod1} has no building faces: run wit:extrudebuildings on a non-empty area.")
-        for source in (lod1, tin):
-            if source:
-                source.check_crs(srs_name)
-        images = texture_images(texcoords, Path(inputs.textures)) if texcoords else {}
-        report.envelope = envelope_of([source for source in (lod1, tin) if source])
-        if report.envelope is None:
-            raise InputError(f"{inputs.lod1 or inputs.tin} has no geometries: re-run the step that wrote it.")
+        layers = ModelLayers.open(inputs, srs_name, stack)
+        lod1, tin, roads, texcoords, images = layers.lod1, layers.tin, layers.roads, layers.texcoords, layers.images
+        report.envelope = layers.envelope
         tex_dir = out.parent / f"{out.stem}_textures"
-        uris = {image: _image_uri(src, image, out.parent, tex_dir if copy_textures else None)
+        uris = {image: image_uri(src, image, out.parent, tex_dir if copy_textures else None)
                 for image, src in images.items()}
-        members = stack.enter_context(Membership(districts)) if districts else None
+        members = stack.enter_context(Membership(layers.districts)) if layers.districts else None
         facades = stack.enter_context(FacadeRows.open(Path(inputs.textures))) if texcoords else None
         total = sum(source.count() for source in (lod1, tin, texcoords) if source) or 1
         tmp = stack.enter_context(atomic_file(out))
@@ -193,17 +162,13 @@ def srs_name_of(srs_name: str) -> str:
     raise InputError(f"CRS '{srs_name}' is neither EPSG:<code> nor a CRS URI/URN (e.g. EPSG:5186).")
 
 
-def _image_uri(src: Path, image: str, out_dir: Path, tex_dir: Path | None) -> str:
+def image_uri(src: Path, image: str, out_dir: Path, tex_dir: Path | None) -> str:
     """Relative URI of the image from the .gml: in the copied folder, else the original file."""
     target = tex_dir / image if tex_dir else src
     try:
         return Path(os.path.relpath(target, out_dir)).as_posix()
     except ValueError:  # another drive on Windows: no relative path exists
         return target.resolve().as_uri()
-
-
-def _clean(text: str) -> str:
-    return _NOT_XML.sub("", text)
 
 
 def _poslist(points: list[tuple[float, ...]]) -> str:
@@ -231,35 +196,10 @@ def _batches(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
 
 
 def _uv(texts: list[str], what: Callable[[int], str], triangles: bool) -> list[str]:
-    """Validated texture coordinates, normalised to 7 significant digits (each distinct pair formatted once).
-
-    Each text must hold u v pairs: 4 for a triangle (closing point included), at least 4 for a
-    ring; ``what(i)`` names the surface of text i for the error message. Texts of numbers
-    separated by single spaces (as wit:wittexture writes them) are parsed in one go.
-    """
-    joined = " ".join(texts)
-    tokens = joined.split()
-    counts = np.fromiter((text.count(" ") + 1 for text in texts), dtype=np.int64, count=len(texts))
-    try:  # the counts hold when the texts are the tokens joined by single spaces, none empty
-        values = np.array(tokens, dtype=np.float64) if joined == " ".join(tokens) else None
-    except ValueError:
-        values = None
-    if values is None or ((counts != 8) if triangles else (counts < 8) | (counts % 2 == 1)).any() \
-            or not np.isfinite(values).all():  # irregular spacing, or a text to report: one by one
-        rows = []
-        for i, text in enumerate(texts):
-            try:
-                numbers = [float(v) for v in text.split()]
-            except ValueError:
-                numbers = []
-            if not numbers or len(numbers) % 2 or (len(numbers) != 8 if triangles else len(numbers) < 8) \
-                    or not all(map(math.isfinite, numbers)):
-                raise InputError(f"Texture coordinates of {what(i)} are not a valid list of u v pairs: {text!r}. "
-                                 "Re-run wit:wittexture.")
-            rows.append(numbers)
-        counts = np.array([len(numbers) for numbers in rows], dtype=np.int64)
-        values = np.array([v for numbers in rows for v in numbers], dtype=np.float64)
-    return ring_texts(values.reshape(-1, 2), counts // 2, "%.7g %.7g")
+    """Validated texture coordinates (``uv_values``), normalised to 7 significant digits (each distinct pair
+    formatted once)."""
+    values, counts = uv_values(texts, what, triangles)
+    return ring_texts(values, counts, "%.7g %.7g")
 
 
 class _Progress:
@@ -275,10 +215,9 @@ class _Progress:
 
 # --- writing ------------------------------------------------------------------------------------
 
-_SKIP_BUILDING_FIELDS = {step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER, step_layers.HEIGHT,
+SKIP_BUILDING_FIELDS = {step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER, step_layers.HEIGHT,
                          step_layers.STOREYS_ABOVE, step_layers.STOREYS_BELOW}
-_GEN_TYPES = {ogr.OFTInteger: "IntAttribute", ogr.OFTInteger64: "IntAttribute",
-              ogr.OFTReal: "DoubleAttribute", ogr.OFTDate: "DateAttribute"}
+_GEN_TYPES = {"int": "IntAttribute", "double": "DoubleAttribute", "date": "DateAttribute", "string": "StringAttribute"}
 
 
 class _Writer:
@@ -334,25 +273,10 @@ class _Writer:
 
     def attributes(self, feature: ogr.Feature, fields: list[tuple[int, str, int]], skip: set[str]) -> None:
         """Every set, finite attribute as a typed ``gen:`` attribute (UTF-8, XML-clean)."""
-        for index, name, ftype in fields:
-            if name in skip or not feature.IsFieldSetAndNotNull(index):
-                continue
-            kind = _GEN_TYPES.get(ftype, "StringAttribute")
-            if kind == "IntAttribute":
-                value = str(feature.GetFieldAsInteger64(index))
-            elif kind == "DoubleAttribute":
-                number = feature.GetFieldAsDouble(index)
-                if not math.isfinite(number):
-                    continue
-                value = repr(number)
-            elif kind == "DateAttribute":
-                year, month, day = feature.GetFieldAsDateTime(index)[:3]
-                value = f"{year:04d}-{month:02d}-{day:02d}"
-            else:
-                value = _clean(feature.GetFieldAsString(index))
-            with self.el(CORE + "genericAttribute"), self.el(GEN + kind):
-                self.leaf(GEN + "name", _clean(name))
-                self.leaf(GEN + "value", value)
+        for name, kind, value in typed_attributes(feature, fields, skip):
+            with self.el(CORE + "genericAttribute"), self.el(GEN + _GEN_TYPES[kind]):
+                self.leaf(GEN + "name", name)
+                self.leaf(GEN + "value", repr(value) if kind == "double" else str(value))
 
     def polygon(self, gml_id: str, geometry: ogr.Geometry) -> None:
         self.raw(_polygon(gml_id, geometry))
@@ -372,7 +296,7 @@ class _Writer:
         number_col, type_col, last = col[step_layers.FACE_NUMBER], col[step_layers.FACE_TYPE], -1
         facade = facades.of(wit_id) if facades else None
         with self.member(BLDG + "Building", wit_id):
-            self.attributes(first, fields, _SKIP_BUILDING_FIELDS)
+            self.attributes(first, fields, SKIP_BUILDING_FIELDS)
             if facade is not None:  # how the wall texture was made
                 self.attributes(facade, facades.fields, {step_layers.WIT_ID, step_layers.FACADE_IMAGE})
             with self.el(CORE + "lod1Solid"), self.el(GML + "Solid", {GML_ID: f"{wit_id}_lod1"}), \
@@ -427,9 +351,9 @@ class _Writer:
             if tin:
                 triangles = chain.from_iterable(
                     zip(bulk_read.texts(batch[step_layers.TIN_FEATURE_ID]), ids, poslists) for ids, poslists, batch in
-                    tin_triangles(tin, _ROAD_TRIANGLES, (step_layers.TIN_FEATURE_ID, step_layers.TIN_TRIANGLE_ID)))
+                    tin_triangles(tin, ROAD_TRIANGLES, (step_layers.TIN_FEATURE_ID, step_layers.TIN_TRIANGLE_ID)))
                 tri_rows = groupby(triangles, key=itemgetter(0))
-            for wit_id, road, triangles in _join_sorted(road_rows, tri_rows):
+            for wit_id, road, triangles in join_sorted(road_rows, tri_rows):
                 self.road(checked_wit_id(wit_id, "A road"), road, fields, triangles)
 
     def road(self, wit_id: str, road: ogr.Feature | None, fields: list[tuple[int, str, int]],
@@ -452,7 +376,7 @@ class _Writer:
 
     def relief(self, tin: InputLayer) -> None:
         """The TIN triangles not written as road surfaces, as one ``dem:TINRelief``."""
-        where = f"NOT ({_ROAD_TRIANGLES})"
+        where = f"NOT ({ROAD_TRIANGLES})"
         if not tin.scalar(f'SELECT EXISTS (SELECT 1 FROM "{tin.name}" WHERE {where})'):
             return
         with self.member(DEM + "ReliefFeature", RELIEF_ID):
@@ -475,7 +399,7 @@ class _Writer:
             with self.member(GRP + "CityObjectGroup", wit_id):
                 index = district.GetFieldIndex(DISTRICT_NAME_FIELD)
                 if index >= 0 and district.IsFieldSetAndNotNull(index):
-                    self.leaf(GML + "name", _clean(district.GetFieldAsString(index)))
+                    self.leaf(GML + "name", clean_text(district.GetFieldAsString(index)))
                 self.attributes(district, members.fields, {step_layers.WIT_ID})
                 for building in buildings:
                     with self.el(GRP + "groupMember"), self.el(GRP + "Role"), \
@@ -561,7 +485,7 @@ class _Writer:
                 yield
 
 
-_ROAD_TRIANGLES = f"\"{step_layers.TIN_SURFACE}\" = 'road' AND \"{step_layers.TIN_FEATURE_ID}\" IS NOT NULL"
+ROAD_TRIANGLES = f"\"{step_layers.TIN_SURFACE}\" = 'road' AND \"{step_layers.TIN_FEATURE_ID}\" IS NOT NULL"
 """Triangles written into their road's traffic area; every other triangle goes into the relief."""
 
 
@@ -573,7 +497,7 @@ _ROAD_ASSOCIATION = (
 """What ``association`` writes for a road triangle, as ready-made markup."""
 
 
-def _join_sorted(left: Iterator[tuple[str, Any]], right: Iterator[tuple[str, Any]]
+def join_sorted(left: Iterator[tuple[str, Any]], right: Iterator[tuple[str, Any]]
                  ) -> Iterator[tuple[str, Any, Any]]:
     """Full outer merge of two key-sorted streams with unique keys: (key, left or None, right or None)."""
     a, b = next(left, None), next(right, None)
