@@ -21,12 +21,14 @@ from .base import WitAlgorithm, crs_string
 from .load_results import load_results
 from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
 from .shared_parameters import (
+    CITYJSON,
     MAX_EDGE,
     ROADS_LABEL,
     ROADS_TYPES,
     TOLERANCE,
     WEB_PROFILE,
     add_area_parameters,
+    add_cityjson_parameter,
     add_facade_parameter,
     add_height_parameters,
     add_mesh_parameters,
@@ -57,7 +59,8 @@ class CityModel(WitAlgorithm):
         "the common layers recognised by name; buildings given the default height are a warning and the "
         "DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each "
         "building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and "
-        "measure its quality. The output folder receives model.gml with its textures, validation.html, "
+        "measure its quality. The output folder receives model.gml with its textures (and, with CITYJSON, the same "
+        "model as CityJSON 2.0: model.city.json, validated alike), validation.html, "
         "metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, "
         "for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load "
         "into the project as a group for the 3D map view. Everything appears at the end, so "
@@ -94,6 +97,7 @@ class CityModel(WitAlgorithm):
             self.KEEP_WORK, self.tr("Keep the intermediate files"), defaultValue=False))
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputFile("GML", self.tr("CityGML file")))
+        self.addOutput(QgsProcessingOutputFile("CITYJSON_FILE", self.tr("CityJSON file (model.city.json)")))
         self.addOutput(QgsProcessingOutputFile("VALIDATION_REPORT", self.tr("Validation report (HTML)")))
         self.addOutput(QgsProcessingOutputFile("METRICS", self.tr("Metrics table (CSV)")))
         self.addOutput(QgsProcessingOutputBoolean("VALID", self.tr("All files valid")))
@@ -131,6 +135,7 @@ class CityModel(WitAlgorithm):
             options=[self.tr("Fail and name the missing sheets"), self.tr("Leave them untextured (warning)")],
             defaultValue=0))
         add_facade_parameter(self)
+        add_cityjson_parameter(self)
         self.addParameter(QgsProcessingParameterFile(
             self.SCHEMA_DIR, self.tr("Schema folder overriding the shipped schemas (with citygml3-all.xsd)"),
             behavior=FileBehavior.Folder, optional=True))
@@ -159,7 +164,8 @@ class CityModel(WitAlgorithm):
             facades=facade_choice(self, parameters, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
             schema_dir=configured, schema_cache=cache,
-            tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context))
+            tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context),
+            cityjson=self.parameterAsBool(parameters, CITYJSON, context))
         return inputs, options, expression
 
     def execute(self, parameters, context, feedback):
@@ -174,7 +180,8 @@ class CityModel(WitAlgorithm):
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
         return {
-            self.OUTPUT: report.output, "GML": report.gml, "VALIDATION_REPORT": report.validation_report,
+            self.OUTPUT: report.output, "GML": report.gml, "CITYJSON_FILE": report.cityjson,
+            "VALIDATION_REPORT": report.validation_report,
             "METRICS": report.metrics, "VALID": report.valid, "ERROR_COUNT": report.errors,
             "BUILDINGS_WRITTEN": report.buildings, "DEFAULT_HEIGHTS": report.default_heights,
             "UNTEXTURED": report.untextured_outside, "TILESET": report.tileset,

@@ -55,7 +55,9 @@ class CityModelTiles(CityModel):
         "on, each tile writes its tileset and tileset.json at the top of the output folder joins them into "
         "one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that "
         "show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer "
-        "in QGIS 3.34 and later)."
+        "in QGIS 3.34 and later). With CITYJSON, each tile also writes model.city.jsonl, a CityJSONSeq in the "
+        "run's one transform, and index.city.jsonl at the top is the run's header line listing them: its line and "
+        "the tiles' features, joined, are one CityJSONSeq of the whole run."
     )
 
     TILE_SCALE = "TILE_SCALE"
@@ -93,6 +95,8 @@ class CityModelTiles(CityModel):
         add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputVectorLayer("INDEX", self.tr("Tile index")))
+        self.addOutput(QgsProcessingOutputFile("CITYJSON_INDEX", self.tr("CityJSONSeq header of the run "
+                                                                         "(index.city.jsonl)")))
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset over all tiles (tileset.json)")))
         for name, label in (("TILES_DONE", self.tr("Tiles done")), ("TILES_FAILED", self.tr("Tiles failed")),
                             ("TILES_EMPTY", self.tr("Tiles without buildings")),
@@ -134,7 +138,7 @@ class CityModelTiles(CityModel):
         load_index(context, report.index)
         load_results(context, tileset=None if options.tiles3d_web else report.tileset)  # QGIS cannot read it
         return {self.OUTPUT: output, "INDEX": report.index, "TILESET": report.tileset,
-                "TILES_DONE": report.count("done"),
+                "CITYJSON_INDEX": report.cityjson, "TILES_DONE": report.count("done"),
                 "TILES_FAILED": report.count("failed"), "TILES_EMPTY": report.count("empty"),
                 "TILES_RESUMED": report.resumed, "BUILDINGS_WRITTEN": report.buildings}
 

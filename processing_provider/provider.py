@@ -9,6 +9,7 @@ from .citymodel import CityModel
 from .citymodeltiles import CityModelTiles
 from .colorstore_algorithms import BuildColorStore, QueryColorStore
 from .export3dtiles import Export3DTiles
+from .exportcityjson import ExportCityJSON
 from .extrudebuildings import ExtrudeBuildings
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
@@ -31,6 +32,7 @@ ALGORITHMS = (
     ExtrudeBuildings,
     WitTexture,
     WriteCityGML,
+    ExportCityJSON,
     Export3DTiles,
     ValidateCityGML,
     BuildColorStore,

@@ -35,6 +35,7 @@ MAX_EDGE, TOLERANCE = "MAX_EDGE", "TOLERANCE"
 #: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
 WEB_PROFILE = "WEB_PROFILE"
+CITYJSON = "CITYJSON"
 FACADES = "FACADES"
 #: the FACADES options, in the order of wit_plugin.texture.config.FACADE_CHOICES (a test holds them equal)
 FACADE_OPTIONS = (translatable("None: plain walls"),
@@ -190,3 +191,10 @@ def add_web_profile_parameter(algorithm, advanced: bool = False) -> None:
         WEB_PROFILE, tr("3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)"),
         defaultValue=False)
     algorithm.addParameter(_advanced(parameter) if advanced else parameter)
+
+
+def add_cityjson_parameter(algorithm) -> None:
+    """CityJSON beside the CityGML (off by default): model.city.json, or a tiled run's CityJSONSeq."""
+    algorithm.addParameter(QgsProcessingParameterBoolean(
+        CITYJSON, tr("Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile "
+                     "and index.city.jsonl)"), defaultValue=False))

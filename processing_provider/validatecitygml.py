@@ -1,4 +1,5 @@
-"""wit:validatecitygml — offline CityGML 3.0 validation: XSD, ids, references, geometry, textures."""
+"""wit:validatecitygml — offline CityGML 3.0 (and CityJSON 2.0) validation: schema, ids, references, geometry,
+textures."""
 from pathlib import Path
 
 from qgis.core import (
@@ -40,7 +41,10 @@ class ValidateCityGML(WitAlgorithm):
         "warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and "
         "URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond "
         "±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or "
-        "truncated gets one message saying so. "
+        "truncated gets one message saying so. CityJSON 2.0 files (.city.json) and CityJSONSeq files "
+        "(.city.jsonl) are validated alike: against the official CityJSON 2.0 schemas the plugin ships, and "
+        "with the same checks and tolerances (ids, parents and children, vertex indices, solids, TIN triangles, "
+        "texture images and values); a tile's sequence of a tiled run finds its images from the run's folder. "
         "Large files are streamed. External entities and network "
         "access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an "
         "ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin "
@@ -62,7 +66,7 @@ class ValidateCityGML(WitAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         self.addParameter(QgsProcessingParameterMultipleLayers(
-            self.INPUT, self.tr("CityGML files"), SourceType.File))
+            self.INPUT, self.tr("CityGML or CityJSON files"), SourceType.File))
         self.addParameter(QgsProcessingParameterFile(
             self.SCHEMA_DIR, self.tr("Schema folder (with citygml3-all.xsd)"),
             behavior=FileBehavior.Folder, optional=True))
@@ -80,6 +84,7 @@ class ValidateCityGML(WitAlgorithm):
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.citygml.schemas import find_schema_dir
         from ..wit_plugin.citygml.validate import validate_files, write_report_csv, write_report_html
+        from ..wit_plugin.cityjson.validate import is_cityjson, validate_cityjson_files
 
         configured = (self.parameterAsFile(parameters, self.SCHEMA_DIR, context)
                       or QgsSettings().value(SCHEMA_SETTING, "", type=str))
@@ -87,8 +92,11 @@ class ValidateCityGML(WitAlgorithm):
         schema_dir, source = find_schema_dir(configured or None, str(cache), allow_download=True,
                                              feedback=feedback)
         feedback.info(self.tr("Schemas: {source} ({folder})").format(source=source, folder=schema_dir))
-        reports = validate_files(self.parameterAsFileList(parameters, self.INPUT, context), schema_dir,
-                                 feedback=feedback)
+        files = self.parameterAsFileList(parameters, self.INPUT, context)
+        cityjson = [path for path in files if is_cityjson(path)]
+        citygml = [path for path in files if path not in cityjson]
+        reports = validate_files(citygml, schema_dir, feedback=feedback) if citygml or not cityjson else []
+        reports += validate_cityjson_files(cityjson, feedback) if cityjson else []
         # optional (batch users only want VALID): a temporary file then, as QGIS does for temporary outputs
         html = (self.parameterAsFileOutput(parameters, self.OUTPUT, context)
                 or QgsProcessingUtils.generateTempFilename("validation_report.html"))

@@ -9,7 +9,8 @@ step 1 (``ChainOptions.prepare``): the chain knows nothing of tiles. Order of th
 2. coverage: the DEM and the orthoimage sheets (from their sheet numbers) must cover that area —
    checked in seconds, before anything heavy, naming what is missing;
 3. georeference (as VRTs pointing at the untouched pixels) and merge only the sheets the area needs;
-4. terrain TIN, 5. LoD1 solids, 6. textures, 7. CityGML, 8. the 3D Tiles tileset, 9. validation,
+4. terrain TIN, 5. LoD1 solids, 6. textures, 7. CityGML (and, asked for, CityJSON beside it: ``model.city.json``,
+or a tile's ``model.city.jsonl`` of its run's CityJSONSeq), 8. the 3D Tiles tileset, 9. validation,
 10. quality metrics. The output folder also keeps the LoD1 and TIN GeoPackages (QGIS's 3D view).
 
 Everything is written into a staging folder inside the output folder and moved into place at the
@@ -35,6 +36,9 @@ from ..area import StudyArea
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
+from ..cityjson.sequence import PART_FILE
+from ..cityjson.validate import validate_cityjson_files
+from ..cityjson.writer import SequencePart, texture_folder_of, write_cityjson
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..georef import OK, georeference_sheets, list_tifs, write_footprint_index
@@ -59,7 +63,8 @@ MOSAIC_MARGIN = 10.0  # m of orthoimage kept around the area's box
 
 #: (label, share of the progress bar) of each step, in order (3dtiles runs beside validate and metrics)
 STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("terrain", 10), ("extrude", 4),
-         ("texture", 14), ("citygml", 14), ("3dtiles", 0), ("validate", 26), ("metrics", 12))
+         ("texture", 14), ("citygml", 14), ("cityjson", 4), ("3dtiles", 0), ("validate", 26), ("metrics", 12))
+CITYJSON_FILE = "model.city.json"
 
 
 @dataclass
@@ -125,6 +130,8 @@ class ChainOptions:
     tiles3d: bool = True  # write the 3D Tiles 1.1 tileset (<output>/3dtiles) for viewers
     tiles3d_web: bool = False  # its web profile: compressed geometry for browsers (QGIS cannot read it)
     encoding: str | None = None  # of shapefile inputs, when their declaration is wrong
+    cityjson: bool = False  # write the model as CityJSON 2.0 too (model.city.json)
+    cityjson_part: SequencePart | None = None  # a tile of a run: its CityJSONSeq (model.city.jsonl) instead
     #: step 1 of one part of a larger run (a tile of wit_plugin.sheetrun); None: the study area's layers
     prepare: PrepareLayers | None = None
 
@@ -149,6 +156,7 @@ class ChainReport:
     lod1: str | None = None
     tin: str | None = None
     tileset: str | None = None
+    cityjson: str | None = None
 
     def as_dict(self) -> dict:
         return {k: v for k, v in self.__dict__.items()}
@@ -298,10 +306,12 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("citygml") as fb:
         gml = staging / "model.gml"
-        written = write_citygml(CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
-                                              roads=layers.roads and layers.roads.split("|")[0],
-                                              districts=layers.districts and layers.districts.split("|")[0]),
-                                str(gml), srs_name=options.target_crs, feedback=fb)
+        written_inputs = CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
+                                       roads=layers.roads and layers.roads.split("|")[0],
+                                       districts=layers.districts and layers.districts.split("|")[0])
+        written = write_citygml(written_inputs, str(gml), srs_name=options.target_crs, feedback=fb)
+
+    cityjson = _write_cityjson(written_inputs, gml, options, clock) if options.cityjson else None
 
     tileset = str(staging / TILESET_DIR / TILESET_FILE) if options.tiles3d else None
     modules = TILES3D_MODULES + (("meshoptimizer",) if options.tiles3d_web else ())
@@ -316,6 +326,10 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
                                                          allow_download=True, feedback=fb)
             fb.info(f"Schemas: {source} ({schema_dir})")
             validation = validate_files([str(gml)], schema_dir, feedback=fb)
+            if cityjson:  # the same checks; a tile's image paths start from its run's folder
+                part = options.cityjson_part
+                validation += validate_cityjson_files([str(cityjson)], fb, image_folder=lambda _: staging,
+                                                      strip_prefix=f"{part.folder}/" if part else "")
             for report in validation:  # name the file where it will be, not where it was validated
                 report.file = str(output / Path(report.file).name)
             write_report_html(validation, str(staging / "validation.html"))
@@ -343,7 +357,19 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         untextured_outside=texture_report.untextured.get(OUTSIDE_ORTHO, 0), triangles=tin_stats.triangles,
         seconds={}, work=str(output / "work") if options.keep_work else None,
         lod1=str(output / Path(lod1).name) if lod1 else None, tin=str(output / Path(tin).name),
-        tileset=str(output / TILESET_DIR / Path(tileset).name) if tileset else None)
+        tileset=str(output / TILESET_DIR / Path(tileset).name) if tileset else None,
+        cityjson=str(output / cityjson.name) if cityjson else None)
+
+
+def _write_cityjson(inputs: CityGMLInputs, gml: Path, options: ChainOptions, clock: _Clock) -> Path:
+    """Step 7b: the same model as CityJSON beside the CityGML, referring to the CityGML's copy of the images."""
+    with clock.step("cityjson") as fb:
+        part = options.cityjson_part
+        path = gml.parent / (PART_FILE if part else CITYJSON_FILE)
+        images = texture_folder_of(gml)
+        write_cityjson(inputs, str(path), options.target_crs, fb, images_in=str(images) if images.is_dir() else None,
+                       part=part)
+    return path
 
 
 def _prepare(inputs: ChainInputs, options: ChainOptions, work: Path, feedback: Feedback) -> PreparedLayers:

@@ -27,9 +27,11 @@ _SOLID_BATCH = 2_000  # solids checked together
 class ModelCheck:
     """Every check but the reading; issues go to ``issues``."""
 
-    def __init__(self, issues: IssueList, image_folder: Path, tolerances: tuple[float, float, float],
+    def __init__(self, issues: IssueList, images: tuple[Path, str], tolerances: tuple[float, float, float],
                  feedback: Feedback):
-        self.issues, self.image_folder, self.feedback = issues, image_folder, feedback
+        """``images``: the folder relative image paths start from, and a prefix they have there is removed."""
+        self.issues, self.feedback = issues, feedback
+        self.image_folder, self.image_prefix = images
         self.planarity_tol, self.vertex_tol, self.min_area = tolerances
         self.schema = schema.available()
         self.scale, self.translate = np.ones(3), np.zeros(3)
@@ -136,10 +138,10 @@ class ModelCheck:
             self.issues.add("texture-image", line, None, f"Texture image {uri} is remote and was not checked.",
                             "warning")
             return
-        self.images[uri] = (self.image_folder / uri).is_file()
+        path = self.image_folder / (uri[len(self.image_prefix):] if uri.startswith(self.image_prefix) else uri)
+        self.images[uri] = path.is_file()
         if not self.images[uri]:
-            self.issues.add("texture-image", line, None, f"Texture image '{uri}' does not exist (looked for "
-                            f"{self.image_folder / uri}).")
+            self.issues.add("texture-image", line, None, f"Texture image '{uri}' does not exist (looked for {path}).")
 
     def _geometry(self, object_id: str, object_type: object, number: int, geometry: dict, vertices: np.ndarray,
                   textures: int, uv_count: int, line: int | None) -> None:

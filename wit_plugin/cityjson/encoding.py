@@ -7,6 +7,8 @@ CityJSON file, whose vertices are global) or leaves them local (a CityJSONFeatur
 """
 from __future__ import annotations
 
+import json
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -16,6 +18,26 @@ from .objects import SOLID, THEMES, Surfaces
 
 SCALE = 0.001  # the millimetre grid the CityGML's coordinates are written on (3 decimals)
 TEXT_BATCH = 65_536  # surfaces formatted per piece of text
+
+
+def json_text(value: object) -> str:
+    """Compact JSON of attributes and metadata, UTF-8 as it is; floats as Python's shortest repr, whatever other
+    code did to the ``json`` module (cjio, for one, replaces its float formatting with six decimals)."""
+    if isinstance(value, str):
+        return json.encoder.py_encode_basestring(value)
+    if value is None or isinstance(value, bool):
+        return {None: "null", True: "true", False: "false"}[value]
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{value} cannot be written in JSON")
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, dict):
+        return "{" + ",".join(f"{json_text(str(k))}:{json_text(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(map(json_text, value)) + "]"
+    raise TypeError(f"{type(value).__name__} is not a JSON value")
 
 
 @dataclass(frozen=True)

@@ -25,8 +25,8 @@ from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from . import schema
 from .checks import ModelCheck
+from .sequence import RUN_INDEX
 
-RUN_INDEX = "index.city.jsonl"  # a tiled run's header line, in the run's folder (sheetrun)
 SUFFIXES = (".city.json", ".city.jsonl", ".json", ".jsonl")
 
 
@@ -46,10 +46,12 @@ def image_folder_of(path: Path) -> Path:
 def validate_cityjson_files(paths: Sequence[str], feedback: Feedback = SILENT, planarity_tol: float = 0.01,
                             vertex_tol: float = 0.001, min_triangle_area: float = 1e-6,
                             max_issues_per_check: int = 200,
-                            image_folder: Callable[[Path], Path] = image_folder_of) -> list[FileReport]:
+                            image_folder: Callable[[Path], Path] = image_folder_of,
+                            strip_prefix: str = "") -> list[FileReport]:
     """Validate CityJSON files (tolerances as ``citygml.validate.validate_files``); one report per file.
 
-    ``image_folder``: the folder a file's relative image paths start from.
+    ``image_folder``: the folder a file's relative image paths start from, less ``strip_prefix`` (a tile's
+    sequence checked before it is in its run's folder).
     """
     files = [Path(p) for p in paths]
     if not files:
@@ -65,7 +67,8 @@ def validate_cityjson_files(paths: Sequence[str], feedback: Feedback = SILENT, p
         feedback.info(f"Validating {path.name}")
         start = time.perf_counter()
         issues = IssueList(str(path), max_issues_per_check)
-        check = ModelCheck(issues, image_folder(path), (planarity_tol, vertex_tol, min_triangle_area), feedback)
+        check = ModelCheck(issues, (image_folder(path), strip_prefix), (planarity_tol, vertex_tol, min_triangle_area),
+                           feedback)
         _validate(path, check, issues)
         closed = issues.closed()
         report = FileReport(str(path), not any(i.severity == "error" for i in closed), closed, path.stat().st_size,

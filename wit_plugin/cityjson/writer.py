@@ -19,7 +19,6 @@ vertices and images. Either file is written atomically: a failed or cancelled ru
 from __future__ import annotations
 
 import contextlib
-import json
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -36,7 +35,7 @@ from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..gc_pause import collector_paused
 from ..io.fileio import atomic_file
-from .encoding import Transform, encode, geometry_text, uv_text, vertices_text
+from .encoding import Transform, encode, geometry_text, json_text, uv_text, vertices_text
 from .objects import THEMES, CityObject, ModelObjects
 
 VERSION = "2.0"
@@ -50,7 +49,6 @@ LINEAGE = [{
     "processStep": {"description": "Written by WIT City Model (QGIS plugin) beside its CityGML 3.0 model: the same "
                                    "objects, ids, attributes, semantics and textures"}}]
 _IMAGE_TYPES = {".png": "PNG", ".jpg": "JPG", ".jpeg": "JPG"}
-_JSON = json.JSONEncoder(ensure_ascii=False, separators=(",", ":"))
 
 
 @dataclass(frozen=True)
@@ -204,8 +202,8 @@ def object_text(city_object: CityObject, geometry: Iterator[str] | None) -> Iter
         members["parents"] = city_object.parents
     if city_object.children is not None:
         members["children"] = city_object.children
-    text = _JSON.encode(members)
-    yield f"{_JSON.encode(city_object.id)}:{text[:-1]}"
+    text = json_text(members)
+    yield f"{json_text(city_object.id)}:{text[:-1]}"
     if geometry is not None:
         yield ',"geometry":['
         yield from geometry
@@ -221,7 +219,7 @@ class _File:
         self.fh, self.transform, self.textures, self.vertices, self.uv = fh, transform, textures, vertices, uv
         self.vertex_count = self.uv_count = self.features = 0
         self.first = True
-        fh.write(_JSON.encode(start)[:-1] + ',"CityObjects":{')
+        fh.write(json_text(start)[:-1] + ',"CityObjects":{')
 
     def add(self, city_object: CityObject) -> None:
         geometry = None
@@ -242,7 +240,7 @@ class _File:
         self.fh.write("]")
         if self.textures:
             self.fh.write(f',"appearance":{{"default-theme-texture":"{THEMES[0]}","textures":'
-                          f'{_JSON.encode(self.textures)},"vertices-texture":[')
+                          f'{json_text(self.textures)},"vertices-texture":[')
             _copy(self.uv, self.fh)
             self.fh.write("]}")
         self.fh.write("}\n")
@@ -255,11 +253,11 @@ class _Sequence:
     def __init__(self, fh: IO[str], start: dict, transform: Transform, textures: list[dict]):
         self.fh, self.transform, self.textures = fh, transform, textures
         self.vertex_count = self.features = 0
-        fh.write(_JSON.encode({**start, "CityObjects": {}, "vertices": []}) + "\n")
+        fh.write(json_text({**start, "CityObjects": {}, "vertices": []}) + "\n")
 
     def add(self, city_object: CityObject) -> None:
         fh, geometry = self.fh, city_object.geometry
-        fh.write(f'{{"type":"CityJSONFeature","id":{_JSON.encode(city_object.id)},"CityObjects":{{')
+        fh.write(f'{{"type":"CityJSONFeature","id":{json_text(city_object.id)},"CityObjects":{{')
         if geometry is None:
             fh.writelines(object_text(city_object, None))
             fh.write('},"vertices":[]}\n')
@@ -274,7 +272,7 @@ class _Sequence:
             fh.write("]")
             if len(used):
                 fh.write(f',"appearance":{{"default-theme-texture":"{THEMES[0]}","textures":'
-                         f'{_JSON.encode([self.textures[i] for i in used.tolist()])},"vertices-texture":[')
+                         f'{json_text([self.textures[i] for i in used.tolist()])},"vertices-texture":[')
                 fh.writelines(uv_text(encoded.uv))
                 fh.write("]}")
             fh.write("}\n")

@@ -32,6 +32,7 @@ from ..area import StudyArea
 from ..chain import ChainInputs, ChainOptions
 from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
 from ..chain.coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
+from ..cityjson.sequence import PART_FILE, run_translate, write_run_index
 from ..deps import require
 from ..errors import CanceledError, InputError
 from ..feedback import SILENT, Feedback
@@ -70,6 +71,7 @@ class TilesReport:
     resumed: int = 0
     seconds: float = 0.0
     tileset: str | None = None  # one 3D Tiles tileset over the tiles' tilesets
+    cityjson: str | None = None  # the run's CityJSONSeq header (index.city.jsonl)
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
@@ -119,7 +121,8 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
         "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir, "tiles3d": options.tiles3d,
-        "tiles3d_web": options.tiles3d_web,
+        "tiles3d_web": options.tiles3d_web, "cityjson": options.cityjson,
+        "cityjson_translate": list(run_translate(area)) if options.cityjson else None,  # the run's one transform
         "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
@@ -257,6 +260,11 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     if tiles and report.count(DONE) == 0:
         reasons = "; ".join(f"{r['sheet']}: {r.get('error')}" for r in report.rows[:5])
         raise InputError(f"No tile could be built ({len(failed)} failed, {report.count(EMPTY)} empty): {reasons}")
+    if options.cityjson:
+        report.cityjson = write_run_index(output, [(r["sheet"], f"{TILES_DIR}/{r['sheet']}/{PART_FILE}")
+                                                   for r in report.rows if r["status"] in (DONE, EMPTY)],
+                                          options.target_crs, run_translate(polygon))
+        feedback.info(f"CityJSONSeq: {report.cityjson} (the run's header line; the tiles' features follow it)")
     if options.tiles3d:
         modelled = {r["sheet"]: Path(r["gml"]).parent.as_posix() for r in report.rows if r["status"] in (DONE, EMPTY)}
         feedback.info("3D Tiles: the groups above the tiles (coarse terrain and largest buildings).")

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from ..area import StudyArea
 from ..chain import ChainInputs, ChainOptions, run_city_model
+from ..cityjson.sequence import tile_part
 from ..errors import WitError
 from ..feedback import LoggingFeedback
 from ..heights import HeightOptions
@@ -58,6 +59,7 @@ def run_tile(spec: dict) -> dict:
         heights=HeightOptions(**spec["heights"]), outside_ortho=spec["outside_ortho"],
         schema_dir=spec["schema_dir"], schema_cache=spec["schema_cache"], metrics=False,
         tiles3d=spec["tiles3d"], tiles3d_web=spec["tiles3d_web"], encoding=spec["encoding"],
+        cityjson=spec["cityjson"], cityjson_part=tile_part(sheet, spec["cityjson_translate"], f"{TILES_DIR}/{sheet}"),
         prepare=job.prepare_layers)
     row = {"sheet": sheet, "buildings": 0, "triangles": 0, "gml": None, "error": None}
     try:
