@@ -67,10 +67,10 @@ def check(instance: object, ref: str, where: str) -> None:
     try:
         _compiled(ref)(instance)
     except fastjsonschema.JsonSchemaException as exc:
-        path = getattr(exc, "path", None) or []
-        place = where + "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path[1:])
-        raise SchemaError(place, exc.message.replace("data", place, 1) if exc.message.startswith("data")
-                          else exc.message) from None
+        name = getattr(exc, "name", None) or "data"  # e.g. data.geometry[0]: where in the instance
+        place = where + name[len("data"):] if name.startswith("data") else where
+        message = exc.message[len(name):].strip() if exc.message.startswith(name) else exc.message
+        raise SchemaError(place, message) from None
 
 
 def check_city_object(city_object: object, where: str) -> None:

@@ -30,6 +30,14 @@ from .sequence import RUN_INDEX
 SUFFIXES = (".city.json", ".city.jsonl", ".json", ".jsonl")
 
 
+class CityJSONFileReport(FileReport):
+    """A CityJSON file's report: its summary names the schema, not an XSD."""
+
+    @property
+    def details(self) -> str:
+        return super().details if self.issues else "valid (schema, ids, references, geometry, textures)"
+
+
 def is_cityjson(path: str | Path) -> bool:
     return str(path).lower().endswith(SUFFIXES)
 
@@ -71,8 +79,8 @@ def validate_cityjson_files(paths: Sequence[str], feedback: Feedback = SILENT, p
                            feedback)
         _validate(path, check, issues)
         closed = issues.closed()
-        report = FileReport(str(path), not any(i.severity == "error" for i in closed), closed, path.stat().st_size,
-                            time.perf_counter() - start)
+        report = CityJSONFileReport(str(path), not any(i.severity == "error" for i in closed), closed,
+                                    path.stat().st_size, time.perf_counter() - start)
         feedback.info(f"{path.name}: {report.status} ({report.details})")
         reports.append(report)
         feedback.progress(100.0 * (number + 1) / len(files))
