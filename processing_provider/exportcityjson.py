@@ -24,7 +24,7 @@ class ExportCityJSON(WitAlgorithm):
         "Writes the model's layers as CityJSON 2.0 (.city.json), or as a CityJSONSeq (.city.jsonl: a header line, "
         "then one feature a line): the same objects, ids, attributes and textures as wit:writecitygml. Buildings "
         "with a LoD1 Solid whose surfaces are GroundSurface, RoofSurface and WallSurface, every source attribute, "
-        "height (with its status: measured or estimated) and storeys; roads as their draped triangles "
+        "height (with heightStatus: measured or estimated) and storeys; roads as their draped triangles "
         "(TrafficArea); the other TIN triangles as one TINRelief; one CityObjectGroup per legal dong, its "
         "buildings naming it as their parent. Textures: the same images and texture coordinates, in the themes "
         "of the CityGML (rgbTexture: the orthoimage; generatedFacade: the walls' generated facades, which repeat "

@@ -8,8 +8,9 @@ reviewable (run this, then `git diff` the .model3):
 The model does what wit:citymodel does, step by step in the modeler: georeference the NGII
 sheet TIFs → merge them (WIT feather + gain) → prepare the vectors for the study area →
 triangulate the terrain → extrude LoD1 buildings → texture them → write CityGML 3.0 →
-validate it. Intermediate results go to temporary files; the model outputs are the .gml and the
-HTML validation report. Child outputs are linked directly (no expressions), so renaming a
+validate it; and, when the CITYJSON input is ticked (a conditional branch), export the same model as
+CityJSON 2.0. Intermediate results go to temporary files; the model outputs are the .gml, the HTML
+validation report and the optional .city.json. Child outputs are linked directly (no expressions), so renaming a
 child's description in the modeler breaks nothing.
 """
 from __future__ import annotations
@@ -50,7 +51,10 @@ INPUT_HELP = {
     "FACADES": "Wall textures: generated facades (storey modules drawn from each building's use and storeys, "
                "marked as generated) or none.",
     "SCHEMA_DIR": "Folder with citygml3-all.xsd for validation (empty: the plugin's configured/bundled schemas).",
+    "CITYJSON": "Also write the model as CityJSON 2.0 (the CityJSON output; off by default).",
 }
+#: the conditional branch that runs the CityJSON export only when CITYJSON is ticked
+CITYJSON_BRANCH = "CITYJSON_ASKED"
 
 
 def _bootstrap():
@@ -88,8 +92,10 @@ def build_model():
         QgsProcessing,
         QgsProcessingModelAlgorithm,
         QgsProcessingModelChildAlgorithm,
+        QgsProcessingModelChildDependency,
         QgsProcessingModelOutput,
         QgsProcessingModelParameter,
+        QgsProcessingParameterBoolean,
         QgsProcessingParameterEnum,
         QgsProcessingParameterExpression,
         QgsProcessingParameterField,
@@ -143,6 +149,7 @@ def build_model():
                                    defaultValue=facades.defaultValue()),
         QgsProcessingParameterFile("SCHEMA_DIR", "Schema folder (with citygml3-all.xsd)",
                                    behavior=QgsProcessingParameterFile.Folder, optional=True),
+        QgsProcessingParameterBoolean("CITYJSON", "Write CityJSON 2.0 too", defaultValue=False),
     ]
     for row, definition in enumerate(definitions):
         component = QgsProcessingModelParameter(definition.name())
@@ -186,16 +193,28 @@ def build_model():
           "COPY_TEXTURES": static(True)}),
         ("VALIDATE", "wit:validatecitygml", "8 Validate the CityGML",
          {"INPUT": child("CITYGML", "OUTPUT"), "SCHEMA_DIR": param("SCHEMA_DIR")}),
+        ("IF_CITYJSON", "native:condition", "9 CityJSON asked for?", {}),
+        ("CITYJSON", "wit:exportcityjson", "10 Export CityJSON 2.0",
+         {"LOD1": child("EXTRUDE", "LOD1"), "TIN": child("TERRAIN", "TIN"), "ROADS": child("PREPARE", "ROADS_OUT"),
+          "DISTRICTS": child("PREPARE", "DISTRICTS_OUT"), "TEXTURES": child("TEXTURE", "OUTPUT"),
+          "COPY_TEXTURES": static(True)}),
     ]
+    #: children run only on a branch of a condition: child id → (condition child id, branch)
+    branches = {"CITYJSON": ("IF_CITYJSON", CITYJSON_BRANCH)}
+    #: the conditions' branches (a configuration, not parameters)
+    configurations = {"IF_CITYJSON": {"conditions": [{"name": CITYJSON_BRANCH, "expression": "@CITYJSON"}]}}
     #: the model outputs: child id → (child output, model output name, description). QGIS names a
     #: model output "<child id>:<name>" (CITYGML:GML, VALIDATE:REPORT): child ids are upper case
     #: like every wit parameter name
     outputs = {
         "CITYGML": ("OUTPUT", "GML", "CityGML file"),
         "VALIDATE": ("OUTPUT", "REPORT", "Validation report (HTML)"),
+        "CITYJSON": ("OUTPUT", "FILE", "CityJSON file (when CITYJSON is ticked)"),
     }
     for column, (child_id, algorithm_id, description, sources) in enumerate(steps):
         step = QgsProcessingModelChildAlgorithm(algorithm_id)
+        if child_id in configurations:
+            step.setConfiguration(configurations[child_id])
         if step.algorithm() is None:
             raise RuntimeError(f"{algorithm_id} is not registered")
         step.setChildId(child_id)
@@ -219,10 +238,12 @@ def build_model():
             output.setChildId(child_id)
             output.setChildOutputName(child_output)
             output.setDescription(label)
-            output.setMandatory(True)
+            output.setMandatory(child_id not in branches)  # optional: qgis_process 3.22 asks for mandatory ones
             output.setPosition(position + QPointF(0, 120))
             output.setSize(QSizeF(200, 30))
             step.setModelOutputs({name: output})
+        if child_id in branches:
+            step.setDependencies([QgsProcessingModelChildDependency(*branches[child_id])])
         model.addChildAlgorithm(step)
     model.updateDestinationParameters()
 
@@ -232,14 +253,15 @@ def build_model():
             "modeler): georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the "
             "building, road and legal-dong layers for a circular study area, triangulate the terrain, "
             "extrude LoD1 buildings, texture them from the orthoimage (walls: generated facades, marked as "
-            "generated), write CityGML 3.0 and validate it. "
-            "Intermediate results are temporary files; the outputs are the .gml (textures copied beside it) "
-            "and the HTML validation report."),
+            "generated), write CityGML 3.0 and validate it; with CITYJSON ticked, export the same model as "
+            "CityJSON 2.0 too. Intermediate results are temporary files; the outputs are the .gml (textures "
+            "copied beside it), the HTML validation report and, asked for, the .city.json."),
         "ALG_CREATOR": "WIT City Model",
         "ALG_HELP_CREATOR": "scripts/make_model.py",
         "ALG_VERSION": "1",
         "CITYGML:GML": "The CityGML 3.0 file; the texture images are written beside it.",
         "VALIDATE:REPORT": "HTML report of the schema and geometry validation.",
+        "CITYJSON:FILE": "The CityJSON 2.0 file (only when CITYJSON is ticked); its textures are copied beside it.",
     }
     help_content.update(INPUT_HELP)
     model.setHelpContent(help_content)

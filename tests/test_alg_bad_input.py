@@ -54,6 +54,9 @@ CASES = {
     "writecitygml: not an LoD1 layer": ("wit:writecitygml", lambda i, o: {
         "LOD1": i["footprints"], "OUTPUT": str(o / "out.gml")},
         r"Layer 'buildings' in .*plain.gpkg lacks the field\(s\) .* of the LoD1 faces \(wit:extrudebuildings\)"),
+    "exportcityjson: not an LoD1 layer": ("wit:exportcityjson", lambda i, o: {
+        "LOD1": i["footprints"], "OUTPUT": str(o / "out.city.json")},
+        r"Layer 'buildings' in .*plain.gpkg lacks the field\(s\) .* of the LoD1 faces \(wit:extrudebuildings\)"),
     "buildcolorstore: not RGB": ("wit:buildcolorstore", lambda i, o: {
         "INPUT": i["gray"], "OUTPUT": str(o / "out.gpkg")}, "is not an RGB orthoimage"),
     "qualitymetrics: nothing to measure": ("wit:qualitymetrics", lambda i, o: {

@@ -149,18 +149,24 @@ def test_citymodel_in_one_call_gives_the_same_model(chain, shared_dir, tmp_path)
     result = processing.run("wit:citymodel", {
         "ORTHO_INPUT": [str(sample.ortho_tiles[0].parent)], "DEM": str(sample.dem),
         "BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads), "DISTRICTS": str(sample.districts),
-        "RADIUS": 200.0, "SCHEMA_DIR": str(shared_dir / "schemas"), "OUTPUT": str(tmp_path / "city")})
+        "RADIUS": 200.0, "SCHEMA_DIR": str(shared_dir / "schemas"), "CITYJSON": True, "OUTPUT": str(tmp_path / "city")})
     assert result["VALID"] is True and result["ERROR_COUNT"] == 0
     ids = lambda path: {b.get("{http://www.opengis.net/gml/3.2}id")  # noqa: E731
                         for b in etree.parse(path).iterfind(".//bldg:Building", NS)}
     assert ids(result["GML"]) == ids(chain["gml"]["OUTPUT"])
+    # CityJSON beside it (CITYJSON): the same buildings, validated with it (validation.html lists both)
+    assert result["CITYJSON_FILE"] == str(tmp_path / "city" / "model.city.json")
+    cityjson = json.loads(Path(result["CITYJSON_FILE"]).read_text(encoding="utf-8"))
+    assert {k for k, v in cityjson["CityObjects"].items() if v["type"] == "Building"} == ids(result["GML"])
+    assert all((tmp_path / "city" / t["image"]).is_file() for t in cityjson["appearance"]["textures"])
+    assert "model.city.json" in (tmp_path / "city" / "validation.html").read_text(encoding="utf-8")
     assert result["BUILDINGS_WRITTEN"] == chain["gml"]["BUILDINGS"]
     produced = {p.name for p in (tmp_path / "city").iterdir()}
     assert {"model.gml", "model_textures", "validation.html", "metrics.csv", "metrics.html", "steps.json"} <= produced
     assert not any(name.startswith((".wit-run-", "work")) for name in produced), "staging or work folder left"
     assert list(json.loads(result["STEP_TIMES"])) == ["prepare", "coverage", "georeference", "merge", "terrain",
-                                                       "extrude", "texture", "citygml", "3dtiles", "validate",
-                                                       "metrics"]
+                                                       "extrude", "texture", "citygml", "cityjson", "3dtiles",
+                                                       "validate", "metrics"]
     assert result["TILESET"] == str(tmp_path / "city" / "3dtiles" / "tileset.json")
     assert Path(result["TILESET"]).is_file()
     assert {"lod1.gpkg", "tin.gpkg", "3dtiles"} <= produced

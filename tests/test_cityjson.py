@@ -93,12 +93,12 @@ def test_buildings_attributes_and_semantics(city):
         "wit_base_z": 10.0, "wit_height_src": "field", "BULD_NM": "서울특별시청", "GRND_FLR": 3, "AREA": 267.52,
         "NOTE": 'a<b & "c" d', "wit_facade": "generated", "wit_facade_style": "house",
         "wit_facade_rule": "BDTYP_CD 01001", "wit_facade_storeys": 3, "wit_facade_storeys_src": "GRND_FLR",
-        "height": {"value": 8.6, "uom": "m", "status": "measured", "highReference": "highestRoofEdge",
-                   "lowReference": "lowestGroundPoint"},
+        "height": 8.6, "heightStatus": "measured", "heightLowReference": "lowestGroundPoint",
+        "heightHighReference": "highestRoofEdge",
         "storeysAboveGround": 3, "storeysBelowGround": 1}
     assert b["attributes"] == {"wit_base_z": 10.5, "wit_height_src": "default", "BULD_NM": "덕수궁 별관",
-                               "height": {"value": 3.0, "uom": "m", "status": "estimated",
-                                          "highReference": "highestRoofEdge", "lowReference": "lowestGroundPoint"}}
+                               "height": 3.0, "heightStatus": "estimated", "heightLowReference": "lowestGroundPoint",
+                               "heightHighReference": "highestRoofEdge"}
     assert a["parents"] == ["EMD_11110101"] and b["parents"] == ["EMD_11110102"]
     geometry = _geometry(doc, A["wit_id"])
     assert geometry["type"] == "Solid" and geometry["lod"] == "1"

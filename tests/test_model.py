@@ -20,10 +20,12 @@ pytestmark = [pytest.mark.slow, pytest.mark.qgis_facing]
 
 MODEL_FILE = ROOT / "processing_provider" / "models" / "wit_citymodel.model3"
 INPUTS = ["ORTHO", "DEM", "BUILDINGS", "ROADS", "DISTRICTS", "CENTER", "RADIUS", "STOREY_HEIGHT", "HEIGHT_FIELD",
-          "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT", "MAX_EDGE", "TRIANGULATOR", "FACADES", "SCHEMA_DIR"]
+          "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT", "MAX_EDGE", "TRIANGULATOR", "FACADES", "SCHEMA_DIR", "CITYJSON"]
 GML_OUT = "CITYGML:GML"
 REPORT_OUT = "VALIDATE:REPORT"
-CHAIN = ["GEOREFERENCE", "MERGE", "PREPARE", "TERRAIN", "EXTRUDE", "TEXTURE", "CITYGML", "VALIDATE"]
+CITYJSON_OUT = "CITYJSON:FILE"
+CHAIN = ["GEOREFERENCE", "MERGE", "PREPARE", "TERRAIN", "EXTRUDE", "TEXTURE", "CITYGML", "VALIDATE", "IF_CITYJSON",
+         "CITYJSON"]
 GML = "{http://www.opengis.net/gml/3.2}"
 #: CityGML elements counted in every comparison
 COUNTED = {
@@ -68,8 +70,9 @@ def sample(tmp_path_factory, qgis_processing):
 def model_parameters(sample, shared_dir, out) -> dict:
     return {"ORTHO": [str(sample.ortho_tiles[0].parent)], "DEM": str(sample.dem),
             "BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads), "DISTRICTS": str(sample.districts),
-            "RADIUS": 200.0, "SCHEMA_DIR": str(shared_dir / "schemas"),
-            GML_OUT: str(out / "model" / "suseo.gml"), REPORT_OUT: str(out / "validation.html")}
+            "RADIUS": 200.0, "SCHEMA_DIR": str(shared_dir / "schemas"), "CITYJSON": True,
+            GML_OUT: str(out / "model" / "suseo.gml"), REPORT_OUT: str(out / "validation.html"),
+            CITYJSON_OUT: str(out / "model" / "suseo.city.json")}
 
 
 @pytest.fixture(scope="module")
@@ -141,14 +144,15 @@ def test_model_is_valid_with_the_documented_inputs_and_outputs(qgis_processing):
     assert model.validate() == (True, [])
     assert model.name() == "citymodelmodel" and model.group() == "Chain"
     assert [d.name() for d in model.parameterDefinitions() if not d.isDestination()] == INPUTS
-    assert {d.name() for d in model.destinationParameterDefinitions()} == {GML_OUT, REPORT_OUT}
-    assert {o.name() for o in model.outputDefinitions()} == {GML_OUT, REPORT_OUT}
+    assert {d.name() for d in model.destinationParameterDefinitions()} == {GML_OUT, REPORT_OUT, CITYJSON_OUT}
+    assert {o.name() for o in model.outputDefinitions()} == {GML_OUT, REPORT_OUT, CITYJSON_OUT}
+    assert model.parameterDefinition("CITYJSON").defaultValue() is False  # CityJSON: off by default
     assert model.parameterDefinition("RADIUS").defaultValue() == 1000.0
     assert model.parameterDefinition("MAX_EDGE").defaultValue() == 5.0
     optional = {d.name() for d in model.parameterDefinitions()
                 if d.flags() & d.FlagOptional}
     assert optional == {"ROADS", "DISTRICTS", "CENTER", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "TRIANGULATOR",
-                        "SCHEMA_DIR"}
+                        "SCHEMA_DIR", CITYJSON_OUT}
     # no default in the model: wit:triangulateterrain's own on the machine it runs on
     assert model.parameterDefinition("TRIANGULATOR").defaultValue() is None
     assert model.parameterDefinition("TRIANGULATOR").options() == ["Triangle (non-commercial licence)", "CDT (MPL-2.0)"]
@@ -165,6 +169,10 @@ def test_model_is_valid_with_the_documented_inputs_and_outputs(qgis_processing):
     assert model.dependsOnChildAlgorithms("TERRAIN") == model.dependsOnChildAlgorithms("EXTRUDE") == {"PREPARE"}
     assert model.dependsOnChildAlgorithms("TEXTURE") == set(CHAIN[:5])
     assert model.dependsOnChildAlgorithms("VALIDATE") == set(CHAIN[:7])
+    # the CityJSON export: the same layers as the CityGML, on the condition's branch only
+    assert model.dependsOnChildAlgorithms("CITYJSON") == set(CHAIN[:6]) | {"IF_CITYJSON"}
+    (dependency,) = children["CITYJSON"].dependencies()
+    assert (dependency.childId, dependency.conditionalBranch) == ("IF_CITYJSON", "CITYJSON_ASKED")
     source = children["TERRAIN"].parameterSources()["AREA"][0]
     assert (source.outputChildId(), source.outputName()) == ("PREPARE", "AREA_OUT")
 
@@ -181,7 +189,14 @@ def test_model_run_writes_a_valid_city_model(model_run):
     parameters, result = model_run
     assert result[GML_OUT] == parameters[GML_OUT]
     assert result[REPORT_OUT] == parameters[REPORT_OUT]
+    assert result[CITYJSON_OUT] == parameters[CITYJSON_OUT]
     children = result["CHILD_RESULTS"]
+    assert children["CITYJSON"]["BUILDINGS"] == children["CITYGML"]["BUILDINGS"]
+    assert children["CITYJSON"]["TRIANGLES"] == children["CITYGML"]["TRIANGLES"]
+    with open(result[CITYJSON_OUT], encoding="utf-8") as stream:
+        cityjson = json.load(stream)
+    assert {key for key, value in cityjson["CityObjects"].items() if value["type"] == "Building"} == summary(
+        result[GML_OUT])[0]
     assert children["VALIDATE"]["VALID"] is True and children["VALIDATE"]["ERROR_COUNT"] == 0
     ids, counts = summary(result[GML_OUT])
     assert len(ids) == counts["bldg:Building"] == children["CITYGML"]["BUILDINGS"] > 50
@@ -224,6 +239,8 @@ def test_model_equals_wit_citymodel(model_run, sample, shared_dir):
 def test_model_runs_headless_through_qgis_process(model_run, sample, shared_dir, tmp_path_factory):
     out, sample_data = sample
     parameters = model_parameters(sample_data, shared_dir, out / "headless")
+    del parameters[CITYJSON_OUT]  # CityJSON not asked for: the export is skipped
+    parameters["CITYJSON"] = False
     args = [str(ROOT / "scripts" / "qgis-process"), "--json", "run", str(MODEL_FILE)]
     for name, value in parameters.items():
         for item in value if isinstance(value, list) else [value]:
@@ -232,10 +249,12 @@ def test_model_runs_headless_through_qgis_process(model_run, sample, shared_dir,
     completed = subprocess.run(args, check=False, capture_output=True, text=True, env=env, timeout=900)
     assert completed.returncode == 0, completed.stdout[-3000:] + completed.stderr[-3000:]
     report = json.loads(completed.stdout[completed.stdout.index("{"):])
-    assert report["results"] == {GML_OUT: parameters[GML_OUT], REPORT_OUT: parameters[REPORT_OUT]}
+    assert {k: v for k, v in report["results"].items() if v} == {GML_OUT: parameters[GML_OUT],
+                                                                   REPORT_OUT: parameters[REPORT_OUT]}
+    assert not (out / "headless" / "model" / "suseo.city.json").exists()
     log = "\n".join(report["log"]["info"]) if isinstance(report.get("log"), dict) else completed.stdout
-    # QGIS 3.22 says "Executed 8 algorithms", 3.44 "Executed 8 algorithm(s)"
-    assert "Success" in log and re.search(r"Executed 8 algorithm(s|\(s\)) ", log), log[-2000:]
+    # QGIS 3.22 says "Executed 9 algorithms", 3.44 "Executed 9 algorithm(s)": the chain and the condition
+    assert "Success" in log and re.search(r"Executed 9 algorithm(s|\(s\)) ", log), log[-2000:]
     assert summary(parameters[GML_OUT]) == summary(model_run[1][GML_OUT])
 
 

@@ -22,7 +22,7 @@ pytestmark = pytest.mark.qgis_facing
 EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors",
                 "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
                 "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics",
-                "wit:citymodel", "wit:export3dtiles"}
+                "wit:citymodel", "wit:export3dtiles", "wit:exportcityjson"}
 
 
 def _without_registered_provider():

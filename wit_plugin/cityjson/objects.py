@@ -266,15 +266,16 @@ class ModelObjects:
 
 
 def _height(feature: ogr.Feature, col: dict[str, int]) -> dict:
-    """The CityGML's ``con:height`` as an attribute: measured when it came from a height field, else estimated."""
+    """The CityGML's ``con:height`` as flat attributes (QGIS's CityJSON Loader stores no nested value): its value
+    (m), measured when it came from a height field, else estimated, and its references."""
     if step_layers.HEIGHT not in col or not feature.IsFieldSetAndNotNull(col[step_layers.HEIGHT]):
         return {}
     value = feature.GetFieldAsDouble(col[step_layers.HEIGHT])
     if not np.isfinite(value):
         return {}
     source = feature.GetFieldAsString(col[step_layers.HEIGHT_SOURCE]) if step_layers.HEIGHT_SOURCE in col else None
-    return {"height": {"value": round(value, 3), "uom": "m", "status": "measured" if source == "field" else "estimated",
-                       "highReference": "highestRoofEdge", "lowReference": "lowestGroundPoint"}}
+    return {"height": round(value, 3), "heightStatus": "measured" if source == "field" else "estimated",
+            "heightLowReference": "lowestGroundPoint", "heightHighReference": "highestRoofEdge"}
 
 
 def _tin_batch(batch: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

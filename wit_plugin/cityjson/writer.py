@@ -2,13 +2,14 @@
 CityJSONSeq ``.city.jsonl`` (a CityJSON header line, then one ``CityJSONFeature`` a line) for a tile of a run.
 
 The objects are ``objects.ModelObjects``'s, the CityGML writer's: ``Building`` with a LoD1 ``Solid`` whose
-surfaces are ``GroundSurface`` / ``RoofSurface`` / ``WallSurface``, every generic attribute, ``height``
-(the CityGML's ``con:height``) and storeys; ``Road`` with its draped triangles as a lod 2 ``MultiSurface`` of
-``TrafficArea``; ``TINRelief`` (the other TIN triangles, a ``CompositeSurface``); a ``CityObjectGroup`` per
-legal dong, its buildings naming it in ``parents``. Textures: the same images and texture coordinates, in
-the themes of the CityGML (``rgbTexture``: the orthoimage, ``specific``; ``generatedFacade``: the walls,
-``typical``, ``wrapMode`` wrap). Coordinates are integers on the millimetre grid (``transform``); the CRS
-is ``metadata.referenceSystem`` (an OGC CRS URL), with the extent and the lineage.
+surfaces are ``GroundSurface`` / ``RoofSurface`` / ``WallSurface``, every generic attribute, ``height`` with
+``heightStatus`` and its references (the CityGML's ``con:height``) and storeys; ``Road`` with its draped
+triangles as a lod 2 ``MultiSurface`` of ``TrafficArea``; ``TINRelief`` (the other TIN triangles, a
+``CompositeSurface``); a ``CityObjectGroup`` per legal dong, its buildings naming it in ``parents``.
+Textures: the same images and texture coordinates, in the themes of the CityGML (``rgbTexture``: the
+orthoimage, ``specific``; ``generatedFacade``: the walls, ``typical``, ``wrapMode`` wrap). Coordinates are
+integers on the millimetre grid (``transform``); the CRS is ``metadata.referenceSystem`` (an OGC CRS URL),
+with the extent and the lineage.
 
 Memory and streaming: objects are written as they are read. In a ``.city.json`` the vertices and the (u, v)
 pairs are global arrays after the objects, so they are spooled to temporary files as each object is
