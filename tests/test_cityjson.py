@@ -138,9 +138,12 @@ def test_textures_same_images_and_coordinates_as_the_citygml(city):
     values = road["texture"]["rgbTexture"]["values"]
     assert values[1] == [[None]] and values[0][0][0] == 2 and uv[values[0][0][1:]].tolist() == [[0, 0], [1, 0],
                                                                                                   [1, 0.25]]
-    relief = _geometry(doc, citygml.TIN_RELIEF_ID)
-    assert relief["type"] == "CompositeSurface" and len(relief["boundaries"]) == 3
-    assert [v[0][0] for v in relief["texture"]["rgbTexture"]["values"]] == [2, 2, None]  # tri 5 has none
+    # the relief: one composite surface per part joined by edges (terrain triangles 3 and 4; the footprint's 5)
+    ground, footprint = doc["CityObjects"][citygml.TIN_RELIEF_ID]["geometry"]
+    assert [g["type"] for g in (ground, footprint)] == ["CompositeSurface"] * 2
+    assert [len(g["boundaries"]) for g in (ground, footprint)] == [2, 1]
+    assert [v[0][0] for v in ground["texture"]["rgbTexture"]["values"]] == [2, 2]
+    assert "texture" not in footprint  # triangle 5 has no texture coordinates
 
 
 def test_groups_list_their_buildings(city):

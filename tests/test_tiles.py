@@ -27,6 +27,7 @@ from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
 from wit_plugin.mapsheet import sheet_at
+from wit_plugin.cityjson.validate import validate_cityjson_files
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.sheetrun import plan
 from wit_plugin.sheetrun.index import read_index
@@ -118,7 +119,7 @@ def _inputs(sample, **kw) -> ChainInputs:
 
 
 def _options() -> ChainOptions:
-    return ChainOptions(area=None, max_edge=15.0, metrics=False, tiles3d=False)
+    return ChainOptions(area=None, max_edge=15.0, metrics=False, tiles3d=False, cityjson=True)
 
 
 @pytest.fixture(scope="module")
@@ -888,3 +889,27 @@ def _check_in_the_viewer(output: Path, tmp_path: Path) -> None:
     _, picture = view_in_chromium(output, tmp_path)
     assert not list((tmp_path / "viewer" / "3dtiles").rglob("*.gml"))  # the tilesets alone
     assert (np.abs(picture - picture[0]).sum(axis=1) > 30).mean() > 0.2  # the tiles fill the view
+
+
+def test_the_tiles_cityjsonseqs_join_into_one_valid_sequence(local_run, tmp_path):
+    """Each tile's model.city.jsonl (the run's one transform) and the run's header index.city.jsonl: joined as
+    `cat` joins them, one sequence holding every building of the tiles' CityGML once, valid (schemas, geometry,
+    the images found from the run's folder)."""
+    out, report = local_run
+    modelled = _modelled(report)
+    head = json.loads((out / "index.city.jsonl").read_text(encoding="utf-8"))
+    assert report.cityjson == str(out / "index.city.jsonl")
+    assert [part["sheet"] for part in head["metadata"]["parts"]] == [row["sheet"] for row in modelled]
+    lines = [(out / "index.city.jsonl").read_text(encoding="utf-8").rstrip("\n")]
+    for part in head["metadata"]["parts"]:
+        tile = (out / part["file"]).read_text(encoding="utf-8").splitlines()
+        assert json.loads(tile[0])["transform"] == head["transform"] and len(tile) - 1 == part["features"]
+        lines += tile[1:]
+    joined = out / "joined.city.jsonl"
+    joined.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    features = [json.loads(line) for line in lines[1:]]
+    buildings = [f["id"] for f in features if f["CityObjects"][f["id"]]["type"] == "Building"]
+    assert sorted(buildings) == sorted(i for row in modelled for i in _building_ids(out / row["gml"]))
+    (valid,) = validate_cityjson_files([str(joined)])
+    joined.unlink()
+    assert valid.valid, valid.issues[:5]

@@ -210,3 +210,33 @@ def test_the_triangulator_options_are_the_backends_in_order(qgis_processing):
     assert TRIANGULATOR_OPTIONS == triangulators.LABELS == ("Triangle (non-commercial licence)", "CDT (MPL-2.0)")
     with pytest.raises(ValueError, match="0 .Triangle"):
         triangulators.backend(2)
+
+
+def test_snapping_leaves_no_edge_shorter_than_a_centimetre():
+    """Vertices under 1 cm apart (val3dity reads them as one at its 1 mm snap) become one: two inner ones 6 mm
+    apart, and an inner one 4 mm from the area's rim, which keeps its place; the ground stays whole."""
+    flat = Dem(np.full((4, 4), 7.0), (-10.0, 10.0, 0.0, 30.0, 0.0, -10.0))
+    cons = terrain.constraints.clean_constraints(shapely.box(0, 0, 10, 10), [], [("R", shapely.box(2, 8, 6, 9))])
+    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
+    points = np.array([[5.0, 5.0], [5.006, 5.0], [3.0, 0.004], [2.0, 2.0], [8.0, 2.0], [8.0, 6.0], [2.0, 5.0]])
+    mesh = triangulators.BACKENDS[triangulators.CDT].triangulate(pslg, points, pslg.locate(points))
+    surface = np.full(len(mesh.triangles), "terrain", dtype=object)
+    xyz = np.column_stack([mesh.vertices, np.full(len(mesh.vertices), 7.0)])
+    tin = terrain.mesh.Tin(xyz, mesh.triangles, surface, np.full(len(surface), None), cons)
+    edges = lambda t: np.hypot(*np.diff(t.vertices[t.triangles[:, [0, 1, 2, 0]], :2], axis=1).T)  # noqa: E731
+    assert edges(tin).min() < 0.005
+    snapped = terrain.output.snap_to_grid(tin, flat)
+    assert edges(snapped).min() >= terrain.output.MIN_EDGE
+    assert _lone_inner_edges(snapped) == 0
+    assert terrain.mesh._triangle_areas(snapped.vertices, snapped.triangles).sum() == pytest.approx(100.0)
+    used = snapped.vertices[np.unique(snapped.triangles), :2].round(3).tolist()
+    assert [3.0, 0.0] in used or [3.0, 0.004] not in used  # the rim point stays on the rim
+    assert [5.0, 5.0] in used and [5.006, 5.0] not in used  # the first in (x, y) order stays
+
+
+def test_components_join_linked_items_under_their_smallest():
+    from wit_plugin.arrays import components
+
+    labels = components(np.array([[5, 1], [1, 3], [7, 8], [3, 0]]), 10)
+    assert labels.tolist() == [0, 0, 2, 0, 4, 0, 6, 7, 7, 9]
+    assert components(np.zeros((0, 2), dtype=np.int64), 3).tolist() == [0, 1, 2]

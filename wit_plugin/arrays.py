@@ -26,3 +26,23 @@ def edge_pairs(keys: np.ndarray) -> np.ndarray:
 def triangle_edge_keys(tris: np.ndarray) -> np.ndarray:
     """(m, 3) edge keys of each triangle."""
     return edge_keys(np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1))
+
+
+def components(pairs: np.ndarray, count: int) -> np.ndarray:
+    """The connected component of each of ``count`` items linked by ``pairs`` (k, 2), labelled by its smallest
+    item: roots hooked to the smaller label, then paths halved, until no pair links two labels (numpy only)."""
+    label = np.arange(count)
+    a, b = np.asarray(pairs, dtype=np.int64).reshape(-1, 2).T
+    while True:
+        la, lb = label[a], label[b]
+        apart = la != lb
+        if not apart.any():
+            return label
+        low = np.minimum(la[apart], lb[apart])
+        np.minimum.at(label, la[apart], low)
+        np.minimum.at(label, lb[apart], low)
+        while True:
+            jumped = label[label]
+            if (jumped == label).all():
+                break
+            label = jumped

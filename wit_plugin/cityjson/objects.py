@@ -19,6 +19,7 @@ import numpy as np
 from osgeo import ogr
 
 from .. import step_layers
+from ..arrays import components, triangle_edge_keys
 from ..citygml.inputs import (
     BULK,
     FacadeRows,
@@ -80,7 +81,7 @@ class CityObject:
     id: str
     type: str
     attributes: dict = field(default_factory=dict)
-    geometry: Surfaces | None = None
+    geometries: list[Surfaces] = field(default_factory=list)
     parents: list[str] | None = None
     children: list[str] | None = None
 
@@ -201,7 +202,7 @@ class ModelObjects:
                              f"{', '.join(step_layers.FACE_TYPES)}: re-run wit:extrudebuildings.")
         geometry = Surfaces(SOLID, BUILDING_LOD, np.concatenate(points)[:, :3], np.array(ring_len), np.array(rings),
                             FACE_SEMANTICS, np.array(semantic), np.array(image), np.array(theme), np.concatenate(uv))
-        return CityObject(wit_id, "Building", attributes, geometry, parents)
+        return CityObject(wit_id, "Building", attributes, [geometry], parents)
 
     # roads, relief, groups ---------------------------------------------------------------------
     def road_objects(self) -> Iterator[CityObject]:
@@ -217,9 +218,9 @@ class ModelObjects:
             for wit_id, road, triangles in join_sorted(road_rows, triangle_rows):
                 wit_id = checked_wit_id(wit_id, "A road")
                 attributes = attributes_of(road, fields, {step_layers.WIT_ID}) if road is not None else {}
-                geometry = self._triangles(triangles, MULTI_SURFACE, ROAD_LOD, ROAD_SEMANTICS) \
-                    if triangles is not None else None
-                yield CityObject(wit_id + self.suffix, "Road", attributes, geometry)
+                geometries = [self._triangles(triangles, MULTI_SURFACE, ROAD_LOD, ROAD_SEMANTICS)] \
+                    if triangles is not None else []
+                yield CityObject(wit_id + self.suffix, "Road", attributes, geometries)
 
     def _road_triangles(self, stack: contextlib.ExitStack) -> Iterator[tuple[str, tuple[np.ndarray, np.ndarray]]]:
         """(road wit_id, (tri ids, corners)) per road, in wit_id order."""
@@ -232,7 +233,8 @@ class ModelObjects:
             yield wit_id, (np.array([row[1] for row in group]), np.array([row[2] for row in group]))
 
     def relief(self) -> CityObject | None:
-        """Every TIN triangle not written as a road surface, as one ``TINRelief`` (CompositeSurface)."""
+        """Every TIN triangle not written as a road surface, as one ``TINRelief``: a ``CompositeSurface`` per part
+        that hangs together (by edges), as a composite surface must; the roads cut the ground into such parts."""
         ids, corners = [], []
         with self.tin.select(f"NOT ({ROAD_TRIANGLES})", (step_layers.TIN_TRIANGLE_ID,)) as result:
             for batch in bulk_read.batches(result, BULK):
@@ -241,8 +243,14 @@ class ModelObjects:
                 corners.append(batch_corners)
         if not ids or not sum(map(len, ids)):
             return None
-        geometry = self._triangles((np.concatenate(ids), np.concatenate(corners)), COMPOSITE_SURFACE, RELIEF_LOD, ())
-        return CityObject(TIN_RELIEF_ID + self.suffix, "TINRelief", {}, geometry)
+        ids, corners = np.concatenate(ids), np.concatenate(corners)
+        part = surface_parts(corners)
+        order = np.argsort(part, kind="stable")  # parts in the order of their first triangle
+        bounds = np.flatnonzero(np.r_[True, part[order][1:] != part[order][:-1], True])
+        pieces = [order[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+        pieces.sort(key=lambda piece: piece[0])
+        return CityObject(TIN_RELIEF_ID + self.suffix, "TINRelief", {}, [
+            self._triangles((ids[piece], corners[piece]), COMPOSITE_SURFACE, RELIEF_LOD, ()) for piece in pieces])
 
     def _triangles(self, triangles: tuple[np.ndarray, np.ndarray], kind: str, lod: str,
                    semantics: tuple[str, ...]) -> Surfaces:
@@ -276,6 +284,49 @@ def _height(feature: ogr.Feature, col: dict[str, int]) -> dict:
     source = feature.GetFieldAsString(col[step_layers.HEIGHT_SOURCE]) if step_layers.HEIGHT_SOURCE in col else None
     return {"height": round(value, 3), "heightStatus": "measured" if source == "field" else "estimated",
             "heightLowReference": "lowestGroundPoint", "heightHighReference": "highestRoofEdge"}
+
+
+def surface_parts(corners: np.ndarray, max_passes: int = 8) -> np.ndarray:
+    """For triangles given as (n, 3, 3) corners: a part label per triangle such that each part is a composite
+    surface as validators want it: connected through edges, and manifold at every vertex (the triangles of a
+    part around a vertex form one fan). Corners equal to the millimetre are one vertex.
+
+    Parts are first the edge-connected sets; where a part meets itself at a vertex only (two fans, e.g. where
+    roads nearly enclose a piece of ground), each fan but the first becomes a part of its own, and the rest is
+    split again where that disconnected it.
+    """
+    keys = np.rint(corners.reshape(-1, 3)[:, :2] / 1e-3).astype(np.int64)
+    _, vertex = np.unique(keys, axis=0, return_inverse=True)
+    vertex = vertex.reshape(-1, 3)
+    edges = triangle_edge_keys(vertex)  # (n, 3): edge k of a triangle joins its corners k and k + 1
+    flat = edges.ravel()
+    order = np.argsort(flat, kind="stable")
+    same = np.flatnonzero(flat[order][1:] == flat[order][:-1])
+    first, second = order[same], order[same + 1]  # the two uses (triangle * 3 + edge) of each inner edge
+    t1, t2 = first // 3, second // 3
+    # the corners an inner edge links: the same vertex in both triangles, at both ends of the edge
+    corner = np.arange(3 * len(vertex)).reshape(-1, 3)
+    links = []
+    for end in (0, 1):
+        v = vertex[t1, (first % 3 + end) % 3]
+        links.append(np.column_stack([corner[t1, (first % 3 + end) % 3],
+                                      corner[t2, np.argmax(vertex[t2] == v[:, None], axis=1)]]))
+    links = np.vstack(links)
+    part = components(np.column_stack([t1, t2]), len(vertex))
+    for _ in range(max_passes):
+        inside = part[links[:, 0] // 3] == part[links[:, 1] // 3]
+        fan = components(links[inside], 3 * len(vertex))  # a label per corner: its fan around its vertex
+        group = part[np.arange(3 * len(vertex)) // 3] * (vertex.max() + 1) + vertex.ravel()
+        pairs = np.unique(np.column_stack([group, fan]), axis=0)
+        extra = pairs[np.r_[False, pairs[1:, 0] == pairs[:-1, 0]]]  # a second (third…) fan at a vertex of a part
+        if not len(extra):
+            return part
+        moved = np.isin(fan, extra[:, 1]).reshape(-1, 3)
+        tri = np.flatnonzero(moved.any(axis=1))
+        part[tri] = -1 - fan.reshape(-1, 3)[tri, np.argmax(moved[tri], axis=1)]  # the fan's own part
+        keep = part[t1] == part[t2]
+        part = components(np.column_stack([t1[keep], t2[keep]]), len(vertex))
+    return part
 
 
 def _tin_batch(batch: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -156,7 +156,7 @@ def write_cityjson(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:518
             for city_object in objects.all():
                 sink.add(city_object)
                 _count(report, city_object)
-                progress.tick(len(city_object.geometry.rings) if city_object.geometry else 1)
+                progress.tick(sum(len(g.rings) for g in city_object.geometries) or 1)
             sink.close()
         report.vertices, report.features = sink.vertex_count, sink.features
         report.textures = len(textures)
@@ -190,12 +190,12 @@ def _count(report: CityJSONReport, city_object: CityObject) -> None:
         report.roads += 1
     elif city_object.type == "CityObjectGroup":
         report.groups += 1
-    if city_object.type in ("Road", "TINRelief") and city_object.geometry is not None:
-        report.triangles += len(city_object.geometry.rings)
+    if city_object.type in ("Road", "TINRelief"):
+        report.triangles += sum(len(g.rings) for g in city_object.geometries)
 
 
-def object_text(city_object: CityObject, geometry: Iterator[str] | None) -> Iterator[str]:
-    """``"id":{…}`` of a city object, its geometry given as text pieces."""
+def object_text(city_object: CityObject, geometries: list[Iterator[str]]) -> Iterator[str]:
+    """``"id":{…}`` of a city object, each of its geometries given as text pieces."""
     members = {"type": city_object.type}
     if city_object.attributes:
         members["attributes"] = city_object.attributes
@@ -205,9 +205,11 @@ def object_text(city_object: CityObject, geometry: Iterator[str] | None) -> Iter
         members["children"] = city_object.children
     text = json_text(members)
     yield f"{json_text(city_object.id)}:{text[:-1]}"
-    if geometry is not None:
+    if geometries:
         yield ',"geometry":['
-        yield from geometry
+        for number, pieces in enumerate(geometries):
+            yield "," if number else ""
+            yield from pieces
         yield "]"
     yield "}"
 
@@ -223,16 +225,16 @@ class _File:
         fh.write(json_text(start)[:-1] + ',"CityObjects":{')
 
     def add(self, city_object: CityObject) -> None:
-        geometry = None
-        if city_object.geometry is not None:
-            encoded = encode(city_object.geometry, self.transform)
-            geometry = geometry_text(city_object.geometry, encoded, self.vertex_count, self.uv_count)
+        texts = []
+        for geometry in city_object.geometries:
+            encoded = encode(geometry, self.transform)
+            texts.append(geometry_text(geometry, encoded, self.vertex_count, self.uv_count))
             _append(self.vertices, vertices_text(encoded.vertices), self.vertex_count)
             _append(self.uv, uv_text(encoded.uv), self.uv_count)
             self.vertex_count += len(encoded.vertices)
             self.uv_count += len(encoded.uv)
         self.fh.write("\n" if self.first else ",\n")
-        self.fh.writelines(object_text(city_object, geometry))
+        self.fh.writelines(object_text(city_object, texts))
         self.first = False
 
     def close(self) -> None:
@@ -257,27 +259,28 @@ class _Sequence:
         fh.write(json_text({**start, "CityObjects": {}, "vertices": []}) + "\n")
 
     def add(self, city_object: CityObject) -> None:
-        fh, geometry = self.fh, city_object.geometry
+        fh, geometries = self.fh, city_object.geometries
+        images = [g.image[g.image >= 0] for g in geometries if g.image is not None]
+        used = np.unique(np.concatenate(images)) if images else np.zeros(0, dtype=np.int64)
+        local = np.full(len(self.textures), -1, dtype=np.int64)
+        local[used] = np.arange(len(used))
+        encoded = [encode(geometry, self.transform) for geometry in geometries]
+        vertex_offsets = np.r_[0, np.cumsum([len(e.vertices) for e in encoded])].tolist()
+        uv_offsets = np.r_[0, np.cumsum([len(e.uv) for e in encoded])].tolist()
+        texts = [geometry_text(g, e, v, u, local) for g, e, v, u in zip(geometries, encoded, vertex_offsets,
+                                                                       uv_offsets)]
         fh.write(f'{{"type":"CityJSONFeature","id":{json_text(city_object.id)},"CityObjects":{{')
-        if geometry is None:
-            fh.writelines(object_text(city_object, None))
-            fh.write('},"vertices":[]}\n')
-        else:
-            encoded = encode(geometry, self.transform)
-            used = np.unique(geometry.image[geometry.image >= 0]) if geometry.image is not None else []
-            local = np.full(len(self.textures), -1, dtype=np.int64)
-            local[used] = np.arange(len(used))
-            fh.writelines(object_text(city_object, geometry_text(geometry, encoded, 0, 0, local)))
-            fh.write('},"vertices":[')
-            fh.writelines(vertices_text(encoded.vertices))
-            fh.write("]")
-            if len(used):
-                fh.write(f',"appearance":{{"default-theme-texture":"{THEMES[0]}","textures":'
-                         f'{json_text([self.textures[i] for i in used.tolist()])},"vertices-texture":[')
-                fh.writelines(uv_text(encoded.uv))
-                fh.write("]}")
-            fh.write("}\n")
-            self.vertex_count += len(encoded.vertices)
+        fh.writelines(object_text(city_object, texts))
+        fh.write('},"vertices":[')
+        fh.write(",".join(text for e in encoded for text in vertices_text(e.vertices) if text))
+        fh.write("]")
+        if len(used):
+            fh.write(f',"appearance":{{"default-theme-texture":"{THEMES[0]}","textures":'
+                     f'{json_text([self.textures[i] for i in used.tolist()])},"vertices-texture":[')
+            fh.write(",".join(text for e in encoded for text in uv_text(e.uv) if text))
+            fh.write("]}")
+        fh.write("}\n")
+        self.vertex_count += vertex_offsets[-1]
         self.features += 1
 
     def close(self) -> None:

@@ -5,9 +5,10 @@ from pathlib import Path
 
 import numpy as np
 import pyproj
+import shapely
 from osgeo import ogr
 
-from ..arrays import triangle_edge_keys
+from ..arrays import edge_pairs, triangle_edge_keys
 from ..dem import Dem
 from ..feedback import SILENT, Feedback
 from ..io.gpkg_bulk import write_layer
@@ -22,16 +23,20 @@ from .constraints import Constraints
 from .mesh import ROUNDING, Tin, _areas_3d, _triangle_areas, _with_heights
 
 DEGENERATE_AREA = 2e-6  # m² at mm precision; validators reject ≤ 1e-6
+#: no two vertices of the written TIN closer (m): val3dity, the reference validator of CityJSON, reads vertices
+#: within its 1 mm snap tolerance as one, so an edge of 1-1.5 mm (two millimetre-grid points side by side) was a
+#: "repeated point" to it
+MIN_EDGE = 0.01
 
 
 def snap_to_grid(tin: Tin, dem: Dem, max_passes: int = 8) -> Tin:
     """The TIN with its vertices on the model's millimetre grid, as they are written, and still watertight.
 
     The one place where coordinates are rounded: road and relief triangles (and neighbouring tiles)
-    then write a shared vertex with the same digits. Vertices that round to the same point become one
-    (the triangles between them vanish; no crack, both sides lose them); heights are the DEM's at the
-    rounded points. A triangle left without area (three points in a row to the millimetre) or turned
-    over by rounding is taken out by splitting the triangle across its longest edge at its third
+    then write a shared vertex with the same digits. Vertices closer than ``MIN_EDGE`` become one
+    (``_weld``: the triangles between them vanish; no crack, both sides lose them), so no edge is shorter;
+    heights are the DEM's at the rounded points. A triangle left without area (three points in a row to the
+    millimetre) or turned over by rounding is taken out by splitting the triangle across its longest edge at its third
     corner, so the ground keeps no T-junction; at the rim or a footprint it is simply dropped.
     Vertex indices are kept (a merged vertex points to the first of its group).
     """
@@ -40,11 +45,73 @@ def snap_to_grid(tin: Tin, dem: Dem, max_passes: int = 8) -> Tin:
     _, first, inverse = np.unique((steps[:, 0] - low[0]) * (1 << 32) + (steps[:, 1] - low[1]),
                                   return_index=True, return_inverse=True)
     xyz = _with_heights(dem, steps * ROUNDING)
-    tris = first[inverse.ravel()][tin.triangles]
-    surface, feature = tin.surface, tin.feature_id
-    alive = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 2] != tris[:, 0])
-    tris, surface, feature = tris[alive], surface[alive], feature[alive]
+    tris, surface, feature = first[inverse.ravel()][tin.triangles], tin.surface, tin.feature_id
+    for weld in (False, True):
+        if weld:
+            tris = _weld(xyz, tris, steps)[tris]
+        alive = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 2] != tris[:, 0])
+        tris, surface, feature = tris[alive], surface[alive], feature[alive]
     return _mend_flat(xyz, tris, surface, feature, tin.constraints, max_passes)
+
+
+def _weld(xyz: np.ndarray, tris: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """Each vertex's representative: vertices of ``tris`` closer than ``MIN_EDGE`` become one, so no two left are.
+
+    The mesh's rim (the area's edge, a tile's border, the footprints' holes: edges one triangle uses) keeps its
+    place: a rim vertex takes the inner ones near it, and rim vertices near each other become the one first in
+    (x, y) order, a rule of the rim alone, so a neighbouring tile, whose rim along the border holds the same
+    vertices, welds them alike (no crack between tiles). The other vertices near each other become the first
+    of each group in (x, y) order. Moves are at most about ``MIN_EDGE``.
+    """
+    used = np.unique(tris)
+    keys = triangle_edge_keys(tris).ravel()
+    edge, count = np.unique(keys, return_counts=True)
+    rim = np.zeros(len(xyz), dtype=bool)
+    rim[edge_pairs(edge[count == 1]).ravel()] = True
+    points = shapely.points(xyz[used, :2])
+    near_a, near_b = shapely.STRtree(points).query(points, predicate="dwithin", distance=MIN_EDGE)
+    a, b = used[near_a], used[near_b]
+    close = a < b
+    a, b = a[close], b[close]
+    representative = np.arange(len(xyz))
+    if not len(a):
+        return representative
+    order = np.lexsort((steps[:, 1], steps[:, 0]))
+    rank = np.empty(len(xyz), dtype=np.int64)
+    rank[order] = np.arange(len(xyz))  # (x, y) order of the vertices
+    both = rim[a] & rim[b]
+    _join(representative, a[both], b[both], rank)
+    inner = ~rim[a] | ~rim[b]
+    a, b = a[inner], b[inner]
+    to_rim = rim[a] != rim[b]  # an inner vertex goes to its nearest rim vertex's representative
+    inner_of, rim_of = np.where(rim[a], b, a)[to_rim], np.where(rim[a], a, b)[to_rim]
+    gap = np.hypot(*(xyz[inner_of, :2] - xyz[rim_of, :2]).T)
+    nearest = np.lexsort((gap, inner_of))
+    first = np.ones(len(nearest), dtype=bool)
+    first[1:] = inner_of[nearest][1:] != inner_of[nearest][:-1]
+    taken = inner_of[nearest][first]
+    representative[taken] = representative[rim_of[nearest][first]]
+    free = ~to_rim & ~np.isin(a, taken) & ~np.isin(b, taken)
+    _join(representative, a[free], b[free], rank)
+    return representative
+
+
+def _join(representative: np.ndarray, a: np.ndarray, b: np.ndarray, rank: np.ndarray) -> None:
+    """Union of the vertex pairs (a, b) into ``representative``: each group becomes its member of lowest rank."""
+    parent: dict[int, int] = {}
+
+    def root(v: int) -> int:
+        while parent.get(v, v) != v:
+            v = parent[v]
+        return v
+
+    for u, v in zip(a.tolist(), b.tolist()):
+        ru, rv = root(u), root(v)
+        if ru != rv:
+            low, high = (ru, rv) if rank[ru] < rank[rv] else (rv, ru)
+            parent[high] = low
+    for v in parent:
+        representative[v] = root(v)
 
 
 def _key(a: int, b: int) -> int:
