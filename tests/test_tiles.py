@@ -4,6 +4,7 @@ single-area chain: same buildings, none twice, tiles valid, borders shared verte
 resume, a failing tile, a killed worker and Cancel."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
@@ -24,10 +25,10 @@ from lxml import etree
 from wit_plugin import triangulators
 from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+from wit_plugin.cityjson.validate import validate_cityjson_files
 from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
 from wit_plugin.mapsheet import sheet_at
-from wit_plugin.cityjson.validate import validate_cityjson_files
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.sheetrun import plan
 from wit_plugin.sheetrun.index import read_index
