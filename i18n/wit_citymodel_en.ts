@@ -40,8 +40,8 @@
       <translation>Chain</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures (and, with CITYJSON, the same model as CityJSON 2.0: model.city.json, validated alike), validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures (and, with CITYJSON, the same model as CityJSON 2.0: model.city.json, validated alike), validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -58,6 +58,10 @@
     <message>
       <source>CityGML file</source>
       <translation>CityGML file</translation>
+    </message>
+    <message>
+      <source>CityJSON file (model.city.json)</source>
+      <translation>CityJSON file (model.city.json)</translation>
     </message>
     <message>
       <source>Validation report (HTML)</source>
@@ -140,8 +144,8 @@
       <translation>City model in map-sheet tiles (Dask)</translation>
     </message>
     <message>
-      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
-      <translation>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</translation>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later). With CITYJSON, each tile also writes model.city.jsonl, a CityJSONSeq in the run's one transform, and index.city.jsonl at the top is the run's header line listing them: its line and the tiles' features, joined, are one CityJSONSeq of the whole run.</source>
+      <translation>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later). With CITYJSON, each tile also writes model.city.jsonl, a CityJSONSeq in the run's one transform, and index.city.jsonl at the top is the run's header line listing them: its line and the tiles' features, joined, are one CityJSONSeq of the whole run.</translation>
     </message>
     <message>
       <source>Python interpreter of the workers (empty = found automatically)</source>
@@ -174,6 +178,10 @@
     <message>
       <source>Tile index</source>
       <translation>Tile index</translation>
+    </message>
+    <message>
+      <source>CityJSONSeq header of the run (index.city.jsonl)</source>
+      <translation>CityJSONSeq header of the run (index.city.jsonl)</translation>
     </message>
     <message>
       <source>3D Tiles tileset over all tiles (tileset.json)</source>
@@ -334,6 +342,54 @@
     <message>
       <source>Size of the tileset (MB)</source>
       <translation>Size of the tileset (MB)</translation>
+    </message>
+    <message>
+      <source>Export CityJSON 2.0</source>
+      <translation>Export CityJSON 2.0</translation>
+    </message>
+    <message>
+      <source>Writes the model's layers as CityJSON 2.0 (.city.json), or as a CityJSONSeq (.city.jsonl: a header line, then one feature a line): the same objects, ids, attributes and textures as wit:writecitygml. Buildings with a LoD1 Solid whose surfaces are GroundSurface, RoofSurface and WallSurface, every source attribute, height (with heightStatus: measured or estimated) and storeys; roads as their draped triangles (TrafficArea); the other TIN triangles as one TINRelief; one CityObjectGroup per legal dong, its buildings naming it as their parent. Textures: the same images and texture coordinates, in the themes of the CityGML (rgbTexture: the orthoimage; generatedFacade: the walls' generated facades, which repeat along the wall: wrapMode wrap). Vertices are integers on the millimetre grid (transform); the CRS is the metadata's referenceSystem (an OGC CRS URL, coordinates easting first). Streaming: memory does not grow with the number of buildings. The file is written whole or not at all. Validate it with wit:validatecitygml (schemas and geometry).</source>
+      <translation>Writes the model's layers as CityJSON 2.0 (.city.json), or as a CityJSONSeq (.city.jsonl: a header line, then one feature a line): the same objects, ids, attributes and textures as wit:writecitygml. Buildings with a LoD1 Solid whose surfaces are GroundSurface, RoofSurface and WallSurface, every source attribute, height (with heightStatus: measured or estimated) and storeys; roads as their draped triangles (TrafficArea); the other TIN triangles as one TINRelief; one CityObjectGroup per legal dong, its buildings naming it as their parent. Textures: the same images and texture coordinates, in the themes of the CityGML (rgbTexture: the orthoimage; generatedFacade: the walls' generated facades, which repeat along the wall: wrapMode wrap). Vertices are integers on the millimetre grid (transform); the CRS is the metadata's referenceSystem (an OGC CRS URL, coordinates easting first). Streaming: memory does not grow with the number of buildings. The file is written whole or not at all. Validate it with wit:validatecitygml (schemas and geometry).</translation>
+    </message>
+    <message>
+      <source>Road polygons (wit:preparevectors)</source>
+      <translation>Road polygons (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (wit:preparevectors)</source>
+      <translation>Legal dongs (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Copy texture images beside the CityJSON file</source>
+      <translation>Copy texture images beside the CityJSON file</translation>
+    </message>
+    <message>
+      <source>CityJSON file</source>
+      <translation>CityJSON file</translation>
+    </message>
+    <message>
+      <source>CityJSON files (*.city.json);;CityJSONSeq files (*.city.jsonl)</source>
+      <translation>CityJSON files (*.city.json);;CityJSONSeq files (*.city.jsonl)</translation>
+    </message>
+    <message>
+      <source>Roads written</source>
+      <translation>Roads written</translation>
+    </message>
+    <message>
+      <source>Terrain triangles written</source>
+      <translation>Terrain triangles written</translation>
+    </message>
+    <message>
+      <source>District groups</source>
+      <translation>District groups</translation>
+    </message>
+    <message>
+      <source>Vertices written</source>
+      <translation>Vertices written</translation>
+    </message>
+    <message>
+      <source>Texture images beside the CityJSON file</source>
+      <translation>Texture images beside the CityJSON file</translation>
     </message>
     <message>
       <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
@@ -896,6 +952,10 @@
       <translation>Wall textures (an orthoimage sees no facades)</translation>
     </message>
     <message>
+      <source>Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile and index.city.jsonl)</source>
+      <translation>Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile and index.city.jsonl)</translation>
+    </message>
+    <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
       <translation>Code field of the district layer (empty = EMD_CD)</translation>
     </message>
@@ -960,12 +1020,12 @@
       <translation>Validate CityGML 3.0</translation>
     </message>
     <message>
-      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
-      <translation>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</translation>
+      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. CityJSON 2.0 files (.city.json) and CityJSONSeq files (.city.jsonl) are validated alike: against the official CityJSON 2.0 schemas the plugin ships, and with the same checks and tolerances (ids, parents and children, vertex indices, solids, TIN triangles, texture images and values); a tile's sequence of a tiled run finds its images from the run's folder. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
+      <translation>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. CityJSON 2.0 files (.city.json) and CityJSONSeq files (.city.jsonl) are validated alike: against the official CityJSON 2.0 schemas the plugin ships, and with the same checks and tolerances (ids, parents and children, vertex indices, solids, TIN triangles, texture images and values); a tile's sequence of a tiled run finds its images from the run's folder. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</translation>
     </message>
     <message>
-      <source>CityGML files</source>
-      <translation>CityGML files</translation>
+      <source>CityGML or CityJSON files</source>
+      <translation>CityGML or CityJSON files</translation>
     </message>
     <message>
       <source>Schema folder (with citygml3-all.xsd)</source>
@@ -1048,32 +1108,12 @@
       <translation>Writes a CityGML 3.0 city model, streaming (memory does not grow with the number of buildings): bldg:Building with a closed, outward-oriented lod1Solid, con:height, storeys and every source attribute as a typed generic attribute (from wit:extrudebuildings); tran:Road with traffic areas draped on the terrain and dem:ReliefFeature with a TIN (from wit:triangulateterrain, with the prepared roads' attributes); one grp:CityObjectGroup per legal dong (districts); and, when given, the textures of wit:wittexture as app:ParameterizedTexture (images copied beside the .gml, relative image URIs). gml:ids derive from the source ids, so the same input gives the same ids. srsName: EPSG:n, coordinates easting first, as GIS software reads that form. Runs in the main thread.</translation>
     </message>
     <message>
-      <source>Road polygons (wit:preparevectors)</source>
-      <translation>Road polygons (wit:preparevectors)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (wit:preparevectors)</source>
-      <translation>Legal dongs (wit:preparevectors)</translation>
-    </message>
-    <message>
       <source>Copy texture images beside the .gml</source>
       <translation>Copy texture images beside the .gml</translation>
     </message>
     <message>
       <source>CityGML files (*.gml)</source>
       <translation>CityGML files (*.gml)</translation>
-    </message>
-    <message>
-      <source>Roads written</source>
-      <translation>Roads written</translation>
-    </message>
-    <message>
-      <source>Terrain triangles written</source>
-      <translation>Terrain triangles written</translation>
-    </message>
-    <message>
-      <source>District groups</source>
-      <translation>District groups</translation>
     </message>
     <message>
       <source>Texture images beside the CityGML file</source>

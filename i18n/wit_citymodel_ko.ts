@@ -40,8 +40,8 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고(벽: 각 건물의 용도와 층수로 생성한 외벽 텍스처, 생성된 것임을 표시; FACADES) CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures (and, with CITYJSON, the same model as CityJSON 2.0: model.city.json, validated alike), validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
+      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고(벽: 각 건물의 용도와 층수로 생성한 외벽 텍스처, 생성된 것임을 표시; FACADES) CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml(CITYJSON을 켜면 같은 모델을 CityJSON 2.0으로 쓴 model.city.json도, 함께 검증됨), validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -58,6 +58,10 @@
     <message>
       <source>CityGML file</source>
       <translation>CityGML 파일</translation>
+    </message>
+    <message>
+      <source>CityJSON file (model.city.json)</source>
+      <translation>CityJSON 파일 (model.city.json)</translation>
     </message>
     <message>
       <source>Validation report (HTML)</source>
@@ -140,8 +144,8 @@
       <translation>도엽 타일 단위 도시 모델 (Dask)</translation>
     </message>
     <message>
-      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
-      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786: 기본 dask 스케줄러; 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 데이터를 만들 수 없는 타일은 그 이유와 함께 실패로 기록되고 나머지는 계속됩니다. 그러면 알고리즘은 실패 수와 첫 이유들을 담은 오류로 끝나며, 끝난 타일은 남습니다: 같은 폴더에서 다시 실행하면 그 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다. 남는 건물이 하나도 없는 타일(공원, 산, 건물이 모두 이웃 타일에 속하거나 너무 작은 경우)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 도엽별 그룹(1:5,000, 1:50,000, 1° 블록; 실행에 필요한 만큼의 단계) 아래에 하나로 묶습니다. 그룹은 멀리서 지형과 가장 큰 건물들을 보여 줍니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가).</translation>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later). With CITYJSON, each tile also writes model.city.jsonl, a CityJSONSeq in the run's one transform, and index.city.jsonl at the top is the run's header line listing them: its line and the tiles' features, joined, are one CityJSONSeq of the whole run.</source>
+      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786: 기본 dask 스케줄러; 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 데이터를 만들 수 없는 타일은 그 이유와 함께 실패로 기록되고 나머지는 계속됩니다. 그러면 알고리즘은 실패 수와 첫 이유들을 담은 오류로 끝나며, 끝난 타일은 남습니다: 같은 폴더에서 다시 실행하면 그 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다. 남는 건물이 하나도 없는 타일(공원, 산, 건물이 모두 이웃 타일에 속하거나 너무 작은 경우)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 도엽별 그룹(1:5,000, 1:50,000, 1° 블록; 실행에 필요한 만큼의 단계) 아래에 하나로 묶습니다. 그룹은 멀리서 지형과 가장 큰 건물들을 보여 줍니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가). CITYJSON을 켜면 타일마다 실행 전체에 하나인 transform으로 CityJSONSeq인 model.city.jsonl도 쓰고, 맨 위의 index.city.jsonl이 이들을 나열하는 실행의 머리 줄이 됩니다: 그 줄과 타일들의 피처를 이어 붙이면 실행 전체의 CityJSONSeq 하나가 됩니다.</translation>
     </message>
     <message>
       <source>Python interpreter of the workers (empty = found automatically)</source>
@@ -174,6 +178,10 @@
     <message>
       <source>Tile index</source>
       <translation>타일 색인</translation>
+    </message>
+    <message>
+      <source>CityJSONSeq header of the run (index.city.jsonl)</source>
+      <translation>실행의 CityJSONSeq 머리 줄 (index.city.jsonl)</translation>
     </message>
     <message>
       <source>3D Tiles tileset over all tiles (tileset.json)</source>
@@ -334,6 +342,54 @@
     <message>
       <source>Size of the tileset (MB)</source>
       <translation>타일셋 크기(MB)</translation>
+    </message>
+    <message>
+      <source>Export CityJSON 2.0</source>
+      <translation>CityJSON 2.0 내보내기</translation>
+    </message>
+    <message>
+      <source>Writes the model's layers as CityJSON 2.0 (.city.json), or as a CityJSONSeq (.city.jsonl: a header line, then one feature a line): the same objects, ids, attributes and textures as wit:writecitygml. Buildings with a LoD1 Solid whose surfaces are GroundSurface, RoofSurface and WallSurface, every source attribute, height (with heightStatus: measured or estimated) and storeys; roads as their draped triangles (TrafficArea); the other TIN triangles as one TINRelief; one CityObjectGroup per legal dong, its buildings naming it as their parent. Textures: the same images and texture coordinates, in the themes of the CityGML (rgbTexture: the orthoimage; generatedFacade: the walls' generated facades, which repeat along the wall: wrapMode wrap). Vertices are integers on the millimetre grid (transform); the CRS is the metadata's referenceSystem (an OGC CRS URL, coordinates easting first). Streaming: memory does not grow with the number of buildings. The file is written whole or not at all. Validate it with wit:validatecitygml (schemas and geometry).</source>
+      <translation>모델의 레이어를 CityJSON 2.0(.city.json) 또는 CityJSONSeq(.city.jsonl: 머리 줄 다음에 한 줄에 피처 하나)로 씁니다. wit:writecitygml과 같은 객체, id, 속성, 텍스처입니다. 건물은 GroundSurface, RoofSurface, WallSurface 면을 가진 LoD1 Solid와 모든 원본 속성, 높이(heightStatus: measured 또는 estimated)와 층수를 갖고, 도로는 지형에 얹힌 삼각형(TrafficArea), 나머지 TIN 삼각형은 TINRelief 하나, 법정동마다 CityObjectGroup 하나가 되며 그 건물들은 그룹을 부모로 가리킵니다. 텍스처: 같은 이미지와 텍스처 좌표를 CityGML과 같은 테마로(rgbTexture: 정사영상; generatedFacade: 벽에 생성한 외벽 텍스처, 벽을 따라 반복: wrapMode wrap) 씁니다. 정점은 밀리미터 격자의 정수이고(transform), 좌표계는 metadata의 referenceSystem(OGC 좌표계 URL, 좌표는 동향 먼저)입니다. 스트리밍: 메모리가 건물 수에 따라 늘지 않습니다. 파일은 온전히 쓰이거나 전혀 쓰이지 않습니다. wit:validatecitygml로 검증하십시오(스키마와 기하).</translation>
+    </message>
+    <message>
+      <source>Road polygons (wit:preparevectors)</source>
+      <translation>도로 폴리곤 (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (wit:preparevectors)</source>
+      <translation>법정동 (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Copy texture images beside the CityJSON file</source>
+      <translation>텍스처 이미지를 CityJSON 파일 옆에 복사</translation>
+    </message>
+    <message>
+      <source>CityJSON file</source>
+      <translation>CityJSON 파일</translation>
+    </message>
+    <message>
+      <source>CityJSON files (*.city.json);;CityJSONSeq files (*.city.jsonl)</source>
+      <translation>CityJSON 파일 (*.city.json);;CityJSONSeq 파일 (*.city.jsonl)</translation>
+    </message>
+    <message>
+      <source>Roads written</source>
+      <translation>기록된 도로 수</translation>
+    </message>
+    <message>
+      <source>Terrain triangles written</source>
+      <translation>기록된 지형 삼각형 수</translation>
+    </message>
+    <message>
+      <source>District groups</source>
+      <translation>법정동 그룹 수</translation>
+    </message>
+    <message>
+      <source>Vertices written</source>
+      <translation>기록한 정점 수</translation>
+    </message>
+    <message>
+      <source>Texture images beside the CityJSON file</source>
+      <translation>CityJSON 파일 옆의 텍스처 이미지</translation>
     </message>
     <message>
       <source>The expression {expression} failed on {count} feature(s) (e.g. {error}); the next rule was used for them.</source>
@@ -896,6 +952,10 @@
       <translation>벽 텍스처(정사영상에는 벽면이 보이지 않음)</translation>
     </message>
     <message>
+      <source>Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile and index.city.jsonl)</source>
+      <translation>CityGML 옆에 CityJSON 2.0도 쓰기 (model.city.json; 타일 실행: 타일마다 CityJSONSeq와 index.city.jsonl)</translation>
+    </message>
+    <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
       <translation>법정동 레이어의 코드 필드 (비우면 EMD_CD)</translation>
     </message>
@@ -960,12 +1020,12 @@
       <translation>CityGML 3.0 검증</translation>
     </message>
     <message>
-      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
-      <translation>CityGML 3.0 파일을 오프라인으로 검증하고 모든 문제를 파일, 줄, gml:id와 함께 보고합니다: 모든 CityGML 3.0 모듈에 대한 XSD 유효성(스키마가 없는 ADE를 쓰는 파일은 그렇다고 보고), gml:id 중복 없음, 모든 #id / xlink:href 참조 해석, 건물 솔리드가 닫혀 있고 일관되게 바깥을 향하며 면이 평면이고 자기 교차가 없음, TIN 삼각형이 퇴화하지 않음, 모든 좌표가 3차원, 텍스처 이미지 존재 및 텍스처 좌표 수가 링과 일치. 기하 허용 오차는 좌표계와 관계없이 미터 단위입니다: 도 단위 좌표(예: EPSG:4326, EPSG:6697)는 국지 미터 좌표로 환산해 재며, 알 수 없는 좌표계는 미터로 보고 경고를 남깁니다. 축 순서는 GDAL이 읽는 방식을 따릅니다: 짧은 형식 EPSG:n은 경도(동향) 먼저, URN과 URL 형식은 EPSG의 순서(EPSG:4326, 6697, 5186 등은 위도 또는 북향 먼저)입니다. ±90°를 넘는 위도는 축을 바꿔 읽고 경고를 남깁니다. 비어 있거나, XML이 아니거나, CityGML 3.0이 아니거나, 중간에 잘린 파일은 그 사실을 알리는 메시지 하나로 보고합니다. 큰 파일은 스트리밍으로 처리합니다. 파싱 중 외부 엔티티와 네트워크 접근은 꺼져 있습니다. 스키마: SCHEMA_DIR 폴더(예: ADE용으로 덮어쓰기), 없으면 플러그인 설정의 폴더, 없으면 플러그인에 포함된 CityGML 3.0 스키마(네트워크 불필요). 어느 것을 썼는지 로그에 남깁니다. 결과: VALID, ERROR_COUNT, 논문 표 13과 같은 파일별 표(파일, 상태, 상세), HTML 및 CSV 보고서(HTML 보고서를 지정하지 않으면 임시 파일에 씁니다).</translation>
+      <source>Validates CityGML 3.0 files offline and reports every problem with file, line and gml:id: XSD validity against all CityGML 3.0 modules (a file using an ADE whose schema is missing is reported as such), unique gml:id, every #id / xlink:href reference resolves, building solids closed, consistently outward-oriented, with planar and non-self-intersecting faces, TIN triangles non-degenerate, all positions 3D, texture images present and texture coordinates matching their rings. Geometric tolerances are in metres whatever the CRS: coordinates in degrees (e.g. EPSG:4326, EPSG:6697) are measured in local metres; an unknown CRS is read as metres, with a warning. Axis order as GDAL reads it: the short form EPSG:n is longitude (easting) first, the URN and URL forms follow EPSG's order (latitude or northing first for EPSG:4326, 6697, 5186…); latitudes beyond ±90° are read swapped, with a warning. A file that is empty, not XML, not CityGML 3.0 or truncated gets one message saying so. CityJSON 2.0 files (.city.json) and CityJSONSeq files (.city.jsonl) are validated alike: against the official CityJSON 2.0 schemas the plugin ships, and with the same checks and tolerances (ids, parents and children, vertex indices, solids, TIN triangles, texture images and values); a tile's sequence of a tiled run finds its images from the run's folder. Large files are streamed. External entities and network access are disabled while parsing. Schemas: the SCHEMA_DIR folder (an override, e.g. for an ADE), else the folder set in the plugin settings, else the CityGML 3.0 schemas the plugin ships (no network needed); the log says which was used. Results: VALID, ERROR_COUNT and a per-file table (file, status, details) as in the paper's Table 13, plus HTML and CSV reports (the HTML report goes to a temporary file when none is chosen).</source>
+      <translation>CityGML 3.0 파일을 오프라인으로 검증하고 모든 문제를 파일, 줄, gml:id와 함께 보고합니다: 모든 CityGML 3.0 모듈에 대한 XSD 유효성(스키마가 없는 ADE를 쓰는 파일은 그렇다고 보고), gml:id 중복 없음, 모든 #id / xlink:href 참조 해석, 건물 솔리드가 닫혀 있고 일관되게 바깥을 향하며 면이 평면이고 자기 교차가 없음, TIN 삼각형이 퇴화하지 않음, 모든 좌표가 3차원, 텍스처 이미지 존재 및 텍스처 좌표 수가 링과 일치. 기하 허용 오차는 좌표계와 관계없이 미터 단위입니다: 도 단위 좌표(예: EPSG:4326, EPSG:6697)는 국지 미터 좌표로 환산해 재며, 알 수 없는 좌표계는 미터로 보고 경고를 남깁니다. 축 순서는 GDAL이 읽는 방식을 따릅니다: 짧은 형식 EPSG:n은 경도(동향) 먼저, URN과 URL 형식은 EPSG의 순서(EPSG:4326, 6697, 5186 등은 위도 또는 북향 먼저)입니다. ±90°를 넘는 위도는 축을 바꿔 읽고 경고를 남깁니다. 비어 있거나, XML이 아니거나, CityGML 3.0이 아니거나, 중간에 잘린 파일은 그 사실을 알리는 메시지 하나로 보고합니다. CityJSON 2.0 파일(.city.json)과 CityJSONSeq 파일(.city.jsonl)도 같은 방식으로 검증합니다: 플러그인에 포함된 공식 CityJSON 2.0 스키마와, 같은 검사와 허용 오차(id, parents와 children, 정점 색인, 솔리드, TIN 삼각형, 텍스처 이미지와 값)로. 타일 실행의 타일 시퀀스는 실행 폴더에서 이미지를 찾습니다. 큰 파일은 스트리밍으로 처리합니다. 파싱 중 외부 엔티티와 네트워크 접근은 꺼져 있습니다. 스키마: SCHEMA_DIR 폴더(예: ADE용으로 덮어쓰기), 없으면 플러그인 설정의 폴더, 없으면 플러그인에 포함된 CityGML 3.0 스키마(네트워크 불필요). 어느 것을 썼는지 로그에 남깁니다. 결과: VALID, ERROR_COUNT, 논문 표 13과 같은 파일별 표(파일, 상태, 상세), HTML 및 CSV 보고서(HTML 보고서를 지정하지 않으면 임시 파일에 씁니다).</translation>
     </message>
     <message>
-      <source>CityGML files</source>
-      <translation>CityGML 파일</translation>
+      <source>CityGML or CityJSON files</source>
+      <translation>CityGML 또는 CityJSON 파일</translation>
     </message>
     <message>
       <source>Schema folder (with citygml3-all.xsd)</source>
@@ -1048,32 +1108,12 @@
       <translation>CityGML 3.0 도시모델을 스트리밍으로 씁니다(건물 수가 늘어도 메모리가 늘지 않음): 닫혀 있고 바깥을 향하는 lod1Solid, con:height, 층수, 모든 원본 속성을 형식 있는 일반 속성으로 가진 bldg:Building(wit:extrudebuildings에서), 지형 위에 놓인 통행 영역을 가진 tran:Road와 TIN을 가진 dem:ReliefFeature(wit:triangulateterrain에서, 준비된 도로 속성 포함), 법정동마다 하나의 grp:CityObjectGroup(행정구역), 그리고 있으면 wit:wittexture의 텍스처를 app:ParameterizedTexture로(이미지는 .gml 옆에 복사, 상대 경로 URI). gml:id는 원본 ID에서 만들어지므로 같은 입력은 같은 ID를 줍니다. srsName은 EPSG:n이고 좌표는 GIS 소프트웨어가 이 형식을 읽는 대로 동향 먼저입니다. 메인 스레드에서 실행됩니다.</translation>
     </message>
     <message>
-      <source>Road polygons (wit:preparevectors)</source>
-      <translation>도로 폴리곤 (wit:preparevectors)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (wit:preparevectors)</source>
-      <translation>법정동 (wit:preparevectors)</translation>
-    </message>
-    <message>
       <source>Copy texture images beside the .gml</source>
       <translation>텍스처 이미지를 .gml 옆에 복사</translation>
     </message>
     <message>
       <source>CityGML files (*.gml)</source>
       <translation>CityGML 파일 (*.gml)</translation>
-    </message>
-    <message>
-      <source>Roads written</source>
-      <translation>기록된 도로 수</translation>
-    </message>
-    <message>
-      <source>Terrain triangles written</source>
-      <translation>기록된 지형 삼각형 수</translation>
-    </message>
-    <message>
-      <source>District groups</source>
-      <translation>법정동 그룹 수</translation>
     </message>
     <message>
       <source>Texture images beside the CityGML file</source>

@@ -54,7 +54,7 @@ def main() -> int:
              # the paper's 5 m max edge (the algorithm's default) makes ~650k terrain triangles here and a
              # 390 MB CityGML file that takes minutes to validate; 15 m (refined to 0.5 m vertically) keeps
              # the demo to about a minute
-             "MAX_EDGE": WIT_DEMO_MAX_EDGE,
+             "MAX_EDGE": WIT_DEMO_MAX_EDGE, "CITYJSON": "true",  # model.city.json beside model.gml
              "OUTPUT": OUT / "model"}
     model = step("the whole chain: NGII sheets → CityGML 3.0", "wit:citymodel", **chain)
     work = OUT / "model" / "work"
@@ -74,6 +74,7 @@ def main() -> int:
     print("\nSummary")
     print(f"  buildings generated {sample['BUILDINGS_WRITTEN']}, written to CityGML {model['BUILDINGS_WRITTEN']}")
     print(f"  CityGML 3.0: {model['GML']}")
+    print(f"  CityJSON 2.0: {model['CITYJSON_FILE']}")
     print(f"  valid: {model['VALID']} ({model['ERROR_COUNT']} errors) — report {model['VALIDATION_REPORT']}")
     print(f"  metrics: {model['METRICS']}")
     print(f"  preview: {OUT / 'preview.png'}")
