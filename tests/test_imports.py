@@ -23,8 +23,8 @@ LAYERS: tuple[tuple[str, frozenset[str]], ...] = (
         "mapsheet", "meshes", "numtext", "polygons", "raster_crs", "step_layers",
     })),
     ("steps", frozenset({
-        "area", "citygml", "colorstore", "extrude", "georef", "heights", "metrics", "mosaic", "preview", "roads",
-        "sample", "simplify", "steiner", "terrain", "texture", "tiles3d", "tone", "triangulators", "vectors",
+        "area", "citygml", "cityjson", "colorstore", "extrude", "georef", "heights", "metrics", "mosaic", "preview",
+        "roads", "sample", "simplify", "steiner", "terrain", "texture", "tiles3d", "tone", "triangulators", "vectors",
     })),
     ("chain", frozenset({"chain"})),
     ("map-sheet runs", frozenset({"sheetrun"})),
