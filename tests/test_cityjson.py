@@ -305,3 +305,25 @@ def test_cancel_leaves_no_output(city, tmp_path):
     with pytest.raises(CanceledError):
         cityjson.write_cityjson(inputs, str(tmp_path / "c.city.json"), feedback=Cancel())
     assert list(tmp_path.iterdir()) == []
+
+
+def _cells(cells: list[tuple[int, int]]) -> np.ndarray:
+    """Two triangles per unit cell (x, y), counter-clockwise: (n, 3, 3) corners."""
+    triangles = []
+    for x, y in cells:
+        a, b, c, d = (x, y, 0.0), (x + 1, y, 0.0), (x + 1, y + 1, 0.0), (x, y + 1, 0.0)
+        triangles += [(a, b, c), (a, c, d)]
+    return np.array(triangles, dtype=float)
+
+
+def test_relief_parts_are_connected_and_manifold():
+    """Two cells touching at the vertex (2, 2) only, joined around it by a path of cells: one edge-connected
+    set, pinched at that vertex (a composite surface must not be): the second fan becomes a part of its own."""
+    from wit_plugin.cityjson.objects import surface_parts
+
+    assert len(set(surface_parts(_cells([(0, 0), (1, 0), (0, 1), (1, 1)])).tolist())) == 1
+    path = [(0, 1), (0, 2), (0, 3), (1, 3), (2, 3)]
+    part = surface_parts(_cells([(1, 1), (2, 2)] + path))
+    assert len(set(part.tolist())) == 2
+    assert part[0] == part[1] == part[4] and part[2] == part[3] != part[0]  # (1, 1) with the path; (2, 2) alone
+    assert len(set(surface_parts(_cells([(0, 0), (1, 1)])).tolist())) == 2  # touching at a vertex: two parts
