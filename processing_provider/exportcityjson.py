@@ -4,16 +4,13 @@ from pathlib import Path
 from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterVectorLayer,
     QgsProcessingUtils,
 )
 
 from .base import WitAlgorithm, crs_string
-from .qgis_compat import FileBehavior, SourceType
 from .safeguards import Endpoint
-from .shared_parameters import LOD1, TIN, add_model_layer_parameters
+from .shared_parameters import DISTRICTS, LOD1, ROADS, TEXTURES, TIN, add_model_parameters, model_inputs
 
 
 class ExportCityJSON(WitAlgorithm):
@@ -35,24 +32,12 @@ class ExportCityJSON(WitAlgorithm):
     )
     requirements = ("shapely",)
 
-    LOD1, TIN = LOD1, TIN
-    ROADS = "ROADS"
-    DISTRICTS = "DISTRICTS"
-    TEXTURES = "TEXTURES"
+    LOD1, TIN, ROADS, DISTRICTS, TEXTURES = LOD1, TIN, ROADS, DISTRICTS, TEXTURES
     COPY_TEXTURES = "COPY_TEXTURES"
     OUTPUT = "OUTPUT"
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        add_model_layer_parameters(self, lod1_optional=False)
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Road polygons (wit:preparevectors)"), [SourceType.VectorPolygon],
-            optional=True))
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.DISTRICTS, self.tr("Legal dongs (wit:preparevectors)"), [SourceType.VectorPolygon],
-            optional=True))
-        self.addParameter(QgsProcessingParameterFile(
-            self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=FileBehavior.Folder, optional=True))
+        add_model_parameters(self)
         self.addParameter(QgsProcessingParameterBoolean(
             self.COPY_TEXTURES, self.tr("Copy texture images beside the CityJSON file"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFileDestination(
@@ -80,17 +65,10 @@ class ExportCityJSON(WitAlgorithm):
                          str(texture_folder_of(Path(output))), folder=True)] if output else []
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.citygml.inputs import CityGMLInputs
         from ..wit_plugin.cityjson.writer import write_cityjson
 
         lod1 = self.parameterAsVectorLayer(parameters, self.LOD1, context)
-        inputs = CityGMLInputs(
-            lod1=self.vector_source(parameters, self.LOD1, context, feedback),
-            tin=self.vector_source(parameters, self.TIN, context, feedback),
-            roads=self.vector_source(parameters, self.ROADS, context, feedback),
-            districts=self.vector_source(parameters, self.DISTRICTS, context, feedback),
-            textures=self.parameterAsFile(parameters, self.TEXTURES, context) or None,
-        )
+        inputs = model_inputs(self, parameters, context, feedback)
         output = self.output_file(parameters, context)
         report = write_cityjson(inputs, output, srs_name=crs_string(lod1.crs()), feedback=feedback,
                                 copy_textures=self.parameterAsBool(parameters, self.COPY_TEXTURES, context))

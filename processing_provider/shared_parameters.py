@@ -9,6 +9,7 @@ from qgis.core import (
     QgsProcessingParameterEnum,
     QgsProcessingParameterExpression,
     QgsProcessingParameterField,
+    QgsProcessingParameterFile,
     QgsProcessingParameterNumber,
     QgsProcessingParameterPoint,
     QgsProcessingParameterString,
@@ -16,7 +17,7 @@ from qgis.core import (
 )
 
 from .expressions import checked_expression
-from .qgis_compat import FieldDataType, NumberType, ParameterFlag, SourceType
+from .qgis_compat import FieldDataType, FileBehavior, NumberType, ParameterFlag, SourceType
 from .translation import tr, translatable
 
 WGS84 = QgsCoordinateReferenceSystem("EPSG:4326")
@@ -26,6 +27,7 @@ DISTRICT_CODE, DISTRICT_CODE_FIELD, DISTRICT_NAME_FIELD = "DISTRICT_CODE", "DIST
 STOREY_HEIGHT, HEIGHT_FIELD, HEIGHT_EXPRESSION, DEFAULT_HEIGHT = (
     "STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")
 LOD1, TIN = "LOD1", "TIN"
+ROADS, DISTRICTS, TEXTURES = "ROADS", "DISTRICTS", "TEXTURES"  # the model writers' other inputs
 #: the raw road layer: centre lines (buffered by their width) or road polygons (the road surfaces as they are)
 ROADS_TYPES = [SourceType.VectorLine, SourceType.VectorPolygon]
 ROADS_LABEL = translatable("Roads: centre lines or road polygons (TL_SPRD_MANAGE, NGII N3L_A0020000 or N3A_A0010000, "
@@ -167,6 +169,30 @@ def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
         LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [SourceType.VectorPolygon], optional=lod1_optional))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
         TIN, tr("Terrain TIN (wit:triangulateterrain)"), [SourceType.VectorPolygon], optional=True))
+
+
+def add_model_parameters(algorithm) -> None:
+    """What the model writers (wit:writecitygml, wit:exportcityjson) read: the LoD1 buildings, the TIN, the
+    prepared roads and dongs and the texture folder."""
+    add_model_layer_parameters(algorithm, lod1_optional=False)
+    algorithm.addParameter(QgsProcessingParameterVectorLayer(
+        ROADS, tr("Road polygons (wit:preparevectors)"), [SourceType.VectorPolygon], optional=True))
+    algorithm.addParameter(QgsProcessingParameterVectorLayer(
+        DISTRICTS, tr("Legal dongs (wit:preparevectors)"), [SourceType.VectorPolygon], optional=True))
+    algorithm.addParameter(QgsProcessingParameterFile(
+        TEXTURES, tr("Texture folder (wit:wittexture)"), behavior=FileBehavior.Folder, optional=True))
+
+
+def model_inputs(algorithm, parameters: dict, context, feedback):
+    """The core's ``CityGMLInputs`` from ``add_model_parameters``'s parameters."""
+    from ..wit_plugin.citygml.inputs import CityGMLInputs
+
+    return CityGMLInputs(
+        lod1=algorithm.vector_source(parameters, LOD1, context, feedback),
+        tin=algorithm.vector_source(parameters, TIN, context, feedback),
+        roads=algorithm.vector_source(parameters, ROADS, context, feedback),
+        districts=algorithm.vector_source(parameters, DISTRICTS, context, feedback),
+        textures=algorithm.parameterAsFile(parameters, TEXTURES, context) or None)
 
 
 def add_facade_parameter(algorithm) -> None:

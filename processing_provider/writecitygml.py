@@ -4,15 +4,13 @@ from pathlib import Path
 from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
-    QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterVectorLayer,
 )
 
 from .base import WitAlgorithm, crs_string
-from .qgis_compat import AlgorithmFlag, FileBehavior, SourceType
+from .qgis_compat import AlgorithmFlag
 from .safeguards import Endpoint
-from .shared_parameters import LOD1, TIN, add_model_layer_parameters
+from .shared_parameters import DISTRICTS, LOD1, ROADS, TEXTURES, TIN, add_model_parameters, model_inputs
 
 
 class WriteCityGML(WitAlgorithm):
@@ -32,10 +30,7 @@ class WriteCityGML(WitAlgorithm):
     )
     requirements = ("lxml", "shapely")
 
-    LOD1, TIN = LOD1, TIN
-    ROADS = "ROADS"
-    DISTRICTS = "DISTRICTS"
-    TEXTURES = "TEXTURES"
+    LOD1, TIN, ROADS, DISTRICTS, TEXTURES = LOD1, TIN, ROADS, DISTRICTS, TEXTURES
     COPY_TEXTURES = "COPY_TEXTURES"
     OUTPUT = "OUTPUT"
 
@@ -45,16 +40,7 @@ class WriteCityGML(WitAlgorithm):
         return super().flags() | AlgorithmFlag.NoThreading
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        add_model_layer_parameters(self, lod1_optional=False)
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.ROADS, self.tr("Road polygons (wit:preparevectors)"), [SourceType.VectorPolygon],
-            optional=True))
-        self.addParameter(QgsProcessingParameterVectorLayer(
-            self.DISTRICTS, self.tr("Legal dongs (wit:preparevectors)"), [SourceType.VectorPolygon],
-            optional=True))
-        self.addParameter(QgsProcessingParameterFile(
-            self.TEXTURES, self.tr("Texture folder (wit:wittexture)"),
-            behavior=FileBehavior.Folder, optional=True))
+        add_model_parameters(self)
         self.addParameter(QgsProcessingParameterBoolean(
             self.COPY_TEXTURES, self.tr("Copy texture images beside the .gml"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFileDestination(
@@ -74,16 +60,10 @@ class WriteCityGML(WitAlgorithm):
                          str(output.parent / f"{output.stem}_textures"), folder=True)]
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.citygml.writer import CityGMLInputs, write_citygml
+        from ..wit_plugin.citygml.writer import write_citygml
 
         lod1 = self.parameterAsVectorLayer(parameters, self.LOD1, context)
-        inputs = CityGMLInputs(
-            lod1=self.vector_source(parameters, self.LOD1, context, feedback),
-            tin=self.vector_source(parameters, self.TIN, context, feedback),
-            roads=self.vector_source(parameters, self.ROADS, context, feedback),
-            districts=self.vector_source(parameters, self.DISTRICTS, context, feedback),
-            textures=self.parameterAsFile(parameters, self.TEXTURES, context) or None,
-        )
+        inputs = model_inputs(self, parameters, context, feedback)
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
         report = write_citygml(inputs, output, srs_name=crs_string(lod1.crs()), feedback=feedback,
                                copy_textures=self.parameterAsBool(parameters, self.COPY_TEXTURES, context))

@@ -46,3 +46,18 @@ def components(pairs: np.ndarray, count: int) -> np.ndarray:
             if (jumped == label).all():
                 break
             label = jumped
+
+
+def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of a 2-D array of 8-byte numbers, bit for bit (so -0.0 and 0.0 stay apart), in sorted
+    order of their bits, and each row's index into them."""
+    if not len(rows):
+        return rows, np.zeros(0, dtype=np.int64)
+    bits = np.ascontiguousarray(rows).view(np.int64).reshape(len(rows), -1)
+    order = np.lexsort(bits.T[::-1])
+    ordered = bits[order]
+    first = np.ones(len(rows), dtype=bool)
+    first[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    inverse = np.empty(len(rows), dtype=np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return rows[order[first]], inverse

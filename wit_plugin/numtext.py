@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import unique_rows
+
 
 def ring_texts(points: np.ndarray, counts: np.ndarray, point_format: str) -> list[str]:
     """``" ".join(point_format % tuple(p) for p in ring)`` for each ring of ``points`` (rings one after
@@ -18,14 +20,8 @@ def ring_texts(points: np.ndarray, counts: np.ndarray, point_format: str) -> lis
     points = np.ascontiguousarray(points, dtype=np.float64)
     if len(points) == 0:
         return [""] * len(counts)
-    bits = points.view(np.int64).reshape(len(points), -1)
-    order = np.lexsort(bits.T[::-1])
-    ordered = bits[order]
-    first = np.ones(len(points), dtype=bool)
-    first[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    inverse = np.empty(len(points), dtype=np.int64)
-    inverse[order] = np.cumsum(first) - 1
-    texts = np.array([point_format % tuple(p) for p in points[order[first]].tolist()], dtype=object)
+    distinct, inverse = unique_rows(points)
+    texts = np.array([point_format % tuple(p) for p in distinct.tolist()], dtype=object)
     per_point = texts[inverse].tolist()
     counts = np.asarray(counts)
     if (counts == counts[0]).all():

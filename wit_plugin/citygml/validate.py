@@ -180,19 +180,28 @@ class _FileValidation:
 
 def _not_xml(path: Path) -> str | None:
     """Why the file is not XML at all (empty, white space only, binary, JSON), or None."""
-    if path.stat().st_size == 0:
-        return "The file is empty (0 bytes): there is nothing to validate."
-    with open(path, "rb") as stream:
-        head = stream.read(4096)
-    text = head[3:] if head.startswith(b"\xef\xbb\xbf") else head
-    if not text.strip() and path.stat().st_size <= len(head):
-        return "The file contains only white space, no XML."
+    text, problem = file_start(path, "XML")
+    if problem:
+        return problem
     start = text.lstrip()[:4]
     if start.startswith(b"<") or not start:
         return None
     hint = next((h for magic, h in _NOT_XML_HINTS.items() if start.startswith(magic)), None)
     shown = start[:4].decode("latin-1").encode("unicode_escape").decode()
     return f"The file is not XML: it starts with '{shown}'" + (f" ({hint})." if hint else ", not with '<'.")
+
+
+def file_start(path: Path, kind: str) -> tuple[bytes, str | None]:
+    """The file's first 4 kB (without a UTF-8 byte order mark), or why there is nothing in it: empty, or only white
+    space (no ``kind``)."""
+    if path.stat().st_size == 0:
+        return b"", "The file is empty (0 bytes): there is nothing to validate."
+    with open(path, "rb") as stream:
+        head = stream.read(4096)
+    text = head[3:] if head.startswith(b"\xef\xbb\xbf") else head
+    if not text.strip() and path.stat().st_size <= len(head):
+        return text, f"The file contains only white space, no {kind}."
+    return text, None
 
 
 def _not_citygml3(root_tag: str) -> str | None:

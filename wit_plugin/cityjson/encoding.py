@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..arrays import unique_rows
 from .objects import SOLID, THEMES, Surfaces
 
 SCALE = 0.001  # the millimetre grid the CityGML's coordinates are written on (3 decimals)
@@ -68,20 +69,6 @@ class Encoded:
     corner_vertex: np.ndarray  # (N,) index into vertices
     uv: np.ndarray  # (U, 2) float64
     corner_uv: np.ndarray  # (N,) index into uv, -1 where the corner has none
-
-
-def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct rows (bit for bit) in order of first sort, and each row's index into them."""
-    if not len(rows):
-        return rows, np.zeros(0, dtype=np.int64)
-    bits = np.ascontiguousarray(rows).view(np.int64).reshape(len(rows), -1)
-    order = np.lexsort(bits.T[::-1])
-    ordered = bits[order]
-    first = np.ones(len(rows), dtype=bool)
-    first[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    inverse = np.empty(len(rows), dtype=np.int64)
-    inverse[order] = np.cumsum(first) - 1
-    return rows[order[first]], inverse
 
 
 def encode(geometry: Surfaces, transform: Transform) -> Encoded:

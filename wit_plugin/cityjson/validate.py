@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
+from ..citygml.validate import file_start
 from ..citygml.validation.names import FileReport, Issue, IssueList
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
@@ -141,13 +142,9 @@ def _lines(path: Path, issues: IssueList) -> Iterator[tuple[int, str]]:
 
 def _not_json(path: Path) -> str | None:
     """Why the file is no JSON at all (empty, white space, binary, XML), or None."""
-    if path.stat().st_size == 0:
-        return "The file is empty (0 bytes): there is nothing to validate."
-    with open(path, "rb") as stream:
-        head = stream.read(4096)
-    text = head[3:] if head.startswith(b"\xef\xbb\xbf") else head
-    if not text.strip() and path.stat().st_size <= len(head):
-        return "The file contains only white space, no JSON."
+    text, problem = file_start(path, "JSON")
+    if problem:
+        return problem
     start = text.lstrip()[:1]
     if start == b"{" or not start:
         return None
