@@ -19,6 +19,7 @@ from .objects import SOLID, THEMES, Surfaces
 
 SCALE = 0.001  # the millimetre grid the CityGML's coordinates are written on (3 decimals)
 TEXT_BATCH = 65_536  # surfaces formatted per piece of text
+SMALL = 256  # rows made distinct in Python rather than by sorting
 
 
 def json_text(value: object) -> str:
@@ -73,13 +74,22 @@ class Encoded:
 
 def encode(geometry: Surfaces, transform: Transform) -> Encoded:
     """The geometry's vertices and (u, v) pairs, each distinct one once."""
-    vertices, corner_vertex = unique_rows(transform.integers(geometry.points))
+    vertices, corner_vertex = _distinct(transform.integers(geometry.points))
     corner_uv = np.full(len(geometry.points), -1, dtype=np.int64)
     uv = np.zeros((0, 2))
     if geometry.uv is not None:
         has = ~np.isnan(geometry.uv).any(axis=1)
-        uv, corner_uv[has] = unique_rows(np.ascontiguousarray(geometry.uv[has]))
+        uv, corner_uv[has] = _distinct(np.ascontiguousarray(geometry.uv[has]))
     return Encoded(vertices, corner_vertex, uv, corner_uv)
+
+
+def _distinct(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``unique_rows``, in order of first appearance for the few rows of a building (a dict: no sort to set up)."""
+    if len(rows) > SMALL:
+        return unique_rows(rows)
+    index: dict[tuple, int] = {}
+    inverse = [index.setdefault(row, len(index)) for row in map(tuple, rows.tolist())]
+    return np.array(list(index), dtype=rows.dtype).reshape(-1, rows.shape[1]), np.array(inverse, dtype=np.int64)
 
 
 def vertices_text(vertices: np.ndarray) -> Iterator[str]:
@@ -106,9 +116,10 @@ def geometry_text(geometry: Surfaces, encoded: Encoded, vertex_offset: int, uv_o
     yield from _join(_rings(geometry, (encoded.corner_vertex + vertex_offset).tolist()))
     yield "]]" if solid else "]"
     if geometry.semantic is not None:
-        used, values = np.unique(geometry.semantic, return_inverse=True)
-        surfaces = ",".join(f'{{"type":"{geometry.semantics[k]}"}}' for k in used.tolist())
-        values_text = ",".join(map(str, values.ravel().tolist()))
+        semantic = geometry.semantic.tolist()
+        used = sorted(set(semantic))  # the semantic surfaces used, each once (a few: a set, not numpy's unique)
+        surfaces = ",".join(f'{{"type":"{geometry.semantics[k]}"}}' for k in used)
+        values_text = ",".join(map(str, map(dict(zip(used, range(len(used)))).__getitem__, semantic)))
         yield f',"semantics":{{"surfaces":[{surfaces}],"values":' + (f"[[{values_text}]]}}" if solid
                                                                        else f"[{values_text}]}}")
     if geometry.image is not None:

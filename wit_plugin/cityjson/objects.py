@@ -147,15 +147,18 @@ class ModelObjects:
         result = stack.enter_context(self.texcoords.select(f"\"{step_layers.TEX_TARGET}\" IN ({targets})", order))
         names = (step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_TARGET, step_layers.TEX_IMAGE,
                  step_layers.TEX_COORDS)
-        rows = chain.from_iterable(zip(*(bulk_read.texts(batch[name]) for name in names))
-                                   for batch in bulk_read.batches(result, BULK))
+        rows = chain.from_iterable(self._texture_rows(batch, names) for batch in bulk_read.batches(result, BULK))
         for wit_id, group in groupby(rows, key=itemgetter(0)):
-            group = list(group)
-            uv, counts = uv_values([row[4] for row in group], lambda i, g=group: f"{g[i][2]} {g[i][0]}_f{g[i][1]} "
-                                   f"in {self.texcoords.path}", False)
-            starts = np.r_[0, np.cumsum(counts)]
-            yield wit_id, {int(row[1]): (self.images[row[3]], int(row[2] == step_layers.TEX_WALL),
-                                         uv[starts[k]:starts[k + 1]]) for k, row in enumerate(group)}
+            yield wit_id, {int(face): (self.images[image], int(target == step_layers.TEX_WALL), uv)
+                           for _, face, target, image, uv in group}
+
+    def _texture_rows(self, batch: dict[str, np.ndarray], names: tuple[str, ...]) -> Iterator[tuple]:
+        """(feature, face, target, image, (u, v) pairs) of each row of a batch, its coordinates parsed in one go."""
+        features, faces, targets, images, texts = (bulk_read.texts(batch[name]) for name in names)
+        uv, counts = uv_values(texts, lambda i: f"{targets[i]} {features[i]}_f{faces[i]} in {self.texcoords.path}",
+                               False)
+        ends = np.cumsum(counts).tolist()
+        return zip(features, faces, targets, images, (uv[end - n:end] for end, n in zip(ends, counts.tolist())))
 
     def _building(self, wit_id: str, faces: list[ogr.Feature], fields: list[tuple[int, str, int]],
                   col: dict[str, int], textures: dict, parents: list[str] | None) -> CityObject:
@@ -292,41 +295,72 @@ def surface_parts(corners: np.ndarray, max_passes: int = 8) -> np.ndarray:
     part around a vertex form one fan). Corners equal to the millimetre are one vertex.
 
     Parts are first the edge-connected sets; where a part meets itself at a vertex only (two fans, e.g. where
-    roads nearly enclose a piece of ground), each fan but the first becomes a part of its own, and the rest is
-    split again where that disconnected it.
+    roads nearly enclose a piece of ground), each fan but the first becomes a part of its own, and the parts
+    that lost one are split again where that disconnected them. Only those vertices and parts are looked at
+    again: the work is a few sorts of the triangles' edges.
     """
     keys = np.rint(corners.reshape(-1, 3)[:, :2] / 1e-3).astype(np.int64)
-    _, vertex = np.unique(keys, axis=0, return_inverse=True)
+    keys -= keys.min(axis=0)
+    _, vertex = np.unique(keys[:, 0] * (keys[:, 1].max() + 1) + keys[:, 1], return_inverse=True)
     vertex = vertex.reshape(-1, 3)
-    edges = triangle_edge_keys(vertex)  # (n, 3): edge k of a triangle joins its corners k and k + 1
-    flat = edges.ravel()
+    flat = triangle_edge_keys(vertex).ravel()  # edge k of a triangle joins its corners k and k + 1
     order = np.argsort(flat, kind="stable")
     same = np.flatnonzero(flat[order][1:] == flat[order][:-1])
     first, second = order[same], order[same + 1]  # the two uses (triangle * 3 + edge) of each inner edge
     t1, t2 = first // 3, second // 3
     # the corners an inner edge links: the same vertex in both triangles, at both ends of the edge
-    corner = np.arange(3 * len(vertex)).reshape(-1, 3)
     links = []
     for end in (0, 1):
-        v = vertex[t1, (first % 3 + end) % 3]
-        links.append(np.column_stack([corner[t1, (first % 3 + end) % 3],
-                                      corner[t2, np.argmax(vertex[t2] == v[:, None], axis=1)]]))
+        k1 = (first % 3 + end) % 3
+        v = vertex[t1, k1]
+        links.append(np.column_stack([3 * t1 + k1, 3 * t2 + np.argmax(vertex[t2] == v[:, None], axis=1)]))
     links = np.vstack(links)
     part = components(np.column_stack([t1, t2]), len(vertex))
     for _ in range(max_passes):
-        inside = part[links[:, 0] // 3] == part[links[:, 1] // 3]
-        fan = components(links[inside], 3 * len(vertex))  # a label per corner: its fan around its vertex
-        group = part[np.arange(3 * len(vertex)) // 3] * (vertex.max() + 1) + vertex.ravel()
+        pinched = _pinched(part, vertex, links)
+        if not len(pinched):
+            break
+        size = int(vertex.max()) + 1  # (part, vertex) as one number, as _pinched numbers them
+        at = np.isin(part.repeat(3) * size + vertex.ravel(), pinched)  # the corners there
+        local = np.full(3 * len(vertex), -1)
+        local[at] = np.arange(at.sum())
+        mine = at[links[:, 0]] & at[links[:, 1]] & (part[links[:, 0] // 3] == part[links[:, 1] // 3])
+        fan = components(local[links[mine]], int(at.sum()))  # the fans around those vertices
+        corner = np.flatnonzero(at)
+        group = part[corner // 3] * size + vertex.ravel()[corner]
         pairs = np.unique(np.column_stack([group, fan]), axis=0)
-        extra = pairs[np.r_[False, pairs[1:, 0] == pairs[:-1, 0]]]  # a second (third…) fan at a vertex of a part
-        if not len(extra):
-            return part
-        moved = np.isin(fan, extra[:, 1]).reshape(-1, 3)
-        tri = np.flatnonzero(moved.any(axis=1))
-        part[tri] = -1 - fan.reshape(-1, 3)[tri, np.argmax(moved[tri], axis=1)]  # the fan's own part
-        keep = part[t1] == part[t2]
-        part = components(np.column_stack([t1[keep], t2[keep]]), len(vertex))
+        extra = pairs[np.r_[False, pairs[1:, 0] == pairs[:-1, 0]], 1]  # a second (third…) fan at a vertex
+        leaving = np.isin(fan, extra)
+        moved = corner[leaving]
+        changed = np.isin(part, part[moved // 3])  # the parts that lose a fan: split again below
+        part[moved // 3] = -1 - fan[leaving]  # a fan's triangles together, apart from the rest of their part
+        keep = changed[t1] & changed[t2] & ((part[t1] == part[t2]) | ((part[t1] >= 0) & (part[t2] >= 0)))
+        sub = np.flatnonzero(changed)
+        index = np.full(len(vertex), -1)
+        index[sub] = np.arange(len(sub))
+        part[sub] = sub[components(index[np.column_stack([t1[keep], t2[keep]])], len(sub))]
     return part
+
+
+def _pinched(part: np.ndarray, vertex: np.ndarray, links: np.ndarray) -> np.ndarray:
+    """The (part, vertex) keys where a part meets itself at a vertex. At a vertex, each open fan of triangles has
+    one corner more than the links between them (a closed one as many; a TIN has no other): two or more open
+    fans there are two parts touching, or one part pinched — only those vertices are counted per part."""
+    count = int(vertex.max()) + 1
+    joined = part[links[:, 0] // 3] == part[links[:, 1] // 3]
+    fans = np.bincount(vertex.ravel(), minlength=count) - np.bincount(vertex.ravel()[links[joined, 0]],
+                                                                        minlength=count)
+    candidates = fans >= 2
+    if not candidates.any():
+        return np.zeros(0, dtype=np.int64)
+    corner = np.flatnonzero(candidates[vertex.ravel()])
+    key = part[corner // 3] * count + vertex.ravel()[corner]
+    keys, corners = np.unique(key, return_counts=True)
+    link = links[joined][candidates[vertex.ravel()[links[joined, 0]]], 0]
+    link_keys, linked = np.unique(part[link // 3] * count + vertex.ravel()[link], return_counts=True)
+    inner = np.zeros(len(keys), dtype=np.int64)
+    inner[np.searchsorted(keys, link_keys)] = linked
+    return keys[corners - inner >= 2]
 
 
 def _tin_batch(batch: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
