@@ -130,13 +130,14 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
     }
 
 
-def _finished(output: Path, row: dict | None, tiles3d: bool = False) -> bool:
+def _finished(output: Path, row: dict | None, tiles3d: bool = False, cityjson: bool = False) -> bool:
     """A tile a previous run finished: done or empty (ground only), with its model on disk (and its
-    3D Tiles when they are asked for: a tile an earlier run made without them is built again)."""
+    3D Tiles and CityJSONSeq when they are asked for: a tile an earlier run made without them is built again)."""
     if not row or row.get("status") not in (DONE, EMPTY) or not row.get("gml"):
         return False
     gml = output / row["gml"]
-    return gml.is_file() and (not tiles3d or (gml.parent / TILE_TILESET).is_file())
+    return gml.is_file() and (not tiles3d or (gml.parent / TILE_TILESET).is_file()) \
+        and (not cityjson or (gml.parent / PART_FILE).is_file())
 
 
 @contextlib.contextmanager
@@ -227,7 +228,7 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
     previous = read_index(output)
     write_index(output, tiles, options.target_crs, previous)
-    todo = [t for t in tiles if not _finished(output, previous.get(t.sheet), options.tiles3d)]
+    todo = [t for t in tiles if not _finished(output, previous.get(t.sheet), options.tiles3d, options.cityjson)]
     report = TilesReport(str(output), str(output / INDEX_FILE), resumed=len(tiles) - len(todo))
     feedback.info(f"{len(tiles)} tile(s) of 1:{scale:,} over {polygon.area / 1e6:.2f} km²; "
                   f"{report.resumed} already done, {len(todo)} to build.")
