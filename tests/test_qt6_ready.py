@@ -89,7 +89,7 @@ def test_metadata_admits_qgis_3_22_to_4():
     general = metadata["general"]
     assert general["qgisMinimumVersion"] == "3.22"
     assert general["qgisMaximumVersion"] == "4.99"
-    assert general["supportsQt6"] == "True"
+    assert "supportsQt6" not in general  # plugins.qgis.org reports it as deprecated
 
 
 def test_compat_enums_are_the_ones_this_qgis_takes():
