@@ -19,7 +19,8 @@ test: setup
 test-fast: setup
 	bash scripts/test.sh --core -m "not slow"
 
-# ruff, as make test runs it (bash scripts/lint.sh --fix to apply its safe fixes)
+# ruff, then plugins.qgis.org's security scan (Bandit, detect-secrets) of what the plugin ZIP ships, as make test
+# runs them (bash scripts/lint.sh --fix: ruff's safe fixes only)
 lint: setup
 	bash scripts/lint.sh
 
@@ -30,6 +31,8 @@ bench: setup
 stress: setup
 	bash -c 'source scripts/env.sh && .venv/bin/python benchmarks/stress_tiles.py $(STRESS)'
 
+# dist/wit_citymodel-<version>.zip, checked against plugins.qgis.org's rules and scanned as it scans uploads;
+# the maintainer's fields (email, tracker, repository, homepage) from .plugin-maintainer.ini or WIT_PLUGIN_*
 package: setup
 	bash scripts/package.sh
 

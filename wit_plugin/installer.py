@@ -339,8 +339,8 @@ class _Pip:
                 "    found[name] = '.'.join(map(str, module.geos_version)) if name == 'shapely' else ''\n"
                 "print(json.dumps(found))")
         env = dict(self.env, PYTHONPATH=os.pathsep.join((str(self.staging), self.env["PYTHONPATH"])))
-        run = subprocess.run([self.python, "-c", code], env=env, capture_output=True, text=True,
-                             encoding="utf-8", errors="replace", timeout=600)
+        run = subprocess.run([self.python, "-c", code], env=env,  # nosec B603  # QGIS's Python, our code, no shell
+                             capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=600)
         if run.returncode != 0:
             raise InstallError(self.tr("The installed packages do not import; nothing was installed:")
                                + "\n" + _pip_error(run.stderr.splitlines()))
@@ -354,7 +354,8 @@ class _Pip:
         """Run pip with its command in the log; kill it (and what it started) on cancel."""
         feedback.info(self.tr("Running: {command}").format(command=_shell(command)))
         posix = os.name == "posix"
-        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        process = subprocess.Popen(command, stdout=subprocess.PIPE,  # nosec B603  # pip's arguments, no shell
+                                   stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                    env=self.env, text=True, encoding="utf-8", errors="replace",
                                    start_new_session=posix,
                                    creationflags=0 if posix else subprocess.CREATE_NEW_PROCESS_GROUP)
@@ -430,7 +431,9 @@ def _kill(process: subprocess.Popen) -> None:
         except ProcessLookupError:
             pass
     else:
-        subprocess.run(["taskkill", "/F", "/T", "/PID", str(process.pid)], capture_output=True)
+        taskkill = Path(os.environ.get("SystemRoot", r"C:\Windows"), "System32", "taskkill.exe")
+        subprocess.run([str(taskkill), "/F", "/T", "/PID", str(process.pid)],  # nosec B603  # Windows' own, no shell
+                       capture_output=True)
         process.kill()
     process.wait()
 
@@ -438,8 +441,8 @@ def _kill(process: subprocess.Popen) -> None:
 def _quiet(command: list[str]) -> str | None:
     """A command's standard output, or None when it cannot run or fails."""
     try:
-        run = subprocess.run(command, capture_output=True, text=True, timeout=120,
-                             env=dict(os.environ, LC_ALL="C"))
+        run = subprocess.run(command, capture_output=True, text=True,  # nosec B603  # a tool's version, no shell
+                             timeout=120, env=dict(os.environ, LC_ALL="C"))
     except (OSError, subprocess.TimeoutExpired):
         return None
     return run.stdout if run.returncode == 0 else None
