@@ -1,6 +1,6 @@
 # The two commands a new user needs (README): `make demo` and `make test`.
 # Each does its own set-up (scripts/setup.sh is idempotent).
-.PHONY: setup demo view test test-fast lint bench stress package translations clean
+.PHONY: setup demo view test test-fast lint bench stress package qt6-check translations clean
 
 setup:
 	bash scripts/setup.sh
@@ -35,6 +35,11 @@ stress: setup
 # the maintainer's fields (email, tracker, repository, homepage) from .plugin-maintainer.ini or WIT_PLUGIN_*
 package: setup
 	bash scripts/package.sh
+
+# not in CI (it needs a file of the QGIS repository): QGIS's own pyqt5_to_pyqt6.py on what the ZIP ships must
+# leave no change (scripts/qt6_check.py; its PyPI requirements go into a venv outside the checkout, QT6_TOOL_VENV)
+qt6-check: setup
+	.venv/bin/python scripts/qt6_check.py "$(PYQT5_TO_PYQT6)"
 
 translations: setup
 	.venv/bin/python scripts/i18n.py
