@@ -15,7 +15,6 @@ from conftest import ROOT
 sys.path.insert(0, str(ROOT / "scripts"))
 import plugin_zip_check  # noqa: E402  (scripts/plugin_zip_check.py)
 
-pytestmark = pytest.mark.slow  # each build runs the security scan (Bandit, detect-secrets): 30-60 s
 #: test settings: addresses nobody owns yet that are no placeholder either
 SETTINGS = """[maintainer]
 email = minji.kim@citymodel-maintainers.kr
@@ -36,6 +35,7 @@ def package(tmp_path, settings: str, script: str = "package.sh") -> subprocess.C
                           cwd=ROOT, env=env)
 
 
+@pytest.mark.slow  # each build runs the security scan (Bandit, detect-secrets): 30-60 s
 def test_package_zip_installs_and_loads_in_qgis_process_and_says_what_an_upload_needs(tmp_path):
     run = package(tmp_path, "[maintainer]\n")  # no field given (as with no settings file)
     assert run.returncode == 0, run.stderr
@@ -70,6 +70,7 @@ def test_package_zip_installs_and_loads_in_qgis_process_and_says_what_an_upload_
     assert "wit:generatesample" in listing
 
 
+@pytest.mark.slow
 def test_with_the_maintainers_settings_the_zip_passes_every_rule_and_the_scan(tmp_path):
     shipped = (ROOT / "metadata.txt").read_bytes()
     run = package(tmp_path, SETTINGS, "package.py")

@@ -37,12 +37,12 @@ def pip_home(tmp_path):
 
 def test_the_index_is_the_one_pip_would_use(tmp_path, pip_home):
     write_config(tmp_path / "xdg" / "pip" / "pip.conf",
-                 "[global]\nindex-url = https://global.index/simple\nextra-index-url = https://extra.index/simple\n")
-    write_config(tmp_path / "home" / ".config" / "pip" / "pip.conf",
-                 "[global]\nindex_url = https://user.index/simple\ncert = /etc/user-ca.pem\n"
+                 "[global]\nindex-url = https://global.index/simple\nextra-index-url = https://extra.index/simple\n"
                  "[install]\nindex-url = https://install.index/simple\n")
+    write_config(tmp_path / "home" / ".config" / "pip" / "pip.conf",
+                 "[global]\nindex_url = https://user.index/simple\ncert = /etc/user-ca.pem\n")
     settings = pip_bootstrap.pip_settings(pip_home, "linux")
-    # the user's file wins over the global one, its [install] over its [global]; the extra index is kept
+    # the user's file wins over the global one, but [install] over any [global]; the extra index is kept
     assert settings == pip_bootstrap.PipSettings(("https://install.index/simple", "https://extra.index/simple"),
                                                  "/etc/user-ca.pem")
     assert pip_bootstrap.pip_settings({**pip_home, "PIP_INDEX_URL": "https://env.index/simple"}, "linux").indexes[0] \

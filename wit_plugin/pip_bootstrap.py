@@ -6,7 +6,7 @@ so nothing is installed for pip itself: the installer downloads the wheel into i
 profile, and deletes it with that folder.
 
 The index is the one pip would use for this Python: ``PIP_INDEX_URL``, else ``index-url`` from pip's
-configuration files (read in pip's order, the later file winning, ``[install]`` over ``[global]``), else PyPI;
+configuration files (read in pip's order, the later file winning, ``[install]`` over any ``[global]``), else PyPI;
 then the ``extra-index-url`` ones. ``PIP_CERT`` / ``cert`` is the CA bundle for https; proxies come from the
 environment, as for pip. Yanked and pre-release pips and those whose Requires-Python excludes this Python are
 skipped; the newest left wins. The download is read in chunks (Cancel stops it) and checked against the sha256
@@ -96,14 +96,17 @@ def config_files(environ: Mapping[str, str] = os.environ, platform: str = sys.pl
 
 def pip_settings(environ: Mapping[str, str] = os.environ, platform: str = sys.platform) -> PipSettings:
     """The indexes (``index-url`` first, then the extra ones) and the CA bundle pip would use."""
-    values: dict[str, str] = {}
+    parsers = []
     for path in config_files(environ, platform):
         parser = configparser.RawConfigParser()
         try:
             parser.read(path, encoding="utf-8")
         except (configparser.Error, OSError, UnicodeDecodeError):
             continue  # pip would stop on a broken file; the index falls back to PyPI here
-        for section in ("global", "install"):
+        parsers.append(parser)
+    values: dict[str, str] = {}
+    for section in ("global", "install"):  # pip: [install] of any file over [global] of any file
+        for parser in parsers:
             if parser.has_section(section):
                 values.update({key.replace("_", "-"): value for key, value in parser.items(section)})
     for key in ("index-url", "extra-index-url", "cert", "no-index"):
