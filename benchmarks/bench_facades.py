@@ -8,11 +8,12 @@ two settings interleaved, ``--runs`` times each: the texture step (``texture_mod
 CityGML writer (size of ``model.gml`` and its textures) and the 3D Tiles export (time and size of the
 tileset). Goals (issue 27): texture + export time at most +25 %, CityGML and tileset at most +15 %.
 
-``--tiles DIR DIR``: instead, compare two tiled runs' output folders (``bench_tiles.py --district --tiles3d``
-run with ``FACADES`` none and generated): their tiles' CityGML and 3D Tiles sizes, and the runs' seconds.
+``--district``: instead, the 40 km² district of ``bench_tiles.py --district`` (its sample, generated once and
+shared) run in map-sheet tiles on 2 workers with 3D Tiles, once with facades none and once generated: the runs'
+wall seconds and the CityGML (with textures) and 3D Tiles (tiles and groups) of all tiles.
 
 Writes ``out/bench/facades.json`` and prints a Markdown table.
-Usage: ``python benchmarks/bench_facades.py [--radius 1000] [--max-edge 5] [--runs 3] [--tiles NONE GENERATED]``
+Usage: ``python benchmarks/bench_facades.py [--radius 1000] [--max-edge 5] [--runs 3] [--district]``
 """
 from __future__ import annotations
 
@@ -89,15 +90,37 @@ def measure(model: Path, runs: int) -> dict:
     return table
 
 
-def compare_runs(none: Path, generated: Path) -> dict:
-    """Two tiled runs' outputs: the tiles' CityGML files with their textures, the 3D Tiles, and the steps' seconds."""
-    def sizes(folder: Path) -> dict:
-        tiles = folder / "tiles"
-        gml = sum(_mb(t) - _mb(t / "3dtiles") for t in tiles.iterdir() if t.is_dir())
-        tiles3d = sum(_mb(t / "3dtiles") for t in tiles.iterdir() if (t / "3dtiles").is_dir())
-        groups = _mb(folder / "3dtiles-groups") if (folder / "3dtiles-groups").is_dir() else 0.0
-        return {"citygml_mb": round(gml, 1), "tiles3d_mb": round(tiles3d + groups, 1)}
-    return {"none": sizes(none), "generated": sizes(generated)}
+def district(workers: int = 2) -> dict:
+    """The district run with each setting (a fresh output folder each): wall seconds and sizes."""
+    import shutil
+
+    from bench_tiles import OUT as TILES_OUT
+
+    from wit_plugin.chain import ChainInputs, ChainOptions
+    from wit_plugin.sample import SampleConfig, generate_sample
+    from wit_plugin.sheetrun.runner import run_tiles
+
+    folder = TILES_OUT / "district"  # bench_tiles.py --district's sample: the same data
+    if not (folder / "sample_manifest.json").is_file():
+        shutil.rmtree(folder, ignore_errors=True)
+        generate_sample(folder, SampleConfig(radius_m=3162.0, seed=7, ortho_pixel_size=1.0))
+    files = json.loads((folder / "sample_manifest.json").read_text(encoding="utf-8"))["files"]
+    inputs = ChainInputs([str(folder / "ortho")], str(folder / files["dem"]), str(folder / files["buildings"]),
+                         str(folder / files["roads"]), str(folder / files["districts"]))
+    result = {}
+    for facades in SETTINGS:
+        out = OUT / f"district-{facades}"
+        shutil.rmtree(out, ignore_errors=True)
+        start = time.perf_counter()
+        report = run_tiles(inputs, ChainOptions(area=None, metrics=False, tiles3d=True, facades=facades), out, None,
+                           scale=1000, workers=workers)
+        tiles = [t for t in (out / "tiles").iterdir() if t.is_dir()]
+        result[facades] = {"seconds": round(time.perf_counter() - start, 1), "tiles": len(report.rows),
+                           "buildings": report.buildings,
+                           "citygml_mb": round(sum(_mb(t) - _mb(t / "3dtiles") for t in tiles), 1),
+                           "tiles3d_mb": round(sum(_mb(t / "3dtiles") for t in tiles)
+                                               + _mb(out / "3dtiles-groups"), 1)}
+    return result
 
 
 def main() -> int:
@@ -105,18 +128,19 @@ def main() -> int:
     parser.add_argument("--radius", type=float, default=1000.0)
     parser.add_argument("--max-edge", type=float, default=5.0)
     parser.add_argument("--runs", type=int, default=3)
-    parser.add_argument("--tiles", nargs=2, type=Path, metavar=("NONE", "GENERATED"))
+    parser.add_argument("--district", action="store_true", help="the 40 km² district in tiles, both settings")
     parser.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         print(json.dumps(child(args.child[0], args.child[1], Path(args.child[2]))))
         return 0
-    if args.tiles:
-        result = compare_runs(*args.tiles)
-        lines = ["| tiled run | none | generated | cost |", "|---|---:|---:|---:|"]
-        for key in ("citygml_mb", "tiles3d_mb"):
+    if args.district:
+        result = district()
+        result["load_average"] = os.getloadavg()
+        lines = ["| 40 km² district, 2 workers | none | generated | cost |", "|---|---:|---:|---:|"]
+        for key, label in (("seconds", "run, wall s"), ("citygml_mb", "CityGML MB"), ("tiles3d_mb", "3D Tiles MB")):
             a, b = result["none"][key], result["generated"][key]
-            lines.append(f"| {key} | {a} | {b} | {100 * (b / a - 1):+.1f} % |")
+            lines.append(f"| {label} | {a} | {b} | {100 * (b / a - 1):+.1f} % |")
     else:
         from bench_3dtiles import prepare
 
@@ -133,7 +157,8 @@ def main() -> int:
         lines.append(f"| texture + export CPU s | {both['none']:.2f} | {both['generated']:.2f} | "
                      f"{100 * (both['generated'] / both['none'] - 1):+.1f} % |")
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT.parent / "facades.json").write_text(json.dumps(result, indent=1), encoding="utf-8")
+    name = "facades-district.json" if args.district else "facades.json"
+    (OUT.parent / name).write_text(json.dumps(result, indent=1), encoding="utf-8")
     print("\n".join(lines))
     return 0
 

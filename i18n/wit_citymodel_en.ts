@@ -596,8 +596,8 @@
       <translation>Tools</translation>
     </message>
     <message>
-      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
-      <translation>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</translation>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing. Where QGIS's Python has no pip (Debian's and Ubuntu's QGIS do not install it), pip runs from its own wheel, downloaded from the package index pip is configured for into a work folder of the profile and deleted afterwards.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing. Where QGIS's Python has no pip (Debian's and Ubuntu's QGIS do not install it), pip runs from its own wheel, downloaded from the package index pip is configured for into a work folder of the profile and deleted afterwards.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</translation>
     </message>
     <message>
       <source>Python interpreter to run pip with (empty: QGIS's own)</source>
@@ -1132,6 +1132,18 @@
       <translation>Installed into {folder}: {packages}.</translation>
     </message>
     <message>
+      <source>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}): {command}</source>
+      <translation>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}): {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python has no pip that can install: pip {version} runs from its own wheel, downloaded from {url}.</source>
+      <translation>QGIS's Python has no pip that can install: pip {version} runs from its own wheel, downloaded from {url}.</translation>
+    </message>
+    <message>
+      <source>Run: {command}</source>
+      <translation>Run: {command}</translation>
+    </message>
+    <message>
       <source>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</source>
       <translation>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</translation>
     </message>
@@ -1140,24 +1152,24 @@
       <translation>Every selected package is present already: {names}.</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has no pip: {command}</source>
-      <translation>QGIS's Python ({python}) has no pip: {command}</translation>
+      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later, and pip's own wheel could not be fetched from the package index ({reason}): {command}</source>
+      <translation>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later, and pip's own wheel could not be fetched from the package index ({reason}): {command}</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</source>
-      <translation>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</translation>
-    </message>
-    <message>
-      <source>Run: {command}</source>
-      <translation>Run: {command}</translation>
+      <source>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}).</source>
+      <translation>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}).</translation>
     </message>
     <message>
       <source>Running: {command}</source>
       <translation>Running: {command}</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has no pip.</source>
-      <translation>QGIS's Python ({python}) has no pip.</translation>
+      <source>Nothing was installed.</source>
+      <translation>Nothing was installed.</translation>
+    </message>
+    <message>
+      <source>Then run 'Install Python dependencies' again.</source>
+      <translation>Then run 'Install Python dependencies' again.</translation>
     </message>
     <message>
       <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</source>
@@ -1176,16 +1188,12 @@
       <translation>The shapely built here uses GEOS {built}, QGIS uses GEOS {qgis}; it would crash QGIS, so nothing was installed.</translation>
     </message>
     <message>
+      <source>pip's own wheel could not be downloaded ({reason}).</source>
+      <translation>pip's own wheel could not be downloaded ({reason}).</translation>
+    </message>
+    <message>
       <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</source>
       <translation>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</translation>
-    </message>
-    <message>
-      <source>Nothing was installed.</source>
-      <translation>Nothing was installed.</translation>
-    </message>
-    <message>
-      <source>Then run 'Install Python dependencies' again.</source>
-      <translation>Then run 'Install Python dependencies' again.</translation>
     </message>
     <message>
       <source>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</source>

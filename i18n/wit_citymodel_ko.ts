@@ -596,8 +596,8 @@
       <translation>도구</translation>
     </message>
     <message>
-      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
-      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, pythoncdt, pygltflib, Dask…; 비상업적 이용에만 무료인 triangle은 선택한 경우에만)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing. Where QGIS's Python has no pip (Debian's and Ubuntu's QGIS do not install it), pip runs from its own wheel, downloaded from the package index pip is configured for into a work folder of the profile and deleted afterwards.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, pythoncdt, pygltflib, Dask…; 비상업적 이용에만 무료인 triangle은 선택한 경우에만)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다. QGIS의 파이썬에 pip이 없으면(Debian과 Ubuntu의 QGIS는 pip을 설치하지 않습니다) pip이 설정된 패키지 색인에서 pip 자체의 휠을 프로필의 작업 폴더로 내려받아 그 휠로 pip을 실행하고, 끝나면 지웁니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
     </message>
     <message>
       <source>Python interpreter to run pip with (empty: QGIS's own)</source>
@@ -1132,6 +1132,18 @@
       <translation>{folder}에 설치함: {packages}.</translation>
     </message>
     <message>
+      <source>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}): {command}</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없고, 패키지 색인에서 pip 자체의 휠도 받아 오지 못했습니다({reason}): {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python has no pip that can install: pip {version} runs from its own wheel, downloaded from {url}.</source>
+      <translation>QGIS의 파이썬에 설치에 쓸 수 있는 pip이 없어, {url}에서 내려받은 pip {version} 자체의 휠로 pip을 실행합니다.</translation>
+    </message>
+    <message>
+      <source>Run: {command}</source>
+      <translation>실행: {command}</translation>
+    </message>
+    <message>
       <source>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</source>
       <translation>shapely: shapely 휠은 자체 GEOS를 담고 있어 리눅스에서 QGIS를 비정상 종료시키므로 시스템 GEOS에 맞춰 빌드해야 하며, 이를 위해 GEOS 개발 파일, C 컴파일러, 파이썬 헤더({packages})가 필요합니다.</translation>
     </message>
@@ -1140,24 +1152,24 @@
       <translation>선택한 패키지가 모두 이미 있습니다: {names}.</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has no pip: {command}</source>
-      <translation>QGIS의 파이썬({python})에 pip이 없습니다: {command}</translation>
+      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later, and pip's own wheel could not be fetched from the package index ({reason}): {command}</source>
+      <translation>QGIS의 파이썬({python})에 있는 pip은 {version}입니다. 설치에는 pip 22.2 이상이 필요한데, 패키지 색인에서 pip 자체의 휠을 받아 오지 못했습니다({reason}): {command}</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</source>
-      <translation>QGIS의 파이썬({python})의 pip은 {version}입니다. 설치하려면 pip 22.2 이상이 필요합니다: {command}</translation>
-    </message>
-    <message>
-      <source>Run: {command}</source>
-      <translation>실행: {command}</translation>
+      <source>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}).</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없고, 패키지 색인에서 pip 자체의 휠도 받아 오지 못했습니다({reason}).</translation>
     </message>
     <message>
       <source>Running: {command}</source>
       <translation>실행 중: {command}</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has no pip.</source>
-      <translation>QGIS의 파이썬({python})에 pip이 없습니다.</translation>
+      <source>Nothing was installed.</source>
+      <translation>아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Then run 'Install Python dependencies' again.</source>
+      <translation>그런 다음 '파이썬 의존 패키지 설치'를 다시 실행하십시오.</translation>
     </message>
     <message>
       <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</source>
@@ -1176,16 +1188,12 @@
       <translation>여기서 빌드한 shapely는 GEOS {built}를, QGIS는 GEOS {qgis}를 씁니다. QGIS를 비정상 종료시킬 수 있으므로 아무것도 설치하지 않았습니다.</translation>
     </message>
     <message>
+      <source>pip's own wheel could not be downloaded ({reason}).</source>
+      <translation>pip 자체의 휠을 내려받지 못했습니다({reason}).</translation>
+    </message>
+    <message>
       <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</source>
       <translation>{module}: PyPI의 휠은 QGIS가 직접 불러오는 C 라이브러리를 담고 있어 QGIS를 비정상 종료시킬 수 있습니다. 배포판의 패키지({package})를 설치하십시오.</translation>
-    </message>
-    <message>
-      <source>Nothing was installed.</source>
-      <translation>아무것도 설치하지 않았습니다.</translation>
-    </message>
-    <message>
-      <source>Then run 'Install Python dependencies' again.</source>
-      <translation>그런 다음 '파이썬 의존 패키지 설치'를 다시 실행하십시오.</translation>
     </message>
     <message>
       <source>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</source>

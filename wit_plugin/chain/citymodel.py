@@ -190,8 +190,8 @@ class _Clock:
         number = [name for name, _ in STEPS].index(label) + 1
         self.feedback.info(f"Step {number}/{len(STEPS)}: {label} (in a second process, beside the next steps)")
         start = time.perf_counter()
-        process = subprocess.Popen(command, env=core_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                   text=True)
+        process = subprocess.Popen(command, env=core_env(), stdout=subprocess.PIPE,  # nosec B603  # our step, no shell
+                                   stderr=subprocess.PIPE, text=True)
 
         def wait() -> None:
             while process.poll() is None:

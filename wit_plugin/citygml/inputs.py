@@ -25,6 +25,7 @@ from osgeo import ogr
 from .. import step_layers
 from ..errors import InputError
 from ..io import bulk_read
+from ..io.gpkg_bulk import sql_name
 from ..io.vector_io import open_step_layer, split_source
 from ..numtext import ring_texts
 
@@ -49,6 +50,7 @@ class InputLayer:
 
     def __init__(self, ds: ogr.DataSource, layer: ogr.Layer, path: str, name: str):
         self.ds, self.layer, self.path, self.name = ds, layer, path, name
+        self.table = sql_name(name)  # the layer in SQL
 
     @classmethod
     @contextlib.contextmanager
@@ -78,11 +80,11 @@ class InputLayer:
     @contextlib.contextmanager
     def select(self, where: str = "", order: Iterable[str] = (), columns: str = "*") -> Iterator[ogr.Layer]:
         """Features in a stable order (SQLite sorts on disk, so memory stays flat)."""
-        sql = f'SELECT {columns} FROM "{self.name}"'
+        sql = f"SELECT {columns} FROM {self.table}"  # nosec B608  # a quoted name; the rest is this package's SQL
         if where:
             sql += f" WHERE {where}"
         if order:
-            sql += " ORDER BY " + ", ".join(f'"{c}"' for c in order)
+            sql += " ORDER BY " + ", ".join(map(sql_name, order))
         result = self.ds.ExecuteSQL(sql)
         if result is None:
             raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")

@@ -23,6 +23,7 @@ from ... import step_layers
 from ...errors import InputError
 from ...heights import HeightOptions
 from ...io import bulk_read
+from ...io.gpkg_bulk import sql_name
 from ...io.vector_io import open_step_layer, split_source
 from .modules import facade_image
 from .uses import Facade, UseRule
@@ -95,8 +96,9 @@ class FacadeSource:
 
     def _select(self, kind: str, geometry: bool, order: bool) -> Iterator[dict[str, np.ndarray]]:
         names = self._columns + [step_layers.FACE_NUMBER, self.geometry] * geometry
-        columns = ", ".join(f'"{name}"' for name in names)
-        sql = f'SELECT {columns} FROM "{self.table}" WHERE "{step_layers.FACE_TYPE}" = \'{kind}\''
+        columns = ", ".join(map(sql_name, names))
+        sql = (f"SELECT {columns} FROM {sql_name(self.table)} "  # nosec B608  # quoted names; kind: wall or ground
+               f"WHERE {sql_name(step_layers.FACE_TYPE)} = '{kind}'")
         if order:
             sql += f' ORDER BY "{step_layers.WIT_ID}", "{step_layers.FACE_NUMBER}"'
         result = self._ds.ExecuteSQL(sql)
