@@ -24,6 +24,7 @@ from lxml import etree
 from wit_plugin import triangulators
 from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+from wit_plugin.chain.fingerprint import Fingerprint
 from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
 from wit_plugin.mapsheet import sheet_at
@@ -342,7 +343,7 @@ def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_wit
     ds = None
     row = worker.run_tile(_one_tile_spec(sample, tmp_path, sample.park, buildings=str(buildings)))
     assert (row["status"], row["buildings"], row["error"]) == ("empty", 0, None), row
-    gml = tmp_path / "out" / row["gml"]
+    gml = tmp_path / "out" / row[worker.STAGED] / "model.gml"  # built, not yet in its place (the runner moves it)
     assert _building_ids(gml) == [] and len(_ground_triangles(gml)) == row["triangles"] > 20
 
 
@@ -355,7 +356,10 @@ def _one_tile_spec(sample, tmp_path: Path, sheet: str, **inputs) -> dict:
     context = prepare_context(str(sample.roads), str(sample.districts), polygon, "EPSG:5186",
                               str(tmp_path / "context.gpkg"))
     return runner._spec(_inputs(sample, **inputs), _options(), tmp_path / "out", sheet, 1000, polygon,
-                        (str(tmp_path / "context.gpkg"), context))
+                        (str(tmp_path / "context.gpkg"), context), STAND_IN, "new tile")
+
+
+STAND_IN = Fingerprint({"max_edge": 15.0}, {"buildings": "0" * 32})  # what a tile built alone records
 
 
 def test_a_tile_is_built_when_gdal_objects_outlive_their_use(sample, local_run, tmp_path, monkeypatch):
@@ -445,14 +449,15 @@ def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, 
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
     tile = plan.plan_tiles(polygon, "EPSG:5186", 1000)[0]
-    spec = runner._spec(_inputs(sample), _options(), tmp_path, tile.sheet, 1000, polygon, (None, []))
+    spec = runner._spec(_inputs(sample), _options(), tmp_path, tile.sheet, 1000, polygon, (None, []), STAND_IN,
+                        "new tile")
     folder = worker.tile_folder(tmp_path, tile.sheet)
     write_index(tmp_path, [tile], "EPSG:5186", {})
     calls = []
 
     def fails_midway(*args, **kwargs):
         calls.append(args)
-        (folder / ".wit-run-x").mkdir(parents=True)
+        (Path(args[2]) / ".wit-run-x").mkdir(parents=True)  # the folder the tile is built in, half written
         raise TypeError("'NoneType' object is not subscriptable")
 
     monkeypatch.setattr(worker, "run_city_model", fails_midway)  # the in-process worker imports this module
@@ -462,7 +467,7 @@ def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, 
     row = rows[tile.sheet]
     assert len(calls) == 1 and row["status"] == "failed"
     assert row["error"].startswith("TypeError: 'NoneType' object is not subscriptable (Traceback")
-    assert "fails_midway" in row["error"] and not folder.exists()
+    assert "fails_midway" in row["error"] and not folder.exists() and not list(tmp_path.glob(".wit-staging/*"))
     assert read_index(tmp_path)[tile.sheet]["status"] == "failed"
 
 
@@ -473,7 +478,8 @@ def test_a_tile_spec_and_its_row_are_plain_values(sample, local_run):
     from wit_plugin.sheetrun import runner
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
-    spec = runner._spec(_inputs(sample), _options(), Path("/out"), "376081", 1000, polygon, ("/out/c.gpkg", ["x"]))
+    spec = runner._spec(_inputs(sample), _options(), Path("/out"), "376081", 1000, polygon, ("/out/c.gpkg", ["x"]),
+                        STAND_IN, "new tile")
     assert json.loads(json.dumps(spec)) == spec
     rows = local_run[1].rows
     assert json.loads(json.dumps(rows)) == rows
@@ -497,7 +503,8 @@ def test_cancel_stops_the_run_and_leaves_no_half_tile(sample, tmp_path):
     index = read_index(tmp_path / "out")
     assert "pending" in {r["status"] for r in index.values()}
     for folder in (tmp_path / "out" / "tiles").glob("*"):
-        assert (folder / "model.gml").is_file() and not list(folder.glob(".wit-run-*"))
+        assert (folder / "model.gml").is_file() and (folder / "build.json").is_file()
+    assert not list((tmp_path / "out").glob(".wit-staging/new-*"))  # nothing half-built is left
 
 
 # -- a real distributed cluster: dask scheduler + dask worker processes --------------------------

@@ -273,6 +273,14 @@ def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedb
     return layer
 
 
+def source_bbox(bbox: tuple[float, float, float, float], bbox_crs: pyproj.CRS,
+                source_crs: pyproj.CRS) -> tuple[float, float, float, float]:
+    """``bbox`` (in ``bbox_crs``) as the box in the layer's CRS that ``read_layer`` filters with."""
+    if bbox_crs.equals(source_crs):
+        return bbox
+    return pyproj.Transformer.from_crs(bbox_crs, source_crs, always_xy=True).transform_bounds(*bbox, densify_pts=21)
+
+
 def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
                crs: str | None = None, bbox: tuple[float, float, float, float] | None = None,
                bbox_crs: pyproj.CRS | None = None, feedback: Feedback = SILENT,
@@ -288,9 +296,8 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     """
     ds, lyr, encoding = open_layer(path, layer, encoding, feedback, preferred)
     source_crs = _crs_of(lyr, str(path), crs)
-    if bbox is not None and bbox_crs is not None and not bbox_crs.equals(source_crs):
-        to_source = pyproj.Transformer.from_crs(bbox_crs, source_crs, always_xy=True)
-        bbox = to_source.transform_bounds(*bbox, densify_pts=21)
+    if bbox is not None and bbox_crs is not None:
+        bbox = source_bbox(bbox, bbox_crs, source_crs)
     defn = lyr.GetLayerDefn()
     raw_names = field_names(lyr)
     fields = [FieldDef(decode_text(name), fd.GetType(), fd.GetSubType(), fd.GetWidth(), fd.GetPrecision())

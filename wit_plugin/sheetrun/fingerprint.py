@@ -1,0 +1,85 @@
+"""Every tile's fingerprint at once: the run's settings, and the inputs as each tile reads them, by content.
+
+What a tile reads (``job``, ``prepare``), and so what its fingerprint holds besides the settings:
+
+* ``buildings``: those whose box meets the tile's area grown by ``CONTEXT_MARGIN`` (what its step 1 reads),
+  in the layer's order (ids are numbered in it). Those it may own (their box meets its area) with every
+  attribute; the others by footprint and id only, all a neighbour takes of them (simplified with its own
+  walls, cut out of its terrain): a building's height changed rebuilds its own tile, its footprint moved
+  rebuilds every tile within the margin — a change near a border can change the neighbour's terrain.
+* ``roads``, ``districts``: the run's prepared polygons that meet the tile (prepared once for the whole
+  run, so a road edited in the next tile can change this tile's piece of it: what the tile gets is compared).
+* ``area``: the run's area where the tile and its neighbours' buildings lie (its edge is part of the seam,
+  and it decides which neighbouring buildings are in the run).
+* ``dem``: the DEM cells under the tile and under the buildings it may own (its terrain grows to hold them).
+* ``ortho``: the orthoimage sheets there, by their bytes (the mosaic's tone is taken from every sheet used).
+
+The inputs are read once for all the tiles; each tile then costs a few box queries and one DEM window.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from .. import step_layers
+from ..chain import ChainInputs, ChainOptions
+from ..chain.coverage import OrthoCoverage
+from ..chain.fingerprint import (
+    SLACK,
+    DemDigests,
+    Fingerprint,
+    LayerDigests,
+    OrthoDigests,
+    chain_settings,
+    grown,
+    union_bounds,
+)
+from ..io.digests import digest
+from ..tiles3d.groups import square
+from ..vectors import BUILDING_KEYS, BUILDING_PREFIX, building_reach
+from .plan import Tile
+from .prepare import CONTEXT_MARGIN
+
+CONTEXT_INPUTS = {step_layers.PREPARED_ROADS: "roads", step_layers.PREPARED_DISTRICTS: "districts"}
+
+
+class RunInputs:
+    """The run's inputs read once, and the settings its tiles are built with: what every fingerprint is taken from."""
+
+    def __init__(self, inputs: ChainInputs, options: ChainOptions, scale: int, polygon: BaseGeometry,
+                 coverage: OrthoCoverage, context: str | None, context_layers: list[str]):
+        self.crs = options.target_crs
+        self.polygon = shapely.from_wkt(shapely.to_wkt(polygon))  # as the workers get it
+        tiles_options = dataclasses.replace(options, metrics=False, keep_work=False)  # as the workers set them
+        self.settings = {**chain_settings(tiles_options), "scale": scale, "context_margin": CONTEXT_MARGIN}
+        reach = building_reach(self.polygon, CONTEXT_MARGIN).bounds
+        self.buildings = LayerDigests.read(inputs.buildings, options.encoding, reach, self.crs, BUILDING_PREFIX,
+                                           BUILDING_KEYS)
+        self.context = {CONTEXT_INPUTS[name]: LayerDigests.read(f"{context}|layername={name}", None, None, self.crs)
+                        for name in context_layers}
+        self.dem = DemDigests(inputs.dem, self.crs)
+        self.ortho = OrthoDigests(coverage)
+
+    def tile(self, tile: Tile) -> Fingerprint:
+        """The fingerprint of ``tile`` (see the module docstring)."""
+        area = shapely.intersection(tile.polygon, self.polygon)  # as ``TileJob.area``
+        reach = building_reach(area, CONTEXT_MARGIN).bounds
+        read = self.buildings.select(reach, self.crs)
+        own = np.isin(read, self.buildings.select(area.bounds, self.crs))
+        around = union_bounds(grown(reach, SLACK), self.buildings.target_bounds(read, self.crs))
+        window = union_bounds(grown(reach, SLACK), self.buildings.target_bounds(read[own], self.crs))
+        inputs = {"buildings": self.buildings.digest(read, own),
+                  "area": digest(shapely.to_wkb(shapely.normalize(shapely.clip_by_rect(self.polygon, *around))))}
+        for name, layer in self.context.items():
+            inputs[name] = layer.digest(layer.select(tile.polygon.bounds, self.crs))
+        inputs.update(dem=self.dem.digest(window), ortho=self.ortho.digest(window))
+        return Fingerprint(self.settings, inputs)
+
+    def group(self, area: BaseGeometry) -> str:
+        """The digest of what a lowest group of the run's 3D Tiles reads itself over ``area`` (its tiles'):
+        the DEM and the orthoimage over the square its coarse terrain and image cover."""
+        rect = square(area)
+        return digest(self.dem.digest(rect), self.ortho.digest(rect))
