@@ -248,14 +248,19 @@ def atomic_files(targets: list[str | os.PathLike]) -> Iterator[Path]:
 
 def swap_folder(new: Path | None, target: Path, old: Path) -> None:
     """Put the folder ``new`` (None: nothing) in ``target``'s place: the previous ``target`` moves to ``old``
-    first and is deleted last, so a reader finds the whole old folder or the whole new one. Killed between
-    the two renames, ``old`` stays and ``target`` is missing: ``restore_folder`` puts it back."""
+    first and is deleted last, so a reader finds the whole old folder or the whole new one. A failed second
+    rename puts the old folder back; killed between the two, ``old`` stays and ``target`` is missing:
+    ``restore_folder`` (run first by whoever swaps there next) puts it back."""
     if target.exists():
         old.parent.mkdir(parents=True, exist_ok=True)
         os.replace(target, old)
-    if new is not None:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(new, target)
+    try:
+        if new is not None:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(new, target)
+    except BaseException:
+        restore_folder(target, old)
+        raise
     shutil.rmtree(old, ignore_errors=True)
 
 

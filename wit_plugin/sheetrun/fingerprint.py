@@ -11,8 +11,10 @@ What a tile reads (``job``, ``prepare``), and so what its fingerprint holds besi
   run, so a road edited in the next tile can change this tile's piece of it: what the tile gets is compared).
 * ``area``: the run's area where the tile and its neighbours' buildings lie (its edge is part of the seam,
   and it decides which neighbouring buildings are in the run).
-* ``dem``: the DEM cells under the tile and under the buildings it may own (its terrain grows to hold them).
-* ``ortho``: the orthoimage sheets there, by their bytes (the mosaic's tone is taken from every sheet used).
+* ``dem``: the DEM cells under the tile's area and under the buildings it may own (its terrain grows to hold
+  them), with the margin its readers take.
+* ``ortho``: the orthoimage sheets whose footprint meets that box, by their bytes (the mosaic's tone is taken
+  from every sheet used).
 
 The inputs are read once for all the tiles; each tile then costs a few box queries and one DEM window.
 """
@@ -70,7 +72,7 @@ class RunInputs:
         read = self.buildings.select(reach, self.crs)
         own = np.isin(read, self.buildings.select(area.bounds, self.crs))
         around = union_bounds(grown(reach, SLACK), self.buildings.target_bounds(read, self.crs))
-        window = union_bounds(grown(reach, SLACK), self.buildings.target_bounds(read[own], self.crs))
+        window = union_bounds(grown(area.bounds, SLACK), self.buildings.target_bounds(read[own], self.crs))
         inputs = {"buildings": self.buildings.digest(read, own),
                   "area": digest(shapely.to_wkb(shapely.normalize(shapely.clip_by_rect(self.polygon, *around))))}
         for name, layer in self.context.items():
@@ -80,6 +82,5 @@ class RunInputs:
 
     def group(self, area: BaseGeometry) -> str:
         """The digest of what a lowest group of the run's 3D Tiles reads itself over ``area`` (its tiles'):
-        the DEM and the orthoimage over the square its coarse terrain and image cover."""
-        rect = square(area)
-        return digest(self.dem.digest(rect), self.ortho.digest(rect))
+        the DEM under the area, the orthoimage over the square its image covers."""
+        return digest(self.dem.digest(area.bounds), self.ortho.digest(square(area)))
