@@ -15,8 +15,9 @@ import numpy as np
 import pyproj
 import pytest
 import shapely
+import test_tiles
 from osgeo import gdal, ogr
-from test_tiles import AREA, _inputs, sample  # noqa: F401 — sample: the fixture, used by name
+from test_tiles import AREA, _inputs
 
 from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainOptions
@@ -26,6 +27,8 @@ from wit_plugin.sheetrun.index import read_index
 from wit_plugin.sheetrun.prepare import CONTEXT_MARGIN
 from wit_plugin.sheetrun.runner import run_tiles
 from wit_plugin.vectors import building_reach
+
+sample = test_tiles.sample  # the tiled runs' sample (a fixture: this module's own copy)
 
 BIG, WEST, PARK, SLIVER = "377090320", "377090229", "377090310", "377090321"
 ALL = {BIG, WEST, PARK, SLIVER}
@@ -93,16 +96,31 @@ def _assert_untouched(out: Path, before: dict, sheets: set[str], groups: set[str
     assert kept and {name: _stamps(out).get(name) for name in kept} == kept
 
 
+def _updated(sample, base, tmp_path: Path, rebuilt: dict[str, str], groups_kept: set[str] = frozenset(),
+             settings: dict | None = None, **inputs):
+    """The base run updated with ``inputs`` (and ``settings``): exactly the tiles ``rebuilt`` built again (sheet →
+    why), the others' files untouched (and the groups ``groups_kept``'), the output equal to a fresh run's."""
+    out, before = _copy(base, tmp_path)
+    report = _run(_inputs(sample, **inputs), out, **(settings or {}))
+    assert report.update.rebuilt == rebuilt
+    if set(rebuilt) != ALL:
+        _assert_untouched(out, before, ALL - set(rebuilt), groups_kept)
+    fresh = tmp_path / "fresh"
+    _run(_inputs(sample, **inputs), fresh, **(settings or {}))
+    _assert_equal_to_fresh(out, fresh)
+    return out, report
+
+
 def _tile_reach(sheet: str) -> tuple:
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
     return building_reach(plan.tile_of(sheet, "EPSG:5186").polygon.intersection(polygon), CONTEXT_MARGIN).bounds
 
 
-def _edited_buildings(sample, tmp_path: Path, choose) -> Path:
-    """A copy of the buildings with one building, the first ``choose(box in EPSG:5186)`` accepts, shrunk by
-    half a metre and given three more storeys."""
-    copy = tmp_path / "edited" / sample.buildings.name
-    copy.parent.mkdir()
+def _edited_buildings(sample, folder: Path, choose) -> Path:
+    """A copy of the buildings in ``folder`` with one building, the first ``choose(box in EPSG:5186)`` accepts,
+    shrunk by half a metre and given three more storeys."""
+    copy = folder / sample.buildings.name
+    folder.mkdir()
     for part in sample.buildings.parent.glob(sample.buildings.stem + ".*"):  # byte copies: the CP949 text stays
         shutil.copy(part, copy.with_suffix(part.suffix))
     ds = gdal.OpenEx(str(copy), gdal.OF_VECTOR | gdal.OF_UPDATE, open_options=["ENCODING="])
@@ -136,15 +154,10 @@ def test_one_building_edited_inside_its_tile_rebuilds_that_tile_only(sample, bas
     again (because of the buildings), nothing else; its group and the block above it are refreshed, the other
     group is not."""
     inside = shapely.box(*_tile_reach(BIG)).buffer(-150)
-    edited = _edited_buildings(sample, tmp_path, lambda box: inside.contains(box) and _clear_of(box, ALL - {BIG}))
-    out, before = _copy(base, tmp_path)
-    report = _run(_inputs(sample, buildings=str(edited)), out)
-    assert report.update.rebuilt == {BIG: "buildings"} and sorted(report.update.kept) == sorted(ALL - {BIG})
-    assert read_index(out)[BIG]["reason"] == "buildings"
-    _assert_untouched(out, before, ALL - {BIG}, {"37709004"})
-    fresh = tmp_path / "fresh"
-    _run(_inputs(sample, buildings=str(edited)), fresh)
-    _assert_equal_to_fresh(out, fresh)
+    edited = _edited_buildings(sample, tmp_path / "edited",
+                               lambda box: inside.contains(box) and _clear_of(box, ALL - {BIG}))
+    out, report = _updated(sample, base, tmp_path, {BIG: "buildings"}, {"37709004"}, buildings=str(edited))
+    assert sorted(report.update.kept) == sorted(ALL - {BIG}) and read_index(out)[BIG]["reason"] == "buildings"
 
 
 @pytest.mark.slow  # two tiled runs
@@ -152,14 +165,9 @@ def test_a_building_edited_across_a_border_rebuilds_both_tiles(sample, base, tmp
     """A building crossing the border of the big tile and its western neighbour: a hole in the neighbour's
     terrain, simplified with its walls — both tiles are built again, the two others kept."""
     border = shapely.LineString([(208844.0, 542800.0), (208844.0, 543450.0)])
-    edited = _edited_buildings(sample, tmp_path, lambda box: box.intersects(border) and _clear_of(box, {PARK, SLIVER}))
-    out, before = _copy(base, tmp_path)
-    report = _run(_inputs(sample, buildings=str(edited)), out)
-    assert report.update.rebuilt == {BIG: "buildings", WEST: "buildings"}
-    _assert_untouched(out, before, {PARK, SLIVER})
-    fresh = tmp_path / "fresh"
-    _run(_inputs(sample, buildings=str(edited)), fresh)
-    _assert_equal_to_fresh(out, fresh)
+    edited = _edited_buildings(sample, tmp_path / "edited",
+                               lambda box: box.intersects(border) and _clear_of(box, {PARK, SLIVER}))
+    _updated(sample, base, tmp_path, {BIG: "buildings", WEST: "buildings"}, buildings=str(edited))
 
 
 @pytest.mark.slow  # two tiled runs
@@ -176,13 +184,7 @@ def test_one_orthoimage_sheet_replaced_rebuilds_the_tiles_that_use_it(sample, ba
         band = ds.GetRasterBand(number)
         band.WriteArray(np.minimum(band.ReadAsArray().astype(np.int32) + 20, 255).astype(np.uint8))
     ds = None
-    out, before = _copy(base, tmp_path)
-    report = _run(_inputs(sample, ortho=[str(ortho)]), out)
-    assert report.update.rebuilt == {BIG: "ortho", WEST: "ortho"}
-    _assert_untouched(out, before, {PARK, SLIVER})
-    fresh = tmp_path / "fresh"
-    _run(_inputs(sample, ortho=[str(ortho)]), fresh)
-    _assert_equal_to_fresh(out, fresh)
+    _updated(sample, base, tmp_path, {BIG: "ortho", WEST: "ortho"}, ortho=[str(ortho)])
 
 
 @pytest.mark.slow  # two tiled runs
@@ -198,24 +200,13 @@ def test_the_dem_replaced_rebuilds_the_tiles_under_its_changed_cells(sample, bas
     cells = band.ReadAsArray(c0, r0, 4, 4)
     band.WriteArray(cells + 3.0, c0, r0)
     ds = band = None
-    out, before = _copy(base, tmp_path)
-    report = _run(_inputs(sample, dem=str(dem)), out)
-    assert report.update.rebuilt == {BIG: "dem"}
-    _assert_untouched(out, before, ALL - {BIG}, {"37709004"})
-    fresh = tmp_path / "fresh"
-    _run(_inputs(sample, dem=str(dem)), fresh)
-    _assert_equal_to_fresh(out, fresh)
+    _updated(sample, base, tmp_path, {BIG: "dem"}, {"37709004"}, dem=str(dem))
 
 
 @pytest.mark.slow  # two tiled runs
 def test_a_parameter_changed_rebuilds_every_tile_and_says_which(sample, base, tmp_path):
-    out, _ = _copy(base, tmp_path)
-    report = _run(_inputs(sample), out, max_edge=25.0)
-    assert report.update.rebuilt == dict.fromkeys(ALL, "max_edge") and report.update.kept == []
-    assert {r["reason"] for r in read_index(out).values()} == {"max_edge"}
-    fresh = tmp_path / "fresh"
-    _run(_inputs(sample), fresh, max_edge=25.0)
-    _assert_equal_to_fresh(out, fresh)
+    out, report = _updated(sample, base, tmp_path, dict.fromkeys(ALL, "max_edge"), settings={"max_edge": 25.0})
+    assert report.update.kept == [] and {r["reason"] for r in read_index(out).values()} == {"max_edge"}
 
 
 @pytest.mark.slow  # three tiled runs
@@ -237,4 +228,53 @@ def test_the_area_shrunk_then_grown_removes_then_adds_tiles(sample, base, tmp_pa
     report = _run(_inputs(sample), out)
     assert (sorted(report.update.added), sorted(report.update.rebuilt), report.update.removed) == (
         sorted({PARK, SLIVER}), sorted({BIG, WEST}), [])
+    _assert_equal_to_fresh(out, base[0])
+
+
+def test_an_update_stopped_between_a_tiles_move_and_its_row_is_taken_up_by_the_next_run(sample, base, tmp_path,
+                                                                                        monkeypatch):
+    """Stopped (an exception standing for a kill) after the rebuilt tile's folder took its place, before its
+    index row said so: the folder is the new build whole (its record says so), the row says pending — never
+    done with the old fingerprint; the next run keeps the tile (nothing to build) and writes its row."""
+    from wit_plugin.chain.fingerprint import read_record
+    from wit_plugin.sheetrun import update
+
+    inside = shapely.box(*_tile_reach(BIG)).buffer(-150)
+    edited = _edited_buildings(sample, tmp_path / "edited",
+                               lambda box: inside.contains(box) and _clear_of(box, ALL - {BIG}))
+    out, _ = _copy(base, tmp_path)
+    old = read_record(out / "tiles" / BIG)["fingerprint"]
+
+    def killed(*args):
+        raise KeyboardInterrupt("killed")
+
+    monkeypatch.setattr(update, "update_row", killed)
+    with pytest.raises(KeyboardInterrupt):
+        _run(_inputs(sample, buildings=str(edited)), out)
+    monkeypatch.undo()
+    record = read_record(out / "tiles" / BIG)
+    row = read_index(out)[BIG]
+    assert record["fingerprint"] != old and record["reason"] == "buildings"
+    assert (row["status"], row["fingerprint"], row["reason"]) == ("pending", old, "buildings")
+    assert not list(out.glob(".wit-staging/*"))
+    report = _run(_inputs(sample, buildings=str(edited)), out)
+    assert report.update.build == {} and read_index(out)[BIG]["fingerprint"] == record["fingerprint"]
+    fresh = tmp_path / "fresh"
+    _run(_inputs(sample, buildings=str(edited)), fresh)
+    _assert_equal_to_fresh(out, fresh)
+
+
+def test_a_tile_left_aside_by_a_kill_between_two_renames_is_put_back(sample, base, tmp_path):
+    """The state a kill leaves between a replacement's two renames (``test_swap``: a real SIGKILL there): the old
+    folder aside, none in its place, the new build unfinished. The next run puts the old folder back and,
+    nothing having changed, keeps every tile: the output is the base run's."""
+    from wit_plugin.sheetrun.index import update_row
+
+    out, _ = _copy(base, tmp_path)
+    update_row(out, BIG, {**read_index(out)[BIG], "status": "pending"})
+    (out / ".wit-staging").mkdir()
+    shutil.copytree(out / "tiles" / BIG, out / ".wit-staging" / f"new-{BIG}-1-1")
+    (out / "tiles" / BIG).rename(out / ".wit-staging" / f"old-{BIG}")
+    report = _run(_inputs(sample), out)
+    assert report.update.build == {} and sorted(report.update.kept) == sorted(ALL)
     _assert_equal_to_fresh(out, base[0])

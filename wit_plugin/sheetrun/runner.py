@@ -241,6 +241,8 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         finally:  # once no tile of this run can be running (every tile finished, or our own workers
             if completed or not scheduler:  # stopped): what a killed or cancelled attempt began is removed
                 _remove_unfinished(output)
+    else:
+        _remove_unfinished(output)  # (of an earlier run: none of its tiles is waited for)
     report.rows = [rows.get(t.sheet, {"sheet": t.sheet, "status": PENDING}) for t in tiles]
     failed = [r for r in report.rows if r["status"] == FAILED]
     for row in failed:
