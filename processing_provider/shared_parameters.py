@@ -35,6 +35,7 @@ MAX_EDGE, TOLERANCE = "MAX_EDGE", "TOLERANCE"
 #: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
 WEB_PROFILE = "WEB_PROFILE"
+REBUILD = "REBUILD"
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
@@ -170,3 +171,10 @@ def add_web_profile_parameter(algorithm, advanced: bool = False) -> None:
         WEB_PROFILE, tr("3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)"),
         defaultValue=False)
     algorithm.addParameter(_advanced(parameter) if advanced else parameter)
+
+
+def add_rebuild_parameter(algorithm) -> None:
+    """Build everything again into an existing output, even what has not changed (off: an update)."""
+    algorithm.addParameter(QgsProcessingParameterBoolean(
+        REBUILD, tr("Build everything again, even what has not changed since the last run into this folder"),
+        defaultValue=False))

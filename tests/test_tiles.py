@@ -4,6 +4,7 @@ single-area chain: same buildings, none twice, tiles valid, borders shared verte
 resume, a failing tile, a killed worker and Cancel."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
@@ -473,8 +474,6 @@ def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, 
 
 def test_a_tile_spec_and_its_row_are_plain_values(sample, local_run):
     """What travels through the scheduler: JSON values only (nothing of the core to unpickle there)."""
-    import json
-
     from wit_plugin.sheetrun import runner
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
@@ -738,7 +737,8 @@ def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_ru
     """A DEM with a hole under one tile (the check before the cluster lets it through: 1 % of the area):
     qgis_process exits non-zero with the count and the first reasons, the tiles done stay; through
     Processing on the same folder the same error (the tiles done are not built again); with the whole DEM
-    the run ends complete, building only the tile that had failed."""
+    the run ends complete, building again the tile that had failed and the one whose DEM window held part
+    of the hole (its edge), keeping the two others."""
     from qgis.core import QgsProcessingException
 
     out = tmp_path / "out"
@@ -760,7 +760,10 @@ def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_ru
         run_algorithm("wit:citymodeltiles", parameters)
     assert {s: (out / index[s]["gml"]).stat().st_mtime_ns for s in done} == done  # resumed, not built again
     result = run_algorithm("wit:citymodeltiles", _parameters(sample, out))
-    assert (result["TILES_RESUMED"], result["TILES_FAILED"]) == (len(done), 0)
+    assert (result["TILES_KEPT"], result["TILES_REBUILT"], result["TILES_FAILED"]) == (len(done) - 1, 2, 0)
+    assert json.loads(result["REBUILD_REASONS"]) == {"dem": 1, "failed before": 1}
+    assert read_index(out)["377090320"]["reason"] == "dem" and read_index(out)["377090321"]["reason"] == \
+        "failed before"
     assert result["BUILDINGS_WRITTEN"] == local_run[1].buildings
     assert {s: r["status"] for s, r in read_index(out).items()} == {r["sheet"]: r["status"] for r in local_run[1].rows}
 
@@ -774,8 +777,6 @@ def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_pat
             args.append(f"--{name}={item}")
     result = subprocess.run(args, capture_output=True, text=True, env=env, timeout=900)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
-    import json
-
     report = json.loads(result.stdout[result.stdout.index("{"):])
     assert report["results"]["TILES_DONE"] == local_run[1].count("done")
     assert report["results"]["BUILDINGS_WRITTEN"] == local_run[1].buildings
@@ -788,8 +789,6 @@ def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_pat
 
 def _tile_refs(output: Path) -> list[str]:
     """The tiles' tilesets (paths relative to ``output``) that the run's group files refer to, once each."""
-    import json
-
     refs = []
     for file in (output / "3dtiles-groups").glob("*.json"):
         for child in json.loads(file.read_text(encoding="utf-8"))["root"]["children"]:
@@ -803,8 +802,6 @@ def _check_run_tileset(path: Path, local) -> None:
     """One tileset over the tiles: the groups above them (1:5,000 sheets and up), each a tileset file of its
     own with its coarse terrain and its largest buildings; every tile's tileset referred to once; our
     checker finds nothing (regions nested, errors falling, metadata complete); transforms cancel out."""
-    import json
-
     from wit_plugin.tiles3d.check import check_tileset
 
     out = path.parent
@@ -880,8 +877,6 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
 def _check_from_afar(output: Path, tmp_path: Path) -> None:
     """Zoomed out (4 radii of the run's bounding sphere), the viewer loads the top group's content alone and
     shows buildings (a bug once: from afar the groups held terrain only): a click names one."""
-    import json
-
     report, picture = view_in_chromium(output, tmp_path, click=True, query="?range=4")
     top = json.loads((output / "tileset.json").read_text(encoding="utf-8"))["root"]["children"]
     assert len(top) == 1 and report["loadedTiles"] == 2  # the top group's file and its content, no tile

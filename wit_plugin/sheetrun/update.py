@@ -24,7 +24,7 @@ from .plan import Tile
 from .worker import STAGED, STAGING_DIR, TILES_DIR, tile_folder
 
 FAILED_BEFORE = "failed before"
-NEW = "new tile"
+NEW = "new tile"  # (reasons hold no comma: a tile's reasons are joined by ", ")
 
 
 @dataclass
@@ -76,9 +76,9 @@ def plan_update(output: Path, tiles: list[Tile], fingerprints: dict[str, Fingerp
 def _first_reason(row: dict, folder: Path) -> str:
     """Why a tile without a record is built: its index ``row`` (if any) and its ``folder`` tell."""
     if row.get("status") == FAILED:
-        return f"{FAILED_BEFORE}: {row.get('error') or ''}".rstrip(": ")
+        return FAILED_BEFORE  # (why: the index's error)
     if folder.exists():
-        return f"{NO_RECORD} (made by an earlier version, or not finished)"
+        return NO_RECORD  # made by an earlier version, or not finished
     return FILES_MISSING if row.get("status") in (DONE, EMPTY) else NEW
 
 
