@@ -40,8 +40,8 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius.</source>
-      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius. Run again into the same folder, it compares what the model was built from (build.json: every setting, the plugin's version, the triangulator, and the inputs as the run reads them, by content) and builds it again only if something changed, saying what (REBUILT, REBUILD_REASON); otherwise it does no work and reports the result recorded. REBUILD builds it again anyway.</source>
+      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경. 같은 폴더에 다시 실행하면 모델이 무엇으로 만들어졌는지(build.json: 모든 설정, 플러그인 버전, 삼각분할 라이브러리, 그리고 실행이 읽는 입력을 내용으로) 비교해 무언가 바뀌었을 때만 다시 만들고 무엇이 바뀌었는지 알려 줍니다(REBUILT, REBUILD_REASON). 바뀐 것이 없으면 아무 작업도 하지 않고 기록된 결과를 알려 줍니다. REBUILD를 켜면 그래도 다시 만듭니다.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -96,6 +96,14 @@
       <translation>단계별 시간(초, JSON)</translation>
     </message>
     <message>
+      <source>Built by this run (false: nothing had changed since the last run into the folder)</source>
+      <translation>이번 실행에서 만들어짐 (false: 이 폴더에 대한 지난 실행 이후 바뀐 것이 없음)</translation>
+    </message>
+    <message>
+      <source>Why it was built (what changed)</source>
+      <translation>다시 만든 이유 (바뀐 것)</translation>
+    </message>
+    <message>
       <source>Orthoimage TIFs or folders</source>
       <translation>정사영상 TIF 또는 폴더</translation>
     </message>
@@ -114,14 +122,6 @@
     <message>
       <source>Target CRS</source>
       <translation>대상 좌표계</translation>
-    </message>
-    <message>
-      <source>Maximum edge length (m)</source>
-      <translation>최대 변 길이 (m)</translation>
-    </message>
-    <message>
-      <source>Vertical tolerance (m)</source>
-      <translation>수직 허용오차 (m)</translation>
     </message>
     <message>
       <source>Texture scale S (0 &lt; S ≤ 1)</source>
@@ -148,8 +148,8 @@
       <translation>도엽 타일 단위 도시 모델 (Dask)</translation>
     </message>
     <message>
-      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
-      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786: 기본 dask 스케줄러; 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류)가 생깁니다. 데이터를 만들 수 없는 타일은 그 이유와 함께 실패로 기록되고 나머지는 계속됩니다. 그러면 알고리즘은 실패 수와 첫 이유들을 담은 오류로 끝나며, 끝난 타일은 남습니다: 같은 폴더에서 다시 실행하면 그 타일은 건너뜁니다. 취소하면 모든 타일이 멈춥니다. 남는 건물이 하나도 없는 타일(공원, 산, 건물이 모두 이웃 타일에 속하거나 너무 작은 경우)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 도엽별 그룹(1:5,000, 1:50,000, 1° 블록; 실행에 필요한 만큼의 단계) 아래에 하나로 묶습니다. 그룹은 멀리서 지형과 가장 큰 건물들을 보여 줍니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가).</translation>
+      <source>The whole chain (as wit:citymodel, with the same inputs and options) over a district or a whole city, cut into tiles on the NGII map-sheet grid (1:5,000 by default, 1:1,000 for dense cities): the sheet number is the tile id, so tiles line up with the orthoimage sheets. Area: a legal dong (code or name), else a polygon layer, else a bounding box, else everything the buildings layer covers (when asked), else the centre and radius. Every building belongs to exactly one tile, the sheet of its point on surface; the terrain of neighbouring tiles shares its border vertices and heights, roads are cut along the same border, and a building crossing it lies on terrain in its own tile. Tiles run in parallel on Dask distributed: an embedded scheduler with WORKERS worker processes of a plain Python (never QGIS itself; WORKER_PYTHON to choose it), or an existing scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the plugin's core wit_plugin and see the same files). The output folder receives tiles/&lt;sheet&gt;/model.gml (with textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / empty, buildings, triangles, seconds, peak memory, error, fingerprint, reason). A tile whose data cannot be made fails with its reason and the others go on; the algorithm then ends with an error giving the count and the first reasons, the tiles done kept; Cancel stops every tile. Run again into the same folder, it updates the city: each tile records what it was built from (every setting, the plugin's version, the triangulator, and its inputs as they fall in its area with the margin it reads, by content); the tiles whose inputs and settings have not changed are kept as they are, the others built again, tiles that left the area removed and new ones built, and the levels above refreshed where a child changed (TILES_KEPT, TILES_REBUILT with REBUILD_REASONS, TILES_ADDED, TILES_REMOVED). REBUILD builds every tile again. A tile that keeps no building (a park, a hill, buildings that all belong to neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles on, each tile writes its tileset and tileset.json at the top of the output folder joins them into one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that show the terrain and the largest buildings from afar (open it in the viewer, or as a 3D Tiles layer in QGIS 3.34 and later).</source>
+      <translation>wit:citymodel과 같은 입력과 옵션으로 전체 과정을 구나 도시 전체에 대해 실행하되, 국토지리정보원 도엽 격자(기본 1:5,000, 밀집 도시는 1:1,000)로 타일을 나눕니다. 도엽 번호가 타일 id이므로 타일이 정사영상 도엽과 맞아떨어집니다. 지역: 법정동(코드 또는 이름), 아니면 폴리곤 레이어, 아니면 범위 상자, 아니면 (요청하면) 건물 레이어 전체, 아니면 중심점과 반경. 모든 건물은 정확히 한 타일, 곧 건물 내부 대표점이 속한 도엽에 속합니다. 이웃 타일의 지형은 경계 정점과 높이를 공유하고, 도로는 같은 경계선에서 잘리며, 경계를 넘는 건물은 자기 타일의 지형 위에 놓입니다. 타일은 Dask distributed에서 병렬로 실행됩니다: 이 컴퓨터의 내장 스케줄러와 WORKERS개의 일반 Python 작업 프로세스(QGIS 자체는 절대 아님; WORKER_PYTHON으로 선택), 또는 기존 스케줄러(SCHEDULER, 예: tcp://10.0.0.5:8786: 기본 dask 스케줄러; 그 작업자는 플러그인의 코어 wit_plugin을 불러올 수 있고 같은 파일을 볼 수 있어야 함). 출력 폴더에는 타일마다 tiles/&lt;도엽&gt;/model.gml(텍스처와 validation.html 포함)과 실행 지도인 index.gpkg(상태 done / failed / empty, 건물 수, 삼각형 수, 초, 최대 메모리, 오류, 지문(fingerprint), 이유)가 생깁니다. 데이터를 만들 수 없는 타일은 그 이유와 함께 실패로 기록되고 나머지는 계속됩니다. 그러면 알고리즘은 실패 수와 첫 이유들을 담은 오류로 끝나며, 끝난 타일은 남습니다. 취소하면 모든 타일이 멈춥니다. 같은 폴더에 다시 실행하면 도시를 갱신합니다: 각 타일은 무엇으로 만들어졌는지(모든 설정, 플러그인 버전, 삼각분할 라이브러리, 그리고 타일이 읽는 여백까지 포함한 자기 영역의 입력을 내용으로) 기록하며, 입력과 설정이 바뀌지 않은 타일은 그대로 두고 나머지는 다시 만들며, 지역을 벗어난 타일은 지우고 새 타일은 만들고, 위 단계는 자식이 바뀐 곳만 새로 씁니다(TILES_KEPT, TILES_REBUILT와 REBUILD_REASONS, TILES_ADDED, TILES_REMOVED). REBUILD를 켜면 모든 타일을 다시 만듭니다. 남는 건물이 하나도 없는 타일(공원, 산, 건물이 모두 이웃 타일에 속하거나 너무 작은 경우)도 지형과 도로는 만들어집니다(상태 empty). 3D Tiles를 켜면 타일마다 타일셋을 쓰고, 출력 폴더 맨 위의 tileset.json이 이들을 도엽별 그룹(1:5,000, 1:50,000, 1° 블록; 실행에 필요한 만큼의 단계) 아래에 하나로 묶습니다. 그룹은 멀리서 지형과 가장 큰 건물들을 보여 줍니다(뷰어에서 열거나, QGIS 3.34 이상에서는 3D Tiles 레이어로 추가).</translation>
     </message>
     <message>
       <source>Python interpreter of the workers (empty = found automatically)</source>
@@ -200,8 +200,28 @@
       <translation>건물이 없는 타일</translation>
     </message>
     <message>
-      <source>Tiles already done before this run</source>
-      <translation>이번 실행 전에 이미 완료된 타일</translation>
+      <source>Tiles kept as they were (nothing they read had changed)</source>
+      <translation>그대로 둔 타일 (읽는 것이 바뀌지 않음)</translation>
+    </message>
+    <message>
+      <source>Tiles already done before this run (kept: as TILES_KEPT)</source>
+      <translation>이번 실행 전에 이미 완료된 타일 (그대로 둠: TILES_KEPT와 같음)</translation>
+    </message>
+    <message>
+      <source>Tiles built again (what they read had changed)</source>
+      <translation>다시 만든 타일 (읽는 것이 바뀜)</translation>
+    </message>
+    <message>
+      <source>Tiles new to the output</source>
+      <translation>출력에 새로 생긴 타일</translation>
+    </message>
+    <message>
+      <source>Tiles removed (they left the area)</source>
+      <translation>지운 타일 (지역을 벗어남)</translation>
+    </message>
+    <message>
+      <source>Why tiles were built again (JSON: reason → number of tiles)</source>
+      <translation>타일을 다시 만든 이유 (JSON: 이유 → 타일 수)</translation>
     </message>
     <message>
       <source>1:5,000 sheets</source>
@@ -856,6 +876,14 @@
       <translation>삼각분할 라이브러리 (라이선스: Triangle은 비상업적 이용에만 무료)</translation>
     </message>
     <message>
+      <source>Maximum edge length (m)</source>
+      <translation>최대 변 길이 (m)</translation>
+    </message>
+    <message>
+      <source>Vertical tolerance (m)</source>
+      <translation>수직 허용오차 (m)</translation>
+    </message>
+    <message>
       <source>Triangle (package 'triangle') is not installed: the terrain is meshed with CDT (MPL-2.0).</source>
       <translation>Triangle('triangle' 패키지)이 설치되어 있지 않습니다: 지형은 CDT(MPL-2.0)로 삼각분할합니다.</translation>
     </message>
@@ -882,6 +910,10 @@
     <message>
       <source>Terrain TIN (wit:triangulateterrain)</source>
       <translation>지형 TIN (wit:triangulateterrain)</translation>
+    </message>
+    <message>
+      <source>Build everything again, even what has not changed since the last run into this folder</source>
+      <translation>이 폴더에 대한 지난 실행 이후 바뀌지 않은 것까지 모두 다시 만들기</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
