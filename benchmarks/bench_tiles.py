@@ -4,6 +4,12 @@ single-process chain on the same 1-tile area beside it (the reference measured i
 
     .venv/bin/python benchmarks/bench_tiles.py [--tiles 1 4 16] [--workers 1 2] [--max-edge 5] [--tiles3d]
     .venv/bin/python benchmarks/bench_tiles.py --district     # one run over a generated 40 km² district
+    .venv/bin/python benchmarks/bench_tiles.py --district --update [--footprints]   # then update it
+
+``--update``: after the district's full run, the same run again into its output (nothing changed: every tile
+kept), then with the buildings of one 1:5,000 sheet edited (every one whose point on surface lies in the
+district's fullest 1:5,000 sheet gets one more storey; ``--footprints``: and its footprint shrunk by 10 cm),
+then of one 1:1,000 sheet: wall time, the fingerprints' share, tiles kept and rebuilt, beside the full run.
 
 Data: the generated sample around Suseo (cached in out/bench/tiles/sample); the areas are blocks of
 whole 1:1,000 sheets (1×1, 2×2, 4×4) so every tile is full. Results: a table, and
@@ -51,6 +57,10 @@ def main() -> int:
                         "of Gangnam-gu's size (40 km², all its buildings) on the largest --workers")
     parser.add_argument("--tiles3d", action="store_true", help="each tile also writes its 3D Tiles (as the "
                         "algorithm does by default); off: the CityGML chain alone")
+    parser.add_argument("--update", action="store_true", help="with --district: then update the run (nothing "
+                        "changed; one 1:5,000 sheet's buildings edited; one 1:1,000 sheet's)")
+    parser.add_argument("--footprints", action="store_true", help="with --update: the edited buildings' footprints "
+                        "change too (not only their storeys)")
     args = parser.parse_args()
 
     import shapely
@@ -92,6 +102,8 @@ def main() -> int:
               f"{seconds / 60:.1f} min | {result['tiles']} ({result['failed']}) | {result['buildings']:,} | "
               f"{result['triangles']:,} | {result['peak_mb_per_worker']:.0f} |\n(goal: a Gangnam-size area in "
               "≤ 10 minutes)")
+        if args.update:
+            result["updates"] = updates(inputs, options, OUT / "district-run", workers, args.footprints, seconds)
         (OUT / "district.json").write_text(json.dumps(result, indent=1), encoding="utf-8")
         return 0
     inputs = sample("sample", SampleConfig(radius_m=1400.0, seed=42, ortho_pixel_size=0.5))
@@ -146,6 +158,104 @@ def main() -> int:
                   f"÷ N/{workers} on N workers")
     (OUT / "results.json").write_text(json.dumps({"reference": reference, "runs": rows}, indent=1), encoding="utf-8")
     return 0
+
+
+def edit_sheet(buildings: str, scale: int, folder: Path, footprints: bool, skip: set[str]) -> tuple[str, str, int]:
+    """A copy of ``buildings`` in ``folder`` where every building whose point on surface lies in the fullest
+    sheet of ``scale`` inside the layer's extent (and not in ``skip``) has one more storey (and, with
+    ``footprints``, a footprint 10 cm smaller): (the copy, the sheet, buildings edited)."""
+    import numpy as np
+    import pyproj
+    import shapely
+    from osgeo import gdal, ogr
+
+    from wit_plugin.sheetrun.plan import owners, plan_tiles
+    from wit_plugin.sheetrun.prepare import area_of_layer
+
+    shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir(parents=True)
+    source = Path(buildings)
+    for part in source.parent.glob(source.stem + ".*"):
+        shutil.copy(part, folder / part.name)
+    copy = folder / source.name
+    extent = area_of_layer(str(copy), "EPSG:5186")
+    inside = {t.sheet for t in plan_tiles(extent, "EPSG:5186", scale) if extent.contains(t.polygon)} - skip
+    ds = gdal.OpenEx(str(copy), gdal.OF_VECTOR | gdal.OF_UPDATE, open_options=["ENCODING="])
+    layer = ds.GetLayer(0)
+    to_5186 = pyproj.Transformer.from_crs(layer.GetSpatialRef().ExportToWkt(), "EPSG:5186", always_xy=True)
+    fids, geometries = [], []
+    for feature in layer:
+        if feature.GetGeometryRef() is not None:
+            fids.append(feature.GetFID())
+            geometries.append(shapely.from_wkb(bytes(feature.GetGeometryRef().ExportToWkb())))
+    points = shapely.get_coordinates(shapely.point_on_surface(shapely.make_valid(np.array(geometries))))
+    x, y = to_5186.transform(points[:, 0], points[:, 1])
+    sheets = owners(np.column_stack([x, y]), "EPSG:5186", scale)
+    sheet = max(inside, key=sheets.count)
+    edited = 0
+    ds.StartTransaction()
+    for fid, geometry, owner in zip(fids, geometries, sheets):
+        if owner == sheet:
+            feature = layer.GetFeature(fid)
+            feature.SetField("GRO_FLO_CO", (feature.GetField("GRO_FLO_CO") or 0) + 1)
+            if footprints:
+                smaller = geometry.buffer(-0.1, join_style="mitre")
+                if not smaller.is_empty:
+                    feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(smaller)))
+            layer.SetFeature(feature)
+            edited += 1
+    ds.CommitTransaction()
+    ds = layer = None
+    return str(copy), sheet, edited
+
+
+def updates(inputs, options, output: Path, workers: int, footprints: bool, full: float) -> list[dict]:
+    """The district's run updated: nothing changed, then one 1:5,000 sheet's buildings edited, then one 1:1,000
+    sheet's (another one): wall time beside the full run's."""
+    from dataclasses import replace
+
+    from wit_plugin.feedback import Feedback
+    from wit_plugin.sheetrun.runner import run_tiles
+
+    class Log(Feedback):
+        """Keeps the run's messages: the fingerprints' seconds are one of them."""
+
+        def __init__(self):
+            self.lines: list[str] = []
+
+        def info(self, message: str) -> None:
+            self.lines.append(message)
+
+        def fingerprint_seconds(self) -> float:
+            line = next(m for m in self.lines if m.startswith("Fingerprints of the "))
+            return float(line.rsplit(": ", 1)[1].split(" ")[0])
+
+    rows, edited = [], set()
+    cases = [("nothing changed", None), ("one 1:5,000 sheet's buildings edited", 5000),
+             ("one 1:1,000 sheet's buildings edited", 1000)]
+    for label, scale in cases:
+        row = {"case": label}
+        if scale:
+            buildings, row["sheet"], row["buildings_edited"] = edit_sheet(
+                inputs.buildings, scale, OUT / f"district-edit-{scale}", footprints, edited)
+            inputs = replace(inputs, buildings=buildings)
+            edited.add(row["sheet"])
+        log = Log()
+        start = time.perf_counter()
+        report = run_tiles(inputs, options, output, None, scale=1000, workers=workers, feedback=log)
+        row.update(seconds=round(time.perf_counter() - start, 1), fingerprints_seconds=log.fingerprint_seconds(),
+                   share_of_full=round((time.perf_counter() - start) / full, 3), kept=len(report.update.kept),
+                   rebuilt=len(report.update.rebuilt), reasons=report.reasons(), added=len(report.update.added),
+                   removed=len(report.update.removed))
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    print(f"\n| update of the district (full run {full / 60:.1f} min) | wall s | share of the full run | "
+          "fingerprints s | tiles kept | rebuilt |\n|---|---:|---:|---:|---:|---:|")
+    for row in rows:
+        print(f"| {row['case']}{' (' + str(row['buildings_edited']) + ' buildings)' if 'sheet' in row else ''} | "
+              f"{row['seconds']} | {row['share_of_full']:.1%} | {row['fingerprints_seconds']} | {row['kept']} | "
+              f"{row['rebuilt']} |")
+    return rows
 
 
 if __name__ == "__main__":

@@ -110,8 +110,8 @@ def test_an_edited_building_outside_the_area_changes_nothing_one_inside_builds_a
     out = tmp_path / "out"
     shutil.copytree(built[0], out)
     box = shapely.box(*AREA.geometry(pyproj.CRS("EPSG:5186")).bounds)
-    far = _edited_buildings(sample, tmp_path / "far", lambda footprint: box.distance(footprint) > 100)
+    far, _ = _edited_buildings(sample, tmp_path / "far", lambda footprint: box.distance(footprint) > 100)
     assert update_city_model(_inputs(sample, buildings=str(far)), _options(), out).rebuilt is False
-    near = _edited_buildings(sample, tmp_path / "near", box.contains)
+    near, _ = _edited_buildings(sample, tmp_path / "near", box.contains)
     changed = update_city_model(_inputs(sample, buildings=str(near)), _options(), out)
     assert (changed.rebuilt, changed.reason) == (True, "buildings")

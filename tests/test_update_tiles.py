@@ -116,9 +116,9 @@ def _tile_reach(sheet: str) -> tuple:
     return building_reach(plan.tile_of(sheet, "EPSG:5186").polygon.intersection(polygon), CONTEXT_MARGIN).bounds
 
 
-def _edited_buildings(sample, folder: Path, choose) -> Path:
+def _edited_buildings(sample, folder: Path, choose, footprint: bool = True) -> tuple[Path, shapely.Polygon]:
     """A copy of the buildings in ``folder`` with one building, the first ``choose(box in EPSG:5186)`` accepts,
-    shrunk by half a metre and given three more storeys."""
+    given three more storeys and (``footprint``) shrunk by half a metre; and that building (EPSG:5186)."""
     copy = folder / sample.buildings.name
     folder.mkdir()
     for part in sample.buildings.parent.glob(sample.buildings.stem + ".*"):  # byte copies: the CP949 text stays
@@ -128,12 +128,14 @@ def _edited_buildings(sample, folder: Path, choose) -> Path:
     to_5186 = pyproj.Transformer.from_crs(layer.GetSpatialRef().ExportToWkt(), "EPSG:5186", always_xy=True)
     for feature in layer:
         geometry = shapely.from_wkb(bytes(feature.GetGeometryRef().ExportToWkb()))
-        box = shapely.transform(geometry, lambda xy: np.column_stack(to_5186.transform(xy[:, 0], xy[:, 1]))).bounds
-        if geometry.area > 100 and choose(shapely.box(*box)):
-            feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geometry.buffer(-0.5, join_style="mitre"))))
+        here = shapely.transform(geometry, lambda xy: np.column_stack(to_5186.transform(xy[:, 0], xy[:, 1])))
+        if geometry.area > 100 and choose(shapely.box(*here.bounds)):
+            if footprint:
+                shrunk = geometry.buffer(-0.5, join_style="mitre")
+                feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(shrunk)))
             feature.SetField("GRO_FLO_CO", feature.GetField("GRO_FLO_CO") + 3)
             layer.SetFeature(feature)
-            return copy
+            return copy, here
     raise AssertionError("no building to edit")
 
 
@@ -154,8 +156,8 @@ def test_one_building_edited_inside_its_tile_rebuilds_that_tile_only(sample, bas
     again (because of the buildings), nothing else; its group and the block above it are refreshed, the other
     group is not."""
     inside = shapely.box(*_tile_reach(BIG)).buffer(-150)
-    edited = _edited_buildings(sample, tmp_path / "edited",
-                               lambda box: inside.contains(box) and _clear_of(box, ALL - {BIG}))
+    edited, _ = _edited_buildings(sample, tmp_path / "edited",
+                                  lambda box: inside.contains(box) and _clear_of(box, ALL - {BIG}))
     out, report = _updated(sample, base, tmp_path, {BIG: "buildings"}, {"37709004"}, buildings=str(edited))
     assert sorted(report.update.kept) == sorted(ALL - {BIG}) and read_index(out)[BIG]["reason"] == "buildings"
 
@@ -165,9 +167,21 @@ def test_a_building_edited_across_a_border_rebuilds_both_tiles(sample, base, tmp
     """A building crossing the border of the big tile and its western neighbour: a hole in the neighbour's
     terrain, simplified with its walls — both tiles are built again, the two others kept."""
     border = shapely.LineString([(208844.0, 542800.0), (208844.0, 543450.0)])
-    edited = _edited_buildings(sample, tmp_path / "edited",
-                               lambda box: box.intersects(border) and _clear_of(box, {PARK, SLIVER}))
+    edited, _ = _edited_buildings(sample, tmp_path / "edited",
+                                  lambda box: box.intersects(border) and _clear_of(box, {PARK, SLIVER}))
     _updated(sample, base, tmp_path, {BIG: "buildings", WEST: "buildings"}, buildings=str(edited))
+
+
+@pytest.mark.slow  # two tiled runs
+def test_a_building_across_a_border_given_more_storeys_rebuilds_its_own_tile_only(sample, base, tmp_path):
+    """Its attributes are its own tile's alone: the neighbour takes its footprint and id, not its height."""
+    border = shapely.LineString([(208844.0, 542800.0), (208844.0, 543450.0)])
+    edited, building = _edited_buildings(sample, tmp_path / "edited",
+                                         lambda box: box.intersects(border) and _clear_of(box, {PARK, SLIVER}),
+                                         footprint=False)
+    owner = plan.owners(shapely.get_coordinates(building.point_on_surface()), "EPSG:5186", 1000)[0]
+    assert owner in {BIG, WEST}
+    _updated(sample, base, tmp_path, {owner: "buildings"}, buildings=str(edited))
 
 
 @pytest.mark.slow  # two tiled runs
@@ -240,8 +254,8 @@ def test_an_update_stopped_between_a_tiles_move_and_its_row_is_taken_up_by_the_n
     from wit_plugin.sheetrun import update
 
     inside = shapely.box(*_tile_reach(BIG)).buffer(-150)
-    edited = _edited_buildings(sample, tmp_path / "edited",
-                               lambda box: inside.contains(box) and _clear_of(box, ALL - {BIG}))
+    edited, _ = _edited_buildings(sample, tmp_path / "edited",
+                                  lambda box: inside.contains(box) and _clear_of(box, ALL - {BIG}))
     out, _ = _copy(base, tmp_path)
     old = read_record(out / "tiles" / BIG)["fingerprint"]
 

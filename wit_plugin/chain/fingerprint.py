@@ -141,14 +141,15 @@ class LayerDigests:
         self._placed = placed
         self._tree = shapely.STRtree(shapely.box(*self.bounds[placed].T)) if len(placed) else None
 
-    @classmethod
-    def read(cls, path: str, encoding: str | None, bbox: Bounds | None, target_crs: str,
-             id_prefix: str | None = None, id_keys: list | None = None) -> LayerDigests:
+    @staticmethod
+    def layer(path: str, encoding: str | None, bbox: Bounds | None, target_crs: str) -> VectorLayer:
         """The features of ``path`` that a read of ``bbox`` (target CRS; None: all) finds, and more."""
-        target = pyproj.CRS.from_user_input(target_crs)
-        layer = read_layer(path, encoding=encoding, bbox=None if bbox is None else grown(bbox, SLACK),
-                           bbox_crs=target)
-        return cls(layer, id_prefix, id_keys)
+        return read_layer(path, encoding=encoding, bbox=None if bbox is None else grown(bbox, SLACK),
+                          bbox_crs=pyproj.CRS.from_user_input(target_crs))
+
+    @classmethod
+    def read(cls, path: str, encoding: str | None, bbox: Bounds | None, target_crs: str) -> LayerDigests:
+        return cls(cls.layer(path, encoding, bbox, target_crs))
 
     def select(self, bbox: Bounds | None, target_crs: str) -> np.ndarray:
         """The features (indices, in the layer's order) whose box meets ``bbox`` (target CRS; None: all)."""

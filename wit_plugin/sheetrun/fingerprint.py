@@ -3,10 +3,12 @@
 What a tile reads (``job``, ``prepare``), and so what its fingerprint holds besides the settings:
 
 * ``buildings``: those whose box meets the tile's area grown by ``CONTEXT_MARGIN`` (what its step 1 reads),
-  in the layer's order (ids are numbered in it). Those it may own (their box meets its area) with every
-  attribute; the others by footprint and id only, all a neighbour takes of them (simplified with its own
-  walls, cut out of its terrain): a building's height changed rebuilds its own tile, its footprint moved
-  rebuilds every tile within the margin — a change near a border can change the neighbour's terrain.
+  in the layer's order (ids are numbered in it). Those it owns with every attribute — ownership computed
+  as the tile computes it (reprojected, repaired, the sheet of the point on surface), and a building whose
+  point lies within ``OWNER_SLACK`` of another sheet counted in both —; the others by footprint and id
+  only, all a neighbour takes of them (simplified with its own walls, cut out of its terrain): a
+  building's height changed rebuilds its own tile, its footprint moved rebuilds every tile within the
+  margin — a change near a border can change the neighbour's terrain.
 * ``roads``, ``districts``: the run's prepared polygons that meet the tile (prepared once for the whole
   run, so a road edited in the next tile can change this tile's piece of it: what the tile gets is compared).
 * ``area``: the run's area where the tile and its neighbours' buildings lie (its edge is part of the seam,
@@ -23,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
@@ -40,12 +43,16 @@ from ..chain.fingerprint import (
     union_bounds,
 )
 from ..io.digests import digest
+from ..io.vector_io import VectorLayer, non_finite
+from ..polygons import repair_polygons, transform
 from ..tiles3d.groups import square
-from ..vectors import BUILDING_KEYS, BUILDING_PREFIX, building_reach
-from .plan import Tile
+from ..vectors import BUILDING_KEYS, BUILDING_PREFIX, PrepareConfig, building_reach
+from .plan import Tile, owners
 from .prepare import CONTEXT_MARGIN
 
 CONTEXT_INPUTS = {step_layers.PREPARED_ROADS: "roads", step_layers.PREPARED_DISTRICTS: "districts"}
+OWNER_SLACK = 0.5
+"""m: a building whose point on surface lies this close to another sheet counts as that sheet's too."""
 
 
 class RunInputs:
@@ -58,8 +65,9 @@ class RunInputs:
         tiles_options = dataclasses.replace(options, metrics=False, keep_work=False)  # as the workers set them
         self.settings = {**chain_settings(tiles_options), "scale": scale, "context_margin": CONTEXT_MARGIN}
         reach = building_reach(self.polygon, CONTEXT_MARGIN).bounds
-        self.buildings = LayerDigests.read(inputs.buildings, options.encoding, reach, self.crs, BUILDING_PREFIX,
-                                           BUILDING_KEYS)
+        layer = LayerDigests.layer(inputs.buildings, options.encoding, reach, self.crs)
+        self.buildings = LayerDigests(layer, BUILDING_PREFIX, BUILDING_KEYS)
+        self.owners = _owners(layer, self.crs, scale, options.sheet_crs)
         self.context = {CONTEXT_INPUTS[name]: LayerDigests.read(f"{context}|layername={name}", None, None, self.crs)
                         for name in context_layers}
         self.dem = DemDigests(inputs.dem, self.crs)
@@ -70,7 +78,7 @@ class RunInputs:
         area = shapely.intersection(tile.polygon, self.polygon)  # as ``TileJob.area``
         reach = building_reach(area, CONTEXT_MARGIN).bounds
         read = self.buildings.select(reach, self.crs)
-        own = np.isin(read, self.buildings.select(area.bounds, self.crs))
+        own = (self.owners[read] == tile.sheet).any(axis=1) | np.isin(read, self.buildings.everywhere)
         around = union_bounds(grown(reach, SLACK), self.buildings.target_bounds(read, self.crs))
         window = union_bounds(grown(area.bounds, SLACK), self.buildings.target_bounds(read[own], self.crs))
         inputs = {"buildings": self.buildings.digest(read, own),
@@ -84,3 +92,18 @@ class RunInputs:
         """The digest of what a lowest group of the run's 3D Tiles reads itself over ``area`` (its tiles'):
         the DEM under the area, the orthoimage over the square its image covers."""
         return digest(self.dem.digest(area.bounds), self.ortho.digest(square(area)))
+
+
+def _owners(layer: VectorLayer, target_crs: str, scale: int, sheet_crs: str) -> np.ndarray:
+    """Per feature, the sheets that may own it: that of its point on surface as a tile finds it (the geometry
+    reprojected and repaired as ``vectors`` does, ``plan.owners``), and those of the points ``OWNER_SLACK``
+    around it; "" for a feature the tiles drop (no geometry, collapsed, too small)."""
+    config = PrepareConfig()
+    repaired = repair_polygons(transform(layer.geoms, layer.crs, pyproj.CRS.from_user_input(target_crs)),
+                               layer.unclosed_rings, config.min_area, config.sliver_thinness, config.sliver_width)
+    found = np.full((len(layer), 5), "", dtype=object)
+    kept = np.flatnonzero(~shapely.is_missing(repaired.geoms) & ~non_finite(repaired.geoms))
+    points = shapely.get_coordinates(shapely.point_on_surface(repaired.geoms[kept]))
+    for k, (dx, dy) in enumerate(((0, 0), (-1, -1), (-1, 1), (1, -1), (1, 1))):
+        found[kept, k] = owners(points + OWNER_SLACK * np.array([dx, dy]), target_crs, scale, sheet_crs)
+    return found
