@@ -292,3 +292,19 @@ def test_a_tile_left_aside_by_a_kill_between_two_renames_is_put_back(sample, bas
     report = _run(_inputs(sample), out)
     assert report.update.build == {} and sorted(report.update.kept) == sorted(ALL)
     _assert_equal_to_fresh(out, base[0])
+
+
+@pytest.mark.slow  # two tiled runs
+def test_3d_tiles_switched_off_rebuilds_every_tile_without_them_and_removes_the_runs_tileset(sample, base, tmp_path):
+    """Not a mix: the groups and the run's tileset.json of the earlier run would refer to tilesets the tiles no
+    longer have; they go, as a fresh run without 3D Tiles has none."""
+    out, _ = _copy(base, tmp_path)
+    report = run_tiles(_inputs(sample), ChainOptions(area=None, max_edge=15.0, metrics=False, tiles3d=False), out,
+                       AREA, scale=1000, workers=2)
+    assert report.update.rebuilt == dict.fromkeys(ALL, "tiles3d") and report.tileset is None
+    assert not (out / "tileset.json").exists() and not (out / "3dtiles-groups").exists()
+    assert not list(out.glob("tiles/*/3dtiles"))
+    fresh = tmp_path / "fresh"
+    run_tiles(_inputs(sample), ChainOptions(area=None, max_edge=15.0, metrics=False, tiles3d=False), fresh, AREA,
+              scale=1000, workers=2)
+    _assert_equal_to_fresh(out, fresh)

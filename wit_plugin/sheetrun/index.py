@@ -30,14 +30,16 @@ RESULT_FIELDS = tuple(name for name, _ in FIELDS if name != "sheet")
 
 
 def read_index(output: Path) -> dict[str, dict]:
-    """sheet → row of an existing index (empty when there is none)."""
+    """sheet → row (its fields of ``FIELDS``) of an existing index (empty when there is none)."""
     path = output / INDEX_FILE
     if not path.is_file():
         return {}
+    names = {name for name, _ in FIELDS}
     with sqlite3.connect(path) as db:
         db.row_factory = sqlite3.Row
         try:
-            return {row["sheet"]: dict(row) for row in db.execute(f"SELECT * FROM {INDEX_LAYER}")}
+            return {row["sheet"]: {k: row[k] for k in row.keys() if k in names}
+                    for row in db.execute(f"SELECT * FROM {INDEX_LAYER}")}
         except sqlite3.DatabaseError:
             return {}
 

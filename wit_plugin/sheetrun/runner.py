@@ -41,7 +41,7 @@ from ..feedback import SILENT, Feedback
 from ..georef import list_tifs
 from ..interpreter import core_env, core_python
 from ..io.fileio import ensure_writable_dir
-from ..tiles3d.combine import tile_areas, write_run_tileset
+from ..tiles3d.combine import remove_run_tileset, tile_areas, write_run_tileset
 from ..tiles3d.web import require_web_profile
 from .fingerprint import RunInputs
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, write_index
@@ -269,6 +269,8 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         if written.without_terrain:
             feedback.warning(f"{written.without_terrain} group(s) of tiles have no coarse terrain (the DEM or the "
                              "orthoimage does not cover them): from afar they show their buildings only.")
+    else:
+        remove_run_tileset(output)  # an earlier run's: it would refer to tilesets the tiles no longer have
     remove_tiles(output, plan.removed)  # last: the run's tileset no longer refers to them
     with contextlib.suppress(OSError):  # (unless an external cluster's cancelled tiles still write there)
         (output / STAGING_DIR).rmdir()

@@ -101,3 +101,4 @@ def remove_tiles(output: Path, sheets: list[str]) -> None:
     """The folders of tiles that left the run (their rows are gone from the index already)."""
     for sheet in sheets:
         shutil.rmtree(tile_folder(output, sheet), ignore_errors=True)
+        shutil.rmtree(old_folder(output, sheet), ignore_errors=True)

@@ -237,6 +237,14 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
     return result
 
 
+def remove_run_tileset(output: str | Path) -> None:
+    """The run's tileset and groups an earlier run wrote, for a run without 3D Tiles (its tiles have none)."""
+    out = Path(output)
+    restore_folder(out / GROUP_DIR, out / OLD_GROUPS)
+    shutil.rmtree(out / GROUP_DIR, ignore_errors=True)
+    (out / TILESET_FILE).unlink(missing_ok=True)
+
+
 def _fingerprints(plans: dict[str, GroupPlan], areas: dict[str, BaseGeometry], tiles: dict[str, str] | None,
                   inputs_digest: Callable[[BaseGeometry], str] | None) -> dict[str, str | None]:
     """Each group's fingerprint: its children's and, over tiles, the inputs it reads itself (None for all
