@@ -14,7 +14,6 @@ always shows, a change just outside may rebuild a part needlessly, never the rev
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,10 +24,10 @@ import shapely
 
 from .. import triangulators
 from ..dem import reprojection
-from ..io.digests import digest, file_digest, raster_window_digest
+from ..io.digests import digest, file_digest, raster_window_digest, raw_digest
 from ..io.fileio import atomic_file
 from ..io.raster_io import open_raster
-from ..io.vector_io import VectorLayer, non_finite, read_layer, source_bbox
+from ..io.vector_io import VectorLayer, bbox_transformer, non_finite, read_layer, source_bbox
 from ..raster_crs import cell_size
 from ..vectors import source_ids
 from ..version import plugin_version
@@ -104,14 +103,6 @@ def write_record(folder: Path, record: dict) -> None:
         tmp.write_text(json.dumps(record, ensure_ascii=False, indent=1, sort_keys=True), encoding="utf-8")
 
 
-def _feature_digest(*parts: bytes) -> bytes:
-    hasher = hashlib.sha256()
-    for part in parts:
-        hasher.update(len(part).to_bytes(8, "little"))
-        hasher.update(part)
-    return hasher.digest()[:FEATURE_BYTES]
-
-
 class LayerDigests:
     """The features of a vector layer read once, each with two digests and its box in the layer's CRS.
 
@@ -130,8 +121,8 @@ class LayerDigests:
         full, shape = [], []
         for i, row in enumerate(rows):
             geometry = (wkb[i] or b"") + int(layer.unclosed_rings[i]).to_bytes(4, "little")
-            shape.append(_feature_digest(geometry, ids[i].encode("utf-8")))
-            full.append(_feature_digest(geometry, ids[i].encode("utf-8"), repr((int(layer.fids[i]), row)).encode()))
+            shape.append(raw_digest(geometry, ids[i])[:FEATURE_BYTES])
+            full.append(raw_digest(geometry, ids[i], repr((int(layer.fids[i]), row)))[:FEATURE_BYTES])
         self.full = np.frombuffer(b"".join(full), dtype=np.uint8).reshape(-1, FEATURE_BYTES)
         self.shape = np.frombuffer(b"".join(shape), dtype=np.uint8).reshape(-1, FEATURE_BYTES)
         self.bounds = shapely.bounds(layer.geoms)
@@ -140,6 +131,14 @@ class LayerDigests:
         placed = placed[~np.isin(placed, self.everywhere)]
         self._placed = placed
         self._tree = shapely.STRtree(shapely.box(*self.bounds[placed].T)) if len(placed) else None
+        self._transformers: dict[str, tuple] = {}
+
+    def _to(self, target_crs: str) -> tuple[pyproj.Transformer | None, pyproj.Transformer | None]:
+        """(target → layer CRS, layer → target CRS), made once (a transformer takes milliseconds to make)."""
+        if target_crs not in self._transformers:
+            target = pyproj.CRS.from_user_input(target_crs)
+            self._transformers[target_crs] = (bbox_transformer(target, self.crs), bbox_transformer(self.crs, target))
+        return self._transformers[target_crs]
 
     @staticmethod
     def layer(path: str, encoding: str | None, bbox: Bounds | None, target_crs: str) -> VectorLayer:
@@ -155,7 +154,7 @@ class LayerDigests:
         """The features (indices, in the layer's order) whose box meets ``bbox`` (target CRS; None: all)."""
         if bbox is None:
             return np.arange(len(self.full))
-        box = source_bbox(grown(bbox, SLACK), pyproj.CRS.from_user_input(target_crs), self.crs)
+        box = source_bbox(grown(bbox, SLACK), self._to(target_crs)[0])
         near = self._placed[self._tree.query(shapely.box(*box))] if self._tree is not None else np.empty(0, int)
         return np.sort(np.concatenate([near, self.everywhere]).astype(np.int64))
 
@@ -174,8 +173,9 @@ class LayerDigests:
             return None
         x = np.concatenate([boxes[:, 0], boxes[:, 2], boxes[:, 0], boxes[:, 2]])
         y = np.concatenate([boxes[:, 1], boxes[:, 1], boxes[:, 3], boxes[:, 3]])
-        if not self.crs.equals(pyproj.CRS.from_user_input(target_crs)):
-            x, y = pyproj.Transformer.from_crs(self.crs, target_crs, always_xy=True).transform(x, y)
+        to_target = self._to(target_crs)[1]
+        if to_target is not None:
+            x, y = to_target.transform(x, y)
         return grown((float(np.min(x)), float(np.min(y)), float(np.max(x)), float(np.max(y))), SLACK)
 
 
@@ -185,15 +185,14 @@ class DemDigests:
     def __init__(self, path: str, target_crs: str):
         self.path, self.target = path, pyproj.CRS.from_user_input(target_crs)
         ds = open_raster(path, "DEM")
-        self.source = reprojection(path, ds, self.target)
-        self.extra = () if self.source is None else (f"cell {cell_size(ds, self.source, self.target)}",)
-        self.grow = SLACK if self.source is None else SLACK + DEM_MARGIN_CELLS * cell_size(ds, self.source, self.target)
+        source = reprojection(path, ds, self.target)
+        self.extra = () if source is None else (f"cell {cell_size(ds, source, self.target)}",)
+        self.grow = SLACK if source is None else SLACK + DEM_MARGIN_CELLS * cell_size(ds, source, self.target)
+        self.to_source = None if source is None else bbox_transformer(self.target, source)
 
     def digest(self, bounds: Bounds) -> str:
-        box = grown(bounds, self.grow)
-        if self.source is not None:
-            box = source_bbox(box, self.target, self.source)
-        return raster_window_digest(self.path, box, DEM_MARGIN_CELLS, self.extra)
+        return raster_window_digest(self.path, source_bbox(grown(bounds, self.grow), self.to_source),
+                                    DEM_MARGIN_CELLS, self.extra)
 
 
 class OrthoDigests:

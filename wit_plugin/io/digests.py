@@ -17,14 +17,19 @@ DIGEST_CHARS = 32
 CHUNK = 1 << 20
 
 
-def digest(*parts: bytes | str) -> str:
-    """The digest of ``parts`` in order (each length-prefixed, so ``("ab", "c")`` and ``("a", "bc")`` differ)."""
+def raw_digest(*parts: bytes | str) -> bytes:
+    """The SHA-256 of ``parts`` in order, each length-prefixed (so ``("ab", "c")`` and ``("a", "bc")`` differ)."""
     hasher = hashlib.sha256()
     for part in parts:
         data = part.encode("utf-8") if isinstance(part, str) else part
         hasher.update(len(data).to_bytes(8, "little"))
         hasher.update(data)
-    return hasher.hexdigest()[:DIGEST_CHARS]
+    return hasher.digest()
+
+
+def digest(*parts: bytes | str) -> str:
+    """``raw_digest`` in hex, cut to ``DIGEST_CHARS``."""
+    return raw_digest(*parts).hex()[:DIGEST_CHARS]
 
 
 def file_digest(path: str | os.PathLike) -> str:

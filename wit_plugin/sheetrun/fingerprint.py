@@ -12,7 +12,7 @@ What a tile reads (``job``, ``prepare``), and so what its fingerprint holds besi
 * ``roads``, ``districts``: the run's prepared polygons that meet the tile (prepared once for the whole
   run, so a road edited in the next tile can change this tile's piece of it: what the tile gets is compared).
 * ``area``: the run's area where the tile and its neighbours' buildings lie (its edge is part of the seam,
-  and it decides which neighbouring buildings are in the run).
+  and it decides which neighbouring buildings are in the run): its edge there, and which side is in.
 * ``dem``: the DEM cells under the tile's area and under the buildings it may own (its terrain grows to hold
   them), with the margin its readers take.
 * ``ortho``: the orthoimage sheets whose footprint meets that box, by their bytes (the mosaic's tone is taken
@@ -34,6 +34,7 @@ from ..chain import ChainInputs, ChainOptions
 from ..chain.coverage import OrthoCoverage
 from ..chain.fingerprint import (
     SLACK,
+    Bounds,
     DemDigests,
     Fingerprint,
     LayerDigests,
@@ -51,8 +52,9 @@ from .plan import Tile, owners
 from .prepare import CONTEXT_MARGIN
 
 CONTEXT_INPUTS = {step_layers.PREPARED_ROADS: "roads", step_layers.PREPARED_DISTRICTS: "districts"}
-OWNER_SLACK = 0.5
-"""m: a building whose point on surface lies this close to another sheet counts as that sheet's too."""
+OWNER_SLACK = 0.01
+"""m: a building whose point on surface lies this close to another sheet counts as that sheet's too (the point
+is computed by the same code as the tile's; this covers any rounding between two computations of it)."""
 
 
 class RunInputs:
@@ -81,12 +83,20 @@ class RunInputs:
         own = (self.owners[read] == tile.sheet).any(axis=1) | np.isin(read, self.buildings.everywhere)
         around = union_bounds(grown(reach, SLACK), self.buildings.target_bounds(read, self.crs))
         window = union_bounds(grown(area.bounds, SLACK), self.buildings.target_bounds(read[own], self.crs))
-        inputs = {"buildings": self.buildings.digest(read, own),
-                  "area": digest(shapely.to_wkb(shapely.normalize(shapely.clip_by_rect(self.polygon, *around))))}
+        inputs = {"buildings": self.buildings.digest(read, own), "area": self._area(around)}
         for name, layer in self.context.items():
             inputs[name] = layer.digest(layer.select(tile.polygon.bounds, self.crs))
         inputs.update(dem=self.dem.digest(window), ortho=self.ortho.digest(window))
         return Fingerprint(self.settings, inputs)
+
+    def _area(self, box: Bounds) -> str:
+        """The run's area within ``box``: its edge there, and which of the box's centre and corners are in it (one
+        of them off the edge decides, the edge being the same, every part of the box) — the same wherever the
+        area changed elsewhere."""
+        edge = shapely.normalize(shapely.clip_by_rect(self.polygon.boundary, *box))
+        x, y = np.array([(box[0] + box[2]) / 2, box[0], box[2], box[0], box[2]]), np.array(
+            [(box[1] + box[3]) / 2, box[1], box[1], box[3], box[3]])
+        return digest(shapely.to_wkb(edge), shapely.contains_xy(self.polygon, x, y).tobytes())
 
     def group(self, area: BaseGeometry) -> str:
         """The digest of what a lowest group of the run's 3D Tiles reads itself over ``area`` (its tiles'):
