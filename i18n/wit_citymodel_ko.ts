@@ -40,8 +40,8 @@
       <translation>전체 처리</translation>
     </message>
     <message>
-      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius. Run again into the same folder, it compares what the model was built from (build.json: every setting, the plugin's version, the triangulator, and the inputs as the run reads them, by content) and builds it again only if something changed, saying what (REBUILT, REBUILD_REASON); otherwise it does no work and reports the result recorded. REBUILD builds it again anyway.</source>
-      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고 CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경. 같은 폴더에 다시 실행하면 모델이 무엇으로 만들어졌는지(build.json: 모든 설정, 플러그인 버전, 삼각분할 라이브러리, 그리고 실행이 읽는 입력을 내용으로) 비교해 무언가 바뀌었을 때만 다시 만들고 무엇이 바뀌었는지 알려 줍니다(REBUILT, REBUILD_REASON). 바뀐 것이 없으면 아무 작업도 하지 않고 기록된 결과를 알려 줍니다. REBUILD를 켜면 그래도 다시 만듭니다.</translation>
+      <source>Runs the whole chain in one call, with one progress bar and Cancel honoured in every step: prepare the building, road and legal-dong layers for the study area; check, in seconds and before any heavy work, that the DEM and the orthoimage sheets (from their sheet numbers) cover it, naming the missing sheets (a DEM, or sheets georeferenced in another CRS than the target, are reprojected on the fly, bilinear); georeference and merge only the sheets it needs (WIT feather + gain); triangulate the terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of the common layers recognised by name; buildings given the default height are a warning and the DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and measure its quality. The output folder receives model.gml with its textures, validation.html, metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load into the project as a group for the 3D map view. Everything appears at the end, so a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in &lt;output&gt;/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the centre point and radius. Run again into the same folder, it compares what the model was built from (build.json: every setting, the plugin's version, the triangulator, and the inputs as the run reads them, by content) and builds it again only if something changed, saying what (REBUILT, REBUILD_REASON); otherwise it does no work and reports the result recorded. REBUILD builds it again anyway.</source>
+      <translation>데이터에서 검증된 CityGML 3.0까지 전체 과정을 한 번에 실행합니다. 진행 막대는 하나이고 모든 단계에서 취소가 동작합니다: 연구 지역의 건물·도로·법정동 레이어를 준비하고, 무거운 작업 전에 DEM과 정사영상 도엽(도엽 번호로 판단)이 지역을 덮는지 몇 초 안에 확인해 빠진 도엽 번호를 알려 주며(대상 좌표계와 다른 좌표계의 DEM이나 다른 좌표계로 지리참조된 도엽은 실행 중에 바로 재투영합니다, 쌍선형), 필요한 도엽만 지리참조하고 병합합니다(WIT 페더링 + 게인). 지형을 삼각망으로 만들고(지역 경계를 넘는 건물까지 덮음), LoD1 건물을 돌출합니다(높이는 wit:extrudebuildings와 같음: 층수, 높이 필드나 식, 또는 흔한 레이어의 높이·층수 필드를 이름으로 인식; 기본 높이를 받은 건물은 경고와 DEFAULT_HEIGHTS 출력으로 알림). 정사영상으로 텍스처를 입히고(벽: 각 건물의 용도와 층수로 생성한 외벽 텍스처, 생성된 것임을 표시; FACADES) CityGML 3.0을 쓰고 검증하며 품질을 측정합니다. 출력 폴더에는 텍스처와 함께 model.gml, validation.html, metrics.csv(및 metrics.html), LoD1과 TIN GeoPackage, 3D Tiles 1.1 타일셋(3dtiles/, CesiumJS나 QGIS 3.34 이상용), steps.json(단계별 시간)이 생깁니다. QGIS 창에서 실행하면 레이어가 그룹으로 프로젝트에 올라와 3D 지도 보기에 바로 나타납니다. 모든 결과는 마지막에 한꺼번에 나타나므로 실패하거나 취소된 실행은 아무것도 남기지 않습니다. 중간 파일은 보관하지 않으면 지워집니다(보관하면 &lt;output&gt;/work). 연구 지역: 법정동(코드 또는 이름)을 주면 그것, 아니면 폴리곤 레이어, 아니면 중심점과 반경. 같은 폴더에 다시 실행하면 모델이 무엇으로 만들어졌는지(build.json: 모든 설정, 플러그인 버전, 삼각분할 라이브러리, 그리고 실행이 읽는 입력을 내용으로) 비교해 무언가 바뀌었을 때만 다시 만들고 무엇이 바뀌었는지 알려 줍니다(REBUILT, REBUILD_REASON). 바뀐 것이 없으면 아무 작업도 하지 않고 기록된 결과를 알려 줍니다. REBUILD를 켜면 그래도 다시 만듭니다.</translation>
     </message>
     <message>
       <source>Write a 3D Tiles 1.1 tileset for viewers (3dtiles/)</source>
@@ -568,8 +568,8 @@
       <translation>도구</translation>
     </message>
     <message>
-      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
-      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, pythoncdt, pygltflib, Dask…; 비상업적 이용에만 무료인 triangle은 선택한 경우에만)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
+      <source>Installs the Python packages the algorithms need and QGIS's Python lacks (shapely 2, pythoncdt, pygltflib, Dask…; triangle, free for non-commercial use only, when you tick it) into a folder of your QGIS profile (python/wit_citymodel_deps), which the plugin puts on Python's path when it loads: no administrator rights, nothing changed outside the profile. Packages that are present already are left alone. The log shows each pip command; Cancel stops pip and installs nothing. Where QGIS's Python has no pip (Debian's and Ubuntu's QGIS do not install it), pip runs from its own wheel, downloaded from the package index pip is configured for into a work folder of the profile and deleted afterwards.&lt;br&gt;&lt;br&gt;On Linux, a shapely from PyPI carries its own GEOS and would crash QGIS: shapely is built from source against the system GEOS (that needs the GEOS development files, a C compiler and the Python headers), or, where the system offers shapely 2 (Debian testing/sid: python3-shapely), the message names the command that installs it. Restart QGIS when the log asks for it (a package that was already loaded in another version).</source>
+      <translation>알고리즘에 필요하지만 QGIS의 파이썬에 없는 파이썬 패키지(shapely 2, pythoncdt, pygltflib, Dask…; 비상업적 이용에만 무료인 triangle은 선택한 경우에만)를 QGIS 프로필의 폴더(python/wit_citymodel_deps)에 설치합니다. 플러그인은 불러올 때 이 폴더를 파이썬 경로에 넣습니다. 관리자 권한이 필요 없고 프로필 밖은 아무것도 바꾸지 않습니다. 이미 있는 패키지는 그대로 둡니다. 로그에 pip 명령이 하나하나 표시되며, 취소하면 pip을 멈추고 아무것도 설치하지 않습니다. QGIS의 파이썬에 pip이 없으면(Debian과 Ubuntu의 QGIS는 pip을 설치하지 않습니다) pip이 설정된 패키지 색인에서 pip 자체의 휠을 프로필의 작업 폴더로 내려받아 그 휠로 pip을 실행하고, 끝나면 지웁니다.&lt;br&gt;&lt;br&gt;리눅스에서는 PyPI의 shapely가 자체 GEOS를 담고 있어 QGIS를 비정상 종료시킬 수 있으므로, shapely를 시스템 GEOS에 맞춰 소스에서 빌드하거나(GEOS 개발 파일, C 컴파일러, 파이썬 헤더 필요), 시스템이 shapely 2를 제공하는 경우(Debian testing/sid: python3-shapely) 이를 설치하는 명령을 메시지로 알려 줍니다. 로그가 요청하면 QGIS를 다시 시작하십시오(다른 버전이 이미 불러와진 패키지).</translation>
     </message>
     <message>
       <source>Python interpreter to run pip with (empty: QGIS's own)</source>
@@ -852,6 +852,14 @@
       <translation>CDT (MPL-2.0)</translation>
     </message>
     <message>
+      <source>None: plain walls</source>
+      <translation>없음: 민무늬 벽</translation>
+    </message>
+    <message>
+      <source>Generated from each building's use and storeys (marked as generated)</source>
+      <translation>각 건물의 용도와 층수로 생성(생성된 것임을 표시)</translation>
+    </message>
+    <message>
       <source>3D Tiles web profile: compressed geometry for browsers (QGIS cannot read it)</source>
       <translation>3D Tiles 웹 프로파일: 브라우저용 압축 지오메트리 (QGIS에서는 읽을 수 없음)</translation>
     </message>
@@ -914,6 +922,10 @@
     <message>
       <source>Build everything again, even what has not changed since the last run into this folder</source>
       <translation>이 폴더에 대한 지난 실행 이후 바뀌지 않은 것까지 모두 다시 만들기</translation>
+    </message>
+    <message>
+      <source>Wall textures (an orthoimage sees no facades)</source>
+      <translation>벽 텍스처(정사영상에는 벽면이 보이지 않음)</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
@@ -1012,8 +1024,8 @@
       <translation>WIT 텍스처링</translation>
     </message>
     <message>
-      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
-      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 텍스처를 입히지 않습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽으며, 레이어와 다른 좌표계의 정사영상은 읽는 대로 재투영합니다(쌍선형). 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 생성된 외벽 텍스처를 입힙니다(FACADES, 기본값): 각 건물의 용도(국가 건축물 용도코드 BDTYP_CD, 국토지리정보원의 용도/종류, AL_D010, OpenStreetMap building 태그, 없으면 층수)에 맞는 층 모듈을 플러그인이 직접 그리며, 층마다 이미지 한 줄(레이어의 층수, 없으면 높이로 계산)에 대응하고, 측정값과 분리해 생성된 것임을 표시합니다(facades.gpkg, CityGML 테마 generatedFacade). 없음을 고를 수도 있습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽으며, 레이어와 다른 좌표계의 정사영상은 읽는 대로 재투영합니다(쌍선형). 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
     </message>
     <message>
       <source>Merged orthoimage</source>
@@ -1050,6 +1062,10 @@
     <message>
       <source>Textured surfaces</source>
       <translation>텍스처가 입혀진 면 수</translation>
+    </message>
+    <message>
+      <source>Buildings with a generated facade</source>
+      <translation>생성된 외벽 텍스처를 받은 건물</translation>
     </message>
     <message>
       <source>Give the LoD1 buildings, the TIN, or both.</source>
@@ -1108,6 +1124,18 @@
       <translation>{folder}에 설치함: {packages}.</translation>
     </message>
     <message>
+      <source>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}): {command}</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없고, 패키지 색인에서 pip 자체의 휠도 받아 오지 못했습니다({reason}): {command}</translation>
+    </message>
+    <message>
+      <source>QGIS's Python has no pip that can install: pip {version} runs from its own wheel, downloaded from {url}.</source>
+      <translation>QGIS의 파이썬에 설치에 쓸 수 있는 pip이 없어, {url}에서 내려받은 pip {version} 자체의 휠로 pip을 실행합니다.</translation>
+    </message>
+    <message>
+      <source>Run: {command}</source>
+      <translation>실행: {command}</translation>
+    </message>
+    <message>
       <source>shapely: a shapely wheel bundles its own GEOS, which crashes QGIS on Linux; it must be built against the system GEOS, which needs the GEOS development files, a C compiler and the Python headers ({packages}).</source>
       <translation>shapely: shapely 휠은 자체 GEOS를 담고 있어 리눅스에서 QGIS를 비정상 종료시키므로 시스템 GEOS에 맞춰 빌드해야 하며, 이를 위해 GEOS 개발 파일, C 컴파일러, 파이썬 헤더({packages})가 필요합니다.</translation>
     </message>
@@ -1116,24 +1144,24 @@
       <translation>선택한 패키지가 모두 이미 있습니다: {names}.</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has no pip: {command}</source>
-      <translation>QGIS의 파이썬({python})에 pip이 없습니다: {command}</translation>
+      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later, and pip's own wheel could not be fetched from the package index ({reason}): {command}</source>
+      <translation>QGIS의 파이썬({python})에 있는 pip은 {version}입니다. 설치에는 pip 22.2 이상이 필요한데, 패키지 색인에서 pip 자체의 휠을 받아 오지 못했습니다({reason}): {command}</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}</source>
-      <translation>QGIS의 파이썬({python})의 pip은 {version}입니다. 설치하려면 pip 22.2 이상이 필요합니다: {command}</translation>
-    </message>
-    <message>
-      <source>Run: {command}</source>
-      <translation>실행: {command}</translation>
+      <source>QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package index ({reason}).</source>
+      <translation>QGIS의 파이썬({python})에 pip이 없고, 패키지 색인에서 pip 자체의 휠도 받아 오지 못했습니다({reason}).</translation>
     </message>
     <message>
       <source>Running: {command}</source>
       <translation>실행 중: {command}</translation>
     </message>
     <message>
-      <source>QGIS's Python ({python}) has no pip.</source>
-      <translation>QGIS의 파이썬({python})에 pip이 없습니다.</translation>
+      <source>Nothing was installed.</source>
+      <translation>아무것도 설치하지 않았습니다.</translation>
+    </message>
+    <message>
+      <source>Then run 'Install Python dependencies' again.</source>
+      <translation>그런 다음 '파이썬 의존 패키지 설치'를 다시 실행하십시오.</translation>
     </message>
     <message>
       <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; the platform's package {package} is the safe one.</source>
@@ -1152,16 +1180,12 @@
       <translation>여기서 빌드한 shapely는 GEOS {built}를, QGIS는 GEOS {qgis}를 씁니다. QGIS를 비정상 종료시킬 수 있으므로 아무것도 설치하지 않았습니다.</translation>
     </message>
     <message>
+      <source>pip's own wheel could not be downloaded ({reason}).</source>
+      <translation>pip 자체의 휠을 내려받지 못했습니다({reason}).</translation>
+    </message>
+    <message>
       <source>{module}: a wheel from PyPI bundles a C library that QGIS loads itself and would crash QGIS; install your distribution's package ({package}).</source>
       <translation>{module}: PyPI의 휠은 QGIS가 직접 불러오는 C 라이브러리를 담고 있어 QGIS를 비정상 종료시킬 수 있습니다. 배포판의 패키지({package})를 설치하십시오.</translation>
-    </message>
-    <message>
-      <source>Nothing was installed.</source>
-      <translation>아무것도 설치하지 않았습니다.</translation>
-    </message>
-    <message>
-      <source>Then run 'Install Python dependencies' again.</source>
-      <translation>그런 다음 '파이썬 의존 패키지 설치'를 다시 실행하십시오.</translation>
     </message>
     <message>
       <source>pip wants {name} in two versions ({first}, {second}); install the packages one at a time.</source>

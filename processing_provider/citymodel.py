@@ -28,11 +28,13 @@ from .shared_parameters import (
     TOLERANCE,
     WEB_PROFILE,
     add_area_parameters,
+    add_facade_parameter,
     add_height_parameters,
     add_mesh_parameters,
     add_rebuild_parameter,
     add_triangulator_parameter,
     add_web_profile_parameter,
+    facade_choice,
     height_options,
     schema_choice,
     study_area,
@@ -55,7 +57,8 @@ class CityModel(WitAlgorithm):
         "terrain (it also covers the buildings that cross the area's edge); extrude LoD1 buildings (heights "
         "as in wit:extrudebuildings: floors, a height field or expression, or the height and floor fields of "
         "the common layers recognised by name; buildings given the default height are a warning and the "
-        "DEFAULT_HEIGHTS output); texture them from the orthoimage; write CityGML 3.0, validate it and "
+        "DEFAULT_HEIGHTS output); texture them from the orthoimage (walls: generated facades from each "
+        "building's use and storeys, marked as generated; FACADES); write CityGML 3.0, validate it and "
         "measure its quality. The output folder receives model.gml with its textures, validation.html, "
         "metrics.csv (and metrics.html), the LoD1 and TIN GeoPackages, a 3D Tiles 1.1 tileset (3dtiles/, "
         "for CesiumJS or QGIS ≥ 3.34) and steps.json (time per step); from the QGIS window the layers load "
@@ -137,6 +140,7 @@ class CityModel(WitAlgorithm):
             self.OUTSIDE_ORTHO, self.tr("Surfaces outside the orthoimage"),
             options=[self.tr("Fail and name the missing sheets"), self.tr("Leave them untextured (warning)")],
             defaultValue=0))
+        add_facade_parameter(self)
         self.addParameter(QgsProcessingParameterFile(
             self.SCHEMA_DIR, self.tr("Schema folder overriding the shipped schemas (with citygml3-all.xsd)"),
             behavior=FileBehavior.Folder, optional=True))
@@ -162,6 +166,7 @@ class CityModel(WitAlgorithm):
             tolerance=self.parameterAsDouble(parameters, TOLERANCE, context),
             triangulator=triangulator(self, parameters, context, feedback),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
+            facades=facade_choice(self, parameters, context),
             heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
             schema_dir=configured, schema_cache=cache,
             tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context))

@@ -21,7 +21,8 @@ from .base import WitAlgorithm
 from .qgis_compat import FieldType, NumberType, SourceType, WkbType
 
 STORE_HELP = ("The store is a GeoPackage file, or a PostGIS table when a PostgreSQL connection string "
-              "(postgresql://user:password@host:port/database) is given.")
+              "(postgresql://user@host:port/database; the password in ~/.pgpass or PGPASSWORD, which keeps it "
+              "out of the Processing history) is given.")
 
 
 class BuildColorStore(WitAlgorithm):

@@ -36,6 +36,10 @@ MAX_EDGE, TOLERANCE = "MAX_EDGE", "TOLERANCE"
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
 WEB_PROFILE = "WEB_PROFILE"
 REBUILD = "REBUILD"
+FACADES = "FACADES"
+#: the FACADES options, in the order of wit_plugin.texture.config.FACADE_CHOICES (a test holds them equal)
+FACADE_OPTIONS = (translatable("None: plain walls"),
+                  translatable("Generated from each building's use and storeys (marked as generated)"))
 
 
 def _advanced(parameter: QgsProcessingParameterDefinition) -> QgsProcessingParameterDefinition:
@@ -163,6 +167,22 @@ def add_model_layer_parameters(algorithm, lod1_optional: bool = True) -> None:
         LOD1, tr("LoD1 buildings (wit:extrudebuildings)"), [SourceType.VectorPolygon], optional=lod1_optional))
     algorithm.addParameter(QgsProcessingParameterVectorLayer(
         TIN, tr("Terrain TIN (wit:triangulateterrain)"), [SourceType.VectorPolygon], optional=True))
+
+
+def add_facade_parameter(algorithm) -> None:
+    """Wall textures: none, or generated facades (the core's default)."""
+    from ..wit_plugin.step_layers import DEFAULT_FACADES, FACADE_CHOICES
+
+    algorithm.addParameter(QgsProcessingParameterEnum(
+        FACADES, tr("Wall textures (an orthoimage sees no facades)"), options=[tr(o) for o in FACADE_OPTIONS],
+        defaultValue=FACADE_CHOICES.index(DEFAULT_FACADES)))
+
+
+def facade_choice(algorithm, parameters: dict, context) -> str:
+    """The FACADES parameter as ``TextureConfig.facades`` takes it."""
+    from ..wit_plugin.step_layers import FACADE_CHOICES
+
+    return FACADE_CHOICES[algorithm.parameterAsEnum(parameters, FACADES, context)]
 
 
 def add_web_profile_parameter(algorithm, advanced: bool = False) -> None:

@@ -11,7 +11,7 @@ from qgis.core import (
 
 from .base import WitAlgorithm
 from .qgis_compat import NumberType
-from .shared_parameters import LOD1, TIN, add_model_layer_parameters
+from .shared_parameters import LOD1, TIN, add_facade_parameter, add_model_layer_parameters, facade_choice
 
 IMAGE_FORMATS = ("JPEG", "PNG")
 
@@ -26,7 +26,11 @@ class WitTexture(WitAlgorithm):
         "ymin) over each image's ground extent with the half-pixel correction, so a vertex at a "
         "pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters "
         "(edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one "
-        "image per ground tile. Walls are not textured: an orthoimage sees no facades. Scale S "
+        "image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the "
+        "default), storey modules drawn by the plugin for each building's use (the national use code "
+        "BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image "
+        "row per storey (the layer's floor count, else its height), kept apart and marked as generated "
+        "(facades.gpkg, the CityGML theme generatedFacade); or none. Scale S "
         "(0 < S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The "
         "orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected "
         "as it is read (bilinear). Output: a folder of images and texcoords.gpkg, "
@@ -61,9 +65,11 @@ class WitTexture(WitAlgorithm):
             self.GUTTER, self.tr("Gutter width (px)"), defaultValue=4, minValue=0, maxValue=64))
         self.addParameter(QgsProcessingParameterBoolean(
             self.MIPMAPS, self.tr("Write the mip chain (to 1×1)"), defaultValue=False))
+        add_facade_parameter(self)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Texture folder")))
         self.addOutput(QgsProcessingOutputNumber("IMAGES", self.tr("Images written")))
         self.addOutput(QgsProcessingOutputNumber("TEXTURED_SURFACES", self.tr("Textured surfaces")))
+        self.addOutput(QgsProcessingOutputNumber("FACADES_GENERATED", self.tr("Buildings with a generated facade")))
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.texture import TextureConfig, texture_model
@@ -79,6 +85,7 @@ class WitTexture(WitAlgorithm):
             atlas_size=1024 << self.parameterAsEnum(parameters, self.ATLAS_SIZE, context),
             gutter=self.parameterAsInt(parameters, self.GUTTER, context),
             write_mipmaps=self.parameterAsBool(parameters, self.MIPMAPS, context),
+            facades=facade_choice(self, parameters, context),
         )
         output = self.parameterAsString(parameters, self.OUTPUT, context)
         ortho = self.parameterAsRasterLayer(parameters, self.ORTHO, context).source()
@@ -86,4 +93,4 @@ class WitTexture(WitAlgorithm):
         feedback.info(f"Textured {report.surfaces}; untextured {report.untextured}; "
                       f"{len(report.images)} images, {report.bytes_written / 1e6:.1f} MB")
         return {self.OUTPUT: output, "IMAGES": len(report.images),
-                "TEXTURED_SURFACES": sum(report.surfaces.values())}
+                "TEXTURED_SURFACES": sum(report.surfaces.values()), "FACADES_GENERATED": sum(report.facades.values())}

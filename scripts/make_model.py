@@ -47,6 +47,8 @@ INPUT_HELP = {
     "MAX_EDGE": "Maximum edge length of the terrain triangles in metres.",
     "TRIANGULATOR": "Library that triangulates the terrain: Triangle (free for non-commercial use only) or CDT "
                     "(MPL-2.0, free for commercial use too); empty: Triangle where it is installed, else CDT.",
+    "FACADES": "Wall textures: generated facades (storey modules drawn from each building's use and storeys, "
+               "marked as generated) or none.",
     "SCHEMA_DIR": "Folder with citygml3-all.xsd for validation (empty: the plugin's configured/bundled schemas).",
 }
 
@@ -104,6 +106,7 @@ def build_model():
     from qgis.PyQt.QtCore import QPointF, QSizeF
 
     model = QgsProcessingModelAlgorithm(MODEL_NAME, MODEL_GROUP, MODEL_GROUP_ID)
+    facades = QgsApplication.processingRegistry().algorithmById("wit:wittexture").parameterDefinition("FACADES")
 
     # ---- inputs: a column on the left
     definitions = [
@@ -136,6 +139,8 @@ def build_model():
         QgsProcessingParameterEnum("TRIANGULATOR", "Triangulator", options=QgsApplication.processingRegistry()
                                    .algorithmById("wit:triangulateterrain").parameterDefinition("TRIANGULATOR")
                                    .options(), optional=True),
+        QgsProcessingParameterEnum("FACADES", "Wall textures", options=facades.options(),  # wit:wittexture's own
+                                   defaultValue=facades.defaultValue()),
         QgsProcessingParameterFile("SCHEMA_DIR", "Schema folder (with citygml3-all.xsd)",
                                    behavior=QgsProcessingParameterFile.Folder, optional=True),
     ]
@@ -173,7 +178,8 @@ def build_model():
          {"BUILDINGS": child("PREPARE", "BUILDINGS_OUT"), "DEM": param("DEM"), "SPATIAL_INDEX": static(False),
           **{name: param(name) for name in ("STOREY_HEIGHT", "HEIGHT_FIELD", "HEIGHT_EXPRESSION", "DEFAULT_HEIGHT")}}),
         ("TEXTURE", "wit:wittexture", "6 Texture buildings and terrain",
-         {"ORTHO": child("MERGE", "OUTPUT"), "LOD1": child("EXTRUDE", "LOD1"), "TIN": child("TERRAIN", "TIN")}),
+         {"ORTHO": child("MERGE", "OUTPUT"), "LOD1": child("EXTRUDE", "LOD1"), "TIN": child("TERRAIN", "TIN"),
+          "FACADES": param("FACADES")}),
         ("CITYGML", "wit:writecitygml", "7 Write CityGML 3.0",
          {"LOD1": child("EXTRUDE", "LOD1"), "TIN": child("TERRAIN", "TIN"), "ROADS": child("PREPARE", "ROADS_OUT"),
           "DISTRICTS": child("PREPARE", "DISTRICTS_OUT"), "TEXTURES": child("TEXTURE", "OUTPUT"),
@@ -225,7 +231,8 @@ def build_model():
             "The whole WIT chain as a graphical model (the same steps as wit:citymodel, editable in the "
             "modeler): georeference the NGII map-sheet TIFs, merge them (WIT feather + gain), prepare the "
             "building, road and legal-dong layers for a circular study area, triangulate the terrain, "
-            "extrude LoD1 buildings, texture them from the orthoimage, write CityGML 3.0 and validate it. "
+            "extrude LoD1 buildings, texture them from the orthoimage (walls: generated facades, marked as "
+            "generated), write CityGML 3.0 and validate it. "
             "Intermediate results are temporary files; the outputs are the .gml (textures copied beside it) "
             "and the HTML validation report."),
         "ALG_CREATOR": "WIT City Model",

@@ -344,10 +344,11 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     return path
 
 
-def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False, query: str = ""):
+def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False, query: str = "",
+                     options: tuple[str, ...] = ()):
     """Build the offline viewer of ``tileset_folder``, serve it and load it in headless Chromium
-    (viewer/browse.mjs), the page's ``query`` appended (e.g. ``?range=3``: from afar); (the browser's
-    report, the screenshot's (n, 3) RGB pixels)."""
+    (viewer/browse.mjs, with its ``options``, e.g. ``--no-facades``), the page's ``query`` appended (e.g.
+    ``?range=3``: from afar); (the browser's report, the screenshot's (n, 3) RGB pixels)."""
     import json
     import subprocess
 
@@ -366,7 +367,8 @@ def view_in_chromium(tileset_folder: Path, tmp_path: Path, click: bool = False, 
         url += query
         shot = tmp_path / "view.png"
         result = subprocess.run(["node", str(ROOT / "viewer" / "browse.mjs"), url, str(shot), "--timeout", "240"]
-                                + (["--click"] if click else []), capture_output=True, text=True, timeout=400)
+                                + (["--click"] if click else []) + list(options), capture_output=True, text=True,
+                                timeout=400)
     finally:
         server.terminate()
         server.wait(timeout=10)

@@ -14,7 +14,13 @@ class of problem:
 * ``moved-enum``: an enum that QGIS 3.30–3.40 moved into the ``Qgis`` namespace, under its old
   class (``QgsProcessing.SourceType``): the old names are gone in QGIS 4;
 * ``removed-api``: Qt 5 API that Qt 6 removed (``QRegExp``, ``qApp``, ``QDesktopWidget``,
-  ``fontMetrics().width``, ``activated[str]``, compiled resources, ``qgis.PyQt.Qt``, renamed enums).
+  ``fontMetrics().width`` and ``QFontMetrics(…).width``, also through a variable, ``activated[str]``, compiled
+  resources, ``qgis.PyQt.Qt``, renamed enums);
+* ``changed-api``: calls Qt 6 reads otherwise: ``addAction`` with four arguments or more, the eight-number
+  ``QDateTime(…)`` and ``QDateTime(QDate(…))`` (the tool rewrites both, to ``QDateTime(QDate, QTime, …)``).
+
+``make qt6-check`` runs QGIS's script itself on what the ZIP ships (scripts/qt6_check.py); this scan is the
+part of it that runs without PyQt6, in ``make test``, and adds the QGIS enums it cannot see without QGIS 4.
 """
 from __future__ import annotations
 
@@ -53,7 +59,9 @@ RENAMED_ENUMS = {
     ("Qt", "MidButton"): "Qt.MouseButton.MiddleButton",
     ("Qt", "TextColorRole"): "Qt.ItemDataRole.ForegroundRole",
     ("Qt", "BackgroundColorRole"): "Qt.ItemDataRole.BackgroundRole",
+    ("QPainter", "HighQualityAntialiasing"): "QPainter.RenderHint.Antialiasing",
 }
+FONT_METRICS = ("QFontMetrics", "QFontMetricsF")
 #: modules whose names are introspected for enums
 INTROSPECTED = ("qgis.", "PyQt5.")
 
@@ -99,6 +107,8 @@ def scan_source(source: str, path: str = "<source>") -> list[Finding]:
     """Every Qt 6 / QGIS 4 problem of one Python source."""
     tree = ast.parse(source, filename=path)
     imported = _imported_names(tree)
+    metrics = {target.id for node in ast.walk(tree) if isinstance(node, ast.Assign) and _calls(node.value, FONT_METRICS)
+               for target in node.targets if isinstance(target, ast.Name)}  # fm = QFontMetrics(font)
     findings = []
 
     def report(node: ast.AST, rule: str, message: str) -> None:
@@ -125,6 +135,12 @@ def scan_source(source: str, path: str = "<source>") -> list[Finding]:
             func = node.func
             if isinstance(func, ast.Attribute) and func.attr == "exec_":
                 report(node, "exec_", "exec_() is gone in PyQt6: call exec()")
+            elif isinstance(func, ast.Attribute) and func.attr == "addAction" and len(node.args) >= 4:
+                report(node, "changed-api", "addAction(…) with 4+ arguments is fragile in Qt 6: "
+                                            "create the QAction, then addAction(action)")
+            elif _calls(node, ("QDateTime",)) and (len(node.args) == 8 or (len(node.args) == 1 and _calls(
+                    node.args[0], ("QDate",)))):
+                report(node, "changed-api", "this QDateTime(…) form is gone in Qt 6: QDateTime(QDate(…), QTime(…))")
             elif isinstance(func, ast.Attribute) and func.attr == "desktop" and not node.args:
                 report(node, "removed-api", "desktop() (QDesktopWidget) is gone in Qt 6: use QScreen")
             elif isinstance(func, ast.Name) and func.id == "QVariant" and not node.args:
@@ -135,15 +151,21 @@ def scan_source(source: str, path: str = "<source>") -> list[Finding]:
                     and isinstance(node.slice, ast.Name) and node.slice.id == "str"):
                 report(node, "removed-api", "activated[str] is gone in Qt 6: use textActivated")
         elif isinstance(node, ast.Attribute):
-            _check_attribute(node, imported, report)
+            _check_attribute(node, imported, report, metrics)
     return sorted(findings, key=lambda f: (f.line, f.rule))
 
 
-def _check_attribute(node: ast.Attribute, imported: dict, report) -> None:
+def _calls(node: ast.AST, names: tuple[str, ...]) -> bool:
+    """``node`` is a call of one of ``names`` (a plain name)."""
+    return isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in names
+
+
+def _check_attribute(node: ast.Attribute, imported: dict, report, metrics: set[str]) -> None:
     value = node.value
-    if isinstance(value, ast.Call) and isinstance(value.func, ast.Attribute) and value.func.attr == "fontMetrics" \
-            and node.attr == "width":
-        report(node, "removed-api", "fontMetrics().width() is gone in Qt 6: use horizontalAdvance()")
+    if node.attr == "width" and ((isinstance(value, ast.Call) and isinstance(value.func, ast.Attribute)
+                                  and value.func.attr == "fontMetrics") or _calls(value, FONT_METRICS)
+                                 or (isinstance(value, ast.Name) and value.id in metrics)):
+        report(node, "removed-api", "QFontMetrics.width() is gone in Qt 6: use horizontalAdvance()")
         return
     if not isinstance(value, ast.Name):
         return

@@ -197,3 +197,62 @@ def test_the_web_profile_without_meshoptimizer_stops_before_anything_is_written(
     with pytest.raises(MissingDependencyError, match=r'pip install .*"meshoptimizer==0.2.30a0"'):
         run_city_model(_inputs(sample), _options(tiles3d_web=True), tmp_path / "city")
     assert not (tmp_path / "city").exists() or not any((tmp_path / "city").iterdir())
+
+
+def test_every_wall_of_the_sample_has_its_facade_one_image_row_per_storey_and_no_corner_jump(sample, tmp_path):
+    """The CityGML read back: every wall of every building is in the generatedFacade theme (its own appearance,
+    described as generated, wrapping), with one texture row per storey of its building (the image's rows are
+    storeys: the roof line on a row boundary) and u running on from wall to wall around each ring, closing on a
+    whole number of modules; each building says how its facade was made."""
+    report = run_city_model(_inputs(sample), _options(tiles3d=False), tmp_path / "city")
+    assert report.valid and report.errors == 0
+    doc = etree.parse(report.gml)
+    app = "http://www.opengis.net/citygml/appearance/3.0"
+    ns = {**NS, "app": app}
+    walls, storeys = {}, {}
+    for building in doc.iterfind(".//bldg:Building", ns):
+        wit_id = building.get(f"{{{ns['gml']}}}id")
+        generic = {n: v for n, v in zip(building.xpath("core:genericAttribute/*/gen:name/text()", namespaces=ns),
+                                        building.xpath("core:genericAttribute/*/gen:value/text()", namespaces=ns))}
+        assert generic[step_layers.FACADE] == "generated" and generic[step_layers.FACADE_STYLE]
+        storeys[wit_id] = int(generic[step_layers.FACADE_STOREYS])
+        above = building.find("bldg:storeysAboveGround", ns)
+        assert above is None or int(above.text) == storeys[wit_id]  # the layer's floor count when it has one
+        for polygon in building.iterfind(".//gml:Polygon", ns):
+            points = np.array(polygon.find(".//gml:posList", ns).text.split(), dtype=float).reshape(-1, 3)
+            if len(points) == 5 and points[0, 2] != points[2, 2]:  # a wall: base edge, then up
+                walls[polygon.get(f"{{{ns['gml']}}}id")] = (wit_id, points)
+    assert len(storeys) == report.buildings > 20
+    facades = [a for a in doc.iterfind(".//app:Appearance", ns) if a.findtext("app:theme", namespaces=ns)
+               == "generatedFacade"]
+    assert facades and all("Generated facade" in a.findtext("gml:description", namespaces=ns) for a in facades)
+    found = {}
+    for appearance in facades:
+        texture = appearance.find(".//app:ParameterizedTexture", ns)
+        assert texture.findtext("app:wrapMode", namespaces=ns) == "wrap"
+        image = Path(report.gml).parent / texture.findtext("app:imageURI", namespaces=ns)
+        rows = gdal.Open(str(image)).RasterYSize // 32
+        for association in texture.iterfind(".//app:TextureAssociation", ns):
+            target = association.findtext("app:target", namespaces=ns)[1:]
+            uv = np.array(association.findtext(".//app:textureCoordinates", namespaces=ns).split(),
+                          dtype=float).reshape(-1, 2)
+            found[target] = (uv, rows)
+    assert set(found) == set(walls)  # every wall, and walls only
+    by_building = {}
+    for face, (wit_id, points) in walls.items():
+        by_building.setdefault(wit_id, []).append((int(face.rsplit("_f", 1)[1]), points, *found[face]))
+    for wit_id, faces in by_building.items():
+        faces.sort(key=lambda f: f[0])
+        ring_start = None
+        for k, (_, points, uv, rows) in enumerate(faces):
+            assert uv[[0, 1, 4], 1].tolist() == [0.0, 0.0, 0.0]
+            assert uv[2, 1] * rows == pytest.approx(storeys[wit_id], abs=1e-5), wit_id  # a row per storey
+            if ring_start is None:
+                ring_start = uv[0, 0]
+            following = faces[k + 1] if k + 1 < len(faces) else None
+            if following is not None and np.allclose(following[1][0], points[1], atol=1e-6):
+                assert following[2][0, 0] == pytest.approx(uv[1, 0], abs=1e-5)  # no jump at the corner
+            else:  # the ring closes: a whole number of modules around it
+                turns = uv[1, 0] - ring_start
+                assert turns == pytest.approx(round(turns), abs=1e-4) and round(turns) >= 1
+                ring_start = None

@@ -239,3 +239,25 @@ def test_write_gpkg_writes_every_layer_while_the_dataset_outlives_it(tmp_path):
                             str(tmp_path / "x.gpkg")], check=False, capture_output=True, text=True, timeout=300)
     assert child.returncode == 0 and child.stdout.split() == ["3", "empty", "full", "table"], (
         child.stdout + child.stderr[-2000:])  # the dataset kept once per layer it made
+
+
+def test_names_with_double_quotes_are_written_and_read_by_sql(tmp_path):
+    """A user's field (or layer) name holding a quote once broke the INSERT, the index and the ordered reads."""
+    from wit_plugin.citygml.inputs import InputLayer
+
+    assert gpkg_bulk.sql_name('say "hi"') == '"say ""hi"""'
+    path = tmp_path / "quoted.gpkg"
+    fields = [FieldDef('the "n"', ogr.OFTInteger)]
+    geoms = _geoms(3)
+    assert gpkg_bulk.write_layer(path, 'Kim\'s roofs "A"', CRS, fields, geoms, [[3, 1, 2, 0]]) == 4
+    ds = ogr.Open(str(path))
+    layer = ds.GetLayer('Kim\'s roofs "A"')
+    layer.SetSpatialFilterRect(200000, 540000, 200031, 540021)  # the R-tree index: only the courtyard building
+    assert [f.GetField('the "n"') for f in layer] == [3]
+    layer.SetSpatialFilter(None)
+    assert [f.GetField('the "n"') for f in layer] == [3, 1, 2, 0]
+    with InputLayer(ds, layer, str(path), 'Kim\'s roofs "A"').select(order=['the "n"']) as ordered:
+        assert [f.GetField('the "n"') for f in ordered] == [0, 1, 2, 3]
+    del layer, ds  # closed before sqlite3 reads the file
+    tables = {r[0] for r in sqlite3.connect(path).execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    assert 'rtree_Kim\'s roofs "A"_geom' in tables

@@ -74,7 +74,7 @@ def linux_without_tools(monkeypatch):
     monkeypatch.setattr(sys, "platform", "linux")
     tools = {"apt-get": "/usr/bin/apt-get", "apt-cache": "/usr/bin/apt-cache"}
     monkeypatch.setattr(installer.shutil, "which", lambda name: tools.get(name))
-    monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: (None, []))
+    monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: (None, [], None))
     candidates = {}
     monkeypatch.setattr(installer, "_apt_candidate", lambda package: candidates.get(package))
     return candidates
@@ -104,9 +104,9 @@ def test_shapely_with_build_tools_and_qgis_geos_is_built_from_source(monkeypatch
     (tmp_path / "Python.h").write_text("")
     answers = {"--version": "3.11.1\n", "-c": f"{tmp_path}\n"}
     monkeypatch.setattr(installer, "_quiet", lambda command: answers[command[1]])
-    monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: (None, []))
+    monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: (None, [], None))
     assert installer._check_safety([by_module("shapely"), by_module("pygltflib")], "python3",
-                                   "3.11.1-CAPI-1.17.1", str) == ["shapely"]
+                                   "3.11.1-CAPI-1.17.1", str) == (["shapely"], None)
     answers["--version"] = "3.12.0\n"  # development files of another GEOS than QGIS runs
     with pytest.raises(WitError, match="version 3.12.0, but QGIS runs GEOS 3.11.1"):
         installer._check_safety([by_module("shapely")], "python3", "3.11.1-CAPI-1.17.1", str)
@@ -114,7 +114,8 @@ def test_shapely_with_build_tools_and_qgis_geos_is_built_from_source(monkeypatch
 
 def test_pyproj_wheel_is_refused_on_linux_and_pip_problems_join_the_command(linux_without_tools, monkeypatch):
     linux_without_tools["python3-pyproj"] = "3.4.1-1+b1"
-    monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: ("QGIS's Python has no pip.", ["python3-pip"]))
+    monkeypatch.setattr(installer, "_pip_problem",
+                        lambda python, tr: ("QGIS's Python has no pip.", ["python3-pip"], None))
     with pytest.raises(WitError) as error:
         installer._check_safety([by_module("pyproj"), by_module("triangle")], sys.executable, None, str)
     assert "Run: sudo apt install python3-pyproj python3-pip\n" in str(error.value)
@@ -122,8 +123,8 @@ def test_pyproj_wheel_is_refused_on_linux_and_pip_problems_join_the_command(linu
 
 def test_no_rule_but_pip_on_windows_and_macos(monkeypatch):
     monkeypatch.setattr(sys, "platform", "win32")
-    monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: (None, []))
-    assert installer._check_safety(list(installer.PACKAGES), sys.executable, "3.11.1", str) == []
+    monkeypatch.setattr(installer, "_pip_problem", lambda python, tr: (None, [], None))
+    assert installer._check_safety(list(installer.PACKAGES), sys.executable, "3.11.1", str) == ([], None)
 
 
 def test_pip_runs_in_this_very_python_not_another_of_the_same_version(tmp_path, monkeypatch):

@@ -43,8 +43,16 @@ BAD_SNIPPETS = {
         "from qgis.PyQt.Qt import Qt\n",
         "from qgis.PyQt.QtCore import Qt\nbutton = Qt.MidButton\n",
         "width = widget.fontMetrics().width('text')\n",
+        "from qgis.PyQt.QtGui import QFontMetrics\nwidth = QFontMetrics(font).width('text')\n",
+        "from qgis.PyQt.QtGui import QFontMetricsF\nmetrics = QFontMetricsF(font)\nwidth = metrics.width('text')\n",
+        "from qgis.PyQt.QtGui import QPainter\nhint = QPainter.HighQualityAntialiasing\n",
         "combo.activated[str].connect(print)\n",
         "screen = app.desktop()\n",
+    ],
+    "changed-api": [
+        "menu.addAction(icon, 'Run', receiver, shortcut)\n",
+        "from qgis.PyQt.QtCore import QDateTime\nwhen = QDateTime(2024, 5, 1, 12, 0, 0, 0, 0)\n",
+        "from qgis.PyQt.QtCore import QDate, QDateTime\nwhen = QDateTime(QDate(2024, 5, 1))\n",
     ],
 }
 
@@ -72,6 +80,9 @@ def test_scanner_accepts_the_spellings_qt6_and_qgis3_share():
         "answer = QMessageBox.StandardButton.Yes\n"
         "QDialog().exec()\n"
         "spec.loader.exec_module(module)\n"
+        "menu.addAction(action)\n"
+        "width = QFontMetrics(font).horizontalAdvance('text')\n"
+        "when = QDateTime(QDate(2024, 5, 1), QTime(12, 0, 0))\n"
     )
     assert scan_source(good, "good.py") == []
 
@@ -89,7 +100,7 @@ def test_metadata_admits_qgis_3_22_to_4():
     general = metadata["general"]
     assert general["qgisMinimumVersion"] == "3.22"
     assert general["qgisMaximumVersion"] == "4.99"
-    assert general["supportsQt6"] == "True"
+    assert "supportsQt6" not in general  # plugins.qgis.org reports it as deprecated
 
 
 def test_compat_enums_are_the_ones_this_qgis_takes():

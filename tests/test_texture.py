@@ -57,7 +57,7 @@ def write_lod1(path: Path, buildings: dict[str, list[tuple[float, float]]]) -> s
     ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
     layer = ds.CreateLayer(step_layers.LOD1_LAYER, _srs(), ogr.wkbPolygon25D)
     for name, kind in ((step_layers.WIT_ID, ogr.OFTString), (step_layers.FACE_TYPE, ogr.OFTString),
-                       (step_layers.FACE_NUMBER, ogr.OFTInteger)):
+                       (step_layers.FACE_NUMBER, ogr.OFTInteger), (step_layers.HEIGHT, ogr.OFTReal)):
         layer.CreateField(ogr.FieldDefn(name, kind))
     for wit_id, ring in buildings.items():
         faces = [("ground", _polygon(ring[::-1], 10.0)), ("roof", _polygon(ring, 20.0))]
@@ -73,6 +73,7 @@ def write_lod1(path: Path, buildings: dict[str, list[tuple[float, float]]]) -> s
             f.SetField(step_layers.WIT_ID, wit_id)
             f.SetField(step_layers.FACE_TYPE, kind)
             f.SetField(step_layers.FACE_NUMBER, number)
+            f.SetField(step_layers.HEIGHT, 10.0)
             f.SetGeometry(geom)
             layer.CreateFeature(f)
     ds = None
@@ -169,7 +170,7 @@ def _expected_rings(triangles: list) -> dict[tuple[str, str], list]:
 
 def test_uv_hits_pixel_centres_exactly_at_full_scale(scene: dict, tmp_path: Path) -> None:
     out = tmp_path / "tex"
-    config = TextureConfig(image_format="PNG", atlas_size=128, gutter=4)
+    config = TextureConfig(image_format="PNG", atlas_size=128, gutter=4, facades="none")
     report = texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(out), config)
     assert report.downscaled == 0
     rows = read_rows(out)
@@ -177,7 +178,7 @@ def test_uv_hits_pixel_centres_exactly_at_full_scale(scene: dict, tmp_path: Path
     assert {(r["target"], r["feature"]) for r in rows} == set(expected)  # no walls, ground faces, footprints
     assert len(rows) == len(expected)
     targets = [target for target, _ in expected]
-    assert report.surfaces == {t: targets.count(t) for t in ("roof", "tin", "road")}
+    assert report.surfaces == {t: targets.count(t) for t in ("roof", "wall", "tin", "road")}
     assert 0 < targets.count("road") < sum(s == "road" for s, _ in scene["triangles"])
     assert report.untextured == {"wall": 4 + 4 + 4 + 6, "ground": 4,
                                  "footprint": sum(s == "footprint" for s, _ in scene["triangles"])}
@@ -212,7 +213,8 @@ def test_half_scale_averages_pixel_blocks(tmp_path: Path) -> None:
     triangles = grid_triangles(1, 1, 196, 146, 5)
     tin = write_tin(tmp_path / "tin.gpkg", triangles)
     out = tmp_path / "tex"
-    report = texture_model(ortho, lod1, tin, str(out), TextureConfig(scale=0.5, image_format="PNG", atlas_size=64))
+    report = texture_model(ortho, lod1, tin, str(out), TextureConfig(scale=0.5, image_format="PNG", atlas_size=64,
+                                                                     facades="none"))
     assert report.texel_size == 2 * PX and report.downscaled == 0
     rows = read_rows(out)
     expected = _expected_rings(triangles)
@@ -235,12 +237,15 @@ def test_half_scale_averages_pixel_blocks(tmp_path: Path) -> None:
 
 
 def test_every_image_exists_jpeg_default(scene: dict, tmp_path: Path) -> None:
+    """Images cut from the ortho are JPEG by default; the generated facades are PNG (flat colours, lossless)."""
     out = tmp_path / "tex"
     report = texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(out))
     names = {r["image"] for r in read_rows(out)}
-    assert names == set(report.images)
-    assert all(n.endswith(".jpg") and (out / n).is_file() for n in names)
-    assert sorted(p.name for p in out.iterdir()) == sorted(names | {texture.TEXCOORDS_FILE})  # no .aux.xml, no temp
+    assert names == set(report.images) and all((out / n).is_file() for n in names)
+    facades = {n for n in names if n.startswith("facade_")}
+    assert facades and all(n.endswith(".png") for n in facades)
+    assert all(n.endswith(".jpg") for n in names - facades)
+    assert sorted(p.name for p in out.iterdir()) == sorted(names | {texture.TEXCOORDS_FILE, step_layers.FACADE_FILE})
     assert report.atlases == 1  # four small roofs fit one 2048 atlas, cropped to powers of two
     h, w = read_image(out / report.images[0]).shape[:2]
     assert h < 2048 and w < 2048 and h & (h - 1) == 0 and w & (w - 1) == 0
@@ -260,7 +265,7 @@ def test_gutters_keep_islands_apart_down_to_the_gutter_mip_level(tmp_path: Path)
     lod1 = write_lod1(tmp_path / "lod1.gpkg", roofs)
     out = tmp_path / "tex"
     gutter = 4
-    config = TextureConfig(image_format="PNG", atlas_size=128, gutter=gutter)
+    config = TextureConfig(image_format="PNG", atlas_size=128, gutter=gutter, facades="none")
     report = texture_model(ortho, lod1, None, str(out), config)
     assert report.atlases >= 2
     by_image: dict[str, list] = {}
@@ -305,7 +310,7 @@ def test_mip_chain_sizes_and_box_filter() -> None:
 def test_mipmap_files_written(scene: dict, tmp_path: Path) -> None:
     out = tmp_path / "tex"
     report = texture_model(scene["ortho"], scene["lod1"], None, str(out),
-                           TextureConfig(image_format="PNG", write_mipmaps=True))
+                           TextureConfig(image_format="PNG", write_mipmaps=True, facades="none"))
     stem = Path(report.images[0]).stem
     base = read_image(out / report.images[0])
     n = max(base.shape[:2]).bit_length() - 1
@@ -417,8 +422,10 @@ def test_surfaces_outside_the_coverage_are_left_untextured_and_counted(tmp_path)
     report = texture_model(ortho, lod1, None, str(tmp_path / "tex"), coverage=coverage)
     assert report.surfaces[texture.ROOF_TARGET] == 1 and report.untextured[texture.OUTSIDE_ORTHO] == 1
     rows = sqlite3.connect(tmp_path / "tex" / step_layers.TEXCOORD_FILE).execute(
-        f"SELECT {step_layers.TEX_FEATURE} FROM {step_layers.TEXCOORD_TABLE}").fetchall()
-    assert rows == [("BLD_IN",)]
+        f"SELECT {step_layers.TEX_TARGET}, {step_layers.TEX_FEATURE} FROM {step_layers.TEXCOORD_TABLE}").fetchall()
+    # generated facades need no orthoimage: both buildings' walls have theirs
+    assert sorted(set(rows)) == [("roof", "BLD_IN"), ("wall", "BLD_IN"), ("wall", "BLD_OUT")]
+    assert report.surfaces[texture.WALL_TARGET] == 8
 
 
 def test_layers_read_in_several_runs_give_the_same_output(scene: dict, tmp_path: Path,
@@ -429,12 +436,13 @@ def test_layers_read_in_several_runs_give_the_same_output(scene: dict, tmp_path:
         texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(out), TextureConfig(atlas_size=64, gutter=2))
         with sqlite3.connect(out / texture.TEXCOORDS_FILE) as db:
             rows = db.execute(f'SELECT * FROM "{step_layers.TEXCOORD_TABLE}" ORDER BY fid').fetchall()
-        return rows, {p.name: p.read_bytes() for p in out.iterdir() if p.suffix == ".jpg"}
+        return rows, {p.name: p.read_bytes() for p in out.iterdir() if p.suffix in (".jpg", ".png")}
 
     whole = run("whole")
     monkeypatch.setattr(texture.sources, "_POINTS_IN_MEMORY", 500)  # ~125 triangles: one tile at a time
     assert run("runs") == whole
-    assert len(whole[0]) == 4 + sum(s != "footprint" for s, _ in scene["triangles"]) and len(whole[1]) > 9
+    walls = 4 + 4 + 4 + 6
+    assert len(whole[0]) == 4 + walls + sum(s != "footprint" for s, _ in scene["triangles"]) and len(whole[1]) > 9
 
 
 def test_a_face_that_is_not_a_polygon_is_refused(scene: dict, tmp_path: Path) -> None:

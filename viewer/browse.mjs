@@ -2,7 +2,8 @@
 // until the tileset is loaded, take a screenshot, optionally click a building and measure frames per
 // second. Prints one JSON object (with the bytes and requests of the tileset's files until the first view was
 // loaded: firstViewBytes, firstViewRequests). Used by the tests and benchmarks/bench_3dtiles.py.
-// Usage: node browse.mjs URL SCREENSHOT.png [--click] [--fps SECONDS] [--timeout SECONDS] [--size WxH]
+// Usage: node browse.mjs URL SCREENSHOT.png [--click] [--fps SECONDS] [--timeout SECONDS] [--size WxH] [--no-facades]
+// (--no-facades: the viewer's "Generated facades" switch turned off before the screenshot)
 import { chromium } from "playwright-core";
 
 const [url, screenshot, ...rest] = process.argv.slice(2);
@@ -54,6 +55,10 @@ try {
   Object.assign(result, await page.evaluate(() => ({ state: witViewer.state, loadSeconds: witViewer.loadSeconds, loadedTiles: witViewer.loadedTiles,
                                                      viewerErrors: witViewer.errors })));
   result.loaded = result.state === "ready";
+  if (rest.includes("--no-facades")) {
+    await page.click("#facades-on");  // a real click on the switch
+    result.facadesShown = await page.evaluate(() => document.getElementById("facades-on").checked);
+  }
   await page.waitForTimeout(500);  // a few frames after the last tile
   await page.screenshot({ path: screenshot, timeout });  // software WebGL on a loaded machine: slow frames
   if (rest.includes("--fps")) {

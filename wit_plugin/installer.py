@@ -2,7 +2,9 @@
 profile that the plugin puts on ``sys.path`` when it loads: no root, nothing written outside the profile.
 
 * pip runs in QGIS's Python (``interpreter.this_python``: inside QGIS on Windows and macOS
-  ``sys.executable`` is QGIS itself, never started again).
+  ``sys.executable`` is QGIS itself, never started again). Where that Python has no pip, or one older than
+  22.2, pip runs from its own wheel, fetched from the package index pip would use into the work folder
+  (``pip_bootstrap``); only when that index cannot be reached does the message name a system package.
 * A dry run per package (``pip install --dry-run --report``) resolves against what QGIS's Python already
   has, so numpy, lxml, pyproj… stay QGIS's own (numpy is pinned to the running one: GDAL's bindings are
   built against it); it also picks the first requirement that installs (``triangle``, else
@@ -37,15 +39,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import deps
+from . import deps, pip_bootstrap
 from .errors import CanceledError, WitError
 from .feedback import SILENT, Feedback
 from .interpreter import PACKAGE_FOLDERS, this_python
 
 #: the profile folder's name, below ``<profile>/python``
 FOLDER_NAME = "wit_citymodel_deps"
-#: ``pip install --dry-run --report`` needs pip 22.2
-MINIMUM_PIP = (22, 2)
 
 
 def _same(text: str) -> str:
@@ -147,13 +147,14 @@ def install(selected: Sequence[Package], folder: Path, *, python: str | None = N
         interpreter = this_python(python)
     except WitError as exc:
         raise InstallError(str(exc)) from exc
-    from_source = _check_safety(absent, interpreter, host_geos, tr)
+    from_source, pip_wheel = _check_safety(absent, interpreter, host_geos, tr)
     for package in absent:
         if package.licence:
             feedback.warning(tr(package.licence))
     loaded = {p.module for p in absent if sys.modules.get(p.module) is not None}
     with _workspace(folder) as work:
-        pip = _Pip(interpreter, folder, work, from_source, feedback, tr)
+        pip_command = _pip_from_wheel(pip_wheel, work, feedback, tr) if pip_wheel else ["-m", "pip"]
+        pip = _Pip(interpreter, folder, work, from_source, feedback, tr, pip_command)
         pins = pip.resolve(absent, reinstall=clashing)
         pip.install(pins)
         pip.verify(absent, host_geos)
@@ -167,28 +168,54 @@ def install(selected: Sequence[Package], folder: Path, *, python: str | None = N
     return result
 
 
-def _pip_problem(python: str, tr) -> tuple[str | None, list[str]]:
-    """Why pip cannot install for ``python`` (absent, or older than ``--dry-run --report`` needs), with the
-    Debian packages that fix it."""
+def _pip_problem(python: str, tr) -> tuple[str | None, list[str], pip_bootstrap.PipWheel | None]:
+    """Nothing when ``python`` has a pip that can install (22.2 or later); else pip's wheel to run instead, from
+    the index pip would use; else, when that index cannot be reached, why, with the Debian packages that fix it."""
     answer = _quiet([python, "-m", "pip", "--version"])
     found = re.match(r"pip (\d+)\.(\d+)", answer or "")
-    if not found:
-        if _apt_available():
-            return tr("QGIS's Python ({python}) has no pip.").format(python=python), ["python3-pip"]
-        return tr("QGIS's Python ({python}) has no pip: {command}").format(
-            python=python, command=f'"{python}" -m ensurepip --upgrade'), []
-    if tuple(map(int, found.groups())) < MINIMUM_PIP:
-        return tr("QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later: {command}").format(
-            python=python, version=".".join(found.groups()),
-            command=f'"{python}" -m pip install --user --upgrade pip'), []
-    return None, []
+    if found and tuple(map(int, found.groups())) >= pip_bootstrap.MINIMUM_PIP:
+        return None, [], None
+    try:
+        return None, [], pip_bootstrap.find_pip(pip_bootstrap.pip_settings())
+    except pip_bootstrap.PipBootstrapError as exc:
+        unreachable = str(exc)
+    if found:
+        return tr("QGIS's Python ({python}) has pip {version}; installing needs pip 22.2 or later, and pip's own "
+                  "wheel could not be fetched from the package index ({reason}): {command}").format(
+            python=python, version=".".join(found.groups()), reason=unreachable,
+            command=f'"{python}" -m pip install --user --upgrade pip'), [], None
+    if _apt_available():
+        return tr("QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package "
+                  "index ({reason}).").format(python=python, reason=unreachable), ["python3-pip"], None
+    return tr("QGIS's Python ({python}) has no pip, and pip's own wheel could not be fetched from the package "
+              "index ({reason}): {command}").format(python=python, reason=unreachable,
+                                                    command=f'"{python}" -m ensurepip --upgrade'), [], None
 
 
-def _check_safety(absent: Sequence[Package], python: str, host_geos: str | None, tr) -> list[str]:
-    """The packages to build from source (on Linux, shapely against the system GEOS). Raises, before
-    anything is installed, when pip is missing or a package cannot come from a wheel here, with the one
-    command that fixes all of it."""
-    from_source, problems, apt = [], [], []
+def _pip_from_wheel(wheel: pip_bootstrap.PipWheel, work: Path, feedback: Feedback, tr) -> list[str]:
+    """The arguments that run pip from its wheel, downloaded into ``work`` (deleted with it)."""
+    feedback.info(tr("QGIS's Python has no pip that can install: pip {version} runs from its own wheel, "
+                     "downloaded from {url}.").format(version=wheel.version_text, url=wheel.url))
+    try:
+        return [str(pip_bootstrap.download(wheel, work, feedback) / "pip")]
+    except pip_bootstrap.PipBootstrapError as exc:
+        raise _refusal([tr("pip's own wheel could not be downloaded ({reason}).").format(reason=exc)],
+                       ["python3-pip"] if _apt_available() else [], tr) from exc
+
+
+def _refusal(problems: list[str], apt: list[str], tr) -> InstallError:
+    """The one message when nothing was installed: what is wrong, the one command that fixes it, what next."""
+    command = tr("Run: {command}").format(command="sudo apt install " + " ".join(dict.fromkeys(apt))) if apt else ""
+    return InstallError("\n".join([tr("Nothing was installed."), *problems, command,
+                                   tr("Then run 'Install Python dependencies' again.")]).replace("\n\n", "\n"))
+
+
+def _check_safety(absent: Sequence[Package], python: str, host_geos: str | None,
+                  tr) -> tuple[list[str], pip_bootstrap.PipWheel | None]:
+    """The packages to build from source (on Linux, shapely against the system GEOS), and pip's wheel to run
+    where ``python`` has no usable pip. Raises, before anything is installed, when no pip can be had or a
+    package cannot come from a wheel here, with the one command that fixes all of it."""
+    from_source, problems, apt, wheel = [], [], [], None
     for package in absent if sys.platform.startswith("linux") else ():
         if not package.linux_package:
             continue
@@ -210,15 +237,13 @@ def _check_safety(absent: Sequence[Package], python: str, host_geos: str | None,
                                "crash QGIS; install your distribution's package ({package}).").format(
                 module=package.module, package=package.linux_package))
     if len(problems) < len(absent):  # something for pip to do
-        problem, needed = _pip_problem(python, tr)
+        problem, needed, wheel = _pip_problem(python, tr)
         if problem:
             problems.append(problem)
             apt += needed
     if problems:
-        command = tr("Run: {command}").format(command="sudo apt install " + " ".join(dict.fromkeys(apt))) if apt else ""
-        raise InstallError("\n".join([tr("Nothing was installed."), *problems, command,
-                                      tr("Then run 'Install Python dependencies' again.")]).replace("\n\n", "\n"))
-    return from_source
+        raise _refusal(problems, apt, tr)
+    return from_source, wheel
 
 
 def _geos_build_problem(python: str, host_geos: str | None, tr) -> tuple[str | None, list[str]]:
@@ -249,8 +274,9 @@ def _geos_build_problem(python: str, host_geos: str | None, tr) -> tuple[str | N
 class _Pip:
     """pip runs for one installation: dry runs, the install into staging, the check of the result."""
 
-    def __init__(self, python: str, folder: Path, work: Path, from_source: list[str], feedback: Feedback, tr):
-        self.python, self.folder, self.work = python, folder, work
+    def __init__(self, python: str, folder: Path, work: Path, from_source: list[str], feedback: Feedback, tr,
+                 pip_command: Sequence[str] = ("-m", "pip")):
+        self.python, self.folder, self.work, self.pip_command = python, folder, work, list(pip_command)
         self.from_source, self.feedback, self.tr = from_source, feedback, tr
         (work / "tmp").mkdir()
         self.staging = work / "staging"
@@ -263,7 +289,7 @@ class _Pip:
                         PYTHONPATH=os.pathsep.join(p for p in (str(folder), os.environ.get("PYTHONPATH")) if p))
 
     def _base(self, from_source: bool = True) -> list[str]:
-        command = [self.python, "-m", "pip", "install", "--no-cache-dir"]
+        command = [self.python, *self.pip_command, "install", "--no-cache-dir"]
         return command + (["--no-binary", ",".join(self.from_source)] if from_source and self.from_source else [])
 
     def resolve(self, absent: Sequence[Package], reinstall: Sequence[Package] = ()) -> list[str]:
@@ -339,8 +365,8 @@ class _Pip:
                 "    found[name] = '.'.join(map(str, module.geos_version)) if name == 'shapely' else ''\n"
                 "print(json.dumps(found))")
         env = dict(self.env, PYTHONPATH=os.pathsep.join((str(self.staging), self.env["PYTHONPATH"])))
-        run = subprocess.run([self.python, "-c", code], env=env, capture_output=True, text=True,
-                             encoding="utf-8", errors="replace", timeout=600)
+        run = subprocess.run([self.python, "-c", code], env=env,  # nosec B603  # QGIS's Python, our code, no shell
+                             capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=600)
         if run.returncode != 0:
             raise InstallError(self.tr("The installed packages do not import; nothing was installed:")
                                + "\n" + _pip_error(run.stderr.splitlines()))
@@ -354,7 +380,8 @@ class _Pip:
         """Run pip with its command in the log; kill it (and what it started) on cancel."""
         feedback.info(self.tr("Running: {command}").format(command=_shell(command)))
         posix = os.name == "posix"
-        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        process = subprocess.Popen(command, stdout=subprocess.PIPE,  # nosec B603  # pip's arguments, no shell
+                                   stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                    env=self.env, text=True, encoding="utf-8", errors="replace",
                                    start_new_session=posix,
                                    creationflags=0 if posix else subprocess.CREATE_NEW_PROCESS_GROUP)
@@ -430,7 +457,9 @@ def _kill(process: subprocess.Popen) -> None:
         except ProcessLookupError:
             pass
     else:
-        subprocess.run(["taskkill", "/F", "/T", "/PID", str(process.pid)], capture_output=True)
+        taskkill = Path(os.environ.get("SystemRoot", r"C:\Windows"), "System32", "taskkill.exe")
+        subprocess.run([str(taskkill), "/F", "/T", "/PID", str(process.pid)],  # nosec B603  # Windows' own, no shell
+                       capture_output=True)
         process.kill()
     process.wait()
 
@@ -438,8 +467,8 @@ def _kill(process: subprocess.Popen) -> None:
 def _quiet(command: list[str]) -> str | None:
     """A command's standard output, or None when it cannot run or fails."""
     try:
-        run = subprocess.run(command, capture_output=True, text=True, timeout=120,
-                             env=dict(os.environ, LC_ALL="C"))
+        run = subprocess.run(command, capture_output=True, text=True,  # nosec B603  # a tool's version, no shell
+                             timeout=120, env=dict(os.environ, LC_ALL="C"))
     except (OSError, subprocess.TimeoutExpired):
         return None
     return run.stdout if run.returncode == 0 else None

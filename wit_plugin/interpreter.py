@@ -90,7 +90,8 @@ def _identity(python: str) -> tuple[str, str]:
     """``python``'s ("major.minor", installation prefix), or (why it does not run, "")."""
     code = "import sys; print('%d.%d' % sys.version_info[:2]); print(sys.base_prefix)"
     try:
-        result = subprocess.run([python, "-c", code], capture_output=True, text=True, timeout=60)
+        result = subprocess.run([python, "-c", code], capture_output=True, text=True,  # nosec B603  # no shell
+                                timeout=60)
     except (OSError, subprocess.TimeoutExpired) as exc:
         return str(exc), ""
     lines = result.stdout.splitlines()
@@ -104,7 +105,8 @@ def _cannot_run(python: str, modules: tuple[str, ...], module: str) -> str | Non
     """Why ``python`` cannot run ``module`` (a missing import), or None; asked once per process."""
     code = f"import {', '.join(modules)}; import {module}"
     try:
-        result = subprocess.run([python, "-c", code], env=core_env(), capture_output=True, text=True, timeout=120)
+        result = subprocess.run([python, "-c", code], env=core_env(),  # nosec B603  # a Python with our code, no shell
+                                capture_output=True, text=True, timeout=120)
     except (OSError, subprocess.TimeoutExpired) as exc:
         return str(exc)
     return None if result.returncode == 0 else (result.stderr.strip().splitlines() or ["fails"])[-1]

@@ -4,7 +4,8 @@
   (``shapely.constrained_delaunay_triangles``, which adds no vertex); values given per ring point
   (z, texture coordinates) are affine in x, y on a planar face, so they are fitted per face on the
   exterior ring and evaluated at the triangles' corners. A self-intersecting face is made valid first.
-* **Walls** are fanned from their first vertex (convex quads in LoD1).
+* **Walls** are fanned from their first vertex (convex quads in LoD1); values per ring point (a generated
+  facade's texture coordinates) follow the fan's corners.
 * **TIN triangles** are read as they are stored (first three points of each ring).
 """
 from __future__ import annotations
@@ -76,14 +77,21 @@ def affine_fit(xy: np.ndarray, values: np.ndarray, owner: np.ndarray, n: int) ->
 
 def fan_triangles(polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Faces fanned from the first vertex of their exterior ring: corners (t, 3, 3) and face of each (t,)."""
-    xyz, face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True, return_index=True)
-    counts = np.bincount(face, minlength=len(polygons)) - 1  # without the closing point
+    xyz, _ = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True, return_index=True)
+    index, owner = fan_corners(polygons)
+    return xyz[index], owner
+
+
+def fan_corners(polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The fans of ``fan_triangles`` as indices (t, 3) into the exterior rings' points (as
+    ``shapely.get_coordinates`` lists them, closing points included), so values given per ring point (texture
+    coordinates) follow the corners; and the face of each triangle (t,)."""
+    counts = shapely.get_num_coordinates(shapely.get_exterior_ring(polygons)) - 1  # without the closing point
     first = np.concatenate([[0], np.cumsum(counts + 1)[:-1]])
     fans = np.maximum(counts - 2, 0)
     owner = np.repeat(np.arange(len(polygons)), fans)
     step = np.arange(len(owner)) - np.repeat(np.cumsum(fans) - fans, fans) + 1
-    index = np.stack([first[owner], first[owner] + step, first[owner] + step + 1], axis=1)
-    return xyz[index], owner
+    return np.stack([first[owner], first[owner] + step, first[owner] + step + 1], axis=1), owner
 
 
 def parse_texcoords(texts: list[str | None]) -> tuple[np.ndarray, np.ndarray]:

@@ -63,8 +63,27 @@ STOREYS_BELOW = "wit_storeys_below"
 # layers (closing point included), so the writer pairs them without re-deriving geometry.
 TEXCOORD_FILE = "texcoords.gpkg"  # in the texture folder
 TEXCOORD_TABLE = "texcoords"
-TEX_TARGET = "target"  # "roof" (LoD1 face), "tin" (TIN triangle) or "road" (TIN triangle)
-TEX_FEATURE = "feature"  # wit_id of the building for "roof"; tri_id (as text) for "tin"/"road"
-TEX_FACE = "face_no"  # FACE_NUMBER of the roof face; NULL for triangles
+TEX_TARGET = "target"  # one of TEX_TARGETS: "roof" or "wall" (LoD1 face), "tin" or "road" (TIN triangle)
+TEX_TARGETS = ("roof", "wall", "tin", "road")
+TEX_WALL = "wall"  # a wall's generated facade
+TEX_FEATURE = "feature"  # wit_id of the building for "roof"/"wall"; tri_id (as text) for "tin"/"road"
+TEX_FACE = "face_no"  # FACE_NUMBER of the roof or wall face; NULL for triangles
 TEX_IMAGE = "image"  # image path relative to the texture folder
 TEX_COORDS = "uv"  # "u1 v1 u2 v2 …", one pair per ring point, closing point included
+
+# Generated facades (walls): images facade_<style>_<variant>.png beside the others, the walls' rows (target
+# "wall") in TEXCOORD_TABLE, and one row per building in FACADE_TABLE of FACADE_FILE saying how its wall
+# texture was made; the writers carry these fields into the model (CityGML generic attributes, 3D Tiles metadata).
+FACADE_FILE = "facades.gpkg"  # in the texture folder
+FACADE_IMAGE_PREFIX = "facade_"  # the generated facade images' names: facade_<style>_<variant>.png
+FACADE_TABLE = "facades"
+FACADES_NONE, FACADES_GENERATED = "none", "generated"
+FACADE_CHOICES = (FACADES_NONE, FACADES_GENERATED)  # wit:wittexture's FACADES: walls untextured, or generated
+DEFAULT_FACADES = FACADES_GENERATED
+FACADE = "wit_facade"  # FACADES_GENERATED: drawn by the plugin from the building's use and storeys, not measured
+FACADE_STYLE = "wit_facade_style"  # house, villa, apartment, retail, office, curtain_wall, public, industrial, other
+FACADE_RULE = "wit_facade_rule"  # what chose the style, e.g. "BDTYP_CD 02001", "용도 공동주택, 15 storeys"
+FACADE_STOREYS = "wit_facade_storeys"  # storeys drawn (one image row each)
+FACADE_STOREYS_SOURCE = "wit_facade_storeys_src"  # the layer's floor field, or "height ÷ <typical storey> m"
+FACADE_IMAGE = "image"  # the facade image, relative to the texture folder
+FACADE_FIELDS = (WIT_ID, FACADE, FACADE_STYLE, FACADE_RULE, FACADE_STOREYS, FACADE_STOREYS_SOURCE, FACADE_IMAGE)

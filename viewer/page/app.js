@@ -1,6 +1,12 @@
 // Offline viewer of the WIT City Model tileset: CesiumJS with no imagery, no Ion, no network but this
 // server. ?tileset=URL overrides the tileset (default 3dtiles/tileset.json beside the page); ?range=R sets the
-// first view's distance in radii of the tileset's bounding sphere (default 1.2; larger: zoomed out).
+// first view's distance in radii of the tileset's bounding sphere (default 1.2; larger: zoomed out), ?heading=
+// and ?pitch= its direction in degrees (default -30 and -35: from the south-east, looking down obliquely);
+// ?target=LON,LAT,HEIGHT (degrees, metres) with ?distance=M looks at that point from M metres instead, the same
+// view of any tileset (before/after screenshots).
+// The "Generated facades" switch shows walls with their generated facade textures (vertices marked _FACADE by
+// the export) or in the plain wall colour: a custom shader, set only while they are switched off (it is
+// disabled, by CesiumJS, on the primitives without that attribute).
 // window.witViewer tells the tests and the benchmark what happened: state (loading, ready, error),
 // errors, seconds until the first view was fully loaded, the tileset's bytes fetched until then, and measureFps().
 "use strict";
@@ -48,14 +54,25 @@ async function main() {
   const query = new URLSearchParams(location.search);
   const url = query.get("tileset") || "3dtiles/tileset.json";
   const range = Number(query.get("range")) || 1.2;  // camera distance in radii of the tileset's bounding sphere
+  const heading = Number(query.get("heading") ?? -30);
+  const pitch = Number(query.get("pitch") ?? -35);
   const started = performance.now();
   const tileset = await Cesium.Cesium3DTileset.fromUrl(url, { maximumScreenSpaceError: 16 });
   witViewer.tileset = tileset;
   scene.primitives.add(tileset);
   tileset.tileFailed.addEventListener((error) => fail(`tile ${error.url}: ${error.message}`));
   const radius = tileset.boundingSphere.radius;
-  await viewer.zoomTo(tileset, new Cesium.HeadingPitchRange(Cesium.Math.toRadians(-30), Cesium.Math.toRadians(-35),
-                                                             radius * range));
+  const direction = (distance) => new Cesium.HeadingPitchRange(Cesium.Math.toRadians(heading),
+                                                                Cesium.Math.toRadians(pitch), distance);
+  const target = query.get("target");
+  if (target) {
+    const [lon, lat, height] = target.split(",").map(Number);
+    viewer.camera.lookAt(Cesium.Cartesian3.fromDegrees(lon, lat, height || 0),
+                         direction(Number(query.get("distance")) || radius * range));
+    viewer.camera.lookAtTransform(Cesium.Matrix4.IDENTITY);
+  } else {
+    await viewer.zoomTo(tileset, direction(radius * range));
+  }
   // Ready: tiles have loaded, none is pending for this view, and two frames have been drawn since.
   let loadedTiles = 0;
   let settledFrames = 0;
@@ -69,6 +86,18 @@ async function main() {
     witViewer.state = "ready";
     status.textContent = `Loaded in ${witViewer.loadSeconds.toFixed(2)} s — click a building for its attributes`;
   });
+
+  const plainWalls = new Cesium.CustomShader({
+    fragmentShaderText: `
+      void fragmentMain(FragmentInput fsInput, inout czm_modelMaterial material) {
+        material.diffuse = mix(material.diffuse, vec3(0.871, 0.835, 0.769), step(0.5, fsInput.attributes.facade));
+      }`,
+  });
+  witViewer.showFacades = (show) => {
+    tileset.customShader = show ? undefined : plainWalls;
+    document.getElementById("facades-on").checked = show;
+  };
+  document.getElementById("facades-on").onchange = (event) => witViewer.showFacades(event.target.checked);
 
   let highlighted = null;
   new Cesium.ScreenSpaceEventHandler(scene.canvas).setInputAction((click) => {

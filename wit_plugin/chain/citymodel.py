@@ -116,6 +116,7 @@ class ChainOptions:
     tolerance: float = triangulators.VERTICAL_TOLERANCE
     triangulator: int | None = None  # triangulators.BACKENDS key; None: Triangle where installed, else CDT
     texture_scale: float = 1.0
+    facades: str = TextureConfig.facades  # walls: generated facades, or "none"
     heights: HeightOptions = field(default_factory=HeightOptions)
     outside_ortho: str = "fail"  # or "untextured"
     schema_dir: str | None = None  # override of the shipped schemas
@@ -183,8 +184,8 @@ class _Clock:
         number = [name for name, _ in STEPS].index(label) + 1
         self.feedback.info(f"Step {number}/{len(STEPS)}: {label} (in a second process, beside the next steps)")
         start = time.perf_counter()
-        process = subprocess.Popen(command, env=core_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                   text=True)
+        process = subprocess.Popen(command, env=core_env(), stdout=subprocess.PIPE,  # nosec B603  # our step, no shell
+                                   stderr=subprocess.PIPE, text=True)
 
         def wait() -> None:
             while process.poll() is None:
@@ -296,7 +297,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     with clock.step("texture") as fb:
         textures = str(work / "textures")
         untextured = options.outside_ortho == "untextured" and coverage.uncovered is not None
-        texture_report = texture_model(mosaic, lod1, tin, textures, TextureConfig(scale=options.texture_scale), fb,
+        texture_report = texture_model(mosaic, lod1, tin, textures,
+                                       TextureConfig(scale=options.texture_scale, facades=options.facades), fb,
                                        coverage=coverage.footprint if untextured else None)
 
     with clock.step("citygml") as fb:

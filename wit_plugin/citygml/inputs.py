@@ -23,6 +23,7 @@ from osgeo import ogr
 from .. import step_layers
 from ..errors import InputError
 from ..io import bulk_read
+from ..io.gpkg_bulk import sql_name
 from ..io.vector_io import open_step_layer, split_source
 from ..numtext import ring_texts
 
@@ -36,6 +37,7 @@ class InputLayer:
 
     def __init__(self, ds: ogr.DataSource, layer: ogr.Layer, path: str, name: str):
         self.ds, self.layer, self.path, self.name = ds, layer, path, name
+        self.table = sql_name(name)  # the layer in SQL
 
     @classmethod
     @contextlib.contextmanager
@@ -65,11 +67,11 @@ class InputLayer:
     @contextlib.contextmanager
     def select(self, where: str = "", order: Iterable[str] = (), columns: str = "*") -> Iterator[ogr.Layer]:
         """Features in a stable order (SQLite sorts on disk, so memory stays flat)."""
-        sql = f'SELECT {columns} FROM "{self.name}"'
+        sql = f"SELECT {columns} FROM {self.table}"  # nosec B608  # a quoted name; the rest is this package's SQL
         if where:
             sql += f" WHERE {where}"
         if order:
-            sql += " ORDER BY " + ", ".join(f'"{c}"' for c in order)
+            sql += " ORDER BY " + ", ".join(map(sql_name, order))
         result = self.ds.ExecuteSQL(sql)
         if result is None:
             raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
@@ -171,6 +173,36 @@ def tin_triangles(tin: InputLayer, where: str, order: tuple[str, ...]
                 raise InputError(f"TIN feature tri_id={ids[bad[0]][4:]} is not a closed triangle: "
                                  "re-run wit:triangulateterrain.")
             yield ids, ring_texts(points, counts, "%.3f %.3f %.3f"), batch
+
+
+class FacadeRows:
+    """The texture step's facade table (one row per building with a generated facade), read in wit_id order
+    beside the buildings, which come in the same order: ``of`` gives a building's row, if it has one."""
+
+    def __init__(self, result: ogr.Layer):
+        self.fields = fields_of(result)
+        self._rows = iter(result)
+        self._column = columns_of(result)[step_layers.WIT_ID]
+        self._row = next(self._rows, None)
+
+    @classmethod
+    @contextlib.contextmanager
+    def open(cls, folder: Path) -> Iterator[FacadeRows | None]:
+        """The rows of ``folder``'s facade table; None when the texture step generated no facade."""
+        path = folder / step_layers.FACADE_FILE
+        if not path.is_file():
+            yield None
+            return
+        with InputLayer.open(str(path), step_layers.FACADE_TABLE, step_layers.TEXCOORD_ROLE,
+                             step_layers.FACADE_FIELDS) as table, table.select(order=(step_layers.WIT_ID,)) as result:
+            yield cls(result)
+
+    def of(self, wit_id: str) -> ogr.Feature | None:
+        while self._row is not None and self._row.GetFieldAsString(self._column) < wit_id:
+            self._row = next(self._rows, None)
+        if self._row is not None and self._row.GetFieldAsString(self._column) == wit_id:
+            return self._row
+        return None
 
 
 class Membership:

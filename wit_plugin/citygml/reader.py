@@ -67,6 +67,7 @@ class Stream:
         self.parser = etree.XMLPullParser(events=("start",), tag=root_tag, schema=schema, **PARSE_OPTIONS)
         self.schema_errors: list[etree._LogEntry] = []  # when validating with ``schema`` (no line numbers)
         self.raw = RawCounts()
+        self.thin: Callable[[bytes], bytes] | None = None  # cuts what of a chunk the parser need not see
 
     def parts(self, chunk_bytes: int | None = None) -> Iterator[tuple[etree._Element, int]]:
         """Yield (parent, n): the first n children of ``parent`` are finished; they go when the next part is
@@ -79,7 +80,7 @@ class Stream:
                     break
                 self.raw.count(chunk)
                 try:
-                    self.parser.feed(chunk)
+                    self.parser.feed(self.thin(chunk) if self.thin is not None else chunk)
                 except etree.XMLSyntaxError as exc:
                     raise _problem(exc, self.parser.feed_error_log, at_end=False) from None
                 for _, element in self.parser.read_events():

@@ -151,8 +151,10 @@ def download_schemas(target: Path, base_url: str = DEFAULT_BASE_URL, feedback: F
 def _fetch_xsd(url: str, base_url: str, timeout: float) -> etree._ElementTree:
     parts = urllib.parse.urlsplit(url)
     fetch = base_url + parts.netloc + parts.path
+    if urllib.parse.urlsplit(fetch).scheme not in ("http", "https"):
+        raise InputError(f"{fetch}: the schemas are downloaded over http(s) only.")
     try:
-        with urllib.request.urlopen(fetch, timeout=timeout) as response:
+        with urllib.request.urlopen(fetch, timeout=timeout) as response:  # nosec B310  # http(s), checked above
             data = response.read()
     except (urllib.error.URLError, OSError) as exc:
         raise InputError(f"Could not download the CityGML schema {fetch} ({exc}). Check the internet connection "

@@ -110,6 +110,7 @@ class _FileValidation:
         self.tolerances = (planarity_tol, vertex_tol, min_triangle_area)
         self.max_issues, self.on_chunk = max_issues, on_chunk
         self.syntax, self.schema_issues, self.other = (IssueList(str(path), max_issues) for _ in range(3))
+        self.bulk, self.nsmap = False, {}
 
     def run(self) -> list[Issue]:
         root = self._first_look()
@@ -122,6 +123,9 @@ class _FileValidation:
                                   schema=None if xsd.available or has_doctype else load_schema(self.schema_dir))
         if xsd.available:
             xsd.start()
+        # the regular bulk read from the bytes (validation.bulk): only while the XSD thread reads the file itself
+        self.bulk = xsd.available and not has_doctype
+        self.nsmap = root.nsmap
         cut = self._checks(stream)
         if has_doctype:
             errors = whole_document_errors(self.path, load_schema(self.schema_dir))
@@ -156,6 +160,9 @@ class _FileValidation:
     def _checks(self, stream: streaming.Stream) -> int | None:
         """Every check but the XSD, part by part; the line where a truncated file ends, if it is."""
         checks = FileCheck(self.path, self.other, stream.raw, *self.tolerances)
+        if self.bulk:
+            checks.bulk.disable_for(self.nsmap)
+            stream.thin = checks.bulk.thin
         collecting = gc.isenabled()
         gc.disable()  # the pass makes millions of short-lived objects and no cycles: collections would only cost time
         try:

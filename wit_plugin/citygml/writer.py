@@ -38,7 +38,7 @@ from itertools import chain, groupby, islice
 from operator import itemgetter
 from pathlib import Path
 from typing import Any, Callable
-from xml.sax.saxutils import escape
+from xml.sax.saxutils import escape  # nosec B406  # escapes what is written; nothing is parsed with it
 
 import numpy as np
 from lxml import etree
@@ -53,6 +53,7 @@ from ..io.fileio import atomic_file
 from ..numtext import ring_texts
 from .inputs import (
     BULK,
+    FacadeRows,
     InputLayer,
     Membership,
     checked_wit_id,
@@ -66,6 +67,9 @@ from .namespaces import APP, BLDG, CON, CORE, DEM, GEN, GML, GML_ID, GRP, TRAN, 
 from .schemas import CITYGML_MODULES
 
 APPEARANCE_THEME = "rgbTexture"
+FACADE_THEME = "generatedFacade"  # the walls' textures: drawn by the plugin, kept apart from the measured theme
+FACADE_DESCRIPTION = ("Generated facade: storey modules drawn by WIT City Model from the building's use and storey "
+                      "count (not measured; an orthoimage does not see walls)")
 DISTRICT_NAME_FIELD = "EMD_KOR_NM"  # legal-dong name in the Korean road-name-address data
 RELIEF_ID, TIN_RELIEF_ID, TIN_SURFACE_ID = "DEM_relief", "DEM_tin", "DEM_tin_surface"
 RELIEF_LOD, ROAD_LOD_PROPERTY = "1", "lod2MultiSurface"
@@ -142,11 +146,12 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         uris = {image: _image_uri(src, image, out.parent, tex_dir if copy_textures else None)
                 for image, src in images.items()}
         members = stack.enter_context(Membership(districts)) if districts else None
+        facades = stack.enter_context(FacadeRows.open(Path(inputs.textures))) if texcoords else None
         total = sum(source.count() for source in (lod1, tin, texcoords) if source) or 1
         tmp = stack.enter_context(atomic_file(out))
         with open(tmp, "wb") as fh, _Writer.document(fh, srs_uri, report, _Progress(feedback, total)) as writer:
             if lod1:
-                writer.buildings(lod1, members)
+                writer.buildings(lod1, members, facades)
             if roads or tin:
                 writer.roads(roads, tin)
             if tin:
@@ -353,19 +358,23 @@ class _Writer:
         self.raw(_polygon(gml_id, geometry))
 
     # content ------------------------------------------------------------------------------------
-    def buildings(self, lod1: InputLayer, members: Membership | None) -> None:
+    def buildings(self, lod1: InputLayer, members: Membership | None, facades: FacadeRows | None) -> None:
         with lod1.select(order=(step_layers.WIT_ID, step_layers.FACE_NUMBER)) as result:
             fields, col = fields_of(result), columns_of(result)
             key = col[step_layers.WIT_ID]
             for wit_id, faces in groupby(result, key=lambda f: f.GetFieldAsString(key)):
-                self.building(checked_wit_id(wit_id, f"A face in {lod1.path}"), faces, fields, col, members)
+                self.building(checked_wit_id(wit_id, f"A face in {lod1.path}"), faces, fields, col, members,
+                              facades)
 
     def building(self, wit_id: str, faces: Iterator[ogr.Feature], fields: list[tuple[int, str, int]],
-                 col: dict[str, int], members: Membership | None) -> None:
+                 col: dict[str, int], members: Membership | None, facades: FacadeRows | None) -> None:
         first = next(faces)
         number_col, type_col, last = col[step_layers.FACE_NUMBER], col[step_layers.FACE_TYPE], -1
+        facade = facades.of(wit_id) if facades else None
         with self.member(BLDG + "Building", wit_id):
             self.attributes(first, fields, _SKIP_BUILDING_FIELDS)
+            if facade is not None:  # how the wall texture was made
+                self.attributes(facade, facades.fields, {step_layers.WIT_ID, step_layers.FACADE_IMAGE})
             with self.el(CORE + "lod1Solid"), self.el(GML + "Solid", {GML_ID: f"{wit_id}_lod1"}), \
                     self.el(GML + "exterior"), self.el(GML + "Shell"):
                 for face in chain([first], faces):
@@ -444,7 +453,8 @@ class _Writer:
     def relief(self, tin: InputLayer) -> None:
         """The TIN triangles not written as road surfaces, as one ``dem:TINRelief``."""
         where = f"NOT ({_ROAD_TRIANGLES})"
-        if not tin.scalar(f'SELECT EXISTS (SELECT 1 FROM "{tin.name}" WHERE {where})'):
+        exists = f"SELECT EXISTS (SELECT 1 FROM {tin.table} WHERE {where})"  # nosec B608  # quoted layer, our where
+        if not tin.scalar(exists):
             return
         with self.member(DEM + "ReliefFeature", RELIEF_ID):
             self.leaf(DEM + "lod", RELIEF_LOD)
@@ -485,38 +495,44 @@ class _Writer:
             for number, (image, group) in enumerate(groupby(rows, key=itemgetter(0)), 1):
                 # one appearanceMember per image: a reader (or validator) streaming member by member
                 # then holds one image's associations, not the whole model's
+                first = next(group)
+                group, generated = chain([first], group), first[1] == step_layers.TEX_WALL
                 self.xf.write("\n")
                 with self.el(CORE + "appearanceMember"), self.el(APP + "Appearance", {GML_ID: f"app_{number}"}):
-                    self.leaf(APP + "theme", APPEARANCE_THEME)
+                    if generated:
+                        self.leaf(GML + "description", FACADE_DESCRIPTION)
+                    self.leaf(APP + "theme", FACADE_THEME if generated else APPEARANCE_THEME)
                     with self.el(APP + "surfaceData"), \
                             self.el(APP + "ParameterizedTexture", {GML_ID: f"tex_{number}"}):
                         self.leaf(APP + "imageURI", uris[image])
                         mime = mimetypes.guess_type(image)[0]
                         if mime:
                             self.leaf(APP + "mimeType", mime)
+                        if generated:  # storey modules repeat along the wall
+                            self.leaf(APP + "wrapMode", "wrap")
                         for target, target_rows in groupby(group, key=itemgetter(1)):
                             self.textured(target, target_rows, texcoords.path)
                 self.report.textures += 1
 
     def textured(self, target: str, rows: Iterator[tuple[str, ...]], path: str) -> None:
-        """Texture associations: one per roof face / road triangle, one for all TIN triangles.
+        """Texture associations: one per roof or wall face / road triangle, one for all TIN triangles.
 
         ``rows``: (image, target, feature, face, uv) texts. The TIN's association lists the ring
         ids after all coordinates, so those ids (not the coordinates) are held for one image's
         terrain triangles. Roads' and the TIN's markup is ready-made (``raw``), a batch at a time.
         """
-        if target not in ("roof", "road", "tin"):
-            raise InputError(f"Texture table {path} has the unknown target {target!r}: use roof, road or tin.")
+        if target not in step_layers.TEX_TARGETS:
+            raise InputError(f"Texture table {path} has the unknown target {target!r}: use roof, wall, road or tin.")
         refs: list[str] = []
         with contextlib.ExitStack() as stack:
             if target == "tin":
                 stack.enter_context(self.association(f"#{TIN_SURFACE_ID}"))
             for batch in _batches(rows, self.RAW_BATCH):
                 features = [escape(row[2]) for row in batch]
-                if target == "roof":
+                if target in ("roof", step_layers.TEX_WALL):
                     surfaces = [f"{row[2]}_f{row[3]}" for row in batch]
                     coords = _uv([row[4] for row in batch],
-                                 lambda i, names=surfaces: f"roof {names[i]} in {path}", False)
+                                 lambda i, names=surfaces: f"{target} {names[i]} in {path}", False)
                     for surface, uv in zip(surfaces, coords):
                         with self.association(f"#{surface}"):
                             self.leaf(APP + "textureCoordinates", uv)

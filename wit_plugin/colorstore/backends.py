@@ -185,9 +185,11 @@ class _GpkgReader:
         if not {table, f"{table}_meta", rtree} <= tables:
             self.db.close()
             raise InputError(f"{path} is not a WIT colour store with table {table!r} (built by wit:buildcolorstore).")
-        self.meta = {k: json.loads(v) for k, v in self.db.execute(f'SELECT key, value FROM "{table}_meta"')}
+        # table passed _check_table_name (letters, digits, _); the values are bound (?)
+        meta = self.db.execute(f'SELECT key, value FROM "{table}_meta"')  # nosec B608  # a checked name
+        self.meta = {k: json.loads(v) for k, v in meta}
         cols = ", ".join(f'c."{c}"' for c in _QUERY_COLUMNS)
-        self.sql = (f'SELECT {cols} FROM "{rtree}" r JOIN "{table}" c ON c.fid = r.id '
+        self.sql = (f'SELECT {cols} FROM "{rtree}" r JOIN "{table}" c ON c.fid = r.id '  # nosec B608  # checked name
                     f"WHERE r.minx <= ? AND r.maxx >= ? AND r.miny <= ? AND r.maxy >= ? "
                     f"AND c.c0 <= ? AND c.c1 >= ? AND c.r0 <= ? AND c.r1 >= ?")
 

@@ -47,6 +47,16 @@ _TRIANGLE = np.dtype([("header", _HEADER), ("byte_order", "u1"), ("type", "<u4")
                       ("points", "<u4"), ("xyz", "<f8", (4, 3))])
 
 
+def sql_name(name: str) -> str:
+    """``name`` (a layer's or a field's, maybe a user's) as an SQL identifier: quoted, inner quotes doubled."""
+    return '"' + name.replace('"', '""') + '"'
+
+
+def sql_text(text: str) -> str:
+    """``text`` as an SQL string literal: single-quoted, inner single quotes doubled."""
+    return "'" + text.replace("'", "''") + "'"
+
+
 def _header(count: int, srs_id: int, bounds: np.ndarray) -> np.ndarray:
     header = np.zeros(count, dtype=_HEADER)
     header["magic"] = b"GP"
@@ -81,7 +91,7 @@ def _spatial_index(path: Path, layer: str, column: str) -> None:
         try:
             ds = ogr.Open(str(path), update=1)
             if ds is not None:
-                ds.ExecuteSQL(f"SELECT CreateSpatialIndex('{layer}', '{column}')")
+                ds.ExecuteSQL(f"SELECT CreateSpatialIndex({sql_text(layer)}, {sql_text(column)})")
                 ds.FlushCache()
             failed = ds is None or gdal.GetLastErrorType() >= gdal.CE_Failure
             reason = gdal.GetLastErrorMsg() or "GDAL gave no reason"
@@ -125,7 +135,7 @@ class BulkTable:
                     "SELECT name, sql FROM sqlite_master WHERE type = 'trigger' AND tbl_name = ? AND name LIKE ?",
                     (layer, "trigger_insert_feature_count_%")).fetchall()
                 for name, _ in self._triggers:
-                    self.db.execute(f'DROP TRIGGER "{name}"')
+                    self.db.execute(f"DROP TRIGGER {sql_name(name)}")
                 self.srs_id = None
                 if crs is not None:
                     row = self.db.execute("SELECT srs_id FROM gpkg_geometry_columns WHERE table_name = ?",
@@ -137,8 +147,9 @@ class BulkTable:
             self.db.close()
             raise
         names = [self.geometry_column] * (crs is not None) + [fd.name for fd in fields]
-        quoted = ", ".join(f'"{name}"' for name in names)
-        self._insert = f'INSERT INTO "{layer}" ({quoted}) VALUES ({", ".join("?" * len(names))})'
+        quoted = ", ".join(map(sql_name, names))
+        self._insert = (f'INSERT INTO {sql_name(layer)} ({quoted}) '  # nosec B608  # names quoted, values bound (?)
+                        f'VALUES ({", ".join("?" * len(names))})')
 
     def _error(self, reason: object) -> InputError:
         return _write_error(self.layer, self.path, reason)

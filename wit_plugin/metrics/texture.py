@@ -13,7 +13,8 @@ float, not rounded to 8 bits; a single-band image is its own intensity).
   pixel and its four neighbours are inside the mask (no step against the background).
 * *contrast* = standard deviation of I (population, over the masked pixels).
 
-Model textures: the images of a wit:wittexture folder (mip files left out). If the folder holds
+Model textures: the images of a wit:wittexture folder cut from the orthoimage (mip files and the generated
+facades left out: their sharp drawn edges are not the orthoimage's). If the folder holds
 ``step_layers.TEXCOORD_FILE``, only texels inside the textured rings (their UV polygons rasterised,
 pixel centres inside) count, so atlas background and gutters do not; otherwise whole images
 count. Values are pooled over all counted pixels of all images (not averaged per image). The
@@ -208,7 +209,8 @@ def _list_images(images: Sequence[str] | str) -> tuple[list[Path], Path | None]:
         if not folder.is_dir():
             return [folder], None
         paths = sorted(p for p in folder.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES
-                       and not _MIP.search(p.stem) and not p.name.startswith("."))
+                       and not _MIP.search(p.stem) and not p.name.startswith(".")
+                       and not p.name.startswith(step_layers.FACADE_IMAGE_PREFIX))  # drawn, not from the ortho
         if not paths:
             raise InputError(f"{folder} holds no texture images (.jpg, .png, .tif): give the wit:wittexture "
                              "output folder.")

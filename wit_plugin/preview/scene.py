@@ -14,7 +14,7 @@ from .. import step_layers
 from ..errors import InputError
 from ..io import bulk_read
 from ..io.vector_io import open_step_layer
-from ..meshes import fan_triangles, parse_texcoords, planar_triangles, triangle_vertices
+from ..meshes import fan_corners, parse_texcoords, planar_triangles, triangle_vertices
 
 _KINDS = ("roof", "wall", "terrain", "road", "footprint")
 
@@ -108,7 +108,7 @@ def _batches(layer: ogr.Layer, fields: tuple[str, ...],
 
 
 class _TexTable:
-    """The texture table: uv per roof face (wit_id, face_no) and per TIN triangle (tri_id)."""
+    """The texture table: uv per roof or wall face (wit_id, face_no) and per TIN triangle (tri_id)."""
 
     def __init__(self, keys: dict, uv: np.ndarray, starts: np.ndarray, counts: np.ndarray, image: np.ndarray):
         self.keys, self.uv, self.starts, self.counts, self.image = keys, uv, starts, counts, image
@@ -132,7 +132,7 @@ class _TexTable:
         columns = (cols[step_layers.TEX_TARGET].tolist(), cols[step_layers.TEX_FEATURE].tolist(),
                    cols[step_layers.TEX_FACE].tolist())
         for i, (target, feature, face) in enumerate(zip(*columns)):
-            keys[(feature, int(face or 0)) if target == "roof" else feature] = i
+            keys[(feature, int(face or 0)) if target in ("roof", step_layers.TEX_WALL) else feature] = i
         return cls(keys, uv, starts, counts, image.astype(np.int32))
 
     def rows(self, keys: list) -> np.ndarray:
@@ -149,10 +149,12 @@ def _read_lod1(path: str, table: _TexTable | None, report: PreviewReport) -> _Me
     _, building = np.unique(cols[step_layers.WIT_ID].astype(str), return_inverse=True)
     roofs = np.flatnonzero(ok & (kind == "roof"))
     walls = np.flatnonzero(ok & (kind == "wall"))
-    rows = (table.rows([(cols[step_layers.WIT_ID][i], int(cols[step_layers.FACE_NUMBER][i] or 0)) for i in roofs])
-            if table is not None else np.full(len(roofs), -1))
-    roof, report.untextured_roofs = _roof_mesh(geoms[roofs], building[roofs], rows, table)
-    return _Mesh.concat([roof, _wall_mesh(geoms[walls], building[walls])])
+    def rows(faces: np.ndarray) -> np.ndarray:
+        keys = [(cols[step_layers.WIT_ID][i], int(cols[step_layers.FACE_NUMBER][i] or 0)) for i in faces]
+        return table.rows(keys) if table is not None else np.full(len(faces), -1)
+
+    roof, report.untextured_roofs = _roof_mesh(geoms[roofs], building[roofs], rows(roofs), table)
+    return _Mesh.concat([roof, _wall_mesh(geoms[walls], building[walls], rows(walls), table)])
 
 
 def _roof_mesh(polygons: np.ndarray, building: np.ndarray, rows: np.ndarray,
@@ -179,12 +181,21 @@ def _roof_mesh(polygons: np.ndarray, building: np.ndarray, rows: np.ndarray,
     return mesh, int(np.count_nonzero(~textured)) if table is not None else 0
 
 
-def _wall_mesh(polygons: np.ndarray, building: np.ndarray) -> _Mesh:
-    """Walls fanned from their first vertex (convex quads in LoD1)."""
-    xyz, owner = fan_triangles(polygons)
+def _wall_mesh(polygons: np.ndarray, building: np.ndarray, rows: np.ndarray, table: _TexTable | None) -> _Mesh:
+    """Walls fanned from their first vertex (convex quads in LoD1), with their generated facade where the
+    texture row fits the ring."""
+    xyz = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True)
+    index, owner = fan_corners(polygons)
     t = len(owner)
-    return _Mesh(xyz, np.full(t, _WALL, np.int8), building[owner].astype(np.int32),
-                 np.zeros((t, 3, 2), np.float32), np.full(t, -1, np.int32))
+    uv, image = np.zeros((t, 3, 2), np.float32), np.full(t, -1, np.int32)
+    if table is not None and t:
+        counts = shapely.get_num_coordinates(shapely.get_exterior_ring(polygons))
+        textured = (rows >= 0) & (table.counts[np.maximum(rows, 0)] == counts)
+        first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        hit = np.flatnonzero(textured[owner])
+        uv[hit] = table.uv[table.starts[rows[owner[hit]]][:, None] + (index[hit] - first[owner[hit]][:, None])]
+        image[hit] = table.image[rows[owner[hit]]]
+    return _Mesh(xyz[index], np.full(t, _WALL, np.int8), building[owner].astype(np.int32), uv, image)
 
 
 def _read_tin(path: str, table: _TexTable | None) -> _Mesh:

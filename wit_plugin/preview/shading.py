@@ -112,6 +112,8 @@ def _shade(camera: _Camera, mesh: _Mesh, frame: _Frame, cache: _ImageCache, azim
     if len(textured):
         tt = t[textured]
         uv = np.einsum("pk,pkc->pc", bary[textured], mesh.uv[tt])
+        facade = mesh.kind[tt] == _WALL  # a generated facade repeats along the wall
+        uv[facade, 0] -= np.floor(uv[facade, 0])
         level = _mip_levels(mesh, frame, cache)[tt]
         key = mesh.image[tt].astype(np.int64) * 64 + level
         order = np.argsort(key, kind="stable")

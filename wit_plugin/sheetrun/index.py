@@ -38,8 +38,8 @@ def read_index(output: Path) -> dict[str, dict]:
     with sqlite3.connect(path) as db:
         db.row_factory = sqlite3.Row
         try:
-            return {row["sheet"]: {k: row[k] for k in row.keys() if k in names}
-                    for row in db.execute(f"SELECT * FROM {INDEX_LAYER}")}
+            rows = db.execute(f"SELECT * FROM {INDEX_LAYER}")  # nosec B608  # a constant table name
+            return {row["sheet"]: {k: row[k] for k in row.keys() if k in names} for row in rows}
         except sqlite3.DatabaseError:
             return {}
 

@@ -166,8 +166,8 @@ def start_worker(python: str, address: str, log: Path) -> subprocess.Popen:
                "--memory-limit", "0", "--no-dashboard", "--name", f"wit-{os.getpid()}-{time.time_ns()}"]
     try:
         with open(log, "ab") as sink:
-            return subprocess.Popen(command, env=core_env(), stdout=sink, stderr=subprocess.STDOUT,
-                                    start_new_session=True)
+            return subprocess.Popen(command, env=core_env(), stdout=sink,  # nosec B603  # a Dask worker, no shell
+                                    stderr=subprocess.STDOUT, start_new_session=True)
     except OSError as exc:
         raise InputError(f"Cannot start a Dask worker with {python}: {exc}") from exc
 

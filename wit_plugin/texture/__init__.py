@@ -66,6 +66,7 @@ from pathlib import Path
 
 import numpy as np
 import shapely
+from osgeo import ogr
 from shapely.geometry.base import BaseGeometry
 
 from .. import step_layers
@@ -75,7 +76,12 @@ from ..gc_pause import collector_paused
 from ..gdal_env import capped_block_cache
 from ..io import bulk_read
 from ..io.fileio import atomic_files
+from ..io.gpkg_bulk import BulkTable
+from ..io.vector_io import FieldDef
+from ..numtext import ring_texts
 from .config import (
+    FACADE_CHOICES,
+    FACADES_GENERATED,
     FORMATS,
     OUTSIDE_ORTHO,
     ROAD_TARGET,
@@ -83,10 +89,12 @@ from .config import (
     TEXCOORDS_FILE,
     TEXTURED_TIN_SURFACES,
     TIN_TARGET,
+    WALL_TARGET,
     TextureConfig,
     TextureReport,
 )
-from .images import _AtlasPacker, _Output
+from .facade import QUAD_POINTS, FacadeReport, FacadeSource, facade_images, plan_facades, wall_rows
+from .images import UV_PAIR, _AtlasPacker, _Output
 from .sources import _Grid, _Layer, _Ortho, _Rings
 
 
@@ -140,17 +148,22 @@ def texture_model(
         report = TextureReport(output_dir=str(output_dir), texcoords=str(Path(output_dir) / TEXCOORDS_FILE),
                                untextured=untextured, texel_size=image.texel_size,
                                texels_per_m2=1.0 / image.texel_size ** 2)
+        facades = roofs is not None and config.facades == FACADES_GENERATED and untextured["wall"] > 0
         feedback.info(f"Texel {image.texel_size:g} m (S = {config.scale:g}); {roofs.surfaces if roofs else 0} roof "
-                      f"face(s), {tin.surfaces if tin else 0} terrain/road triangle(s); walls are not textured.")
+                      f"face(s), {tin.surfaces if tin else 0} terrain/road triangle(s); walls: "
+                      f"{'generated facades' if facades else 'not textured'}.")
         grid = _Grid(image, config)
         share = 100.0 * (roofs.surfaces if roofs else 0) / sum(layer.surfaces for layer in layers)
+        walls = 10.0 if facades else 0.0
         with capped_block_cache(), atomic_files([report.texcoords]) as tmp:
             out = _Output(tmp, FORMATS[config.image_format.upper()], config, report)
             try:
                 if roofs is not None:
                     _texture_roofs(roofs, image, grid, out, config, inside, feedback.scaled(0.0, share))
+                if facades:
+                    _texture_walls(lod1_gpkg, tmp, out, feedback.scaled(share, share + walls))
                 if tin is not None:
-                    _texture_ground(tin, image, grid, out, config, inside, feedback.scaled(share, 100.0))
+                    _texture_ground(tin, image, grid, out, config, inside, feedback.scaled(share + walls, 100.0))
                 out.finish()
             finally:
                 out.close()
@@ -163,6 +176,46 @@ def texture_model(
     return report
 
 
+def _texture_walls(lod1: str, folder: Path, out: _Output, feedback: Feedback) -> None:
+    """Generated facades (``texture.facade``): the facade table, the images, then the walls' rows."""
+    source = FacadeSource(lod1)
+    plan = FacadeReport()
+    try:
+        table = BulkTable(folder / step_layers.FACADE_FILE, step_layers.FACADE_TABLE, _FACADE_FIELDS)
+        try:
+            for rows in plan_facades(source, plan):
+                feedback.check_canceled()
+                table.insert(rows)
+        finally:
+            table.close()
+        for name, pixels in facade_images(plan):
+            out.submit([], (name, pixels))
+        total = out.report.untextured["wall"]
+        for batch in wall_rows(source, plan):
+            feedback.check_canceled()
+            uv = ring_texts(np.concatenate([row[3] for row in batch]), np.full(len(batch), QUAD_POINTS), UV_PAIR)
+            out.submit([(WALL_TARGET, wit_id, face, name, text) for (wit_id, name, face, _), text in zip(batch, uv)])
+            feedback.progress(100.0 * plan.walls / total)
+    finally:
+        source.close()
+    report = out.report
+    report.untextured["wall"] = plan.untextured_walls
+    report.facades = dict(sorted(plan.styles.items()))
+    report.facade_images = len(plan.rows)
+    feedback.info(f"Generated facades: {plan.buildings} building(s) ("
+                  + ", ".join(f"{count} {style}" for style, count in plan.styles.most_common())
+                  + f"), {plan.walls} wall(s) on {len(plan.rows)} shared image(s); storeys from the layer's floor "
+                  f"count for {plan.buildings - plan.storeys_from_height}, from the height for "
+                  f"{plan.storeys_from_height}. Use fields: {source.rule.describe()}.")
+    if plan.untextured_walls:
+        feedback.warning(f"{plan.untextured_walls} wall face(s) are not quads (as wit:extrudebuildings writes them) "
+                         "and are left untextured.")
+
+
+_FACADE_FIELDS = [FieldDef(name, ogr.OFTInteger if name == step_layers.FACADE_STOREYS else ogr.OFTString)
+                  for name in step_layers.FACADE_FIELDS]
+
+
 def _check_config(config: TextureConfig) -> None:
     if not 0.0 < config.scale <= 1.0:
         raise InputError(f"Texture scale S = {config.scale:g} is out of range: use 0 < S ≤ 1 (1 = ortho resolution).")
@@ -173,6 +226,8 @@ def _check_config(config: TextureConfig) -> None:
     size = config.atlas_size
     if size < 64 or size > 16384 or size & (size - 1):
         raise InputError(f"Atlas size {size} must be a power of two between 64 and 16384.")
+    if config.facades not in FACADE_CHOICES:
+        raise InputError(f"Facades {config.facades!r}: use one of {', '.join(FACADE_CHOICES)}.")
     if not 0 <= config.gutter <= size // 8:
         raise InputError(f"Gutter {config.gutter} px is out of range: use 0–{size // 8} px for atlases of {size} px.")
 

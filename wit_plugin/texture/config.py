@@ -14,8 +14,11 @@ TEXCOORDS_FILE = step_layers.TEXCOORD_FILE
 TEXTURED_TIN_SURFACES = ("terrain", "road")
 
 
-ROOF_TARGET, TIN_TARGET, ROAD_TARGET = "roof", "tin", "road"  # TEX_TARGET values
+ROOF_TARGET, WALL_TARGET, TIN_TARGET, ROAD_TARGET = step_layers.TEX_TARGETS
 
+
+FACADES_NONE, FACADES_GENERATED, FACADE_CHOICES = (step_layers.FACADES_NONE, step_layers.FACADES_GENERATED,
+                                                   step_layers.FACADE_CHOICES)  # TextureConfig.facades
 
 OUTSIDE_ORTHO = "outside_ortho"  # TextureReport.untextured key: surfaces beyond the ortho's coverage
 
@@ -35,6 +38,9 @@ class TextureConfig:
     """Texels of padding around each roof island (and of context around ground tiles)."""
     write_mipmaps: bool = False
     """Write each image's mip chain to 1 × 1 as files (otherwise it is derivable by the viewer)."""
+    facades: str = step_layers.DEFAULT_FACADES
+    """Walls: "generated" (storey modules drawn from each building's use and storeys, ``texture.facade``) or
+    "none" (left untextured)."""
 
 
 @dataclass
@@ -46,10 +52,15 @@ class TextureReport:
     """Path of ``texcoords.gpkg``."""
     images: list[str] = field(default_factory=list)
     """Images (level 0), relative to ``output_dir``."""
-    surfaces: dict[str, int] = field(default_factory=lambda: {ROOF_TARGET: 0, TIN_TARGET: 0, ROAD_TARGET: 0})
+    surfaces: dict[str, int] = field(default_factory=lambda: {ROOF_TARGET: 0, WALL_TARGET: 0, TIN_TARGET: 0,
+                                                              ROAD_TARGET: 0})
     """Textured rings per TEX_TARGET."""
     untextured: dict[str, int] = field(default_factory=dict)
-    """Surfaces deliberately left untextured: LoD1 'wall' / 'ground' faces, TIN 'footprint' triangles."""
+    """Surfaces left untextured: LoD1 'ground' faces (never seen), 'wall' faces without generated facades, TIN
+    'footprint' triangles, surfaces beyond the ortho's coverage."""
+    facades: dict[str, int] = field(default_factory=dict)
+    """Buildings with a generated facade, by style (``texture.facade.uses``)."""
+    facade_images: int = 0
     atlases: int = 0
     ground_images: int = 0
     mip_files: int = 0

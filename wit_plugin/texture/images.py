@@ -1,6 +1,7 @@
 """What the texture step writes: images and their mip chains, roof atlases, the texture-coordinate table."""
 from __future__ import annotations
 
+from collections import Counter
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
@@ -18,7 +19,7 @@ from .sources import _Patch, _Rings
 _BACKGROUND = 128  # grey for unused atlas space: neutral under JPEG ringing
 
 
-_UV_PAIR = "%.12f %.12f"  # 12 decimals of u and v: 1e-12 of an image side, far below a texel of any atlas
+UV_PAIR = "%.12f %.12f"  # 12 decimals of u and v: 1e-12 of an image side, far below a texel of any atlas
 
 
 def mip_chain(image: np.ndarray) -> list[np.ndarray]:
@@ -99,8 +100,7 @@ class _Output:
 
     def __init__(self, folder: Path, ext: str, config: TextureConfig, report: TextureReport):
         self.folder, self.ext, self.config, self.report = folder, ext, config, report
-        self._driver = gdal.GetDriverByName("JPEG" if ext == "jpg" else "PNG")
-        self._options = [f"QUALITY={config.jpeg_quality}"] if ext == "jpg" else ["ZLEVEL=6"]
+        self._options = {"jpg": [f"QUALITY={config.jpeg_quality}"], "png": ["ZLEVEL=6"]}
         self._table = BulkTable(folder / TEXCOORDS_FILE, step_layers.TEXCOORD_TABLE, self._FIELDS, threaded=True)
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="wit-texture-output")
         self._pending: Future | None = None
@@ -112,24 +112,33 @@ class _Output:
         ``pixels`` must not change afterwards: the worker encodes it later.
         """
         name = f"{stem}.{self.ext}"
-        self.report.images.append(name)
         counts = np.diff(rings.starts)
         per_point = placements if len(placements) == 1 else np.repeat(placements, counts, axis=0)
-        uv = ring_texts(_uv(rings.xy, per_point, pixels.shape[1], pixels.shape[0]), counts, _UV_PAIR)
-        targets = rings.targets.tolist()
-        rows = list(zip(targets, map(str, rings.features.tolist()), rings.faces.tolist(), [name] * len(uv), uv))
-        for target in set(targets):
-            self.report.surfaces[target] += targets.count(target)
-        self._wait()  # at most one image in the worker's hands: memory stays at two images' rows
-        self._pending = self._worker.submit(self._store, stem, pixels, rows)
+        uv = ring_texts(_uv(rings.xy, per_point, pixels.shape[1], pixels.shape[0]), counts, UV_PAIR)
+        rows = list(zip(rings.targets.tolist(), map(str, rings.features.tolist()), rings.faces.tolist(),
+                        [name] * len(uv), uv))
+        self.submit(rows, (name, pixels))
 
-    def _store(self, stem: str, pixels: np.ndarray, rows: list[tuple]) -> None:
+    def submit(self, rows: list[tuple], image: tuple[str, np.ndarray] | None = None) -> None:
+        """Write table rows (target, feature, face, image, uv text) and the ``image`` (name, pixels) if given, in
+        the worker."""
+        if image is not None:
+            self.report.images.append(image[0])
+        for target, count in Counter(row[0] for row in rows).items():
+            self.report.surfaces[target] += count
+        self._wait()  # at most one image in the worker's hands: memory stays at two images' rows
+        self._pending = self._worker.submit(self._store, rows, image)
+
+    def _store(self, rows: list[tuple], image: tuple[str, np.ndarray] | None) -> None:
         """In the worker: the image, its mips and its rows."""
-        self._save(f"{stem}.{self.ext}", pixels)
-        if self.config.write_mipmaps:
-            for k, level in enumerate(mip_chain(pixels)[1:], start=1):
-                self._save(f"{stem}_mip{k}.{self.ext}", level)
-                self.report.mip_files += 1
+        if image is not None:
+            name, pixels = image
+            self._save(name, pixels)
+            if self.config.write_mipmaps:
+                stem, ext = name.rsplit(".", 1)
+                for k, level in enumerate(mip_chain(pixels)[1:], start=1):
+                    self._save(f"{stem}_mip{k}.{ext}", level)
+                    self.report.mip_files += 1
         self._table.insert(rows)
 
     def _wait(self) -> None:
@@ -142,7 +151,9 @@ class _Output:
         h, w, bands = pixels.shape
         mem = gdal.GetDriverByName("MEM").Create("", w, h, bands, gdal.GDT_Byte)
         mem.WriteArray(pixels, interleave="pixel")
-        if self._driver.CreateCopy(str(self.folder / name), mem, options=self._options) is None:
+        ext = name.rsplit(".", 1)[1]
+        driver = gdal.GetDriverByName("JPEG" if ext == "jpg" else "PNG")
+        if driver.CreateCopy(str(self.folder / name), mem, options=self._options[ext]) is None:
             raise InputError(f"Cannot write the texture image {self.folder / name}: {gdal.GetLastErrorMsg()}")
 
     def finish(self) -> None:

@@ -1,11 +1,17 @@
 """Coarse terrain for the upper tiles: a height grid and an image per tile, built bottom-up.
 
 Each tile of the quadtree gets a *patch*: heights at the (n + 1)² vertices of a regular grid over its
-square (row 0 on the north edge, NaN where the TIN does not reach) and an r × r RGB image of the
-same square. A leaf samples its patch from the TIN triangles meeting it: heights by barycentric
-interpolation, colours from the ground images at the mip level nearest the patch's texel size. A
-parent takes every other height of its four children and their images halved (2 × 2 averages), so
-the whole model is never read at once and no ground image is read more than once per leaf.
+square (row 0 on the north edge, NaN where nothing is known), an r × r RGB image of the same square and
+which of its n² cells hold anything of the leaves below (``covered``). A leaf samples its patch from the
+TIN triangles meeting it and from the roofs over it: heights by barycentric interpolation (the ground
+height under a roof: a TIN leaves a building's footprint out when the building stands on it), colours
+from the ground images and roof atlases at the mip level nearest the patch's texel size. Every cell
+holding a piece of ground or roof is drawn, its unknown corners filled from their neighbours and its
+texels without a surface given their neighbours' colours: the coarse terrain covers the ground wherever
+the leaves do, under the buildings too (which a coarse level may leave out), and never shows a hole
+from afar. A parent takes every other height of its four children, their images halved (2 × 2 averages)
+and their cells (a parent cell holds content when one of its four does), so the whole model is never
+read at once and no ground image is read more than once per leaf.
 
 The parent's vertical error is measured: the largest difference between its grid (bilinear between
 its vertices) and its children's grids at their vertices, plus the children's own error.
@@ -15,11 +21,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from osgeo import gdal
 
 from .store import TriangleRows
 from .textures import TextureSet
 
 NO_COLOUR = 128
+FILL_TEXELS = 16  # texels a colour spreads into the texels of a drawn cell that no surface covers
 _CANDIDATES = 1 << 18  # grid points tested per chunk of triangles (bounds memory)
 
 
@@ -28,6 +36,7 @@ class Patch:
     heights: np.ndarray  # (n + 1, n + 1) float64, NaN = no terrain
     image: np.ndarray  # (r, r, 3) uint8
     error: float  # vertical error of the heights against the TIN (m)
+    covered: np.ndarray | None = None  # (n, n) cells holding ground or roofs below; None: where 4 heights are
 
 
 def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols: int
@@ -70,30 +79,46 @@ def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols
     return found, weights
 
 
-def leaf_patch(triangles: TriangleRows, rect: tuple[float, float, float, float], cells: int, size: int,
-               textures: TextureSet | None) -> Patch:
-    """Sample a leaf's patch from the TIN triangles meeting its square ``rect``."""
+def leaf_patch(triangles: TriangleRows, roofs: TriangleRows, rect: tuple[float, float, float, float], cells: int,
+               size: int, textures: TextureSet | None) -> Patch:
+    """Sample a leaf's patch from the TIN triangles meeting its square ``rect`` and the ``roofs`` over it
+    (triangles at their building's ground height, with their roof atlas's texture rows)."""
     xmin, _, xmax, ymax = rect
     side = xmax - xmin
-    xy = triangles.xyz[:, :, :2]
-    tri, w = locate(xy, xmin, ymax, side / cells, cells + 1, cells + 1)
     heights = np.full((cells + 1) ** 2, np.nan)
-    hit = tri >= 0
-    heights[hit] = (triangles.xyz[tri[hit], :, 2] * w[hit]).sum(axis=1)
+    for surfaces in (roofs, triangles):  # the TIN's own height where it has one
+        tri, w = locate(surfaces.xyz[:, :, :2], xmin, ymax, side / cells, cells + 1, cells + 1)
+        hit = tri >= 0
+        heights[hit] = (surfaces.xyz[tri[hit], :, 2] * w[hit]).sum(axis=1)
     step = side / size
-    tri, w = locate(xy, xmin + step / 2, ymax - step / 2, step, size, size)
-    return Patch(heights.reshape(cells + 1, cells + 1), _colours(triangles, tri, w, step, size, textures), 0.0)
-
-
-def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: float, size: int,
-             textures: TextureSet | None) -> np.ndarray:
-    """Texel colours from the ground images at the mip level nearest ``step``; the mean elsewhere."""
     rgb = np.full((size * size, 3), NO_COLOUR, dtype=np.uint8)
+    hit = np.zeros(size * size, dtype=bool)
+    for surfaces in (roofs, triangles):  # a roof seen from above where a TIN also has a (footprint) triangle
+        tri, w = locate(surfaces.xyz[:, :, :2], xmin + step / 2, ymax - step / 2, step, size, size)
+        colours, found = _colours(surfaces, tri, w, step, textures)
+        rgb[found], hit[found] = colours[found], True
+    texel_cell = np.arange(size) * cells // size
+    covered = np.zeros((cells, cells), dtype=bool)
+    rows, cols = np.divmod(np.flatnonzero(hit), size)
+    covered[texel_cell[rows], texel_cell[cols]] = True
+    corners = np.concatenate([roofs.xyz[:, :, :2].reshape(-1, 2), triangles.xyz[:, :, :2].reshape(-1, 2)])
+    cell = np.floor(np.column_stack([ymax - corners[:, 1], corners[:, 0] - xmin]) / (side / cells)).astype(np.int64)
+    inside = ((cell >= 0) & (cell < cells)).all(axis=1)  # a sliver between texel centres still has its corners
+    covered[cell[inside, 0], cell[inside, 1]] = True
+    return Patch(fill_heights(heights.reshape(cells + 1, cells + 1), covered),
+                 fill_colours(rgb.reshape(size, size, 3), hit.reshape(size, size)), 0.0, covered)
+
+
+def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: float,
+             textures: TextureSet | None) -> tuple[np.ndarray, np.ndarray]:
+    """Texel colours from the triangles' images at the mip level nearest ``step`` (the neutral colour for an
+    untextured one), and which texels lie on a triangle."""
+    rgb = np.full((len(tri), 3), NO_COLOUR, dtype=np.uint8)
     image = np.full(len(tri), -1, dtype=np.int64)
     hit = tri >= 0
     image[hit] = triangles.image[tri[hit]]  # (a leaf may meet no triangle at all: only its buildings)
     if textures is None:
-        return rgb.reshape(size, size, 3)
+        return rgb, hit
     for number in np.unique(image[image >= 0]).tolist():
         texels = np.flatnonzero(image == number)
         corners = tri[texels]
@@ -103,10 +128,59 @@ def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: floa
         col = np.clip((uv[:, 0] * wd).astype(np.int64), 0, wd - 1)
         row = np.clip(((1.0 - uv[:, 1]) * h).astype(np.int64), 0, h - 1)  # texture-table v grows upwards
         rgb[texels] = pixels[row, col]
-    coloured = image >= 0
-    if coloured.any():
-        rgb[~coloured] = rgb[coloured].mean(axis=0).astype(np.uint8)
-    return rgb.reshape(size, size, 3)
+    return rgb, hit
+
+
+def fill_heights(heights: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    """``heights`` with the unknown corners of the ``covered`` cells taken from their known neighbours (a
+    roof's edge off the TIN, a cell reaching beyond the area), in place; corners still unknown then (a cell
+    with no known height around it) leave their cell undrawn."""
+    needed = np.zeros(heights.shape, dtype=bool)
+    for dy in (0, 1):
+        for dx in (0, 1):
+            needed[dy:dy + covered.shape[0], dx:dx + covered.shape[1]] |= covered
+    for _ in range(max(heights.shape)):
+        missing = needed & np.isnan(heights)
+        if not missing.any():
+            break
+        heights[missing] = neighbour_mean(heights)[missing]
+    return heights
+
+
+def fill_colours(rgb: np.ndarray, hit: np.ndarray) -> np.ndarray:
+    """The texels no surface covers take their neighbours' colours (GDAL's inverse-distance fill, within
+    ``FILL_TEXELS``), so that a drawn cell's corner beyond the ground shows ground, not grey."""
+    if hit.all() or not hit.any():
+        return rgb
+    mask = mem_raster(hit.astype(np.uint8)[None])
+    bands = mem_raster(np.moveaxis(rgb, -1, 0))
+    for band in range(3):
+        gdal.FillNodata(bands.GetRasterBand(band + 1), mask.GetRasterBand(1), FILL_TEXELS, 0)
+    return np.ascontiguousarray(np.moveaxis(bands.ReadAsArray(), 0, -1))
+
+
+def neighbour_mean(grid: np.ndarray) -> np.ndarray:
+    """Each cell's mean of its finite 8 neighbours (NaN where none is)."""
+    padded = np.pad(grid, 1, constant_values=np.nan)
+    rows, cols = grid.shape
+    stack = np.stack([padded[1 + dy:1 + dy + rows, 1 + dx:1 + dx + cols]
+                      for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
+    finite = np.isfinite(stack)
+    count = finite.sum(axis=0)
+    total = np.where(finite, stack, 0.0).sum(axis=0)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+def mem_raster(bands: np.ndarray, geotransform: tuple[float, ...] = (0.0, 1.0, 0.0, 0.0, 0.0, -1.0)) -> gdal.Dataset:
+    """An in-memory raster of ``bands`` (bands, rows, columns), float64 or byte, without a CRS."""
+    kind = gdal.GDT_Byte if bands.dtype == np.uint8 else gdal.GDT_Float64
+    ds = gdal.GetDriverByName("MEM").Create("", bands.shape[2], bands.shape[1], bands.shape[0], kind)
+    ds.SetGeoTransform(geotransform)
+    for k, band in enumerate(bands):
+        ds.GetRasterBand(k + 1).WriteArray(band)
+        if kind == gdal.GDT_Float64:
+            ds.GetRasterBand(k + 1).SetNoDataValue(float("nan"))
+    return ds
 
 
 def _mip_level(triangles: TriangleRows, number: int, shape: tuple[int, ...], step: float) -> int:
@@ -127,10 +201,13 @@ def parent_patch(children: dict[tuple[int, int], Patch], cells: int, size: int) 
     half, half_size = cells // 2, size // 2
     heights = np.full((cells + 1, cells + 1), np.nan)
     image = np.full((size, size, 3), NO_COLOUR, dtype=np.uint8)
+    covered = np.zeros((cells, cells), dtype=bool)
     for (dx, dy), child in children.items():
         r, c = (0 if dy else half), dx * half
         block = heights[r:r + half + 1, c:c + half + 1]
         np.copyto(block, child.heights[::2, ::2], where=np.isnan(block))
+        if child.covered is not None:
+            covered[r:r + half, c:c + half] = child.covered.reshape(half, 2, half, 2).any(axis=(1, 3))
         r, c = (0 if dy else half_size), dx * half_size
         pixels = child.image
         if len(pixels) != half_size:  # an upper tile's image; leaves sample theirs at half size directly
@@ -146,7 +223,7 @@ def parent_patch(children: dict[tuple[int, int], Patch], cells: int, size: int) 
             error = max(error, float(np.nanmax(deviation)) + child.error)
         else:
             error = max(error, child.error)
-    return Patch(heights, image, error)
+    return Patch(fill_heights(heights, covered), image, error, covered)
 
 
 def _bilinear_double(grid: np.ndarray) -> np.ndarray:
@@ -161,8 +238,8 @@ def _bilinear_double(grid: np.ndarray) -> np.ndarray:
 
 
 def grid_triangles(patch: Patch, rect: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """The patch as triangles: model corners (t, 3, 3) and glTF uv (t, 3, 2) over its image; cells
-    with a corner outside the terrain are left out."""
+    """The patch as triangles: model corners (t, 3, 3) and glTF uv (t, 3, 2) over its image: its covered cells
+    (without ``covered``: the cells whose four corners have a height)."""
     n = patch.heights.shape[0] - 1
     xmin, _, xmax, ymax = rect
     step = (xmax - xmin) / n
@@ -173,6 +250,8 @@ def grid_triangles(patch: Patch, rect: tuple[float, float, float, float]) -> tup
     nw, ne, sw, se = (corner[0, 0], corner[0, 1], corner[1, 0], corner[1, 1])
     valid = np.isfinite(patch.heights)
     keep = (valid[nw] & valid[ne] & valid[sw] & valid[se]).ravel()
+    if patch.covered is not None:
+        keep &= patch.covered.ravel()
     orders = ((nw, sw, se), (nw, se, ne))
     quads = [np.stack([points[a].reshape(-1, 3) for a in order], axis=1)[keep] for order in orders]
     quad_uv = [np.stack([uv[a].reshape(-1, 2) for a in order], axis=1)[keep] for order in orders]

@@ -2,7 +2,10 @@
 
 Primitives are indexed triangle lists (vertices shared within a primitive, float32 positions in the
 tile's local frame). Photo-textured surfaces (roofs, terrain, roads) use ``KHR_materials_unlit`` so
-they show the orthoimage's colours; walls are lit (flat normals) in a plain colour. Images are either
+they show the orthoimage's colours; walls are lit (flat normals), in a plain colour or with their generated
+facade, whose image repeats along the wall (sampler REPEAT across, CLAMP up) and whose vertices carry
+``_FACADE`` = 1 (an application attribute: a viewer can tell generated facades apart, e.g. to switch them
+off, as the offline viewer does). Images are either
 external files of the tileset, referenced by a relative URI and so shared by every tile that uses
 them, or embedded (the coarse terrain's own image).
 
@@ -15,6 +18,9 @@ view of 0 bytes, which glTF forbids) and reads as the class's ``default``, the e
 """
 from __future__ import annotations
 
+import json
+import struct
+
 import numpy as np
 import pygltflib as gl
 
@@ -22,11 +28,19 @@ UNLIT = "KHR_materials_unlit"
 MESH_FEATURES = "EXT_mesh_features"
 METADATA = "EXT_structural_metadata"
 ALIGN = 8  # EXT_structural_metadata wants 8-byte aligned buffer views
-LINEAR, LINEAR_MIPMAP_LINEAR, CLAMP = 9729, 9987, 33071
+LINEAR, LINEAR_MIPMAP_LINEAR, CLAMP, REPEAT = 9729, 9987, 33071, 10497
+FACADE_ATTRIBUTE = "_FACADE"
 _COMPONENT = {np.dtype(np.float32): gl.FLOAT, np.dtype(np.uint32): gl.UNSIGNED_INT,
               np.dtype(np.uint16): gl.UNSIGNED_SHORT}  # the last two for indices only
 _TYPE = {1: gl.SCALAR, 2: gl.VEC2, 3: gl.VEC3}
 _PROPERTY_DTYPE = {"INT32": np.int32, "INT64": np.int64, "FLOAT64": np.float64}
+
+
+def unit_normals(corners: np.ndarray) -> np.ndarray:
+    """Unit normals (t, 3) of triangles (t, 3, 3), counter-clockwise front; up (0, 1, 0) for a degenerate one."""
+    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.where(length > 0, n / np.where(length > 0, length, 1), [0.0, 1.0, 0.0])
 
 
 class GlbBuilder:
@@ -37,6 +51,7 @@ class GlbBuilder:
         self.blob = bytearray()
         self.primitives: list[gl.Primitive] = []
         self._textures: dict[str, int] = {}
+        self._samplers: dict[tuple[int, int], int] = {}
         self._extensions: set[str] = set()
 
     # --- buffers -----------------------------------------------------------------------------
@@ -61,14 +76,17 @@ class GlbBuilder:
 
     # --- materials ---------------------------------------------------------------------------
 
-    def _texture(self, key: str, uri: str | None = None, data: bytes | None = None, mime: str = "image/jpeg") -> int:
+    def _texture(self, key: str, uri: str | None = None, data: bytes | None = None, mime: str = "image/jpeg",
+                 wrap_s: int = CLAMP) -> int:
         if key not in self._textures:
-            if not self.gltf.samplers:
+            if (wrap_s, CLAMP) not in self._samplers:
+                self._samplers[wrap_s, CLAMP] = len(self.gltf.samplers)
                 self.gltf.samplers.append(gl.Sampler(magFilter=LINEAR, minFilter=LINEAR_MIPMAP_LINEAR,
-                                                     wrapS=CLAMP, wrapT=CLAMP))
+                                                     wrapS=wrap_s, wrapT=CLAMP))
             image = gl.Image(uri=uri) if uri else gl.Image(bufferView=self._view(data), mimeType=mime)
             self.gltf.images.append(image)
-            self.gltf.textures.append(gl.Texture(sampler=0, source=len(self.gltf.images) - 1))
+            self.gltf.textures.append(gl.Texture(sampler=self._samplers[wrap_s, CLAMP],
+                                                 source=len(self.gltf.images) - 1))
             self._textures[key] = len(self.gltf.textures) - 1
         return self._textures[key]
 
@@ -78,6 +96,13 @@ class GlbBuilder:
         pbr = gl.PbrMetallicRoughness(baseColorTexture=gl.TextureInfo(index=texture), metallicFactor=0.0,
                                       roughnessFactor=1.0)
         return self._material(gl.Material(name=name, pbrMetallicRoughness=pbr, extensions={UNLIT: {}}))
+
+    def facade_material(self, uri: str, name: str = "") -> int:
+        """Lit, double-sided material showing a generated facade image that repeats along the wall."""
+        texture = self._texture(uri, uri, wrap_s=REPEAT)
+        pbr = gl.PbrMetallicRoughness(baseColorTexture=gl.TextureInfo(index=texture), metallicFactor=0.0,
+                                      roughnessFactor=1.0)
+        return self._material(gl.Material(name=name, pbrMetallicRoughness=pbr, doubleSided=True))
 
     def plain_material(self, rgb: tuple[int, int, int], lit: bool, name: str = "") -> int:
         pbr = gl.PbrMetallicRoughness(baseColorFactor=[c / 255 for c in rgb] + [1.0], metallicFactor=0.0,
@@ -93,32 +118,35 @@ class GlbBuilder:
     # --- geometry ----------------------------------------------------------------------------
 
     def triangles(self, corners: np.ndarray, material: int, uv: np.ndarray | None = None,
-                  feature: np.ndarray | None = None, normals: bool = False) -> None:
+                  feature: np.ndarray | None = None, normals: bool | np.ndarray = False, facade: bool = False) -> None:
         """Add triangles (t, 3, 3 local glTF coordinates, float64) as one indexed primitive.
 
         ``uv`` (t, 3, 2) in glTF's convention (v down from the image's top), ``feature`` (t,) the
-        property-table row of each triangle, ``normals`` flat normals per triangle.
+        property-table row of each triangle, ``normals`` flat normals: True to compute them per triangle, or
+        given (t, 3) (the same for the triangles of a planar face, so that the face's corners are shared),
+        ``facade`` marks the vertices of a generated facade (``FACADE_ATTRIBUTE``).
         """
         if len(corners) == 0:
             return
         t = len(corners)
         columns = [corners.reshape(-1, 3).astype(np.float32)]
-        if normals:
-            n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            length = np.linalg.norm(n, axis=1, keepdims=True)
-            n = np.where(length > 0, n / np.where(length > 0, length, 1), [0.0, 1.0, 0.0])
+        lit = normals is not False
+        if lit:
+            n = unit_normals(corners) if normals is True else np.asarray(normals)
             columns.append(np.repeat(n, 3, axis=0).astype(np.float32))
         if uv is not None:
             columns.append(uv.reshape(-1, 2).astype(np.float32))
         if feature is not None:
             columns.append(np.repeat(feature, 3).astype(np.float32)[:, None])
+        if facade:
+            columns.append(np.ones((3 * t, 1), dtype=np.float32))
         rows = np.concatenate(columns, axis=1)
         unique, index = np.unique(rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel(),
                                   return_index=True, return_inverse=True)[1:]
         vertices = rows[unique]
         attributes = gl.Attributes(POSITION=self._accessor(vertices[:, :3], gl.ARRAY_BUFFER, bounds=True))
         column = 3
-        if normals:
+        if lit:
             attributes.NORMAL = self._accessor(vertices[:, 3:6], gl.ARRAY_BUFFER)
             column = 6
         if uv is not None:
@@ -130,9 +158,12 @@ class GlbBuilder:
         if feature is not None:
             # float: a 1- or 2-byte vertex attribute would need padding to 4 bytes per vertex anyway
             attributes._FEATURE_ID_0 = self._accessor(vertices[:, column], gl.ARRAY_BUFFER)
+            column += 1
             primitive.extensions = {MESH_FEATURES: {"featureIds": [
                 {"featureCount": int(feature.max()) + 1, "attribute": 0, "propertyTable": 0}]}}
             self._extensions.add(MESH_FEATURES)
+        if facade:
+            setattr(attributes, FACADE_ATTRIBUTE, self._accessor(vertices[:, column], gl.ARRAY_BUFFER))
         self.primitives.append(primitive)
 
     # --- metadata ----------------------------------------------------------------------------
@@ -168,5 +199,40 @@ class GlbBuilder:
         self.gltf.extensionsUsed = sorted(self._extensions)
         self.blob.extend(b"\0" * (-len(self.blob) % 4))
         self.gltf.buffers = [gl.Buffer(byteLength=len(self.blob))]
-        self.gltf.set_binary_blob(bytes(self.blob))
-        return b"".join(self.gltf.save_to_bytes())
+        return glb_bytes(self.gltf, bytes(self.blob))
+
+
+def glb_bytes(gltf: gl.GLTF2, blob: bytes) -> bytes:
+    """The GLB container of ``gltf`` and its binary chunk ``blob``: the JSON compact and UTF-8, without empty
+    properties nor the accessors' and buffer views' defaults (``byteOffset`` 0, ``normalized`` false), which a tile
+    with a primitive per facade image would repeat a few hundred times. Built from the objects' fields directly:
+    pygltflib's own ``to_json`` deep-copies every value, which took a tenth of the export."""
+    text = json.dumps(_plain(gltf), separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    return b"".join([struct.pack("<4sII", b"glTF", 2, 28 + len(text) + len(blob)),
+                     struct.pack("<I4s", len(text), b"JSON"), text, struct.pack("<I4s", len(blob), b"BIN\0"), blob])
+
+
+def _plain(value: object) -> object:
+    """A pygltflib object as JSON values, None and empty values left out as pygltflib leaves them out (an
+    ``extensions`` object is written as it is: ``KHR_materials_unlit: {}``, a metadata ``noData: ""``), the
+    accessors' and buffer views' defaults dropped."""
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        items = value.items()
+    elif hasattr(value, "__dict__"):
+        items = vars(value).items()
+        if isinstance(value, (gl.Accessor, gl.BufferView)):
+            items = [(k, v) for k, v in items if not (k == "byteOffset" and v == 0) and not (k == "normalized"
+                                                                                              and v is False)]
+    else:
+        return value
+    out = {}
+    for key, item in items:
+        if item is None or (hasattr(item, "__len__") and len(item) == 0) \
+                or (key.startswith("_") and not isinstance(value, gl.Attributes)):
+            continue
+        out[key] = item if key == "extensions" else _plain(item)
+    return out

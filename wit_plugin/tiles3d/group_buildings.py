@@ -27,7 +27,7 @@ from .. import step_layers
 from ..io.vector_io import open_step_layer
 from ..meshes import triangulate
 from .geo import Georeference
-from .glb import GlbBuilder
+from .glb import GlbBuilder, unit_normals
 from .metadata import BUILDING_CLASS, building_schema, property_columns
 from .store import PER_FACE_FIELDS
 
@@ -174,8 +174,9 @@ def add_buildings(glb: GlbBuilder, georef: Georeference, frame: np.ndarray, buil
         a1, b1 = np.hstack([a, high]), np.hstack([b, high])
         quads = np.concatenate([np.stack([a0, b0, b1], axis=1), np.stack([a0, b1, a1], axis=1)])
         local = georef.local(frame, quads.reshape(-1, 3)).reshape(-1, 3, 3)
+        normals = unit_normals(local[:len(edge)])  # one per quad: its two triangles share their corners
         glb.triangles(local, glb.plain_material(WALL_RGB, lit=True, name="wall"), feature=np.concatenate([own, own]),
-                      normals=True)
+                      normals=np.concatenate([normals, normals]))
         corners.append(quads.reshape(-1, 3))
     schema = building_schema(buildings.fields)
     glb.property_table(schema, BUILDING_CLASS, property_columns(schema, buildings.ids, buildings.attributes))

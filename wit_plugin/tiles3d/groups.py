@@ -32,7 +32,7 @@ from ..dem import Dem
 from ..errors import InputError, WitError
 from ..io.raster_io import open_raster
 from ..mapsheet import parse_sheet_number, sheet_at
-from .coarse import Patch, grid_triangles
+from .coarse import Patch, fill_colours, grid_triangles, mem_raster, neighbour_mean
 from .geo import Georeference
 from .glb import GlbBuilder
 from .group_buildings import Candidates, add_buildings
@@ -41,8 +41,6 @@ from .textures import encode_image
 GROUP_CELLS = 64
 GROUP_IMAGE = 512
 GROUP_DIR = "3dtiles-groups"
-FILL_TEXELS = 16
-"""A higher group's image: texels off its children's images take their neighbours' colours this far (px)."""
 CHECK_DENSITY = 4
 """The DEM is compared with a group's grid at this many points per cell side (its vertical error)."""
 GROUP_LEVELS = {9: "1:5,000 sheet", 8: "1:50,000 sheet", 5: "1° block"}
@@ -217,8 +215,8 @@ def join_terrain(children: list[Terrain], area: BaseGeometry) -> Terrain | None:
     rect = square(area)
     side = rect[2] - rect[0]
     # heights: rasters whose pixel centres are the grids' vertices
-    sources = [_mem(c.heights[None], _vertex_geotransform(c.rect, c.heights.shape[0] - 1)) for c in children]
-    target = _mem(np.full((1, GROUP_CELLS + 1, GROUP_CELLS + 1), np.nan), _vertex_geotransform(rect, GROUP_CELLS))
+    sources = [mem_raster(c.heights[None], _vertex_geotransform(c.rect, c.heights.shape[0] - 1)) for c in children]
+    target = mem_raster(np.full((1, GROUP_CELLS + 1, GROUP_CELLS + 1), np.nan), _vertex_geotransform(rect, GROUP_CELLS))
     gdal.Warp(target, sources, resampleAlg="bilinear", srcNodata=float("nan"), dstNodata=float("nan"),
               multithread=False)
     heights = target.GetRasterBand(1).ReadAsArray().astype(np.float64)
@@ -230,19 +228,16 @@ def join_terrain(children: list[Terrain], area: BaseGeometry) -> Terrain | None:
         missing = np.isnan(heights) & near
         if not missing.any():
             break
-        heights[missing] = _neighbour_mean(heights)[missing]
-    sources = [_mem(np.moveaxis(c.image, -1, 0), (c.rect[0], (c.rect[2] - c.rect[0]) / c.image.shape[1], 0.0,
+        heights[missing] = neighbour_mean(heights)[missing]
+    sources = [mem_raster(np.moveaxis(c.image, -1, 0), (c.rect[0], (c.rect[2] - c.rect[0]) / c.image.shape[1], 0.0,
                                                   c.rect[3], 0.0, -(c.rect[3] - c.rect[1]) / c.image.shape[0]))
                for c in children]
-    target = _mem(np.zeros((3, GROUP_IMAGE, GROUP_IMAGE), dtype=np.uint8),
+    target = mem_raster(np.zeros((3, GROUP_IMAGE, GROUP_IMAGE), dtype=np.uint8),
                   (rect[0], side / GROUP_IMAGE, 0.0, rect[3], 0.0, -side / GROUP_IMAGE))
     gdal.Warp(target, sources, resampleAlg="average", multithread=False)
-    empty = (target.ReadAsArray() == 0).all(axis=0)
-    if empty.any():  # texels off the children's images (the edge cells): their neighbours' colours
-        mask = _mem((~empty).astype(np.uint8)[None], target.GetGeoTransform())
-        for band in range(3):
-            gdal.FillNodata(target.GetRasterBand(band + 1), mask.GetRasterBand(1), FILL_TEXELS, 0)
     image = np.ascontiguousarray(np.moveaxis(target.ReadAsArray(), 0, -1))
+    # texels off the children's images (the edge cells): their neighbours' colours
+    image = fill_colours(image, (image != 0).any(axis=-1))
     error = 0.0
     for child in children:
         x, y = _vertices(child.rect, child.heights.shape[0] - 1)
@@ -251,33 +246,9 @@ def join_terrain(children: list[Terrain], area: BaseGeometry) -> Terrain | None:
     return Terrain(rect, heights, image, error)
 
 
-def _neighbour_mean(grid: np.ndarray) -> np.ndarray:
-    """Each cell's mean of its finite 8 neighbours (NaN where none is)."""
-    padded = np.pad(grid, 1, constant_values=np.nan)
-    rows, cols = grid.shape
-    stack = np.stack([padded[1 + dy:1 + dy + rows, 1 + dx:1 + dx + cols]
-                      for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
-    finite = np.isfinite(stack)
-    count = finite.sum(axis=0)
-    total = np.where(finite, stack, 0.0).sum(axis=0)
-    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
-
-
 def _vertex_geotransform(rect: tuple[float, float, float, float], n: int) -> tuple[float, ...]:
     step = (rect[2] - rect[0]) / n
     return rect[0] - step / 2, step, 0.0, rect[3] + step / 2, 0.0, -step
-
-
-def _mem(bands: np.ndarray, geotransform: tuple[float, ...]) -> gdal.Dataset:
-    """An in-memory raster of ``bands`` (bands, rows, columns), float64 or byte, without a CRS (all share one)."""
-    kind = gdal.GDT_Byte if bands.dtype == np.uint8 else gdal.GDT_Float64
-    ds = gdal.GetDriverByName("MEM").Create("", bands.shape[2], bands.shape[1], bands.shape[0], kind)
-    ds.SetGeoTransform(geotransform)
-    for k, band in enumerate(bands):
-        ds.GetRasterBand(k + 1).WriteArray(band)
-        if kind == gdal.GDT_Float64:
-            ds.GetRasterBand(k + 1).SetNoDataValue(float("nan"))
-    return ds
 
 
 @dataclass

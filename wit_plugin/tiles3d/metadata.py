@@ -3,11 +3,13 @@
 One class, ``building``, with a property per field of the LoD1 layer except the per-face ones
 (``face``, ``face_no``): the chain's own (``wit_id``, ``height``, ``height_src``, storeys, ``base_z``)
 and every source attribute kept by wit:extrudebuildings (e.g. ``BULD_NM``, the building's name, in
-Korean). OGR strings → STRING (UTF-8), integers → INT32 / INT64, reals → FLOAT64, anything else → its
-text. A NULL is stored as the property's ``noData`` value (the empty string for text). No property
-is ``required``; every tile's table holds every numeric property, and a text property is left out of
-a tile's table only when it is empty for all its buildings: it then reads as its ``default``, the
-empty string (3D Tiles 1.1 metadata: a missing or noData value reads as the ``default``).
+Korean), then those of the texture step's facade table (``wit_facade`` = generated, its style, rule and
+storeys: the walls' texture is generated, not measured). OGR strings → STRING (UTF-8), integers →
+INT32 / INT64, reals → FLOAT64, anything else → its text. A NULL is stored as the property's ``noData``
+value (the empty string for text). No property is ``required``; every tile's table holds every numeric
+property, and a text property is left out of a tile's table only when it is empty for all its buildings:
+it then reads as its ``default``, the empty string (3D Tiles 1.1 metadata: a missing or noData value reads
+as the ``default``).
 """
 from __future__ import annotations
 
@@ -31,6 +33,11 @@ DESCRIPTIONS = {
     step_layers.STOREYS_ABOVE: "Storeys above ground",
     step_layers.STOREYS_BELOW: "Storeys below ground",
     step_layers.BASE_Z: "Ground height at the footprint (m)",
+    step_layers.FACADE: "How the wall texture was made: generated (drawn by the plugin, not measured)",
+    step_layers.FACADE_STYLE: "Generated facade style, from the building's use",
+    step_layers.FACADE_RULE: "What chose the facade style (use code, use name, OSM tag or storeys)",
+    step_layers.FACADE_STOREYS: "Storeys drawn on the walls",
+    step_layers.FACADE_STOREYS_SOURCE: "Where the storeys drawn come from: the layer's floor field, or the height",
     "BULD_NM": "Building name",
     "BD_MGT_SN": "Building management number",
 }

@@ -5,9 +5,13 @@ the model (the inputs need no spatial index of their own, and are never written 
 
 * ``building``: one row per building, from its ``ground`` face: the leaf tile holding the centre of
   its footprint (a Morton code, so a subtree of the quadtree is one range of codes), its size (the
-  larger of footprint diagonal and height, to keep the largest ones in coarse tiles) and its
-  attributes (JSON, every field of the LoD1 layer but the per-face ones).
-* ``face``: roof and wall faces (WKB), joined to their building; ``tex_roof`` their texture rows.
+  larger of footprint diagonal and height, to keep the largest ones in coarse tiles), its ground height
+  and its attributes (JSON, every field of the LoD1 layer but the per-face ones).
+* ``roof_box``: an R-tree of the roofs' extents, for the roofs over a tile's square (its coarse terrain
+  shows them where the TIN has a building's footprint left out).
+* ``face``: roof and wall faces (WKB), joined to their building; ``tex_face`` their texture rows (roofs from the
+  orthoimage, walls' generated facades); ``facade`` the buildings' facade attributes (how the walls' texture
+  was made), which join their attributes.
 * ``tri_block``: TIN triangles in blocks, one row per leaf of their centroids and batch read (ids,
   surfaces, corners as 9 float64, image numbers, 3 uv pairs: columns of numbers in one blob each);
   ``spill_block`` the same for the triangles whose extent reaches another leaf (a leaf's coarse
@@ -90,15 +94,26 @@ def morton(col: np.ndarray, row: np.ndarray) -> np.ndarray:
 
 @dataclass
 class BuildingRows:
-    """The buildings of one tile and their faces (roof uv where the texture row fits the ring)."""
+    """The buildings of one tile and their faces (uv where the texture row fits the ring)."""
 
     ids: list[str]
     attributes: list[list]
     face_building: np.ndarray  # (f,) index into ids
     face_kind: np.ndarray  # (f,) FACE_KINDS value
     polygons: np.ndarray  # (f,) shapely PolygonZ
-    roof_image: np.ndarray  # (f,) image number, -1 = untextured
-    roof_uv: list[np.ndarray | None]  # per face: (ring points, 2) or None
+    face_image: np.ndarray  # (f,) image number, -1 = untextured
+    face_uv: list[np.ndarray | None]  # per face: (ring points, 2) or None
+
+
+@dataclass
+class RoofRows:
+    """Roof faces (shapely PolygonZ), their image numbers (-1 = untextured), uv (per ring point, or None) and
+    their building's ground height."""
+
+    polygons: np.ndarray
+    image: np.ndarray
+    uv: list[np.ndarray | None]
+    base: np.ndarray
 
 
 @dataclass
@@ -120,16 +135,21 @@ class Store:
         self.db.executescript("""
             PRAGMA journal_mode = OFF; PRAGMA synchronous = OFF; PRAGMA temp_store = FILE;
             CREATE TABLE image (id INTEGER PRIMARY KEY, name TEXT UNIQUE);
-            CREATE TABLE building (wit_id TEXT PRIMARY KEY, leaf INTEGER, size REAL, attrs TEXT) WITHOUT ROWID;
-            CREATE TABLE face (wit_id TEXT, face_no INTEGER, kind INTEGER, wkb BLOB);
-            CREATE TABLE tex_roof (wit_id TEXT, face_no INTEGER, image INTEGER, uv BLOB,
+            CREATE TABLE building (wit_id TEXT PRIMARY KEY, leaf INTEGER, size REAL, base REAL, attrs TEXT)
+                WITHOUT ROWID;
+            CREATE TABLE face (id INTEGER PRIMARY KEY, wit_id TEXT, face_no INTEGER, kind INTEGER, wkb BLOB);
+            CREATE VIRTUAL TABLE roof_box USING rtree(id, xmin, xmax, ymin, ymax);
+            CREATE TABLE roof_leaf (leaf INTEGER PRIMARY KEY);
+            CREATE TABLE tex_face (wit_id TEXT, face_no INTEGER, image INTEGER, uv BLOB,
                                    PRIMARY KEY (wit_id, face_no)) WITHOUT ROWID;
+            CREATE TABLE facade (wit_id TEXT PRIMARY KEY, attrs TEXT) WITHOUT ROWID;
             CREATE TABLE tri_block (leaf INTEGER, ids BLOB, surface BLOB, xyz BLOB, image BLOB, uv BLOB);
             CREATE TABLE spill_block (leaf INTEGER, own BLOB, surface BLOB, xyz BLOB, image BLOB, uv BLOB);
             CREATE TABLE tex_block (first INTEGER, last INTEGER, ids BLOB, image BLOB, uv BLOB);
         """)
         self.images: list[str] = []
         self.fields: list[tuple[str, int]] = []  # building attributes: (name, OGR field type)
+        self.facade_fields: list[tuple[str, int]] = []  # of the facade table, after the LoD1 layer's
         self.orphan_faces = 0
 
     def close(self) -> None:
@@ -155,14 +175,14 @@ class Store:
             names, image = _unique_texts(batch[step_layers.TEX_IMAGE])
             image = np.array([numbers.setdefault(name, len(numbers)) for name in names], dtype=np.int64)[image]
             kinds, target = _unique_texts(batch[step_layers.TEX_TARGET])
-            is_roof = np.isin(target, [k for k, kind in enumerate(kinds) if kind == "roof"])
-            roof = np.flatnonzero(is_roof)
+            is_face = np.isin(target, [k for k, kind in enumerate(kinds) if kind in FACE_KINDS])
+            face_rows = np.flatnonzero(is_face)
             features = np.asarray(batch[step_layers.TEX_FEATURE])
-            faces = batch[step_layers.TEX_FACE][roof].tolist()
-            self.db.executemany("INSERT OR REPLACE INTO tex_roof VALUES (?, ?, ?, ?)", [
+            faces = batch[step_layers.TEX_FACE][face_rows].tolist()
+            self.db.executemany("INSERT OR REPLACE INTO tex_face VALUES (?, ?, ?, ?)", [
                 (feature, int(face or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
-                for feature, face, i in zip(_texts(features[roof]), faces, roof.tolist())])
-            tri = np.flatnonzero(~is_roof & (counts == 4))
+                for feature, face, i in zip(_texts(features[face_rows]), faces, face_rows.tolist())])
+            tri = np.flatnonzero(~is_face & (counts == 4))
             try:
                 ids = features[tri].astype(np.int64)
             except ValueError:
@@ -179,6 +199,24 @@ class Store:
         del layer, ds
         self.images = sorted(numbers, key=numbers.get)
         self.db.executemany("INSERT INTO image VALUES (?, ?)", [(n, name) for name, n in numbers.items()])
+        if (Path(folder) / step_layers.FACADE_FILE).is_file():
+            self._add_facades(Path(folder) / step_layers.FACADE_FILE)
+
+    def _add_facades(self, path: Path) -> None:
+        """The facade table's attributes of each building (all but its id and image), read in bulk."""
+        ds, layer, _ = open_step_layer(str(path), step_layers.FACADE_TABLE, step_layers.TEXCOORD_ROLE,
+                                       step_layers.FACADE_FIELDS)
+        defn = layer.GetLayerDefn()
+        kept = [defn.GetFieldDefn(i) for i in range(defn.GetFieldCount())
+                if defn.GetFieldDefn(i).GetName() not in (step_layers.WIT_ID, step_layers.FACADE_IMAGE)]
+        self.facade_fields = [(f.GetName(), f.GetType()) for f in kept]
+        for batch in bulk_read.batches(layer):
+            columns = [[None if v is None else v.decode("utf-8") if isinstance(v, bytes) else v
+                        for v in batch[f.GetName()].tolist()] for f in kept]
+            self.db.executemany("INSERT OR REPLACE INTO facade VALUES (?, ?)", (
+                (wit_id, json.dumps(list(values), ensure_ascii=False))
+                for wit_id, values in zip(_texts(batch[step_layers.WIT_ID]), zip(*columns))))
+        del layer, ds
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
         """Buildings from their ground faces, then their roof and wall faces; returns the building count."""
@@ -187,7 +225,8 @@ class Store:
                                         step_layers.HEIGHT))
         defn = layer.GetLayerDefn()
         kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
-        self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept]
+        self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept] \
+            + self.facade_fields
         wit_id, height = defn.GetFieldIndex(step_layers.WIT_ID), defn.GetFieldIndex(step_layers.HEIGHT)
         layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground'")
         rows: list[tuple] = []
@@ -195,10 +234,10 @@ class Store:
             geometry = feature.GetGeometryRef()
             if geometry is None or geometry.IsEmpty():
                 continue
-            xmin, xmax, ymin, ymax = geometry.GetEnvelope()
+            xmin, xmax, ymin, ymax, base, _ = geometry.GetEnvelope3D()
             attrs = [None if feature.IsFieldNull(i) else feature.GetField(i) for i in kept]
             rows.append((feature.GetField(wit_id), (xmin + xmax) / 2, (ymin + ymax) / 2,
-                         max(math.hypot(xmax - xmin, ymax - ymin), feature.GetField(height) or 0.0),
+                         max(math.hypot(xmax - xmin, ymax - ymin), feature.GetField(height) or 0.0), base,
                          json.dumps(attrs, ensure_ascii=False)))
             if len(rows) == BATCH:
                 self._insert_buildings(rows, grid)
@@ -206,13 +245,27 @@ class Store:
                 feedback.check_canceled()
         self._insert_buildings(rows, grid)
         layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} IN ('roof', 'wall')")
+        face_id = 0
         for batch in _column_batches(layer, (step_layers.WIT_ID, step_layers.FACE_NUMBER, step_layers.FACE_TYPE),
                                      geometry=True):
             feedback.check_canceled()
-            kinds = [FACE_KINDS[k] for k in _texts(batch[step_layers.FACE_TYPE])]
-            self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?)", [
-                row for row in zip(_texts(batch[step_layers.WIT_ID]), batch[step_layers.FACE_NUMBER].tolist(), kinds,
-                                   map(_blob, batch[None])) if row[3]])
+            kinds = np.array([FACE_KINDS[k] for k in _texts(batch[step_layers.FACE_TYPE])], dtype=np.int64)
+            wkbs = [_blob(w) for w in batch[None]]
+            present = np.flatnonzero([w is not None for w in wkbs])
+            ids = face_id + np.arange(len(present))
+            face_id += len(present)
+            names, numbers = _texts(batch[step_layers.WIT_ID]), batch[step_layers.FACE_NUMBER].tolist()
+            self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?, ?)", [
+                (int(i), names[k], numbers[k], int(kinds[k]), wkbs[k]) for i, k in zip(ids.tolist(), present.tolist())])
+            roofs = kinds[present] == FACE_KINDS["roof"]
+            bounds = shapely.bounds(shapely.from_wkb(np.array([wkbs[k] for k in present[roofs]], dtype=object),
+                                                     on_invalid="ignore"))
+            finite = np.isfinite(bounds).all(axis=1)
+            self.db.executemany("INSERT INTO roof_box VALUES (?, ?, ?, ?, ?)", [
+                (int(i), b[0], b[2], b[1], b[3]) for i, b in zip(ids[roofs][finite].tolist(), bounds[finite].tolist())])
+            reached = {int(code) for x, y in ((0, 1), (2, 1), (0, 3), (2, 3))
+                       for code in grid.leaf_codes(bounds[finite, x], bounds[finite, y]).tolist()}
+            self.db.executemany("INSERT OR IGNORE INTO roof_leaf VALUES (?)", [(code,) for code in reached])
         del layer, ds
         self.db.execute("CREATE INDEX face_building ON face (wit_id)")
         self.orphan_faces = self.db.execute(
@@ -224,8 +277,8 @@ class Store:
         if not rows:
             return
         leaves = grid.leaf_codes(np.array([r[1] for r in rows]), np.array([r[2] for r in rows]))
-        self.db.executemany("INSERT OR IGNORE INTO building VALUES (?, ?, ?, ?)",
-                            [(r[0], int(leaf), r[3], r[4]) for r, leaf in zip(rows, leaves.tolist())])
+        self.db.executemany("INSERT OR IGNORE INTO building VALUES (?, ?, ?, ?, ?)",
+                            [(r[0], int(leaf), r[3], r[4], r[5]) for r, leaf in zip(rows, leaves.tolist())])
 
     def add_triangles(self, path: str, grid: Grid, feedback: Feedback) -> int:
         ds, layer, _ = open_step_layer(path, step_layers.TIN_LAYER, step_layers.TIN_ROLE,
@@ -294,26 +347,47 @@ class Store:
         rows = self.db.execute("SELECT DISTINCT leaf FROM building UNION SELECT DISTINCT leaf FROM tri_block")
         return {leaf for (leaf,) in rows}
 
+    def reached(self) -> set[int]:
+        """Codes of the leaves that a neighbour's triangle or roof reaches into (their coarse terrain shows it)."""
+        rows = self.db.execute("SELECT DISTINCT leaf FROM spill_block UNION SELECT leaf FROM roof_leaf")
+        return {leaf for (leaf,) in rows}
+
     def buildings(self, first: int, end: int, min_size: float = 0.0, limit: int = -1) -> BuildingRows:
         """Buildings whose leaf is in [first, end) and size ≥ ``min_size``, the largest first, at most ``limit``."""
         chosen = self.db.execute(
-            "SELECT wit_id, attrs FROM building WHERE leaf >= ? AND leaf < ? AND size >= ? "
-            "ORDER BY size DESC, wit_id LIMIT ?", (first, end, min_size, limit)).fetchall()
-        ids = [wit_id for wit_id, _ in chosen]
+            "SELECT b.wit_id, b.attrs, f.attrs FROM building b LEFT JOIN facade f ON f.wit_id = b.wit_id "
+            "WHERE leaf >= ? AND leaf < ? AND size >= ? ORDER BY size DESC, b.wit_id LIMIT ?",
+            (first, end, min_size, limit)).fetchall()
+        ids = [wit_id for wit_id, _, _ in chosen]
+        no_facade = json.dumps([None] * len(self.facade_fields))
         number = {wit_id: i for i, wit_id in enumerate(ids)}
         faces = []
         for part in range(0, len(ids), 500):
             marks = ",".join("?" * len(ids[part:part + 500]))
             faces += self.db.execute(
-                f"SELECT f.wit_id, f.kind, f.wkb, x.image, x.uv FROM face f LEFT JOIN tex_roof x "
-                f"ON x.wit_id = f.wit_id AND x.face_no = f.face_no WHERE f.wit_id IN ({marks})",
+                f"SELECT f.wit_id, f.kind, f.wkb, x.image, x.uv FROM face f "  # nosec B608  # '?' marks only go in
+                f"LEFT JOIN tex_face x ON x.wit_id = f.wit_id AND x.face_no = f.face_no WHERE f.wit_id IN ({marks})",
                 ids[part:part + 500]).fetchall()
         return BuildingRows(
-            ids, [json.loads(attrs) for _, attrs in chosen],
+            ids, [json.loads(attrs) + json.loads(facade or no_facade) for _, attrs, facade in chosen],
             np.array([number[f[0]] for f in faces], dtype=np.int64), np.array([f[1] for f in faces], dtype=np.int8),
             shapely.from_wkb(np.array([f[2] for f in faces], dtype=object), on_invalid="ignore"),
             np.array([-1 if f[3] is None else f[3] for f in faces], dtype=np.int64),
             [None if f[4] is None else np.frombuffer(f[4], dtype=np.float32).reshape(-1, 2) for f in faces])
+
+    def roofs(self, rect: tuple[float, float, float, float]) -> RoofRows:
+        """The roofs whose extent meets ``rect`` (xmin, ymin, xmax, ymax), with their texture rows and their
+        building's ground height, by the R-tree of their extents."""
+        found = self.db.execute(
+            "SELECT f.wkb, x.image, x.uv, b.base FROM roof_box r JOIN face f ON f.id = r.id "
+            "JOIN building b ON b.wit_id = f.wit_id "
+            "LEFT JOIN tex_face x ON x.wit_id = f.wit_id AND x.face_no = f.face_no "
+            "WHERE r.xmax >= ? AND r.xmin <= ? AND r.ymax >= ? AND r.ymin <= ? ORDER BY f.id",
+            (rect[0], rect[2], rect[1], rect[3])).fetchall()
+        return RoofRows(shapely.from_wkb(np.array([f[0] for f in found], dtype=object), on_invalid="ignore"),
+                        np.array([-1 if f[1] is None else f[1] for f in found], dtype=np.int64),
+                        [None if f[2] is None else np.frombuffer(f[2], dtype=np.float32).reshape(-1, 2) for f in found],
+                        np.array([f[3] for f in found], dtype=np.float64))
 
     def largest_building(self, first: int, end: int, below: float | None = None, skip: int = 0) -> float:
         """Size of the largest building in [first, end) smaller than ``below`` (or the ``skip``-th largest)."""

@@ -5,8 +5,8 @@ files, same texture coordinates: nothing is re-cut). Coarser tiles reference mip
 atlas (``<image>_mip<k>.<ext>``, the texture step's naming): taken from the texture folder when it
 wrote its mip chain, else computed with ``texture.images.mip_chain`` (the same box filter) and written
 here. Texture coordinates are relative, so they hold for every level. Each image is decoded once
-while its smaller levels stay cached (they serve the coarse terrain's sampling and the mip files);
-the cache is bounded in bytes, so memory does not grow with the model.
+while it and its smaller levels stay cached (they serve the coarse terrain's sampling and the mip
+files); the caches are bounded in bytes, so memory does not grow with the model.
 """
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ class TextureSet:
         self.quality = jpeg_quality
         self.written: dict[str, int] = {}  # file name → bytes
         self._mips: OrderedDict[int, list[np.ndarray]] = OrderedDict()  # levels 1… of each image, by use
-        self._full: tuple[int, np.ndarray] | None = None  # the last level 0 asked for
+        self._full: OrderedDict[int, np.ndarray] = OrderedDict()  # levels 0 asked for, by use
 
     def uri(self, number: int, level: int = 0) -> str:
         """Relative URI (from the tileset's root) of image ``number`` at mip ``level``, written on first use."""
@@ -97,20 +97,31 @@ class TextureSet:
     def level(self, number: int, level: int) -> np.ndarray:
         """Mip ``level`` of image ``number`` (the last level when the chain is shorter), decoded.
 
-        The image is decoded and its chain computed once while its smaller levels stay cached (a
-        quarter of the image and less, least recently used dropped beyond ``_CACHE_BYTES``); level 0
-        is kept for the last image only, so memory does not grow with the model."""
+        Each image is decoded and its chain computed once while it stays cached: levels 0 and the smaller
+        levels each in a cache of ``_CACHE_BYTES``, least recently used dropped beyond it (a leaf samples its
+        ground images and the roof atlases over it, in turn), so memory does not grow with the model."""
         if level <= 0:
-            if self._full is None or self._full[0] != number:
-                self._full = number, read_rgb(self.folder / self.names[number])
-            return self._full[1]
+            if number in self._full:
+                self._full.move_to_end(number)
+            else:
+                self._full[number] = read_rgb(self.folder / self.names[number])
+                _bound(self._full)
+            return self._full[number]
         if number in self._mips:
             self._mips.move_to_end(number)
         else:
-            chain = mip_chain(self._full[1] if self._full and self._full[0] == number
+            chain = mip_chain(self._full[number] if number in self._full
                               else read_rgb(self.folder / self.names[number]))
             self._mips[number] = chain[1:]
-            while len(self._mips) > 1 and sum(a.nbytes for c in self._mips.values() for a in c) > _CACHE_BYTES:
-                self._mips.popitem(last=False)
+            _bound(self._mips)
         mips = self._mips[number]
         return mips[min(level, len(mips)) - 1] if mips else self.level(number, 0)
+
+
+def _bound(cache: OrderedDict) -> None:
+    """Drop the least recently used entries (all but the newest) while the cache holds over ``_CACHE_BYTES``."""
+    def size(entry) -> int:
+        return sum(a.nbytes for a in entry) if isinstance(entry, list) else entry.nbytes
+
+    while len(cache) > 1 and sum(size(e) for e in cache.values()) > _CACHE_BYTES:
+        cache.popitem(last=False)

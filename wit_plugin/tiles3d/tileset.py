@@ -3,7 +3,8 @@
 Tiles form a quadtree over the model's extent (model CRS), with square leaves of ``leaf_size``:
 
 * **Leaves** (geometric error 0) hold the full detail: every building whose footprint centre lies in
-  the leaf (roofs with the texture step's atlases, walls plain and lit) and every TIN triangle whose
+  the leaf (roofs with the texture step's atlases, walls lit, with their generated facades where the texture
+  step made them, else plain) and every TIN triangle whose
   centroid lies in it (terrain and roads with the ground images). Images are the texture folder's,
   copied once into ``textures/`` and referenced by every tile that uses them.
 * **Upper tiles** (``refine: REPLACE``) hold a coarse version of their square: the terrain as a
@@ -43,12 +44,12 @@ from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..io.fileio import atomic_files, refuse_overlap
 from ..io.vector_io import open_step_layer
-from ..meshes import fan_triangles, planar_triangles
+from ..meshes import fan_corners, planar_triangles
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
 from .geo import Georeference, column_major, union_region
-from .glb import GlbBuilder
+from .glb import GlbBuilder, unit_normals
 from .metadata import BUILDING_CLASS, building_schema, property_columns
-from .store import FACE_KINDS, Grid, Store
+from .store import FACE_KINDS, Grid, Store, TriangleRows
 from .textures import TextureSet, encode_image
 from .web import compress_tiles, require_web_profile
 
@@ -97,7 +98,7 @@ class TilesetReport:
 
 @dataclass
 class _Tile:
-    json: dict
+    json: dict | None  # None: no tile (nothing of its own below), its patch only
     frame: np.ndarray
     region: list[float]
     error: float
@@ -153,7 +154,7 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
                              TextureSet(Path(textures) if textures else None, store.images, folder,
                                         config.jpeg_quality))
             root = writer.tile(0, 0, 0)
-            if root is None:
+            if root is None or root.json is None:
                 raise InputError(f"Nothing to export: {lod1 or ''} {tin or ''} hold no faces or triangles.")
             root.json["transform"] = column_major(root.frame)
             if config.web:
@@ -230,6 +231,27 @@ def _distinct_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return points[first], inverse
 
 
+def _fits(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> np.ndarray:
+    """Which faces have a texture row (``uvs``) with one (u, v) per point of their ring."""
+    return np.array([uv is not None and len(uv) == n for uv, n in zip(uvs, np.asarray(ring_counts).tolist())],
+                    dtype=bool)
+
+
+def _roof_triangles(polygons: np.ndarray, uvs: list[np.ndarray | None], images: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Roof faces cut into triangles: corners (t, 3, 3), texture-table uv (t, 3, 2), image number (-1 where the
+    face's row does not fit its ring) and face (t,) of each."""
+    ring_xyz, ring_face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True,
+                                                  return_index=True)
+    textured = _fits(uvs, np.bincount(ring_face, minlength=len(polygons)))
+    values = np.column_stack([ring_xyz[:, 2], np.zeros((len(ring_xyz), 2))])
+    for k in np.flatnonzero(textured).tolist():
+        values[ring_face == k, 1:] = uvs[k]
+    xy, fitted, face = planar_triangles(polygons, values)
+    xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
+    return xyz, fitted[:, :, 1:].copy(), np.where(textured[face], images[face], -1), face
+
+
 def _face_up(xyz: np.ndarray, *others: np.ndarray) -> None:
     """Swap two corners of the triangles wound clockwise seen from above (in place), so they face up."""
     d1, d2 = xyz[:, 1, :2] - xyz[:, 0, :2], xyz[:, 2, :2] - xyz[:, 0, :2]
@@ -245,7 +267,8 @@ class _Writer:
                  report: TilesetReport, feedback: Feedback, textures: TextureSet):
         self.store, self.grid, self.georef, self.folder = store, grid, georef, folder
         self.config, self.report, self.feedback, self.textures = config, report, feedback, textures
-        self.occupied = sorted(store.leaves())
+        self.owned = store.leaves()
+        self.occupied = sorted(self.owned | store.reached())
         self.schema = building_schema(store.fields)
         self.done = 0
 
@@ -255,14 +278,19 @@ class _Writer:
             return None
         self.feedback.check_canceled()
         if level == self.grid.depth:
-            tile = self._leaf(level, col, row, first)
+            if first in self.owned:
+                tile = self._leaf(level, col, row, first)
+                self.report.leaves += 1
+            else:  # only neighbours' triangles or roofs reach in: no tile, its coarse terrain for the levels above
+                tile = _Tile(None, np.eye(4), [], 0.0, self._patch(self.grid.rect(level, col, row),
+                                                                    self.store.triangles(first)))
             self.done += 1
-            self.report.leaves += 1
             self.feedback.progress(30.0 + 70.0 * self.done / len(self.occupied))
         else:
             children = {(dx, dy): self.tile(level + 1, 2 * col + dx, 2 * row + dy) for dy in (1, 0) for dx in (0, 1)}
             tile = self._upper(level, col, row, {k: c for k, c in children.items() if c is not None})
-        self.report.tiles += 1
+        if tile.json is not None:
+            self.report.tiles += 1
         return tile
 
     # --- contents ----------------------------------------------------------------------------
@@ -290,9 +318,23 @@ class _Writer:
             else:
                 glb.triangles(local[mine], glb.plain_material(GROUND_RGB, lit=False, name="ground"))
         corners.append(points)
-        patch = leaf_patch(triangles, rect, self.config.grid_cells, self.config.image_size // 2,
-                           self.textures if self.textures.folder else None)
-        return self._finish(level, col, row, glb, frame, corners, [], 0.0, patch)
+        return self._finish(level, col, row, glb, frame, corners, [], 0.0, self._patch(rect, triangles))
+
+    def _patch(self, rect: tuple[float, float, float, float], triangles: TriangleRows) -> Patch:
+        """A leaf square's coarse terrain: of the TIN ``triangles`` meeting it and the roofs over it."""
+        return leaf_patch(triangles, self._roofs_over(rect), rect, self.config.grid_cells, self.config.image_size // 2,
+                          self.textures if self.textures.folder else None)
+
+    def _roofs_over(self, rect: tuple[float, float, float, float]) -> TriangleRows:
+        """The roofs over ``rect`` as triangles at their building's ground height, for its coarse terrain."""
+        roofs = self.store.roofs(rect)
+        if not len(roofs.polygons):
+            return TriangleRows(np.empty((0, 3, 3)), np.empty(0, dtype=np.int8), np.empty(0, dtype=np.int64),
+                                np.empty((0, 3, 2), dtype=np.float32), np.empty(0, dtype=np.int64))
+        xyz, uv, image, face = _roof_triangles(roofs.polygons, roofs.uv, roofs.image)
+        xyz[:, :, 2] = roofs.base[face][:, None]
+        return TriangleRows(xyz, np.zeros(len(xyz), dtype=np.int8), image, uv.astype(np.float32),
+                            np.zeros(len(xyz), dtype=np.int64))
 
     def _upper(self, level: int, col: int, row: int, children: dict[tuple[int, int], _Tile]) -> _Tile:
         rect = self.grid.rect(level, col, row)
@@ -301,6 +343,9 @@ class _Writer:
         patch = parent_patch(patches, self.config.grid_cells, self.config.image_size)
         for child in children.values():
             child.patch = None  # the parent's patch holds what is needed from now on
+        children = {key: child for key, child in children.items() if child.json is not None}
+        if not children:  # nothing of its own below: its coarse terrain goes on up, no tile
+            return _Tile(None, np.eye(4), [], patch.error, patch)
         cell = (rect[2] - rect[0]) / self.config.grid_cells
         budget = self.config.building_budget
         buildings = self.store.buildings(first, end, min_size=cell, limit=budget)
@@ -326,21 +371,10 @@ class _Writer:
         kind = rows.face_kind
         roofs = np.flatnonzero(kind == FACE_KINDS["roof"])
         if len(roofs):
-            polygons = rows.polygons[roofs]
-            ring_xyz, ring_face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True,
-                                                          return_index=True)
-            ring_counts = np.bincount(ring_face, minlength=len(roofs))
-            values = np.column_stack([ring_xyz[:, 2], np.zeros((len(ring_xyz), 2))])
-            textured = np.array([rows.roof_uv[i] is not None and len(rows.roof_uv[i]) == n
-                                 for i, n in zip(roofs.tolist(), ring_counts.tolist())], dtype=bool)
-            for k in np.flatnonzero(textured).tolist():
-                values[ring_face == k, 1:] = rows.roof_uv[roofs[k]]
-            xy, fitted, face = planar_triangles(polygons, values)
-            xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
-            uv = fitted[:, :, 1:].copy()
+            xyz, uv, image, face = _roof_triangles(rows.polygons[roofs], [rows.face_uv[i] for i in roofs.tolist()],
+                                                   rows.face_image[roofs])
             _face_up(xyz, uv)
             uv[:, :, 1] = 1.0 - uv[:, :, 1]
-            image = np.where(textured[face], rows.roof_image[roofs][face], -1)
             feature = rows.face_building[roofs][face]
             for number in np.unique(image).tolist():
                 mine = image == number
@@ -354,13 +388,40 @@ class _Writer:
             corners.append(xyz.reshape(-1, 3))
         walls = np.flatnonzero(kind == FACE_KINDS["wall"])
         if len(walls):
-            xyz, owner = fan_triangles(rows.polygons[walls])
-            local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
-            glb.triangles(local, glb.plain_material(WALL_RGB, lit=True, name="wall"),
-                          feature=rows.face_building[walls][owner], normals=True)
-            corners.append(xyz.reshape(-1, 3))
+            corners.append(self._walls(glb, frame, rows, walls, mip))
         glb.property_table(self.schema, BUILDING_CLASS, property_columns(self.schema, rows.ids, rows.attributes))
         return corners
+
+    def _walls(self, glb: GlbBuilder, frame: np.ndarray, rows, walls: np.ndarray, mip: int) -> np.ndarray:
+        """Walls with their generated facade (where the texture row fits the ring), else plain; their corners."""
+        polygons = rows.polygons[walls]
+        ring_xyz = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True)
+        counts = shapely.get_num_coordinates(shapely.get_exterior_ring(polygons))
+        textured = _fits([rows.face_uv[i] for i in walls.tolist()], counts)
+        uv = np.zeros((len(ring_xyz), 2))
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        for k in np.flatnonzero(textured).tolist():
+            uv[starts[k]:starts[k] + counts[k]] = rows.face_uv[walls[k]]
+        index, owner = fan_corners(polygons)
+        xyz = ring_xyz[index]
+        local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
+        feature = rows.face_building[walls][owner]
+        image = np.where(textured, rows.face_image[walls], -1)[owner]
+        first = np.concatenate([[True], owner[1:] != owner[:-1]])  # each face's first fan triangle
+        normals = unit_normals(local[first])[np.cumsum(first) - 1]  # one per face: its corners are shared
+        for number in np.unique(image).tolist():
+            mine = image == number
+            if number >= 0:
+                material = glb.facade_material(uri="../../" + self.textures.uri(number, mip),
+                                               name=self.store.images[number])
+                corner_uv = uv[index[mine]].copy()
+                corner_uv[:, :, 1] = 1.0 - corner_uv[:, :, 1]  # texture table: v up; glTF: v down
+                glb.triangles(local[mine], material, corner_uv, feature=feature[mine], normals=normals[mine],
+                              facade=True)
+            else:
+                glb.triangles(local[mine], glb.plain_material(WALL_RGB, lit=True, name="wall"), feature=feature[mine],
+                              normals=normals[mine])
+        return xyz.reshape(-1, 3)
 
     # --- tile bookkeeping --------------------------------------------------------------------
 

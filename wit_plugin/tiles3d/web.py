@@ -8,7 +8,9 @@ them or refuses the tile — QGIS's 3D Tiles layer reads neither, hence the defa
   the node's ``scale`` and ``translation``, so normals are not skewed), when that step is at most
   ``MAX_POSITION_STEP`` (a 256 m leaf: 4 mm, so within 2 mm of the plain profile); larger tiles keep
   float positions. Normals as signed bytes, texture coordinates as 16-bit fractions of the image
-  (when they lie in [0, 1]); feature ids stay float (exact).
+  (when they lie in [0, 1]); those of a generated facade, which repeat along the wall (u up to a module
+  count), as 16-bit steps of 1/``REPEAT_STEPS`` from their least value, scaled back by their material's
+  ``KHR_texture_transform`` (then required too); feature ids stay float (exact).
 * ``EXT_meshopt_compression``: each attribute and index buffer encoded with meshoptimizer's codecs
   (vertex codec version 0, index codec ``TRIANGLES``), after meshoptimizer's vertex-cache order and
   first-use vertex order (the triangles are the same, in another order). A ``fallback`` buffer
@@ -19,7 +21,6 @@ built from source on install); it is needed only when the web profile is asked f
 """
 from __future__ import annotations
 
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -28,9 +29,12 @@ import pygltflib as gl
 from ..deps import require
 from ..feedback import SILENT, Feedback
 from ..io.fileio import atomic_file
+from .glb import glb_bytes
 
 MESHOPT = "EXT_meshopt_compression"
 QUANTIZATION = "KHR_mesh_quantization"
+TEXTURE_TRANSFORM = "KHR_texture_transform"
+REPEAT_STEPS = 512  # steps per image width of repeating texture coordinates: 1.25 cm on a 6.4 m facade module
 MAX_POSITION_STEP = 0.04  # m: half of it (2 cm) stays inside the regions' margins (6 cm, 10 cm)
 ALIGN = 8
 _GRID = 65535
@@ -75,6 +79,7 @@ def compress_glb(data: bytes) -> bytes:
     positions = [_read(gltf, blob, p.attributes.POSITION) for p in primitives]
     origin, step = _position_grid(positions)
     accessors: list[gl.Accessor] = []
+    extensions = {MESHOPT, QUANTIZATION}
     for primitive, position in zip(primitives, positions):
         indices = _read(gltf, blob, primitive.indices).ravel().astype(np.uint32)
         order = np.empty_like(indices)
@@ -84,29 +89,39 @@ def compress_glb(data: bytes) -> bytes:
         number[keep] = np.arange(len(keep), dtype=np.uint32)
         indices = number[order]
         for name, accessor in _attributes(primitive).items():
-            values = position if name == "POSITION" else _read(gltf, blob, accessor)
-            setattr(primitive.attributes, name,
-                    writer.attribute(accessors, meshoptimizer, name, values[keep], origin, step))
+            values = position if name == "POSITION" else _read(gltf, blob, accessor)[keep]
+            if name == "POSITION":
+                values = values[keep]
+            elif name == "TEXCOORD_0" and (values.min() < 0.0 or values.max() > 1.0):
+                values = _repeating(gltf.materials[primitive.material], values)
+                if values.dtype == np.uint16:
+                    extensions.add(TEXTURE_TRANSFORM)
+            setattr(primitive.attributes, name, writer.attribute(accessors, meshoptimizer, name, values, origin, step))
         primitive.indices = writer.indices(accessors, meshoptimizer, indices, len(keep))
     gltf.accessors = accessors
     gltf.bufferViews = [view for _, view in sorted(writer.views.items())]
     if step is not None:
         gltf.nodes[0].translation, gltf.nodes[0].scale = [float(v) for v in origin], [float(step)] * 3
-    gltf.extensionsUsed = sorted(set(gltf.extensionsUsed or []) | {MESHOPT, QUANTIZATION})
-    gltf.extensionsRequired = sorted(set(gltf.extensionsRequired or []) | {MESHOPT, QUANTIZATION})
+    gltf.extensionsUsed = sorted(set(gltf.extensionsUsed or []) | extensions)
+    gltf.extensionsRequired = sorted(set(gltf.extensionsRequired or []) | extensions)
     writer.blob.extend(b"\0" * (-len(writer.blob) % 4))
     gltf.buffers = [gl.Buffer(byteLength=len(writer.blob)),
                     gl.Buffer(byteLength=writer.fallback, extensions={MESHOPT: {"fallback": True}})]
-    return _glb(gltf.to_json(separators=(",", ":")), bytes(writer.blob))
+    return glb_bytes(gltf, bytes(writer.blob))  # (pygltflib's own writer would merge the fallback buffer in)
 
 
-def _glb(document: str, blob: bytes) -> bytes:
-    """The GLB container (pygltflib's own writer would merge the fallback buffer into the binary chunk)."""
-    text = document.encode("utf-8")
-    text += b" " * (-len(text) % 4)
-    length = 12 + 8 + len(text) + 8 + len(blob)
-    return b"".join([struct.pack("<4sII", b"glTF", 2, length), struct.pack("<I4s", len(text), b"JSON"), text,
-                     struct.pack("<I4s", len(blob), b"BIN\0"), blob])
+def _repeating(material: gl.Material, uv: np.ndarray) -> np.ndarray:
+    """Repeating texture coordinates as 16-bit steps from their least value, the material's base colour texture
+    transformed back (its material is this primitive's alone, as ``GlbBuilder`` writes them); as they are when
+    their span needs more than 16 bits."""
+    low = np.floor(uv.min(axis=0) * REPEAT_STEPS) / REPEAT_STEPS
+    steps = np.rint((uv - low) * REPEAT_STEPS)
+    if steps.max() > _GRID:
+        return uv
+    info = material.pbrMetallicRoughness.baseColorTexture
+    info.extensions = {**(info.extensions or {}),
+                       TEXTURE_TRANSFORM: {"offset": [float(v) for v in low], "scale": [1 / REPEAT_STEPS] * 2}}
+    return steps.astype(np.uint16)
 
 
 def _attributes(primitive: gl.Primitive) -> dict[str, int]:
@@ -186,6 +201,8 @@ class _Buffers:
         elif name == "NORMAL":
             values = np.rint(np.clip(values, -1.0, 1.0) * 127).astype(np.int8)
             accessor.componentType, accessor.normalized = gl.BYTE, True
+        elif name.startswith("TEXCOORD") and values.dtype == np.uint16:  # repeating: steps of a transform
+            accessor.componentType = gl.UNSIGNED_SHORT
         elif name.startswith("TEXCOORD") and values.min() >= 0.0 and values.max() <= 1.0:
             values = np.rint(values * _GRID).astype(np.uint16)
             accessor.componentType, accessor.normalized = gl.UNSIGNED_SHORT, True

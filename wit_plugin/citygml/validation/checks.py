@@ -17,6 +17,7 @@ from lxml import etree
 
 from ..namespaces import GML_ID
 from ..reader import RawCounts, envelope_srs
+from .bulk import BulkChecks
 from .context import FileContext
 from .crs import metre_axes
 from .ids import hashes
@@ -40,6 +41,7 @@ class FileCheck:
         self.triangles = TriangleChecks(self.ctx, min_triangle_area)
         self.solids = SolidChecks(self.ctx, vertex_tol, planarity_tol)
         self.textures = TextureChecks(self.ctx)
+        self.bulk = BulkChecks(self.ctx, self.references, self.textures, min_triangle_area)
         self.entities_possible = False
         self.root: etree._Element | None = None
 

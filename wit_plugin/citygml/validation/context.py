@@ -32,6 +32,10 @@ class FileContext:
                             "geometric tolerances take the coordinates as metres.", "warning")
         return frame
 
+    def model_frame(self) -> Frame:
+        """The frame of the model's CRS (of a geometry without an srsName of its own)."""
+        return frame_of(self.model_crs, self.inline_metres)
+
     def warn_swapped(self, frames: list[Frame]) -> None:
         for frame in frames:
             if ("swapped", frame.name) not in self.warned:

@@ -41,6 +41,18 @@ class ReferenceChecks:
         if duplicate.any():
             self._report_duplicates(part, [ids[i] for i in np.flatnonzero(duplicate)])
 
+    def resolve(self, refs: list[str], lines: np.ndarray, hows: list[str]) -> None:
+        """``#id`` references read from the bytes (without '#'): those to no id seen so far wait for the end."""
+        found = self.ids.find(hashes(refs))[0]
+        for k in np.flatnonzero(~found).tolist():
+            self._forward(refs[k], int(lines[k]), hows[k])
+
+    def _forward(self, ref: str, line: int | None, how: str) -> None:
+        """A reference to an id not seen yet: kept with its earliest line."""
+        known = self.forward_refs.get(ref)
+        if known is None or (line is not None and (known[0] is None or line < known[0])):
+            self.forward_refs[ref] = (line, how)
+
     def _report_duplicates(self, part: Part, duplicates: list[str]) -> None:
         """Name each later occurrence (its line) of an id met before."""
         extra: dict[str, int] = {}
@@ -81,7 +93,7 @@ class ReferenceChecks:
                     if text.startswith("#")]
         for line, ref, how in sorted(located, key=lambda item: item[0]):
             if ref in missing:
-                self.forward_refs.setdefault(ref, (line or None, how))
+                self._forward(ref, line or None, how)
         return ring_lookup
 
     def finish(self) -> None:

@@ -84,6 +84,11 @@ class TextureChecks:
         self.forward_tex_rings += [(ring_ids[k], int(pairs[k]), coords[k].sourceline, owner_id(coords[k]))
                                    for k in np.flatnonzero(even & ~found)]
 
+    def compare(self, ring_ids: list[str], pairs: list[int], lines: list[int], texture_ids: list[str | None]) -> None:
+        """Coordinate pairs of rings read from the bytes (``bulk``): compared with the rings seen, the others at the
+        end."""
+        self._compare_tex(list(zip(ring_ids, pairs, lines, texture_ids)), self.forward_tex_rings)
+
     def _compare_tex(self, tex_rings: list, unknown: list | None) -> None:
         """Compare texture pairs with the points of the rings seen; put the others in ``unknown`` (None: ignore)."""
         if not tex_rings:
