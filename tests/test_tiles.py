@@ -890,3 +890,30 @@ def _check_in_the_viewer(output: Path, tmp_path: Path) -> None:
     _, picture = view_in_chromium(output, tmp_path)
     assert not list((tmp_path / "viewer" / "3dtiles").rglob("*.gml"))  # the tilesets alone
     assert (np.abs(picture - picture[0]).sum(axis=1) > 30).mean() > 0.2  # the tiles fill the view
+
+
+def test_every_setting_of_the_run_reaches_its_tiles(sample, tmp_path):
+    """The tile's chain options are the run's: each setting changed from its default arrives at the worker as
+    given (the facades did not: a tiled run's walls were generated whatever FACADES said)."""
+    import dataclasses
+
+    from wit_plugin.heights import HeightOptions
+    from wit_plugin.sheetrun import runner, worker
+
+    changed = dict(target_crs="EPSG:5179", sheet_crs="EPSG:4326", margin=40.0, max_edge=7.0, tolerance=0.25,
+                   triangulator=triangulators.backend(None).key, texture_scale=0.5, facades="none",
+                   outside_ortho="untextured", schema_dir=str(tmp_path / "schemas"),
+                   schema_cache=str(tmp_path / "cache"), tiles3d=False, tiles3d_web=True, encoding="cp949")
+    defaults = ChainOptions(area=None)
+    plain = [f.name for f in dataclasses.fields(ChainOptions) if f.name not in runner.TILE_OWN_OPTIONS]
+    assert sorted(plain) == sorted(changed), "a new ChainOptions field: add it here with a value not its default"
+    assert all(changed[name] != getattr(defaults, name) for name in plain)
+    options = ChainOptions(area=None, heights=HeightOptions(storey_height=3.5), keep_work=True, **changed)
+    polygon = AREA.geometry(pyproj.CRS("EPSG:5179"))
+    sheet = plan.plan_tiles(polygon, "EPSG:5179", 1000)[0].sheet
+    spec = json.loads(json.dumps(runner._spec(_inputs(sample), options, tmp_path, sheet, 1000, polygon, (None, []),
+                                              STAND_IN, "new tile")))  # as Dask sends it: plain values
+    received = worker.tile_options(spec)
+    assert {name: getattr(received, name) for name in plain} == changed
+    assert received.heights.storey_height == 3.5 and received.metrics is False and received.keep_work is False
+    assert received.area.crs == "EPSG:5179" and received.prepare is not None

@@ -14,6 +14,7 @@ serves a run, as on managed clusters.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import os
 import shutil
@@ -103,6 +104,10 @@ def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
     return study_polygon(area, inputs.districts, target_crs, encoding)
 
 
+#: ChainOptions a tile sets itself (its area, its prepared layers, no metrics, no work kept) or sends apart
+TILE_OWN_OPTIONS = frozenset({"area", "heights", "prepare", "metrics", "keep_work"})
+
+
 def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, scale: int, area: BaseGeometry,
           context: tuple[str | None, list[str]], fingerprint: Fingerprint, reason: str) -> dict:
     """Everything one tile needs, as plain values (with the fingerprint it records and why it is built)."""
@@ -110,17 +115,14 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
     if heights.expression is not None:
         raise InputError("A height expression cannot travel to Dask workers: evaluate it into a column of a copy "
                          "of the buildings first and give HeightOptions.expression_column (wit:citymodeltiles does).")
+    plain = {f.name: getattr(options, f.name) for f in dataclasses.fields(options) if f.name not in TILE_OWN_OPTIONS}
+    plain.update(triangulator=triangulators.backend(options.triangulator).key,  # one for all tiles: the seams match
+                 schema_cache=str(options.schema_cache or DEFAULT_SCHEMA_CACHE))
     return {
-        "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area),
-        "target_crs": options.target_crs, "sheet_crs": options.sheet_crs, "margin": options.margin,
-        "max_edge": options.max_edge, "tolerance": options.tolerance, "texture_scale": options.texture_scale,
-        "triangulator": triangulators.backend(options.triangulator).key,  # one for all tiles: the seams match
+        "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area), "options": plain,
         "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
-        "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir, "tiles3d": options.tiles3d,
-        "tiles3d_web": options.tiles3d_web,
-        "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
                    "districts": None},

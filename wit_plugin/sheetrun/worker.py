@@ -48,23 +48,22 @@ def peak_mb() -> float:
     return peak / (1024 * 1024) if sys.platform == "darwin" else peak / 1024
 
 
+def tile_options(spec: dict) -> ChainOptions:
+    """The chain's options of the tile ``spec["sheet"]``: the run's, with the tile's own area and layers."""
+    target_crs = spec["options"]["target_crs"]
+    owner = TileOwner(spec["sheet"], spec["scale"], target_crs, spec["options"]["sheet_crs"], spec["area_wkt"])
+    job = TileJob(owner, spec["context"], tuple(spec["context_layers"]))
+    return ChainOptions(**spec["options"], area=StudyArea.polygon(job.area(target_crs), target_crs),
+                        heights=HeightOptions(**spec["heights"]), metrics=False, prepare=job.prepare_layers)
+
+
 def run_tile(spec: dict) -> dict:
     """Build the tile ``spec["sheet"]``; the index row (status, counts, seconds, peak_mb, gml, error,
     fingerprint, reason) and, unless it failed, the folder it was built in (``STAGED``)."""
     start = time.perf_counter()
     sheet = spec["sheet"]
     folder = Path(spec["output"]) / STAGING_DIR / f"new-{sheet}-{time.time_ns()}-{os.getpid()}"
-    owner = TileOwner(sheet, spec["scale"], spec["target_crs"], spec["sheet_crs"], spec["area_wkt"])
-    job = TileJob(owner, spec["context"], tuple(spec["context_layers"]))
-    options = ChainOptions(
-        area=StudyArea.polygon(job.area(spec["target_crs"]), spec["target_crs"]),
-        target_crs=spec["target_crs"], sheet_crs=spec["sheet_crs"], margin=spec["margin"],
-        max_edge=spec["max_edge"], tolerance=spec["tolerance"], texture_scale=spec["texture_scale"],
-        triangulator=spec["triangulator"],
-        heights=HeightOptions(**spec["heights"]), outside_ortho=spec["outside_ortho"],
-        schema_dir=spec["schema_dir"], schema_cache=spec["schema_cache"], metrics=False,
-        tiles3d=spec["tiles3d"], tiles3d_web=spec["tiles3d_web"], encoding=spec["encoding"],
-        prepare=job.prepare_layers)
+    options = tile_options(spec)
     row = {"sheet": sheet, "buildings": 0, "triangles": 0, "gml": None, "error": None,
            "fingerprint": spec["fingerprint"]["fingerprint"], "reason": spec["reason"]}
     files = []
