@@ -4,6 +4,14 @@ single-process chain on the same 1-tile area beside it (the reference measured i
 
     .venv/bin/python benchmarks/bench_tiles.py [--tiles 1 4 16] [--workers 1 2] [--max-edge 5] [--tiles3d]
     .venv/bin/python benchmarks/bench_tiles.py --district     # one run over a generated 40 km² district
+    .venv/bin/python benchmarks/bench_tiles.py --district --update [--footprints]   # then update that run
+
+``--update`` (after a ``--district`` run with the same ``--tiles3d``): the run updated in place — first back to
+the original inputs (not timed: an earlier ``--update`` edited it), then the same run again (nothing changed:
+every tile kept), then with the buildings of one 1:5,000 sheet edited (every one whose point on surface lies
+in the district's fullest 1:5,000 sheet gets one more storey; ``--footprints``: and a footprint 10 cm
+smaller), then those of one 1:1,000 sheet: wall time, the fingerprints' seconds, tiles kept and rebuilt,
+beside the full run's time.
 
 Data: the generated sample around Suseo (cached in out/bench/tiles/sample); the areas are blocks of
 whole 1:1,000 sheets (1×1, 2×2, 4×4) so every tile is full. Results: a table, and
@@ -51,6 +59,10 @@ def main() -> int:
                         "of Gangnam-gu's size (40 km², all its buildings) on the largest --workers")
     parser.add_argument("--tiles3d", action="store_true", help="each tile also writes its 3D Tiles (as the "
                         "algorithm does by default); off: the CityGML chain alone")
+    parser.add_argument("--update", action="store_true", help="with --district: then update the run (nothing "
+                        "changed; one 1:5,000 sheet's buildings edited; one 1:1,000 sheet's)")
+    parser.add_argument("--footprints", action="store_true", help="with --update: the edited buildings' footprints "
+                        "change too (not only their storeys)")
     args = parser.parse_args()
 
     import shapely
@@ -76,12 +88,21 @@ def main() -> int:
     if args.district:  # a square of 6.32 km a side: Gangnam-gu's 40 km², at the generator's building density
         inputs = sample("district", SampleConfig(radius_m=3162.0, seed=7, ortho_pixel_size=1.0))
         workers = max(args.workers)
+        if args.update:
+            result = json.loads((OUT / "district.json").read_text(encoding="utf-8"))
+            if result.get("tiles3d") != args.tiles3d:
+                sys.exit("Run --district first with the same --tiles3d: --update updates that run.")
+            result["updates"] = updates(inputs, options, OUT / "district-run", workers, args.footprints,
+                                        result["seconds"])
+            (OUT / "district.json").write_text(json.dumps(result, indent=1), encoding="utf-8")
+            return 0
         shutil.rmtree(OUT / "district-run", ignore_errors=True)  # a fresh run, not a resumed one
         start = time.perf_counter()
         report = run_tiles(inputs, options, OUT / "district-run", None, scale=1000, workers=workers)
         seconds = time.perf_counter() - start
         done = [r for r in report.rows if r["status"] in ("done", "empty")]
-        result = {"workers": workers, "seconds": round(seconds, 1), "tiles": len(report.rows), "modelled": len(done),
+        result = {"workers": workers, "tiles3d": args.tiles3d, "seconds": round(seconds, 1), "tiles": len(report.rows),
+                  "modelled": len(done),
                   "failed": report.count("failed"), "buildings": report.buildings,
                   "triangles": sum(r["triangles"] for r in done),
                   "peak_mb_per_worker": max((r["peak_mb"] for r in done), default=0)}
@@ -146,6 +167,111 @@ def main() -> int:
                   f"÷ N/{workers} on N workers")
     (OUT / "results.json").write_text(json.dumps({"reference": reference, "runs": rows}, indent=1), encoding="utf-8")
     return 0
+
+
+def edit_sheet(buildings: str, scale: int, folder: Path, footprints: bool, skip: set[str]) -> tuple[str, str, int]:
+    """A copy of ``buildings`` in ``folder`` where every building whose point on surface lies in the fullest
+    sheet of ``scale`` inside the layer's extent (and not in ``skip``) has one more storey (and, with
+    ``footprints``, a footprint 10 cm smaller): (the copy, the sheet, buildings edited)."""
+    import pyproj
+    import shapely
+    from osgeo import gdal, ogr
+
+    from wit_plugin.io.vector_io import read_layer
+    from wit_plugin.polygons import repair_polygons, transform
+    from wit_plugin.sheetrun.plan import owners, plan_tiles
+    from wit_plugin.sheetrun.prepare import area_of_layer
+
+    shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir(parents=True)
+    source = Path(buildings)
+    for part in source.parent.glob(source.stem + ".*"):
+        shutil.copy(part, folder / part.name)
+    copy = folder / source.name
+    extent = area_of_layer(str(copy), "EPSG:5186")
+    inside = {t.sheet for t in plan_tiles(extent, "EPSG:5186", scale) if extent.contains(t.polygon)} - skip
+    buildings = read_layer(copy)  # the point on surface as a tile finds it: reprojected, then repaired
+    here = repair_polygons(transform(buildings.geoms, buildings.crs, pyproj.CRS("EPSG:5186")),
+                           buildings.unclosed_rings).geoms
+    placed = ~shapely.is_missing(here)
+    fids, geometries = buildings.fids[placed], buildings.geoms[placed]
+    sheets = owners(shapely.get_coordinates(shapely.point_on_surface(here[placed])), "EPSG:5186", scale)
+    sheet = max(inside, key=sheets.count)
+    edited = 0
+    ds = gdal.OpenEx(str(copy), gdal.OF_VECTOR | gdal.OF_UPDATE, open_options=["ENCODING="])
+    layer = ds.GetLayer(0)
+    ds.StartTransaction()
+    for fid, geometry, owner in zip(fids.tolist(), geometries, sheets):
+        if owner == sheet:
+            feature = layer.GetFeature(fid)
+            feature.SetField("GRO_FLO_CO", (feature.GetField("GRO_FLO_CO") or 0) + 1)
+            if footprints:
+                smaller = shapely.make_valid(geometry).buffer(-0.1, join_style="mitre")
+                if smaller.area > 0:
+                    feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(smaller)))
+            layer.SetFeature(feature)
+            edited += 1
+    ds.CommitTransaction()
+    ds = layer = None
+    return str(copy), sheet, edited
+
+
+def updates(inputs, options, output: Path, workers: int, footprints: bool, full: float) -> list[dict]:
+    """The district's run updated: nothing changed, then one 1:5,000 sheet's buildings edited, then one 1:1,000
+    sheet's (another one): wall time beside the full run's."""
+    from dataclasses import replace
+
+    from wit_plugin.feedback import Feedback
+    from wit_plugin.sheetrun.runner import run_tiles
+
+    class Log(Feedback):
+        """Keeps the run's messages with their time: the fingerprints' seconds are one of them, and the groups
+        above the tiles are refreshed from the message that says so to the end."""
+
+        def __init__(self):
+            self.lines: list[tuple[float, str]] = []
+
+        def info(self, message: str) -> None:
+            self.lines.append((time.perf_counter(), message))
+
+        def fingerprint_seconds(self) -> float:
+            line = next(m for _, m in self.lines if m.startswith("Fingerprints of the "))
+            return float(line.rsplit(": ", 1)[1].split(" ")[0])
+
+        def groups_seconds(self) -> float:
+            start = next(t for t, m in self.lines if m.startswith("3D Tiles: the groups above"))
+            end = next(t for t, m in self.lines if m.startswith("Tiles: "))
+            return round(end - start, 1)
+
+    print("back to the original inputs (not timed)", flush=True)
+    run_tiles(inputs, options, output, None, scale=1000, workers=workers)
+    rows, edited = [], set()
+    cases = [("nothing changed", None), ("one 1:5,000 sheet's buildings edited", 5000),
+             ("one 1:1,000 sheet's buildings edited", 1000)]
+    for label, scale in cases:
+        row = {"case": label}
+        if scale:
+            buildings, row["sheet"], row["buildings_edited"] = edit_sheet(
+                inputs.buildings, scale, OUT / f"district-edit-{scale}", footprints, edited)
+            inputs = replace(inputs, buildings=buildings)
+            edited.add(row["sheet"])
+        log = Log()
+        start = time.perf_counter()
+        report = run_tiles(inputs, options, output, None, scale=1000, workers=workers, feedback=log)
+        row.update(seconds=round(time.perf_counter() - start, 1), fingerprints_seconds=log.fingerprint_seconds(),
+                   groups_seconds=log.groups_seconds() if options.tiles3d else 0.0,
+                   share_of_full=round((time.perf_counter() - start) / full, 3), kept=len(report.update.kept),
+                   rebuilt=len(report.update.rebuilt), reasons=report.reasons(), added=len(report.update.added),
+                   removed=len(report.update.removed))
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    print(f"\n| update of the district (full run {full / 60:.1f} min) | wall s | share of the full run | "
+          "fingerprints s | groups s | tiles kept | rebuilt |\n|---|---:|---:|---:|---:|---:|---:|")
+    for row in rows:
+        print(f"| {row['case']}{' (' + str(row['buildings_edited']) + ' buildings)' if 'sheet' in row else ''} | "
+              f"{row['seconds']} | {row['share_of_full']:.1%} | {row['fingerprints_seconds']} | "
+              f"{row['groups_seconds']} | {row['kept']} | {row['rebuilt']} |")
+    return rows
 
 
 if __name__ == "__main__":

@@ -173,7 +173,7 @@ def stress(args: argparse.Namespace) -> int:
         failed = {r["sheet"]: r["error"] for r in run.rows if r["status"] == "failed"}
         reference = reference or (prints if not failed else None)
         differ = sorted(s for s in prints if reference and prints[s] != reference.get(s))
-        leftovers = sorted(str(p.relative_to(run.output)) for p in Path(run.output).glob("tiles/*/.wit-run-*"))
+        leftovers = sorted(str(p.relative_to(run.output)) for p in Path(run.output).glob(".wit-staging/*"))
         result = {"scenario": scenario, "run": k, "seconds": round(seconds, 1), "done": run.count("done"),
                   "empty": run.count("empty"), "failed": failed, "differ": differ, "leftovers": leftovers,
                   "buildings": run.buildings, **extra}

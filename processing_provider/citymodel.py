@@ -23,6 +23,7 @@ from .qgis_compat import AlgorithmFlag, FileBehavior, NumberType, SourceType
 from .shared_parameters import (
     CITYJSON,
     MAX_EDGE,
+    REBUILD,
     ROADS_LABEL,
     ROADS_TYPES,
     TOLERANCE,
@@ -32,6 +33,7 @@ from .shared_parameters import (
     add_facade_parameter,
     add_height_parameters,
     add_mesh_parameters,
+    add_rebuild_parameter,
     add_triangulator_parameter,
     add_web_profile_parameter,
     facade_choice,
@@ -66,7 +68,11 @@ class CityModel(WitAlgorithm):
         "into the project as a group for the 3D map view. Everything appears at the end, so "
         "a failed or cancelled run leaves nothing. Intermediate files are deleted unless kept (then in "
         "<output>/work). Study area: a legal dong (code or name) if given, else the polygon layer, else the "
-        "centre point and radius."
+        "centre point and radius. Run again into the same folder, it compares what the model was built from "
+        "(build.json: every setting, the plugin's version, the triangulator, and the inputs as the run reads "
+        "them, by content) and builds it again only if something changed, saying what (REBUILT, "
+        "REBUILD_REASON); otherwise it does no work and reports the result recorded. REBUILD builds it again "
+        "anyway."
     )
     requirements = ("shapely", "pythoncdt", "pyproj", "lxml")
 
@@ -95,6 +101,7 @@ class CityModel(WitAlgorithm):
         add_web_profile_parameter(self, advanced=True)
         self.addParameter(QgsProcessingParameterBoolean(
             self.KEEP_WORK, self.tr("Keep the intermediate files"), defaultValue=False))
+        add_rebuild_parameter(self)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputFile("GML", self.tr("CityGML file")))
         self.addOutput(QgsProcessingOutputFile("CITYJSON_FILE", self.tr("CityJSON file (model.city.json)")))
@@ -108,6 +115,9 @@ class CityModel(WitAlgorithm):
                                                                        "orthoimage")))
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset (tileset.json)")))
         self.addOutput(QgsProcessingOutputString("STEP_TIMES", self.tr("Seconds per step (JSON)")))
+        self.addOutput(QgsProcessingOutputBoolean("REBUILT", self.tr("Built by this run (false: nothing had changed "
+                                                                     "since the last run into the folder)")))
+        self.addOutput(QgsProcessingOutputString("REBUILD_REASON", self.tr("Why it was built (what changed)")))
 
     def add_chain_parameters(self) -> None:
         """The inputs and options of the chain (wit:citymodeltiles takes the same)."""
@@ -169,12 +179,14 @@ class CityModel(WitAlgorithm):
         return inputs, options, expression
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.chain import run_city_model
+        from ..wit_plugin.chain.rerun import update_city_model
 
         inputs, options, expression = self.chain_settings(parameters, context, feedback)
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
-        report = run_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context), feedback)
+        update = update_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context),
+                                   self.parameterAsBool(parameters, REBUILD, context), feedback)
+        report = update.report
         load_results(context, lod1=report.lod1, tin=report.tin,  # QGIS cannot read the web profile
                      tileset=None if options.tiles3d_web else report.tileset)
         if expression is not None and expression.failure_warning():
@@ -185,5 +197,5 @@ class CityModel(WitAlgorithm):
             "METRICS": report.metrics, "VALID": report.valid, "ERROR_COUNT": report.errors,
             "BUILDINGS_WRITTEN": report.buildings, "DEFAULT_HEIGHTS": report.default_heights,
             "UNTEXTURED": report.untextured_outside, "TILESET": report.tileset,
-            "STEP_TIMES": json.dumps(report.seconds),
+            "STEP_TIMES": json.dumps(report.seconds), "REBUILT": update.rebuilt, "REBUILD_REASON": update.reason,
         }

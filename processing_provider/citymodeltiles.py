@@ -1,4 +1,5 @@
 """wit:citymodeltiles — the whole chain over a district or a city, in NGII map-sheet tiles on Dask."""
+import json
 import os
 
 from qgis.core import (
@@ -8,6 +9,7 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
+    QgsProcessingOutputString,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterEnum,
@@ -25,7 +27,7 @@ from .base import crs_string
 from .citymodel import CityModel
 from .load_results import load_index, load_results
 from .qgis_compat import FieldType, NumberType, ParameterFlag
-from .shared_parameters import add_web_profile_parameter
+from .shared_parameters import REBUILD, add_rebuild_parameter, add_web_profile_parameter
 
 EXPRESSION_COLUMN = "wit_expr_height"
 
@@ -47,10 +49,15 @@ class CityModelTiles(CityModel):
         "scheduler (SCHEDULER, e.g. tcp://10.0.0.5:8786: a stock dask scheduler, whose workers import the "
         "plugin's core wit_plugin and see the same files). The output folder receives tiles/<sheet>/model.gml (with "
         "textures and validation.html) per tile and index.gpkg, a map of the run (status done / failed / "
-        "empty, buildings, triangles, seconds, peak memory, error). A tile whose data cannot be made fails "
-        "with its reason and the others go on; the algorithm then ends with an error giving the count and "
-        "the first reasons, the tiles done kept: a run started again on the same folder skips them; Cancel "
-        "stops every tile. A tile that keeps no building (a park, a hill, buildings that all belong to "
+        "empty, buildings, triangles, seconds, peak memory, error, fingerprint, reason). A tile whose data "
+        "cannot be made fails with its reason and the others go on; the algorithm then ends with an error "
+        "giving the count and the first reasons, the tiles done kept; Cancel stops every tile. Run again into "
+        "the same folder, it updates the city: each tile records what it was built from (every setting, the "
+        "plugin's version, the triangulator, and its inputs as they fall in its area with the margin it reads, "
+        "by content); the tiles whose inputs and settings have not changed are kept as they are, the others "
+        "built again, tiles that left the area removed and new ones built, and the levels above refreshed "
+        "where a child changed (TILES_KEPT, TILES_REBUILT with REBUILD_REASONS, TILES_ADDED, TILES_REMOVED). "
+        "REBUILD builds every tile again. A tile that keeps no building (a park, a hill, buildings that all belong to "
         "neighbouring tiles or are too small) still gets its terrain and roads (status empty). With 3D Tiles "
         "on, each tile writes its tileset and tileset.json at the top of the output folder joins them into "
         "one, below groups by map sheet (1:5,000, 1:50,000, 1° block, as many levels as the run needs) that "
@@ -93,6 +100,7 @@ class CityModelTiles(CityModel):
             self.TILES3D, self.tr("Write a 3D Tiles 1.1 tileset over all tiles (tileset.json) for viewers"),
             defaultValue=True))
         add_web_profile_parameter(self, advanced=True)
+        add_rebuild_parameter(self)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputVectorLayer("INDEX", self.tr("Tile index")))
         self.addOutput(QgsProcessingOutputFile("CITYJSON_INDEX", self.tr("CityJSONSeq header of the run "
@@ -100,9 +108,15 @@ class CityModelTiles(CityModel):
         self.addOutput(QgsProcessingOutputFile("TILESET", self.tr("3D Tiles tileset over all tiles (tileset.json)")))
         for name, label in (("TILES_DONE", self.tr("Tiles done")), ("TILES_FAILED", self.tr("Tiles failed")),
                             ("TILES_EMPTY", self.tr("Tiles without buildings")),
-                            ("TILES_RESUMED", self.tr("Tiles already done before this run")),
+                            ("TILES_KEPT", self.tr("Tiles kept as they were (nothing they read had changed)")),
+                            ("TILES_RESUMED", self.tr("Tiles already done before this run (kept: as TILES_KEPT)")),
+                            ("TILES_REBUILT", self.tr("Tiles built again (what they read had changed)")),
+                            ("TILES_ADDED", self.tr("Tiles new to the output")),
+                            ("TILES_REMOVED", self.tr("Tiles removed (they left the area)")),
                             ("BUILDINGS_WRITTEN", self.tr("Buildings written"))):
             self.addOutput(QgsProcessingOutputNumber(name, label))
+        self.addOutput(QgsProcessingOutputString(
+            "REBUILD_REASONS", self.tr("Why tiles were built again (JSON: reason → number of tiles)")))
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.area import StudyArea
@@ -127,7 +141,8 @@ class CityModelTiles(CityModel):
         report = run_tiles(inputs, options, output, area, TILE_SCALES[self.parameterAsEnum(
             parameters, self.TILE_SCALE, context)], self.parameterAsString(parameters, self.SCHEDULER, context).strip()
             or None, self.parameterAsInt(parameters, self.WORKERS, context),
-            self.parameterAsFile(parameters, self.WORKER_PYTHON, context) or None, feedback)
+            self.parameterAsFile(parameters, self.WORKER_PYTHON, context) or None, feedback,
+            self.parameterAsBool(parameters, REBUILD, context))
         failed = [row for row in report.rows if row["status"] == "failed"]
         if failed:
             reasons = "; ".join(f"{row['sheet']}: {row['error'].splitlines()[0][:300]}" for row in failed[:3])
@@ -140,7 +155,10 @@ class CityModelTiles(CityModel):
         return {self.OUTPUT: output, "INDEX": report.index, "TILESET": report.tileset,
                 "CITYJSON_INDEX": report.cityjson, "TILES_DONE": report.count("done"),
                 "TILES_FAILED": report.count("failed"), "TILES_EMPTY": report.count("empty"),
-                "TILES_RESUMED": report.resumed, "BUILDINGS_WRITTEN": report.buildings}
+                "TILES_KEPT": len(report.update.kept), "TILES_RESUMED": report.resumed,
+                "TILES_REBUILT": len(report.update.rebuilt), "TILES_ADDED": len(report.update.added),
+                "TILES_REMOVED": len(report.update.removed), "REBUILD_REASONS": json.dumps(report.reasons()),
+                "BUILDINGS_WRITTEN": report.buildings}
 
     def _evaluated_copy(self, parameters, context, expression, output, feedback) -> str:
         """The buildings layer with the height expression's value in EXPRESSION_COLUMN, in <output>/work."""

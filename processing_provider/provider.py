@@ -1,9 +1,8 @@
 """The ``wit`` Processing provider."""
-import configparser
-
 from qgis.core import QgsApplication, QgsProcessingModelAlgorithm, QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
+from ..wit_plugin.version import plugin_version
 from .base import PLUGIN_DIR
 from .citymodel import CityModel
 from .citymodeltiles import CityModelTiles
@@ -70,13 +69,6 @@ class ShippedModel(QgsProcessingModelAlgorithm):
 
     def createInstance(self):  # noqa: N802
         return ShippedModel(self.sourceFilePath(), self._display_name)
-
-
-def plugin_version() -> str:
-    """The plugin's version from metadata.txt, its one source (what QGIS's plugin manager shows)."""
-    card = configparser.ConfigParser(interpolation=None)
-    card.read(PLUGIN_DIR / "metadata.txt", encoding="utf-8")
-    return card["general"]["version"]
 
 
 class WitProvider(QgsProcessingProvider):

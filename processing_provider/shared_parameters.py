@@ -38,6 +38,7 @@ MAX_EDGE, TOLERANCE = "MAX_EDGE", "TOLERANCE"
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
 WEB_PROFILE = "WEB_PROFILE"
 CITYJSON = "CITYJSON"
+REBUILD = "REBUILD"
 FACADES = "FACADES"
 #: the FACADES options, in the order of wit_plugin.texture.config.FACADE_CHOICES (a test holds them equal)
 FACADE_OPTIONS = (translatable("None: plain walls"),
@@ -224,3 +225,10 @@ def add_cityjson_parameter(algorithm) -> None:
     algorithm.addParameter(QgsProcessingParameterBoolean(
         CITYJSON, tr("Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile "
                      "and index.city.jsonl)"), defaultValue=False))
+
+
+def add_rebuild_parameter(algorithm) -> None:
+    """Build everything again into an existing output, even what has not changed (off: an update)."""
+    algorithm.addParameter(QgsProcessingParameterBoolean(
+        REBUILD, tr("Build everything again, even what has not changed since the last run into this folder"),
+        defaultValue=False))

@@ -20,7 +20,7 @@ CORE, GLUE = "wit_plugin", "processing_provider"
 LAYERS: tuple[tuple[str, frozenset[str]], ...] = (
     ("infrastructure", frozenset({
         "arrays", "deps", "dem", "errors", "feedback", "gc_pause", "gdal_env", "installer", "interpreter", "io",
-        "mapsheet", "meshes", "numtext", "pip_bootstrap", "polygons", "raster_crs", "step_layers",
+        "mapsheet", "meshes", "numtext", "pip_bootstrap", "polygons", "raster_crs", "step_layers", "version",
     })),
     ("steps", frozenset({
         "area", "citygml", "cityjson", "colorstore", "extrude", "georef", "heights", "metrics", "mosaic", "preview",

@@ -25,6 +25,7 @@ from lxml import etree
 from wit_plugin import triangulators
 from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+from wit_plugin.chain.fingerprint import Fingerprint
 from wit_plugin.cityjson.validate import validate_cityjson_files
 from wit_plugin.errors import CanceledError
 from wit_plugin.feedback import Feedback
@@ -344,7 +345,7 @@ def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_wit
     ds = None
     row = worker.run_tile(_one_tile_spec(sample, tmp_path, sample.park, buildings=str(buildings)))
     assert (row["status"], row["buildings"], row["error"]) == ("empty", 0, None), row
-    gml = tmp_path / "out" / row["gml"]
+    gml = tmp_path / "out" / row[worker.STAGED] / "model.gml"  # built, not yet in its place (the runner moves it)
     assert _building_ids(gml) == [] and len(_ground_triangles(gml)) == row["triangles"] > 20
 
 
@@ -357,7 +358,10 @@ def _one_tile_spec(sample, tmp_path: Path, sheet: str, **inputs) -> dict:
     context = prepare_context(str(sample.roads), str(sample.districts), polygon, "EPSG:5186",
                               str(tmp_path / "context.gpkg"))
     return runner._spec(_inputs(sample, **inputs), _options(), tmp_path / "out", sheet, 1000, polygon,
-                        (str(tmp_path / "context.gpkg"), context))
+                        (str(tmp_path / "context.gpkg"), context), STAND_IN, "new tile")
+
+
+STAND_IN = Fingerprint({"max_edge": 15.0}, {"buildings": "0" * 32})  # what a tile built alone records
 
 
 def test_a_tile_is_built_when_gdal_objects_outlive_their_use(sample, local_run, tmp_path, monkeypatch):
@@ -447,14 +451,15 @@ def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, 
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
     tile = plan.plan_tiles(polygon, "EPSG:5186", 1000)[0]
-    spec = runner._spec(_inputs(sample), _options(), tmp_path, tile.sheet, 1000, polygon, (None, []))
+    spec = runner._spec(_inputs(sample), _options(), tmp_path, tile.sheet, 1000, polygon, (None, []), STAND_IN,
+                        "new tile")
     folder = worker.tile_folder(tmp_path, tile.sheet)
     write_index(tmp_path, [tile], "EPSG:5186", {})
     calls = []
 
     def fails_midway(*args, **kwargs):
         calls.append(args)
-        (folder / ".wit-run-x").mkdir(parents=True)
+        (Path(args[2]) / ".wit-run-x").mkdir(parents=True)  # the folder the tile is built in, half written
         raise TypeError("'NoneType' object is not subscriptable")
 
     monkeypatch.setattr(worker, "run_city_model", fails_midway)  # the in-process worker imports this module
@@ -464,18 +469,17 @@ def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, 
     row = rows[tile.sheet]
     assert len(calls) == 1 and row["status"] == "failed"
     assert row["error"].startswith("TypeError: 'NoneType' object is not subscriptable (Traceback")
-    assert "fails_midway" in row["error"] and not folder.exists()
+    assert "fails_midway" in row["error"] and not folder.exists() and not list(tmp_path.glob(".wit-staging/*"))
     assert read_index(tmp_path)[tile.sheet]["status"] == "failed"
 
 
 def test_a_tile_spec_and_its_row_are_plain_values(sample, local_run):
     """What travels through the scheduler: JSON values only (nothing of the core to unpickle there)."""
-    import json
-
     from wit_plugin.sheetrun import runner
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
-    spec = runner._spec(_inputs(sample), _options(), Path("/out"), "376081", 1000, polygon, ("/out/c.gpkg", ["x"]))
+    spec = runner._spec(_inputs(sample), _options(), Path("/out"), "376081", 1000, polygon, ("/out/c.gpkg", ["x"]),
+                        STAND_IN, "new tile")
     assert json.loads(json.dumps(spec)) == spec
     rows = local_run[1].rows
     assert json.loads(json.dumps(rows)) == rows
@@ -499,7 +503,8 @@ def test_cancel_stops_the_run_and_leaves_no_half_tile(sample, tmp_path):
     index = read_index(tmp_path / "out")
     assert "pending" in {r["status"] for r in index.values()}
     for folder in (tmp_path / "out" / "tiles").glob("*"):
-        assert (folder / "model.gml").is_file() and not list(folder.glob(".wit-run-*"))
+        assert (folder / "model.gml").is_file() and (folder / "build.json").is_file()
+    assert not list((tmp_path / "out").glob(".wit-staging/new-*"))  # nothing half-built is left
 
 
 # -- a real distributed cluster: dask scheduler + dask worker processes --------------------------
@@ -606,7 +611,7 @@ def test_a_killed_worker_costs_only_its_tile(cluster, sample, local_run, tmp_pat
     killer.join()
     failed = [r for r in report.rows if r["status"] == "failed"]
     assert killer.killed and not failed and report.buildings == local_run[1].buildings, (killer.killed, failed)
-    assert not list((tmp_path / "out").glob("tiles/*/.wit-run-*"))  # nothing of the killed attempt is left
+    assert not (tmp_path / "out" / ".wit-staging").exists()  # nothing of the killed attempt is left
 
 
 def test_a_tile_whose_worker_dies_too_often_is_failed_and_the_others_go_on(sample, local_run, tmp_path):
@@ -733,7 +738,8 @@ def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_ru
     """A DEM with a hole under one tile (the check before the cluster lets it through: 1 % of the area):
     qgis_process exits non-zero with the count and the first reasons, the tiles done stay; through
     Processing on the same folder the same error (the tiles done are not built again); with the whole DEM
-    the run ends complete, building only the tile that had failed."""
+    the run ends complete, building again the tile that had failed and the one whose DEM window held part
+    of the hole (its edge), keeping the two others."""
     from qgis.core import QgsProcessingException
 
     out = tmp_path / "out"
@@ -755,7 +761,10 @@ def test_failed_tiles_fail_the_algorithm_and_the_tiles_done_stay_for_the_next_ru
         run_algorithm("wit:citymodeltiles", parameters)
     assert {s: (out / index[s]["gml"]).stat().st_mtime_ns for s in done} == done  # resumed, not built again
     result = run_algorithm("wit:citymodeltiles", _parameters(sample, out))
-    assert (result["TILES_RESUMED"], result["TILES_FAILED"]) == (len(done), 0)
+    assert (result["TILES_KEPT"], result["TILES_REBUILT"], result["TILES_FAILED"]) == (len(done) - 1, 2, 0)
+    assert json.loads(result["REBUILD_REASONS"]) == {"dem": 1, "failed before": 1}
+    assert read_index(out)["377090320"]["reason"] == "dem" and read_index(out)["377090321"]["reason"] == \
+        "failed before"
     assert result["BUILDINGS_WRITTEN"] == local_run[1].buildings
     assert {s: r["status"] for s, r in read_index(out).items()} == {r["sheet"]: r["status"] for r in local_run[1].rows}
 
@@ -769,8 +778,6 @@ def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_pat
             args.append(f"--{name}={item}")
     result = subprocess.run(args, capture_output=True, text=True, env=env, timeout=900)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
-    import json
-
     report = json.loads(result.stdout[result.stdout.index("{"):])
     assert report["results"]["TILES_DONE"] == local_run[1].count("done")
     assert report["results"]["BUILDINGS_WRITTEN"] == local_run[1].buildings
@@ -783,8 +790,6 @@ def test_citymodeltiles_headless_through_qgis_process(sample, local_run, tmp_pat
 
 def _tile_refs(output: Path) -> list[str]:
     """The tiles' tilesets (paths relative to ``output``) that the run's group files refer to, once each."""
-    import json
-
     refs = []
     for file in (output / "3dtiles-groups").glob("*.json"):
         for child in json.loads(file.read_text(encoding="utf-8"))["root"]["children"]:
@@ -798,8 +803,6 @@ def _check_run_tileset(path: Path, local) -> None:
     """One tileset over the tiles: the groups above them (1:5,000 sheets and up), each a tileset file of its
     own with its coarse terrain and its largest buildings; every tile's tileset referred to once; our
     checker finds nothing (regions nested, errors falling, metadata complete); transforms cancel out."""
-    import json
-
     from wit_plugin.tiles3d.check import check_tileset
 
     out = path.parent
@@ -875,8 +878,6 @@ def test_the_core_installs_with_one_pip_command_for_workers(tmp_path):
 def _check_from_afar(output: Path, tmp_path: Path) -> None:
     """Zoomed out (4 radii of the run's bounding sphere), the viewer loads the top group's content alone and
     shows buildings (a bug once: from afar the groups held terrain only): a click names one."""
-    import json
-
     report, picture = view_in_chromium(output, tmp_path, click=True, query="?range=4")
     top = json.loads((output / "tileset.json").read_text(encoding="utf-8"))["root"]["children"]
     assert len(top) == 1 and report["loadedTiles"] == 2  # the top group's file and its content, no tile
@@ -914,3 +915,32 @@ def test_the_tiles_cityjsonseqs_join_into_one_valid_sequence(local_run, tmp_path
     (valid,) = validate_cityjson_files([str(joined)])
     joined.unlink()
     assert valid.valid, valid.issues[:5]
+
+
+def test_every_setting_of_the_run_reaches_its_tiles(sample, tmp_path):
+    """The tile's chain options are the run's: each setting changed from its default arrives at the worker as
+    given (the facades did not: a tiled run's walls were generated whatever FACADES said)."""
+    import dataclasses
+
+    from wit_plugin.heights import HeightOptions
+    from wit_plugin.sheetrun import runner, worker
+
+    changed = dict(target_crs="EPSG:5179", sheet_crs="EPSG:4326", margin=40.0, max_edge=7.0, tolerance=0.25,
+                   triangulator=triangulators.backend(None).key, texture_scale=0.5, facades="none",
+                   outside_ortho="untextured", schema_dir=str(tmp_path / "schemas"),
+                   schema_cache=str(tmp_path / "cache"), tiles3d=False, tiles3d_web=True, encoding="cp949",
+                   cityjson=True)
+    defaults = ChainOptions(area=None)
+    plain = [f.name for f in dataclasses.fields(ChainOptions) if f.name not in runner.TILE_OWN_OPTIONS]
+    assert sorted(plain) == sorted(changed), "a new ChainOptions field: add it here with a value not its default"
+    assert all(changed[name] != getattr(defaults, name) for name in plain)
+    options = ChainOptions(area=None, heights=HeightOptions(storey_height=3.5), keep_work=True, **changed)
+    polygon = AREA.geometry(pyproj.CRS("EPSG:5179"))
+    sheet = plan.plan_tiles(polygon, "EPSG:5179", 1000)[0].sheet
+    spec = json.loads(json.dumps(runner._spec(_inputs(sample), options, tmp_path, sheet, 1000, polygon, (None, []),
+                                              STAND_IN, "new tile")))  # as Dask sends it: plain values
+    received = worker.tile_options(spec)
+    assert {name: getattr(received, name) for name in plain} == changed
+    assert received.heights.storey_height == 3.5 and received.metrics is False and received.keep_work is False
+    assert received.area.crs == "EPSG:5179" and received.prepare is not None
+    assert received.cityjson_part.suffix == f"_{sheet}" and received.cityjson_part.folder == f"tiles/{sheet}"

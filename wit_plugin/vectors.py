@@ -366,6 +366,17 @@ def _polygon_layer(layer: VectorLayer, name: str, prefix: str, keys: Sequence[Se
     return _Prepared(name, out, [ids[i] for i in keep]), stats
 
 
+#: building ids: the road-name-address building number, else its parts, NGII's feature id UFID, OpenStreetMap's osm_id
+BUILDING_KEYS = [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO"), ("UFID",), ("osm_id",)]
+BUILDING_PREFIX = "BLD"
+
+
+def building_reach(area: shapely.Geometry, context_margin: float) -> shapely.Geometry:
+    """Where the buildings of ``area`` are read from: the area, grown by the neighbours' ``context_margin``
+    (a tile's; see ``PrepareConfig.owner``)."""
+    return area.buffer(context_margin) if context_margin > 0 else area
+
+
 #: road ids: juso road sections share one (merged), NGII's feature id UFID, OpenStreetMap's osm_id
 ROAD_KEYS = [("SIG_CD", "RDS_MAN_NO"), ("UFID",), ("osm_id",)]
 
@@ -504,10 +515,9 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
     dropped: list[DroppedFeature] = []
     results: list[tuple[_Prepared, LayerStats]] = []
     if buildings:
-        reach = polygon.buffer(config.context_margin) if config.context_margin > 0 else polygon
-        layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config, reach, feedback.scaled(10, 30))
-        results.append(_polygon_layer(layer, step_layers.PREPARED_BUILDINGS, "BLD",
-                                      [("BD_MGT_SN",), ("SIG_CD", "BUL_MAN_NO"), ("UFID",), ("osm_id",)], polygon,
+        layer = _read(str(buildings), "buildings", BUILDING_FIELDS, target, config,
+                      building_reach(polygon, config.context_margin), feedback.scaled(10, 30))
+        results.append(_polygon_layer(layer, step_layers.PREPARED_BUILDINGS, BUILDING_PREFIX, BUILDING_KEYS, polygon,
                                       config.building_tolerance, False, config, dropped, feedback.scaled(30, 70)))
     if roads:
         feedback.check_canceled()

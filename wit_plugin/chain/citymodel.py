@@ -60,6 +60,7 @@ DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
 TILESET_DIR = "3dtiles"
 TILES3D_MODULES = ("numpy", "shapely", "pyproj", "pygltflib", "osgeo")
 MOSAIC_MARGIN = 10.0  # m of orthoimage kept around the area's box
+STEPS_FILE = "steps.json"
 
 #: (label, share of the progress bar) of each step, in order (3dtiles runs beside validate and metrics)
 STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("terrain", 10), ("extrude", 4),
@@ -157,6 +158,7 @@ class ChainReport:
     tin: str | None = None
     tileset: str | None = None
     cityjson: str | None = None
+    files: list[str] = field(default_factory=list)  # what the run put in the output folder (names in it)
 
     def as_dict(self) -> dict:
         return {k: v for k, v in self.__dict__.items()}
@@ -228,12 +230,12 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     staging = Path(tempfile.mkdtemp(prefix=".wit-run-", dir=output))
     try:
         report = _run(inputs, options, output, staging, clock)
-        _publish(staging, output)
+        report.files = _publish(staging, output) + [STEPS_FILE]
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     report.seconds = {label: clock.seconds[label] for label, _ in STEPS if label in clock.seconds}
     report.wall_seconds = round(time.perf_counter() - started, 3)
-    (output / "steps.json").write_text(json.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
+    (output / STEPS_FILE).write_text(json.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
                                        encoding="utf-8")
     feedback.info("Seconds per step: " + ", ".join(f"{k} {v:.1f}" for k, v in report.seconds.items())
                   + f"; {report.wall_seconds:.1f} s in all (3D Tiles beside validation and metrics)")
@@ -241,8 +243,9 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     return report
 
 
-def _publish(staging: Path, output: Path) -> None:
-    """Move every result from the staging folder into the output folder, replacing older results."""
+def _publish(staging: Path, output: Path) -> list[str]:
+    """Move every result from the staging folder into the output folder, replacing older results; their names."""
+    names = []
     for item in sorted(staging.iterdir()):
         target = output / item.name
         if target.is_dir() and not target.is_symlink():
@@ -250,6 +253,8 @@ def _publish(staging: Path, output: Path) -> None:
         elif target.exists() or target.is_symlink():
             target.unlink()
         os.replace(item, target)
+        names.append(item.name)
+    return names
 
 
 def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock) -> ChainReport:

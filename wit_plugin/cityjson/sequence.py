@@ -59,7 +59,13 @@ def write_run_index(output: Path, parts: list[tuple[str, str]], srs_name: str,
     envelope = tuple(lower + upper) if listed and math.isfinite(lower[0]) else (*translate, *translate)
     start = header(srs_name, envelope, Transform(translate))
     start["metadata"]["parts"] = listed
-    target = output / RUN_INDEX
-    with atomic_file(target) as tmp:
-        tmp.write_text(json_text({**start, "CityObjects": {}, "vertices": []}) + "\n", encoding="utf-8")
+    target, text = output / RUN_INDEX, json_text({**start, "CityObjects": {}, "vertices": []}) + "\n"
+    if not (target.is_file() and target.read_text(encoding="utf-8") == text):  # an update: only where it changed
+        with atomic_file(target) as tmp:
+            tmp.write_text(text, encoding="utf-8")
     return str(target)
+
+
+def remove_run_index(output: Path) -> None:
+    """An earlier run's ``index.city.jsonl``: its parts are gone once the tiles are built without CityJSON."""
+    (output / RUN_INDEX).unlink(missing_ok=True)

@@ -244,3 +244,31 @@ def atomic_files(targets: list[str | os.PathLike]) -> Iterator[Path]:
         raise
     finally:
         shutil.rmtree(tmp_dir, ignore_errors=True)
+
+
+def swap_folder(new: Path | None, target: Path, old: Path) -> None:
+    """Put the folder ``new`` (None: nothing) in ``target``'s place: the previous ``target`` moves to ``old``
+    first and is deleted last, so a reader finds the whole old folder or the whole new one. A failed second
+    rename puts the old folder back; killed between the two, ``old`` stays and ``target`` is missing:
+    ``restore_folder`` (run first by whoever swaps there next) puts it back."""
+    if target.exists():
+        old.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(target, old)
+    try:
+        if new is not None:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(new, target)
+    except BaseException:
+        restore_folder(target, old)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def restore_folder(target: Path, old: Path) -> None:
+    """After a ``swap_folder`` that was killed: ``old`` back in ``target``'s place if that is empty, else deleted."""
+    if not old.exists():
+        return
+    if target.exists():
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(old, target)

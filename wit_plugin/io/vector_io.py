@@ -273,6 +273,17 @@ def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedb
     return layer
 
 
+def bbox_transformer(bbox_crs: pyproj.CRS, source_crs: pyproj.CRS) -> pyproj.Transformer | None:
+    """What takes a box in ``bbox_crs`` to the layer's CRS (``source_bbox``); None when they are the same."""
+    return None if bbox_crs.equals(source_crs) else pyproj.Transformer.from_crs(bbox_crs, source_crs, always_xy=True)
+
+
+def source_bbox(bbox: tuple[float, float, float, float],
+                to_source: pyproj.Transformer | None) -> tuple[float, float, float, float]:
+    """``bbox`` as the box in the layer's CRS that ``read_layer`` filters with (``to_source``: ``bbox_transformer``)."""
+    return bbox if to_source is None else to_source.transform_bounds(*bbox, densify_pts=21)
+
+
 def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
                crs: str | None = None, bbox: tuple[float, float, float, float] | None = None,
                bbox_crs: pyproj.CRS | None = None, feedback: Feedback = SILENT,
@@ -288,9 +299,8 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     """
     ds, lyr, encoding = open_layer(path, layer, encoding, feedback, preferred)
     source_crs = _crs_of(lyr, str(path), crs)
-    if bbox is not None and bbox_crs is not None and not bbox_crs.equals(source_crs):
-        to_source = pyproj.Transformer.from_crs(bbox_crs, source_crs, always_xy=True)
-        bbox = to_source.transform_bounds(*bbox, densify_pts=21)
+    if bbox is not None and bbox_crs is not None:
+        bbox = source_bbox(bbox, bbox_transformer(bbox_crs, source_crs))
     defn = lyr.GetLayerDefn()
     raw_names = field_names(lyr)
     fields = [FieldDef(decode_text(name), fd.GetType(), fd.GetSubType(), fd.GetWidth(), fd.GetPrecision())

@@ -5,13 +5,16 @@ an explicit interpreter (``worker_python``), never with ``sys.executable`` blind
 QGIS on Windows and macOS that is QGIS itself. Progress advances per finished tile
 (``as_completed``); Cancel stops submitting and cancels the running tiles; a tile that fails is
 recorded in the index with its message and the others go on; a worker killed mid-run costs only
-its tile's time (Dask runs the tile again elsewhere); a run started again on the same output
-folder skips the tiles that are done and valid. The scheduler needs only dask and distributed
-(``submit_tile``): a stock ``dask scheduler`` serves a run, as on managed clusters.
+its tile's time (Dask runs the tile again elsewhere). A run into an existing output is an update
+(``update``): the tiles whose fingerprint (``fingerprint``) is unchanged are kept as they are, the
+others built again, tiles that left the area removed, and the levels above refreshed where a child
+changed. The scheduler needs only dask and distributed (``submit_tile``): a stock ``dask scheduler``
+serves a run, as on managed clusters.
 """
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import os
 import shutil
@@ -23,7 +26,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
@@ -31,31 +33,24 @@ from .. import triangulators
 from ..area import StudyArea
 from ..chain import ChainInputs, ChainOptions
 from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
-from ..chain.coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
-from ..cityjson.sequence import PART_FILE, run_translate, write_run_index
+from ..chain.coverage import OrthoCoverage, ortho_coverage, require_dem, require_ortho, require_sheet_names
+from ..chain.fingerprint import Fingerprint
+from ..chain.rerun import study_polygon
+from ..cityjson.sequence import PART_FILE, remove_run_index, run_translate, write_run_index
 from ..deps import require
 from ..errors import CanceledError, InputError
 from ..feedback import SILENT, Feedback
 from ..georef import list_tifs
 from ..interpreter import core_env, core_python
 from ..io.fileio import ensure_writable_dir
-from ..io.vector_io import read_layer
-from ..polygons import repair_polygons, transform
-from ..tiles3d.combine import TILE_TILESET, tile_areas, write_run_tileset
+from ..tiles3d.combine import remove_run_tileset, tile_areas, write_run_tileset
 from ..tiles3d.web import require_web_profile
-from .index import (
-    DONE,
-    EMPTY,
-    FAILED,
-    INDEX_FILE,
-    PENDING,
-    read_index,
-    update_row,
-    write_index,
-)
-from .plan import plan_tiles
+from .fingerprint import RunInputs
+from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, write_index
+from .plan import Tile, plan_tiles
 from .prepare import area_of_layer, prepare_context
-from .worker import TASK, TILES_DIR
+from .update import UpdatePlan, commit_tile, plan_update, remove_tiles
+from .worker import STAGING_DIR, TASK, TILES_DIR
 
 CONTEXT_FILE = "context.gpkg"
 POLL_SECONDS = 0.2
@@ -63,18 +58,31 @@ POLL_SECONDS = 0.2
 
 @dataclass
 class TilesReport:
-    """What a tiled run did: one index row per tile."""
+    """What a tiled run did: one index row per tile, and what it did with the tiles an earlier run left."""
 
     output: str
     index: str
     rows: list[dict] = field(default_factory=list)
-    resumed: int = 0
+    update: UpdatePlan = field(default_factory=UpdatePlan)  # kept, built again (why), added, removed
     seconds: float = 0.0
     tileset: str | None = None  # one 3D Tiles tileset over the tiles' tilesets
     cityjson: str | None = None  # the run's CityJSONSeq header (index.city.jsonl)
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
+
+    @property
+    def resumed(self) -> int:
+        """Tiles an earlier run finished that this one kept (unchanged)."""
+        return len(self.update.kept)
+
+    def reasons(self) -> dict[str, int]:
+        """How many tiles were built again for each reason (a tile may have several)."""
+        counts: dict[str, int] = {}
+        for reason in self.update.rebuilt.values():
+            for part in reason.split(", "):
+                counts[part] = counts.get(part, 0) + 1
+        return counts
 
     @property
     def buildings(self) -> int:
@@ -93,51 +101,36 @@ def worker_python(configured: str | None = None, triangulator: str = "pythoncdt"
 def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
                  encoding: str | None = None) -> BaseGeometry:
     """The run's area in ``target_crs``; None: everything the buildings layer covers."""
-    target = pyproj.CRS.from_user_input(target_crs)
     if area is None:
         return area_of_layer(inputs.buildings, target_crs)
-    if area.kind != "district":
-        return area.geometry(target)
-    if not inputs.districts:
-        raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
-    districts = read_layer(inputs.districts, encoding=encoding)
-    districts.geoms = repair_polygons(transform(districts.geoms, districts.crs, target)).geoms
-    return area.geometry(target, districts)
+    return study_polygon(area, inputs.districts, target_crs, encoding)
+
+
+#: ChainOptions a tile sets itself (its area, its prepared layers, no metrics, no work kept) or sends apart
+TILE_OWN_OPTIONS = frozenset({"area", "heights", "prepare", "metrics", "keep_work", "cityjson_part"})
 
 
 def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, scale: int, area: BaseGeometry,
-          context: tuple[str | None, list[str]]) -> dict:
-    """Everything one tile needs, as plain values."""
+          context: tuple[str | None, list[str]], fingerprint: Fingerprint, reason: str) -> dict:
+    """Everything one tile needs, as plain values (with the fingerprint it records and why it is built)."""
     heights = options.heights
     if heights.expression is not None:
         raise InputError("A height expression cannot travel to Dask workers: evaluate it into a column of a copy "
                          "of the buildings first and give HeightOptions.expression_column (wit:citymodeltiles does).")
+    plain = {f.name: getattr(options, f.name) for f in dataclasses.fields(options) if f.name not in TILE_OWN_OPTIONS}
+    plain.update(triangulator=triangulators.backend(options.triangulator).key,  # one for all tiles: the seams match
+                 schema_cache=str(options.schema_cache or DEFAULT_SCHEMA_CACHE))
     return {
-        "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area),
-        "target_crs": options.target_crs, "sheet_crs": options.sheet_crs, "margin": options.margin,
-        "max_edge": options.max_edge, "tolerance": options.tolerance, "texture_scale": options.texture_scale,
-        "triangulator": triangulators.backend(options.triangulator).key,  # one for all tiles: the seams match
+        "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area), "options": plain,
         "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
                     "default_height": heights.default_height, "expression_text": heights.expression_text,
                     "expression_column": heights.expression_column},
-        "outside_ortho": options.outside_ortho, "schema_dir": options.schema_dir, "tiles3d": options.tiles3d,
-        "tiles3d_web": options.tiles3d_web, "cityjson": options.cityjson,
         "cityjson_translate": list(run_translate(area)) if options.cityjson else None,  # the run's one transform
-        "schema_cache": str(options.schema_cache or DEFAULT_SCHEMA_CACHE), "encoding": options.encoding,
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
                    "districts": None},
+        "fingerprint": fingerprint.as_dict(), "reason": reason,
     }
-
-
-def _finished(output: Path, row: dict | None, tiles3d: bool = False, cityjson: bool = False) -> bool:
-    """A tile a previous run finished: done or empty (ground only), with its model on disk (and its
-    3D Tiles and CityJSONSeq when they are asked for: a tile an earlier run made without them is built again)."""
-    if not row or row.get("status") not in (DONE, EMPTY) or not row.get("gml"):
-        return False
-    gml = output / row["gml"]
-    return gml.is_file() and (not tiles3d or (gml.parent / TILE_TILESET).is_file()) \
-        and (not cityjson or (gml.parent / PART_FILE).is_file())
 
 
 @contextlib.contextmanager
@@ -214,31 +207,31 @@ def stop_workers(processes: list[subprocess.Popen], grace: float = 10.0) -> None
 
 def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike, area: StudyArea | None,
               scale: int = 5000, scheduler: str | None = None, workers: int | None = None,
-              python: str | None = None, feedback: Feedback = SILENT) -> TilesReport:
-    """Build every tile of ``area`` (None: all the buildings) into ``output_dir``; see the module docstring."""
+              python: str | None = None, feedback: Feedback = SILENT, rebuild: bool = False) -> TilesReport:
+    """Build every tile of ``area`` (None: all the buildings) into ``output_dir``, or update the tiles an earlier
+    run left there (``rebuild``: build them all again); see the module docstring."""
     start = time.perf_counter()
     output = ensure_writable_dir(output_dir)
-    require_sheet_names(list_tifs(inputs.ortho))
+    tifs = list_tifs(inputs.ortho)
+    require_sheet_names(tifs)
     if options.tiles3d and options.tiles3d_web:
         require_web_profile()
     polygon = area_polygon(area, inputs, options.target_crs, options.encoding)
     require_dem(inputs.dem, polygon, options.target_crs, feedback)  # in seconds, before any worker starts
-    require_ortho(ortho_coverage(list_tifs(inputs.ortho), polygon, options.target_crs, options.sheet_crs,
-                                 options.margin), options.outside_ortho == "untextured", feedback)
+    coverage = ortho_coverage(tifs, polygon, options.target_crs, options.sheet_crs, options.margin)
+    require_ortho(coverage, options.outside_ortho == "untextured", feedback)
     tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
-    previous = read_index(output)
-    write_index(output, tiles, options.target_crs, previous)
-    todo = [t for t in tiles if not _finished(output, previous.get(t.sheet), options.tiles3d, options.cityjson)]
-    report = TilesReport(str(output), str(output / INDEX_FILE), resumed=len(tiles) - len(todo))
-    feedback.info(f"{len(tiles)} tile(s) of 1:{scale:,} over {polygon.area / 1e6:.2f} km²; "
-                  f"{report.resumed} already done, {len(todo)} to build.")
-    context = prepare_context(inputs.roads, inputs.districts, polygon, options.target_crs,
-                              str(output / CONTEXT_FILE), options.encoding, feedback.scaled(0, 2)) \
-        if todo else []
-    specs = {t.sheet: _spec(inputs, options, output, t.sheet, scale, polygon,
-                            (str(output / CONTEXT_FILE) if context else None, context)) for t in todo}
-    rows = {sheet: row for sheet, row in previous.items() if sheet in {t.sheet for t in tiles}}
-    if todo:
+    feedback.info(f"{len(tiles)} tile(s) of 1:{scale:,} over {polygon.area / 1e6:.2f} km².")
+    run, fingerprints, plan, context = _compare(inputs, options, output, tiles, scale, polygon, coverage, rebuild,
+                                                feedback)
+    write_index(output, tiles, options.target_crs, plan.rows)
+    report = TilesReport(str(output), str(output / INDEX_FILE), update=plan)
+    _log_plan(report, feedback)
+    rows = dict(plan.rows)
+    if plan.build:
+        specs = {sheet: _spec(inputs, options, output, sheet, scale, polygon,
+                              (str(output / CONTEXT_FILE) if context else None, context), fingerprints[sheet],
+                              reason) for sheet, reason in plan.build.items()}
         backend = triangulators.backend(options.triangulator)
         feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")
         python = worker_python(python, backend.module)
@@ -253,8 +246,9 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         finally:  # once no tile of this run can be running (every tile finished, or our own workers
             if completed or not scheduler:  # stopped): what a killed or cancelled attempt began is removed
                 _remove_unfinished(output)
+    else:
+        _remove_unfinished(output)  # (of an earlier run: none of its tiles is waited for)
     report.rows = [rows.get(t.sheet, {"sheet": t.sheet, "status": PENDING}) for t in tiles]
-    report.seconds = round(time.perf_counter() - start, 3)
     failed = [r for r in report.rows if r["status"] == FAILED]
     for row in failed:
         feedback.warning(f"Tile {row['sheet']} failed: {row['error']}")
@@ -266,12 +260,17 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                                                    for r in report.rows if r["status"] in (DONE, EMPTY)],
                                           options.target_crs, run_translate(polygon))
         feedback.info(f"CityJSONSeq: {report.cityjson} (the run's header line; the tiles' features follow it)")
+    else:
+        remove_run_index(output)
     if options.tiles3d:
-        modelled = {r["sheet"]: Path(r["gml"]).parent.as_posix() for r in report.rows if r["status"] in (DONE, EMPTY)}
+        modelled = [r for r in report.rows if r["status"] in (DONE, EMPTY)]
         feedback.info("3D Tiles: the groups above the tiles (coarse terrain and largest buildings).")
-        written = write_run_tileset(output, modelled, tile_areas({t.sheet: t.polygon for t in tiles}, polygon),
-                                    inputs.dem, list_tifs(inputs.ortho), options.target_crs, options.sheet_crs,
-                                    options.margin, feedback, web=options.tiles3d_web)
+        written = write_run_tileset(output, {r["sheet"]: Path(r["gml"]).parent.as_posix() for r in modelled},
+                                    tile_areas({t.sheet: t.polygon for t in tiles}, polygon), inputs.dem, tifs,
+                                    options.target_crs, options.sheet_crs, options.margin, feedback,
+                                    web=options.tiles3d_web, fingerprints={r["sheet"]: r["fingerprint"]
+                                                                           for r in modelled},
+                                    inputs_digest=run.group, force=rebuild)
         report.tileset = written.path
         feedback.info(f"3D Tiles: {written.groups} group(s) on {written.levels} level(s) over {written.tiles} tiles, "
                       f"{written.buildings} buildings in the groups; the run's tileset.json {written.root_bytes:,} "
@@ -282,19 +281,59 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
         if written.without_terrain:
             feedback.warning(f"{written.without_terrain} group(s) of tiles have no coarse terrain (the DEM or the "
                              "orthoimage does not cover them): from afar they show their buildings only.")
+    else:
+        remove_run_tileset(output)  # an earlier run's: it would refer to tilesets the tiles no longer have
+    remove_tiles(output, plan.removed)  # last: the run's tileset no longer refers to them
+    with contextlib.suppress(OSError):  # (unless an external cluster's cancelled tiles still write there)
+        (output / STAGING_DIR).rmdir()
+    report.seconds = round(time.perf_counter() - start, 3)
     feedback.info(f"Tiles: {report.count(DONE)} done, {len(failed)} failed, {report.count(EMPTY)} empty, "
                   f"{report.buildings} buildings, {report.seconds:.1f} s."
                   + (f" 3D Tiles: {report.tileset}" if report.tileset else ""))
     return report
 
 
+def _compare(inputs: ChainInputs, options: ChainOptions, output: Path, tiles: list[Tile], scale: int,
+             polygon: BaseGeometry, coverage: OrthoCoverage, rebuild: bool, feedback: Feedback
+             ) -> tuple[RunInputs, dict[str, Fingerprint], UpdatePlan, list[str]]:
+    """Prepare the run's roads and dongs, take every tile's fingerprint and compare it with the tile's record:
+    (the run's inputs, the fingerprints, the plan, the context layers). The prepared context replaces the
+    output's only when a tile is to be built (the kept ones do not read it)."""
+    staging = output / STAGING_DIR
+    staging.mkdir(exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix="context-", dir=staging))
+    try:
+        context = prepare_context(inputs.roads, inputs.districts, polygon, options.target_crs,
+                                  str(scratch / CONTEXT_FILE), options.encoding, feedback.scaled(0, 2))
+        started = time.perf_counter()
+        run = RunInputs(inputs, options, scale, polygon, coverage, str(scratch / CONTEXT_FILE) if context else None,
+                        context)
+        fingerprints = {tile.sheet: run.tile(tile) for tile in tiles}
+        feedback.info(f"Fingerprints of the {len(tiles)} tile(s): {time.perf_counter() - started:.1f} s.")
+        plan = plan_update(output, tiles, fingerprints, read_index(output), rebuild)
+        if plan.build:
+            for item in scratch.iterdir():
+                os.replace(item, output / item.name)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return run, fingerprints, plan, context
+
+
+def _log_plan(report: TilesReport, feedback: Feedback) -> None:
+    """What the run does with the tiles, and why it builds some again."""
+    plan = report.update
+    reasons = ", ".join(f"{name}: {count}" for name, count in sorted(report.reasons().items()))
+    feedback.info(f"Update: {len(plan.kept)} tile(s) kept as they were, {len(plan.rebuilt)} to build again"
+                  + (f" ({reasons})" if reasons else "") + f", {len(plan.added)} new, {len(plan.removed)} removed "
+                  "(left the area).")
+    for sheet, reason in plan.rebuilt.items():
+        feedback.info(f"Tile {sheet} is built again: {reason}.")
+
+
 def _remove_unfinished(output: Path) -> None:
-    """Staging folders of tiles that did not finish, and tile folders left empty by them."""
-    for staging in output.glob(f"{TILES_DIR}/*/.wit-run-*"):
+    """The folders of tiles that did not finish (built by a killed or cancelled attempt, never moved into place)."""
+    for staging in (output / STAGING_DIR).glob("new-*"):
         shutil.rmtree(staging, ignore_errors=True)
-    for folder in output.glob(f"{TILES_DIR}/*"):
-        if folder.is_dir() and not any(folder.iterdir()):
-            folder.rmdir()
 
 
 def submit_tile(client, sheet: str, spec: dict):
@@ -346,10 +385,11 @@ def _map(client, specs: dict[str, dict], output: Path, feedback: Feedback) -> di
                 try:
                     row = future.result()
                 except Exception as exc:  # noqa: BLE001 — the task never raises: its worker was lost
-                    row = lost_row(sheet, exc)
+                    row = {**lost_row(sheet, exc), "fingerprint": specs[sheet]["fingerprint"]["fingerprint"],
+                           "reason": specs[sheet]["reason"]}
                 future.release()  # recorded: were it still wanted, Dask would build the tile again (writing into
                 # it after the run) if the worker holding this row died later
-                update_row(output, sheet, row)
+                row = commit_tile(output, sheet, row)
                 done[sheet] = row
                 feedback.info(f"Tile {sheet}: {row['status']}, {row.get('buildings') or 0} buildings, "
                               f"{row.get('seconds') or 0:.1f} s, peak {row.get('peak_mb') or 0:.0f} MB"

@@ -21,6 +21,7 @@ import math
 import os
 import shutil
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,18 +32,30 @@ from shapely.geometry.base import BaseGeometry
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..georef import OK, georeference_sheets
-from ..io.fileio import atomic_file
+from ..io.digests import digest
+from ..io.fileio import atomic_file, restore_folder, swap_folder
 from .geo import Georeference, column_major, union_region
 from .group_buildings import GROUP_BUILDINGS, Candidates, read_tile_buildings
-from .groups import GROUP_DIR, Terrain, join_terrain, plan_groups, raster_extent, sample_terrain, write_group
+from .group_summary import load_meta, load_parts, save_summary, summary_path
+from .groups import (
+    GROUP_DIR,
+    GroupPlan,
+    Terrain,
+    join_terrain,
+    plan_groups,
+    raster_extent,
+    sample_terrain,
+    write_group,
+)
 from .tileset import TILESET_FILE
-from .web import compress_tiles
+from .web import compress_glb
 
 #: where each tile's tileset lies in its tile folder (the chain's ``3dtiles`` output)
 TILE_TILESET = f"3dtiles/{TILESET_FILE}"
 TILE_LOD1 = "lod1.gpkg"
 EARTH_RADIUS = 6_371_000.0  # m
 GENERATOR = "WIT City Model (wit:citymodeltiles)"
+OLD_GROUPS = f".wit-old-{GROUP_DIR}"  # the groups a refresh replaces, until the new ones are in place
 
 
 def region_diagonal(region: list[float]) -> float:
@@ -88,13 +101,22 @@ class _Node:
 
 def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str, BaseGeometry],
                       dem: str | None, ortho: list[str], target_crs: str, sheet_crs: str = "EPSG:4737",
-                      margin: float = 50.0, feedback: Feedback = SILENT, web: bool = False) -> RunTileset:
+                      margin: float = 50.0, feedback: Feedback = SILENT, web: bool = False,
+                      fingerprints: dict[str, str] | None = None,
+                      inputs_digest: Callable[[BaseGeometry], str] | None = None, force: bool = False) -> RunTileset:
     """Write ``<output>/tileset.json`` and ``<output>/3dtiles-groups/`` over the tiles ``tiles`` (sheet →
     tile folder relative to ``output``), whose areas (target CRS, clipped to the run) are ``areas``.
     The groups' terrain comes from ``dem`` and the ``ortho`` sheets (none without them); ``web``: the
     groups' contents in the web profile, as the tiles'. Tiles without a tileset are left out; none at all
-    is an error."""
+    is an error.
+
+    An update: with the tiles' ``fingerprints`` and ``inputs_digest`` (the digest of the DEM and orthoimage
+    a lowest group reads over an area), a group whose fingerprint (its children's and those inputs') is the
+    one recorded in its summary keeps its files as they are; the others are built again, their parents
+    taking the unchanged children's parts from their summaries. Nothing changed: nothing is written.
+    ``force``: every group built again."""
     out = Path(output)
+    restore_folder(out / GROUP_DIR, out / OLD_GROUPS)  # a refresh killed between its two renames
     roots = {}
     for sheet, folder in tiles.items():
         path = out / folder / TILE_TILESET
@@ -105,76 +127,166 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
     if not roots:
         raise InputError(f"No tile of {out} has a 3D Tiles tileset to combine.")
     plans, top = plan_groups(list(roots))
-    georef = Georeference(target_crs)
+    group_areas = {name: shapely.union_all([areas[t] for t in plan.tiles]) for name, plan in plans.items()}
+    prints = _fingerprints(plans, group_areas, fingerprints, inputs_digest)
+    previous = out / GROUP_DIR
+    metas = {name: load_meta(summary_path(previous, name)) for name in plans}
+    current = {name for name, meta in metas.items() if not force and meta and prints[name] is not None
+               and meta["fingerprint"] == prints[name] and all((previous / f).is_file() for f in meta["files"])}
     result = RunTileset(str(out / TILESET_FILE), tiles=len(roots), groups=len(plans))
+    if current == set(plans) and sorted(previous.glob("*.json")) == sorted(previous / f"{n}.json" for n in plans):
+        document = _root_document([_reference(_from_meta(n, metas[n]), f"{GROUP_DIR}/{n}.json", None) for n in top])
+        if _json_bytes(document) == _read_bytes(out / TILESET_FILE):
+            for name in plans:
+                _count(result, name, metas[name])
+            result.levels = max(metas[n]["depth"] for n in top)
+            result.root_bytes = (out / TILESET_FILE).stat().st_size
+            result.largest_file_bytes = max(result.largest_file_bytes, result.root_bytes)
+            feedback.info("3D Tiles: no group changed; the groups and the run's tileset are kept as they are.")
+            return result
+    georef = Georeference(target_crs)
     staging = Path(tempfile.mkdtemp(prefix=".wit-groups-", dir=out))
     try:
-        vrts = []
-        if dem and ortho:
-            sheets = georeference_sheets(ortho, staging / "ortho", target_crs, sheet_crs, margin, fmt="VRT")
-            vrts = [r.output for r in sheets if r.status == OK]
-        extents = shapely.box(*np.array([raster_extent(v) for v in vrts]).T) if vrts else np.empty(0, dtype=object)
+        rasters: list = []  # the orthoimage sheets as VRTs and their extents, made when a lowest group needs them
+
+        def near_ortho(area: BaseGeometry) -> list[str]:
+            if not (dem and ortho):
+                return []
+            if not rasters:
+                sheets = georeference_sheets(ortho, staging / "ortho", target_crs, sheet_crs, margin, fmt="VRT")
+                vrts = [r.output for r in sheets if r.status == OK]
+                rasters.extend([vrts, shapely.box(*np.array([raster_extent(v) for v in vrts]).T) if vrts else
+                                np.empty(0, dtype=object)])
+            vrts, extents = rasters
+            return [vrts[k] for k in np.flatnonzero(shapely.intersects(extents, area))] if vrts else []
+
         folder = staging / GROUP_DIR
         folder.mkdir()
+        for name in current:
+            for file in metas[name]["files"]:
+                _link(previous / file, folder / file)
+        built = []
 
-        def build(name: str) -> _Node:
+        def node(name: str, parts: bool) -> _Node:
+            """The child ``name`` as its parent refers to it; with its terrain and buildings when ``parts``."""
             if name in roots:
                 node = roots[name]
                 lod1 = out / tiles[name] / TILE_LOD1
                 node.buildings = read_tile_buildings(str(lod1)) if lod1.is_file() else Candidates([])
                 return node
+            if name in current:
+                child = _from_meta(name, metas[name])
+                if parts:
+                    child.terrain, child.buildings = load_parts(summary_path(previous, name))
+                return child
+            return build(name)
+
+        def build(name: str) -> _Node:
             plan = plans[name]
-            children = [build(child) for child in plan.children]
+            children = [node(child, True) for child in plan.children]
             feedback.check_canceled()
-            area = shapely.union_all([areas[t] for t in plan.tiles])
+            area = group_areas[name]
             if plan.over_tiles:
-                near = [vrts[k] for k in np.flatnonzero(shapely.intersects(extents, area))] if vrts else []
+                near = near_ortho(area)
                 terrain = sample_terrain(area, georef.crs, dem, near) if near else None
             else:
                 terrain = join_terrain([c.terrain for c in children if c.terrain is not None], area)
             buildings = Candidates.join([c.buildings for c in children]).largest(GROUP_BUILDINGS)
             content = write_group(name, area, terrain, buildings, georef, folder)
+            if content and web:
+                glb = folder / content.uri
+                glb.write_bytes(compress_glb(glb.read_bytes()))
             error = max([c.error for c in children] + ([content.error] if content else []))
             region = union_region([c.region for c in children] + ([content.region] if content else []))
-            file = folder / f"{name}.json"
             inverse = column_major(np.linalg.inv(content.frame)) if content else None
             refs = [_reference(c, Path(os.path.relpath(out / c.uri, out / GROUP_DIR)).as_posix(), inverse)
                     for c in children]
             root = {"boundingVolume": {"region": region}, "geometricError": error, "refine": "REPLACE"}
             if content:
                 root.update(transform=column_major(content.frame), content={"uri": content.uri})
-                result.group_bytes += content.bytes
-                result.buildings += content.buildings
             root["children"] = refs
+            file = folder / f"{name}.json"
             _write_json(file, {"asset": {"version": "1.1", "generator": GENERATOR}, "geometricError": error,
                                "root": root})
-            size = file.stat().st_size
-            result.group_bytes += size
-            result.largest_file_bytes = max(result.largest_file_bytes, size)
-            result.without_terrain += terrain is None
-            result.errors[name] = round(error, 3)
+            depth = 1 + max(c.depth for c in children)
+            meta = {"fingerprint": prints[name], "region": region, "error": error, "depth": depth,
+                    "buildings": len(buildings.ids), "terrain": terrain is not None, "json_bytes": file.stat().st_size,
+                    "files": [file.name, summary_path(folder, name).name] + ([content.uri] if content else []),
+                    "bytes": file.stat().st_size + ((folder / content.uri).stat().st_size if content else 0)}
+            save_summary(summary_path(folder, name), meta, terrain, buildings)
+            metas[name] = meta
+            built.append(name)
             for child in children:  # what the parent needs of them is in `terrain` and `buildings`
                 child.terrain = child.buildings = None
-            return _Node(f"{GROUP_DIR}/{name}.json", region, error, 1 + max(c.depth for c in children), terrain,
-                         buildings)
+            return _Node(f"{GROUP_DIR}/{name}.json", region, error, depth, terrain, buildings)
 
-        nodes = [build(name) for name in top]
+        nodes = [node(name, False) for name in top]
+        feedback.info(f"3D Tiles: {len(built)} group(s) built, {len(current)} kept as they were.")
+        for name in plans:
+            _count(result, name, metas[name])
         result.levels = max(n.depth for n in nodes)
-        if web:
-            compress_tiles(folder, feedback)
-            result.group_bytes = sum(file.stat().st_size for file in folder.iterdir())
         document = _root_document([_reference(n, n.uri, None) for n in nodes])
-        target = out / GROUP_DIR
-        if target.exists():
-            shutil.rmtree(target)
-        os.replace(folder, target)
-        with atomic_file(out / TILESET_FILE) as tmp:
-            _write_json(Path(tmp), document)
+        swap_folder(folder, out / GROUP_DIR, out / OLD_GROUPS)
+        if _json_bytes(document) != _read_bytes(out / TILESET_FILE):
+            with atomic_file(out / TILESET_FILE) as tmp:
+                tmp.write_bytes(_json_bytes(document))
         result.root_bytes = (out / TILESET_FILE).stat().st_size
         result.largest_file_bytes = max(result.largest_file_bytes, result.root_bytes)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return result
+
+
+def remove_run_tileset(output: str | Path) -> None:
+    """The run's tileset and groups an earlier run wrote, for a run without 3D Tiles (its tiles have none)."""
+    out = Path(output)
+    restore_folder(out / GROUP_DIR, out / OLD_GROUPS)
+    shutil.rmtree(out / GROUP_DIR, ignore_errors=True)
+    (out / TILESET_FILE).unlink(missing_ok=True)
+
+
+def _fingerprints(plans: dict[str, GroupPlan], areas: dict[str, BaseGeometry], tiles: dict[str, str] | None,
+                  inputs_digest: Callable[[BaseGeometry], str] | None) -> dict[str, str | None]:
+    """Each group's fingerprint: its children's and, over tiles, the inputs it reads itself (None for all
+    without the tiles' fingerprints: every group is then built)."""
+    prints: dict[str, str | None] = {}
+
+    def of(name: str) -> str | None:
+        if name not in plans:  # a tile
+            return (tiles or {}).get(name)
+        if name not in prints:
+            plan = plans[name]
+            children = [of(c) for c in plan.children]
+            own = inputs_digest(areas[name]) if plan.over_tiles and inputs_digest else ""
+            prints[name] = None if tiles is None or None in children else digest(name, own, *children)
+        return prints[name]
+
+    return {name: of(name) for name in plans}
+
+
+def _from_meta(name: str, meta: dict) -> _Node:
+    return _Node(f"{GROUP_DIR}/{name}.json", meta["region"], meta["error"], meta["depth"])
+
+
+def _count(result: RunTileset, name: str, meta: dict) -> None:
+    """Add a group (its summary's ``meta``) to what ``result`` says of the groups."""
+    result.group_bytes += meta["bytes"]
+    result.buildings += meta["buildings"]
+    result.largest_file_bytes = max(result.largest_file_bytes, meta["json_bytes"])
+    result.without_terrain += not meta["terrain"]
+    result.errors[name] = round(meta["error"], 3)
+
+
+def _link(source: Path, target: Path) -> None:
+    """``source`` also at ``target``, as it is: a hard link, else a copy with its times."""
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
+
+
+def _read_bytes(path: Path) -> bytes | None:
+    return path.read_bytes() if path.is_file() else None
 
 
 def _reference(node: _Node, uri: str, transform: list[float] | None) -> dict:
@@ -195,8 +307,12 @@ def _root_document(children: list[dict]) -> dict:
     return {"asset": {"version": "1.1", "generator": GENERATOR}, "geometricError": 2.0 * error, "root": root}
 
 
+def _json_bytes(document: dict) -> bytes:
+    return json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+
+
 def _write_json(path: Path, document: dict) -> None:
-    path.write_text(json.dumps(document, ensure_ascii=False, separators=(",", ":")), encoding="utf-8")
+    path.write_bytes(_json_bytes(document))
 
 
 def tile_areas(polygons: dict[str, BaseGeometry], run_area: BaseGeometry) -> dict[str, BaseGeometry]:
