@@ -168,6 +168,19 @@ def _check_citygml(r, s, out):
     assert _buildings_of(out / "model.gml") == _ids_and_floors(s["footprints"])
 
 
+def _cityjson(s, out):
+    return {"LOD1": s["lod1"], "TIN": s["tin"], "ROADS": s["roads_prepared"], "TEXTURES": s["textures"],
+            "OUTPUT": str(out / "model.city.json")}
+
+
+def _check_cityjson(r, s, out):
+    """The same buildings as the CityGML writer's, with their heights, from the national layer's 층수 in CP949."""
+    assert (r["BUILDINGS"], r["ROADS_WRITTEN"]) == (12, 2)
+    model = json.loads((out / "model.city.json").read_text(encoding="utf-8"))
+    heights = {i: o["attributes"]["height"] for i, o in model["CityObjects"].items() if o["type"] == "Building"}
+    assert heights == pytest.approx(_ids_and_floors(s["footprints"]))
+
+
 def _tiles3d(s, out):
     return {"LOD1": s["lod1"], "TIN": s["tin"], "TEXTURES": s["textures"], "OUTPUT": str(out / "3dtiles")}
 
@@ -224,6 +237,7 @@ CASES = {
     "wit:triangulateterrain": (_terrain, _check_terrain),
     "wit:wittexture": (_texture, _check_texture),
     "wit:writecitygml": (_citygml, _check_citygml),
+    "wit:exportcityjson": (_cityjson, _check_cityjson),
     "wit:export3dtiles": (_tiles3d, _check_tiles3d),
     "wit:qualitymetrics": (_metrics, _check_metrics),
     "wit:generatesample": (_sample, _check_sample),

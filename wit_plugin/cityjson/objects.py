@@ -377,7 +377,8 @@ class _TinTextures:
     """The TIN's texture coordinates held by triangle id: image (-1 none) and three (u, v) corners."""
 
     def __init__(self, texcoords: InputLayer, images: dict[str, int], tin: InputLayer):
-        size = int(tin.scalar(f'SELECT MAX("{step_layers.TIN_TRIANGLE_ID}") FROM "{tin.name}"') or 0) + 1
+        last = f'SELECT MAX("{step_layers.TIN_TRIANGLE_ID}") FROM {tin.table}'  # nosec B608  # quoted layer name
+        size = int(tin.scalar(last) or 0) + 1
         self.image = np.full(size, -1, dtype=np.int32)
         self.uv = np.full((size, 3, 2), np.nan)
         targets = ", ".join(f"'{t}'" for t in ("tin", "road"))
