@@ -346,7 +346,7 @@ def run_logged(algorithm: str, parameters: dict) -> tuple[dict, list[str]]:
             super().__init__()
             self.warnings = []
 
-        def pushWarning(self, warning):
+        def pushWarning(self, warning):  # noqa: N802
             self.warnings.append(warning)
             super().pushWarning(warning)
 

@@ -60,11 +60,11 @@ def run_logged(algorithm: str, parameters: dict) -> tuple[dict, list[str]]:
             super().__init__()
             self.messages = []
 
-        def pushInfo(self, info):
+        def pushInfo(self, info):  # noqa: N802
             self.messages.append(info)
             super().pushInfo(info)
 
-        def pushWarning(self, warning):
+        def pushWarning(self, warning):  # noqa: N802
             self.messages.append(warning)
             super().pushWarning(warning)
 

@@ -13,7 +13,7 @@ import pytest
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "scripts"))
-import plugin_zip_check  # noqa: E402  (scripts/plugin_zip_check.py)
+import plugin_zip_check
 
 #: test settings: addresses nobody owns yet that are no placeholder either
 SETTINGS = """[maintainer]

@@ -12,7 +12,7 @@ import sys
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "scripts"))
-import changelog  # noqa: E402  (scripts/changelog.py)
+import changelog
 
 
 def _card() -> configparser.SectionProxy:

@@ -14,8 +14,8 @@ import pytest
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "scripts"))
-import plugin_zip  # noqa: E402  (scripts/plugin_zip.py)
-import plugin_zip_check as check  # noqa: E402  (scripts/plugin_zip_check.py)
+import plugin_zip
+import plugin_zip_check as check
 
 CARD = """[general]
 name=Good Plugin
@@ -140,7 +140,7 @@ def test_placeholders(value, placeholder):
 def local_site():
     """A web server on 127.0.0.1 that knows /issues and /code only."""
     class Handler(http.server.BaseHTTPRequestHandler):
-        def do_HEAD(self):  # noqa: N802
+        def do_HEAD(self):
             self.send_response(200 if self.path in ("/issues", "/code") else 404)
             self.end_headers()
 

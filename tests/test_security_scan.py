@@ -12,7 +12,7 @@ import sys
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "scripts"))
-import security_scan  # noqa: E402  (scripts/security_scan.py)
+import security_scan
 
 RISKY = '''import subprocess
 

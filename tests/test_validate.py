@@ -896,9 +896,9 @@ def test_the_writers_regular_elements_are_checked_from_the_bytes_with_the_same_v
     face = re.search(r'<gml:surfaceMember><gml:Polygon gml:id="([^"]+)">', text).group(1)  # a building's
     roof = re.search(r"<app:target>#([^<]+)</app:target><app:textureParameterization><app:TexCoordList>"
                      r"<app:textureCoordinates>([^<]+)</app:textureCoordinates>", text)
-    tin_posList = re.search(r'(<gml:LinearRing gml:id="' + tin_ring + r'"><gml:posList srsDimension="3">)([^<]+)<',
+    tin_poslist = re.search(r'(<gml:LinearRing gml:id="' + tin_ring + r'"><gml:posList srsDimension="3">)([^<]+)<',
                             text)
-    corners = tin_posList.group(2).split()
+    corners = tin_poslist.group(2).split()
     flat = " ".join(corners[:3] + corners[:3] + corners[6:9] + corners[:3])  # the second corner on the first
     faulty = (text.replace(f'"{tin_ring}"', f'"{face}"', 1)  # a TIN ring takes the id of a building's face
               .replace(f"<app:target>#{roof.group(1)}</app:target>", "<app:target>#nowhere</app:target>", 1)
