@@ -47,13 +47,15 @@ def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols
     weights = np.zeros((rows * cols, 3))
     if len(xy) == 0:
         return found, weights
-    lo, hi = xy.min(axis=1), xy.max(axis=1)
+    lo = np.minimum(np.minimum(xy[:, 0], xy[:, 1]), xy[:, 2])  # (elementwise: faster than min over an axis of 3)
+    hi = np.maximum(np.maximum(xy[:, 0], xy[:, 1]), xy[:, 2])
     c0 = np.clip(np.ceil((lo[:, 0] - x0) / step - 1e-9), 0, cols).astype(np.int64)
     c1 = np.clip(np.floor((hi[:, 0] - x0) / step + 1e-9), -1, cols - 1).astype(np.int64)
     r0 = np.clip(np.ceil((y_top - hi[:, 1]) / step - 1e-9), 0, rows).astype(np.int64)
     r1 = np.clip(np.floor((y_top - lo[:, 1]) / step + 1e-9), -1, rows - 1).astype(np.int64)
     ncol, nrow = np.maximum(c1 - c0 + 1, 0), np.maximum(r1 - r0 + 1, 0)
     count = ncol * nrow
+    width = np.maximum(ncol, 1)
     ends = np.cumsum(count)
     start = 0
     while start < len(xy):
@@ -62,8 +64,8 @@ def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols
         chunk = np.arange(start, stop)
         tri = np.repeat(chunk, count[chunk])
         k = np.arange(len(tri)) - np.repeat(np.cumsum(count[chunk]) - count[chunk], count[chunk])
-        col = c0[tri] + k % np.maximum(ncol[tri], 1)
-        row = r0[tri] + k // np.maximum(ncol[tri], 1)
+        row_in, col_in = np.divmod(k, width[tri])
+        col, row = c0[tri] + col_in, r0[tri] + row_in
         px, py = x0 + col * step, y_top - row * step
         a, b, c = xy[tri, 0], xy[tri, 1], xy[tri, 2]
         det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
@@ -74,7 +76,7 @@ def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols
         inside = (det != 0) & (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
         cell = row[inside] * cols + col[inside]
         found[cell] = tri[inside]
-        weights[cell] = np.column_stack([w0, w1, w2])[inside]
+        weights[cell] = np.column_stack([w0[inside], w1[inside], w2[inside]])
         start = stop
     return found, weights
 
