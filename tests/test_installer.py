@@ -140,3 +140,22 @@ def test_pip_runs_in_this_very_python_not_another_of_the_same_version(tmp_path, 
     with pytest.raises(WitError, match=f"No interpreter of QGIS's Python .*{other}: Python "):
         interpreter.this_python()
     assert interpreter.this_python(str(other)) == str(other)  # given explicitly: the version must match only
+
+
+def test_the_cores_processes_run_their_numeric_libraries_on_one_thread_unless_told_otherwise(monkeypatch):
+    """A step beside the next ones and the Dask workers are processes, one per core: OpenBLAS's own threads
+    spun on every core in the 3D Tiles export (its CPU time 1.3 × its wall time) and slowed the steps beside it."""
+    import subprocess
+
+    from wit_plugin import interpreter
+
+    for name in interpreter.SINGLE_THREADED:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "4")  # the user's choice stays
+    env = interpreter.core_env()
+    assert (env["OPENBLAS_NUM_THREADS"], env["MKL_NUM_THREADS"], env["OMP_NUM_THREADS"]) == ("1", "1", "4")
+    threads = ("import os, numpy; a = numpy.ones((300, 300)); a @ a; "
+               "print(len(os.listdir('/proc/self/task')))")  # the process's threads once BLAS has run
+    child = subprocess.run([sys.executable, "-c", threads], env=dict(env, OMP_NUM_THREADS="1"), capture_output=True,
+                           text=True, check=True)
+    assert child.stdout.strip() == "1"
