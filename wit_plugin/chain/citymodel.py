@@ -18,7 +18,6 @@ end, so a failed or cancelled run leaves nothing behind (and never a half-update
 """
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import subprocess
@@ -44,6 +43,7 @@ from ..feedback import SILENT, Feedback
 from ..georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..heights import HeightOptions
 from ..interpreter import core_env, core_python
+from ..io import jsontext
 from ..io.fileio import ensure_writable_dir
 from ..io.vector_io import read_prepared
 from ..metrics import quality_report
@@ -235,7 +235,7 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
         shutil.rmtree(staging, ignore_errors=True)
     report.seconds = {label: clock.seconds[label] for label, _ in STEPS if label in clock.seconds}
     report.wall_seconds = round(time.perf_counter() - started, 3)
-    (output / STEPS_FILE).write_text(json.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
+    (output / STEPS_FILE).write_text(jsontext.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
                                        encoding="utf-8")
     feedback.info("Seconds per step: " + ", ".join(f"{k} {v:.1f}" for k, v in report.seconds.items())
                   + f"; {report.wall_seconds:.1f} s in all (3D Tiles beside validation and metrics)")

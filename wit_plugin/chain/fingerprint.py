@@ -24,6 +24,7 @@ import shapely
 
 from .. import triangulators
 from ..dem import reprojection
+from ..io import jsontext
 from ..io.digests import digest, file_digest, raster_window_digest, raw_digest
 from ..io.fileio import atomic_file
 from ..io.raster_io import open_raster
@@ -59,11 +60,11 @@ class Fingerprint:
     inputs: dict[str, str]
 
     def __post_init__(self):
-        self.settings = json.loads(json.dumps(self.settings, sort_keys=True))  # as read back from build.json
+        self.settings = json.loads(jsontext.dumps(self.settings, sort_keys=True))  # as read back from build.json
 
     @property
     def digest(self) -> str:
-        return digest(json.dumps({"settings": self.settings, "inputs": self.inputs}, sort_keys=True))
+        return digest(jsontext.dumps({"settings": self.settings, "inputs": self.inputs}, sort_keys=True))
 
     def changes(self, record: dict | None) -> list[str]:
         """What differs from the fingerprint of ``record`` (a ``build.json``): the settings by name, then the
@@ -100,7 +101,7 @@ def read_record(folder: Path) -> dict | None:
 
 def write_record(folder: Path, record: dict) -> None:
     with atomic_file(folder / BUILD_FILE) as tmp:
-        tmp.write_text(json.dumps(record, ensure_ascii=False, indent=1, sort_keys=True), encoding="utf-8")
+        tmp.write_text(jsontext.dumps(record, ensure_ascii=False, indent=1, sort_keys=True), encoding="utf-8")
 
 
 class LayerDigests:

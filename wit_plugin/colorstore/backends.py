@@ -15,6 +15,7 @@ from osgeo import gdal, ogr, osr
 
 from ..errors import InputError, MissingDependencyError
 from ..feedback import Feedback
+from ..io import jsontext
 from .schema import _QUERY_COLUMNS, CELL_COLUMNS, COLOR_COLUMNS, LATTICE_COLUMNS, _Cells, _check_table_name
 
 
@@ -49,7 +50,7 @@ class _GpkgWriter:
         for key, value in meta.items():
             feature = ogr.Feature(layer.GetLayerDefn())
             feature.SetField("key", key)
-            feature.SetField("value", json.dumps(value))
+            feature.SetField("value", jsontext.dumps(value))
             layer.CreateFeature(feature)
         self.ds.CommitTransaction()
 
@@ -95,7 +96,7 @@ class _PostgisWriter:
                             "CREATE TABLE {m} (key text PRIMARY KEY, value text NOT NULL)").format(
             i=index, t=self.cells, m=self.meta))
         cur.executemany(sql.SQL("INSERT INTO {m} VALUES (%s, %s)").format(m=self.meta),
-                        [(k, json.dumps(v)) for k, v in meta.items()])
+                        [(k, jsontext.dumps(v)) for k, v in meta.items()])
         cur.execute(sql.SQL("ANALYZE {t}").format(t=self.cells))
         cur.execute("SELECT pg_total_relation_size(%s::regclass) + pg_total_relation_size(%s::regclass)",
                     (self.cells.as_string(self.conn), self.meta.as_string(self.conn)))

@@ -11,7 +11,6 @@ the DEM) for them instead (``given.py``), so that a run on real vectors has an i
 """
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -21,6 +20,7 @@ from pyproj import Transformer
 from .. import mapsheet
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
+from ..io import jsontext
 from ..io.fileio import atomic_files
 from .config import MANIFEST, SampleConfig, check_rasters
 from .given import DrawnSample, GivenLayers, draw_from_layers
@@ -122,7 +122,7 @@ def generate_sample(output_dir: str | Path, config: SampleConfig | None = None,
             gains = {row["file"]: row["gain"] for row in manifest["tiles"]}
         counts["tiles"] = len(tiles)
         manifest.update(files={**names, "dem": dem_name, "ortho": tiles}, counts=counts, defects=data.defects)
-        (tmp / MANIFEST).write_text(json.dumps(manifest, ensure_ascii=False, indent=1, sort_keys=True),
+        (tmp / MANIFEST).write_text(jsontext.dumps(manifest, ensure_ascii=False, indent=1, sort_keys=True),
                                     encoding="utf-8")
     feedback.progress(100.0)
     return SampleResult(folder, folder / names["buildings"], folder / names["roads"], folder / names["districts"],

@@ -22,7 +22,6 @@ are only read: nothing is written beside or into them.
 from __future__ import annotations
 
 import datetime
-import json
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -35,6 +34,7 @@ from ..area import StudyArea
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..heights import HeightOptions, building_height
+from ..io import jsontext
 from ..io.fileio import atomic_files, refuse_overlap, source_file
 from ..io.vector_io import VectorLayer, layer_extent, non_finite, read_layer
 from ..polygons import polygonal, repair_polygons, transform
@@ -133,7 +133,7 @@ def draw_from_layers(output_dir: str | Path, layers: GivenLayers, config: Sample
         tiles = [row["file"] for row in manifest.get("tiles", [])]
         counts = {**drawn.counts, "tiles": len(tiles)}
         manifest.update(files={"dem": DEM_NAME if config.with_dem else None, "ortho": tiles}, counts=counts)
-        (tmp / MANIFEST).write_text(json.dumps(manifest, ensure_ascii=False, indent=1, sort_keys=True),
+        (tmp / MANIFEST).write_text(jsontext.dumps(manifest, ensure_ascii=False, indent=1, sort_keys=True),
                                     encoding="utf-8")
     feedback.progress(100.0)
     return DrawnSample(folder, folder / DEM_NAME if config.with_dem else None, [folder / t for t in tiles],

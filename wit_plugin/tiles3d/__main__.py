@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from dataclasses import asdict
 
 from ..errors import WitError
 from ..feedback import LoggingFeedback
+from ..io import jsontext
 from .tileset import TilesetConfig, export_tileset
 
 
@@ -27,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     except WitError as exc:
         print(str(exc), file=sys.stderr)
         return 2
-    print(json.dumps(asdict(report)))
+    print(jsontext.dumps(asdict(report)))
     return 0
 
 

@@ -32,6 +32,7 @@ from shapely.geometry.base import BaseGeometry
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..georef import OK, georeference_sheets
+from ..io import jsontext
 from ..io.digests import digest
 from ..io.fileio import atomic_file, restore_folder, swap_folder
 from .geo import Georeference, column_major, union_region
@@ -308,7 +309,7 @@ def _root_document(children: list[dict]) -> dict:
 
 
 def _json_bytes(document: dict) -> bytes:
-    return json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+    return jsontext.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
 
 
 def _write_json(path: Path, document: dict) -> None:

@@ -18,11 +18,12 @@ view of 0 bytes, which glTF forbids) and reads as the class's ``default``, the e
 """
 from __future__ import annotations
 
-import json
 import struct
 
 import numpy as np
 import pygltflib as gl
+
+from ..io import jsontext
 
 UNLIT = "KHR_materials_unlit"
 MESH_FEATURES = "EXT_mesh_features"
@@ -207,7 +208,7 @@ def glb_bytes(gltf: gl.GLTF2, blob: bytes) -> bytes:
     properties nor the accessors' and buffer views' defaults (``byteOffset`` 0, ``normalized`` false), which a tile
     with a primitive per facade image would repeat a few hundred times. Built from the objects' fields directly:
     pygltflib's own ``to_json`` deep-copies every value, which took a tenth of the export."""
-    text = json.dumps(_plain(gltf), separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+    text = jsontext.dumps(_plain(gltf), separators=(",", ":"), ensure_ascii=False).encode("utf-8")
     text += b" " * (-len(text) % 4)
     blob += b"\0" * (-len(blob) % 4)
     return b"".join([struct.pack("<4sII", b"glTF", 2, 28 + len(text) + len(blob)),

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import shapely
 
+from ..io import jsontext
 from .group_buildings import Candidates
 from .groups import Terrain
 
@@ -27,9 +28,9 @@ def summary_path(folder: Path, name: str) -> Path:
 def save_summary(path: Path, meta: dict, terrain: Terrain | None, buildings: Candidates) -> None:
     """Write ``meta`` (plain values), the terrain (or none) and the buildings into ``path``."""
     wkb = [shapely.to_wkb(g) for g in buildings.footprints]
-    parts = {"meta": np.array(json.dumps(meta)), "fields": np.array(json.dumps(buildings.fields)),
-             "ids": np.array(json.dumps(buildings.ids, ensure_ascii=False)),
-             "attributes": np.array(json.dumps(buildings.attributes, ensure_ascii=False, default=_tagged)),
+    parts = {"meta": np.array(jsontext.dumps(meta)), "fields": np.array(jsontext.dumps(buildings.fields)),
+             "ids": np.array(jsontext.dumps(buildings.ids, ensure_ascii=False)),
+             "attributes": np.array(jsontext.dumps(buildings.attributes, ensure_ascii=False, default=_tagged)),
              "footprints": np.frombuffer(b"".join(wkb), dtype=np.uint8),
              "offsets": np.cumsum([0] + [len(w) for w in wkb]), "base": buildings.base, "top": buildings.top,
              "size": buildings.size, "dropped": np.array(buildings.dropped)}

@@ -38,7 +38,7 @@ from osgeo import ogr
 from .. import step_layers
 from ..errors import InputError
 from ..feedback import Feedback
-from ..io import bulk_read
+from ..io import bulk_read, jsontext
 from ..io.vector_io import open_step_layer
 from ..meshes import parse_texcoords, triangle_vertices
 
@@ -214,7 +214,7 @@ class Store:
             columns = [[None if v is None else v.decode("utf-8") if isinstance(v, bytes) else v
                         for v in batch[f.GetName()].tolist()] for f in kept]
             self.db.executemany("INSERT OR REPLACE INTO facade VALUES (?, ?)", (
-                (wit_id, json.dumps(list(values), ensure_ascii=False))
+                (wit_id, jsontext.dumps(list(values), ensure_ascii=False))
                 for wit_id, values in zip(_texts(batch[step_layers.WIT_ID]), zip(*columns))))
         del layer, ds
 
@@ -238,7 +238,7 @@ class Store:
             attrs = [None if feature.IsFieldNull(i) else feature.GetField(i) for i in kept]
             rows.append((feature.GetField(wit_id), (xmin + xmax) / 2, (ymin + ymax) / 2,
                          max(math.hypot(xmax - xmin, ymax - ymin), feature.GetField(height) or 0.0), base,
-                         json.dumps(attrs, ensure_ascii=False)))
+                         jsontext.dumps(attrs, ensure_ascii=False)))
             if len(rows) == BATCH:
                 self._insert_buildings(rows, grid)
                 rows = []
@@ -359,7 +359,7 @@ class Store:
             "WHERE leaf >= ? AND leaf < ? AND size >= ? ORDER BY size DESC, b.wit_id LIMIT ?",
             (first, end, min_size, limit)).fetchall()
         ids = [wit_id for wit_id, _, _ in chosen]
-        no_facade = json.dumps([None] * len(self.facade_fields))
+        no_facade = jsontext.dumps([None] * len(self.facade_fields))
         number = {wit_id: i for i, wit_id in enumerate(ids)}
         faces = []
         for part in range(0, len(ids), 500):

@@ -28,7 +28,6 @@ leaves nothing.
 from __future__ import annotations
 
 import bisect
-import json
 import os
 import tempfile
 import time
@@ -42,6 +41,7 @@ from osgeo import osr
 from .. import step_layers
 from ..errors import InputError
 from ..feedback import SILENT, Feedback
+from ..io import jsontext
 from ..io.fileio import atomic_files, refuse_overlap
 from ..io.vector_io import open_step_layer
 from ..meshes import fan_corners, planar_triangles
@@ -166,7 +166,7 @@ def export_tileset(lod1: str | None, tin: str | None, textures: str | None, outp
             document = {"asset": {"version": "1.1", "generator": "WIT City Model (wit:export3dtiles)"},
                         "geometricError": max(2.0 * root.error, side / 4),
                         "root": root.json}
-            (folder / TILESET_FILE).write_text(json.dumps(document, ensure_ascii=False), encoding="utf-8")
+            (folder / TILESET_FILE).write_text(jsontext.dumps(document, ensure_ascii=False), encoding="utf-8")
             report.levels = grid.depth + 1
             report.images = len(writer.textures.written)
             report.bytes_written = folder_size(folder)

@@ -1,0 +1,31 @@
+"""JSON text as Python's ``json`` module writes it, whatever another package did to that module.
+
+cjio (0.10, which CityJSON tools a user has in the same Python import, and so do our tests) replaces the
+module's float formatting process-wide with six decimals, and its C encoder with the Python one: a tileset's
+regions, a glTF's accessor bounds and the building attributes in 3D Tiles, rounded so, no longer hold what they
+describe. Every JSON the core writes goes through ``dumps``.
+"""
+from __future__ import annotations
+
+import json
+
+try:
+    import _json
+except ImportError:  # an interpreter without the C accelerator
+    _json = None
+_C_ENCODER = getattr(_json, "make_encoder", None)
+
+
+def dumps(value: object, **options) -> str:
+    """``json.dumps(value, **options)`` with the module's own float formatting and encoder for the call (another
+    package's replacement, if any, is put back after it)."""
+    module = json.encoder
+    encoder, number = module.c_make_encoder, module.__dict__.get("float")  # cjio shadows the built-in float there
+    module.c_make_encoder = _C_ENCODER
+    module.__dict__.pop("float", None)
+    try:
+        return json.dumps(value, **options)
+    finally:
+        module.c_make_encoder = encoder
+        if number is not None:
+            module.float = number
