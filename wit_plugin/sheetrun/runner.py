@@ -122,9 +122,7 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
                  schema_cache=str(options.schema_cache or DEFAULT_SCHEMA_CACHE))
     return {
         "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area), "options": plain,
-        "heights": {"height_field": heights.height_field, "storey_height": heights.storey_height,
-                    "default_height": heights.default_height, "expression_text": heights.expression_text,
-                    "expression_column": heights.expression_column},
+        "heights": dataclasses.asdict(heights),  # plain values: the expression is None (above)
         "cityjson_translate": list(run_translate(area)) if options.cityjson else None,  # the run's one transform
         "context": context[0], "context_layers": context[1],
         "inputs": {"ortho": inputs.ortho, "dem": inputs.dem, "buildings": inputs.buildings, "roads": None,
