@@ -6,7 +6,7 @@ def classFactory(iface):  # noqa: N802 (QGIS API name)
     profile become importable first, then the plugin loads."""
     from qgis.core import QgsApplication
 
-    from .wit_plugin.installer import activate, packages_folder
+    from .wit_plugin.infra.installer import activate, packages_folder
 
     activate(packages_folder(QgsApplication.qgisSettingsDirPath()))
     from .plugin import WitCityModelPlugin

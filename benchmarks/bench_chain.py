@@ -65,8 +65,8 @@ def through_qgis_process(inputs: dict, radius: float, max_edge: float, output: P
 
 
 def in_python(inputs: dict, radius: float, max_edge: float, output: Path) -> dict:
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+    from wit_plugin.prepare.area import StudyArea
 
     shutil.rmtree(output, ignore_errors=True)
     start = time.perf_counter()

@@ -38,7 +38,7 @@ def make_inputs(folder: Path, n: int) -> tuple[str, str]:
     """(lod1.gpkg, districts.gpkg) for n buildings on a square grid; reused when present."""
     from osgeo import ogr, osr
 
-    from wit_plugin import step_layers
+    from wit_plugin.infra import step_layers
 
     folder.mkdir(parents=True, exist_ok=True)
     lod1, districts = folder / f"lod1_{n}.gpkg", folder / f"districts_{n}.gpkg"
@@ -120,7 +120,7 @@ def child(output: str, inputs: str) -> None:
 
 def _qgis_parameters(inputs: dict, output: Path) -> dict[str, str]:
     """wit:writecitygml's parameters for the same inputs (prepared layers named as the chain names them)."""
-    from wit_plugin import step_layers
+    from wit_plugin.infra import step_layers
 
     layers = {"LOD1": inputs["lod1"], "TIN": inputs.get("tin"),
               "ROADS": inputs.get("roads") and f"{inputs['roads']}|layername={step_layers.PREPARED_ROADS}",

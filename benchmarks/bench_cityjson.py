@@ -30,8 +30,8 @@ def model_folder(work: str | None) -> Path:
     """A kept chain run: ``work`` or the default sample's, made once."""
     if work:
         return Path(work)
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sample import SampleConfig, generate_sample
 
     folder = ROOT / "out" / "bench" / "data" / "cityjson-1km"

@@ -63,8 +63,8 @@ def make_ortho(size: int) -> Path:
     from osgeo import gdal
 
     sys.path.insert(0, str(ROOT))
-    from wit_plugin.georef import georeference_sheets
     from wit_plugin.mosaic import merge_tiles
+    from wit_plugin.mosaic.georef import georeference_sheets
     from wit_plugin.sample import SampleConfig, generate_sample
 
     merged = DATA / "ortho.tif"

@@ -52,9 +52,9 @@ def _setup() -> None:
 def prepare_data() -> dict:
     """Generate the sample and prepare its vectors once; later runs reuse them."""
     _setup()
-    from wit_plugin.area import StudyArea
+    from wit_plugin.prepare.area import StudyArea
+    from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
     sample = DATA / "sample"
     prepared = DATA / "prepared.gpkg"
@@ -76,8 +76,9 @@ def _study_area():
 
 
 def _inputs(paths: dict):
-    from wit_plugin import step_layers, terrain
-    from wit_plugin.io.vector_io import read_layer
+    from wit_plugin import terrain
+    from wit_plugin.infra import step_layers
+    from wit_plugin.infra.io.vector_io import read_layer
 
     buildings = read_layer(paths["prepared"], step_layers.PREPARED_BUILDINGS)
     roads = read_layer(paths["prepared"], step_layers.PREPARED_ROADS)
@@ -89,7 +90,7 @@ def terrain_clock() -> _Clock:
     import triangle
 
     from wit_plugin import terrain
-    from wit_plugin.dem import Dem
+    from wit_plugin.infra.dem import Dem
 
     clock = _Clock()
     clock.wrap(terrain, "clean_constraints", "mesh")
@@ -131,7 +132,7 @@ def case_terrain(paths: dict) -> dict:
     import numpy as np
 
     from wit_plugin import terrain
-    from wit_plugin.dem import Dem
+    from wit_plugin.infra.dem import Dem
 
     buildings, footprints, roads = _inputs(paths)
     area = _study_area()
@@ -158,7 +159,7 @@ def case_mesh_only(paths: dict) -> dict:
     import numpy as np
 
     from wit_plugin import terrain
-    from wit_plugin.dem import Dem
+    from wit_plugin.infra.dem import Dem
 
     _, footprints, roads = _inputs(paths)
     area = _study_area()
@@ -176,7 +177,7 @@ def case_dem_only(paths: dict) -> dict:
     import numpy as np
 
     from wit_plugin import terrain
-    from wit_plugin.dem import Dem
+    from wit_plugin.infra.dem import Dem
 
     mesh = np.load(DATA / "tin.npz")
     vertices, triangles = mesh["vertices"], mesh["triangles"]
@@ -193,7 +194,7 @@ def case_dem_only(paths: dict) -> dict:
 
 def case_extrude(paths: dict) -> dict:
     _setup()
-    from wit_plugin import extrude
+    from wit_plugin.buildings import extrude
 
     clock = _Clock()
     clock.wrap(extrude, "write_solids", "write")

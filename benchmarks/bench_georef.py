@@ -56,7 +56,7 @@ def run_mode(input_dir: str, output_dir: str, fmt: str) -> dict:
     """Georeference everything in ``input_dir``; time, counts, sizes and this process's peak RSS."""
     sys.path.insert(0, str(ROOT))
     os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
-    from wit_plugin import georef
+    from wit_plugin.mosaic import georef
 
     tifs = georef.list_tifs(input_dir)
     rss_before = peak_rss_mb()

@@ -50,10 +50,10 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
     import shapely
     from osgeo import gdal, ogr, osr
 
-    from wit_plugin import step_layers
-    from wit_plugin.io.vector_io import read_layer
-    from wit_plugin.mapsheet import sheets_covering
-    from wit_plugin.polygons import transform
+    from wit_plugin.infra import step_layers
+    from wit_plugin.infra.io.vector_io import read_layer
+    from wit_plugin.infra.mapsheet import sheets_covering
+    from wit_plugin.infra.polygons import transform
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.sheetrun.plan import owners, plan_tiles
     from wit_plugin.tiles3d.geo import Georeference, column_major
@@ -168,7 +168,7 @@ def generated_run(folder: Path) -> tuple[Path, dict]:
 
 
 def write(run: Path, areas: dict, dem: str, ortho: str) -> tuple[dict, float]:
-    from wit_plugin.georef import list_tifs
+    from wit_plugin.mosaic.georef import list_tifs
     from wit_plugin.tiles3d.combine import write_run_tileset
 
     start = time.perf_counter()

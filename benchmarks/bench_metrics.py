@@ -47,13 +47,13 @@ def peak_rss_mb() -> float:
 def prepare_data(data: Path, radius: float) -> dict:
     """Run the chain once; later runs reuse every file that exists. Returns the paths and step times."""
     _setup()
-    from wit_plugin import extrude, georef
-    from wit_plugin.area import StudyArea
+    from wit_plugin.buildings import extrude
     from wit_plugin.citygml import writer as citygml
-    from wit_plugin.mosaic import merge_tiles
+    from wit_plugin.mosaic import georef, merge_tiles
+    from wit_plugin.prepare.area import StudyArea
+    from wit_plugin.prepare.vectors import prepare_vectors
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.texture import TextureConfig, texture_model
-    from wit_plugin.vectors import prepare_vectors
 
     data.mkdir(parents=True, exist_ok=True)
     p = {name: str(data / file) for name, file in (
@@ -98,7 +98,7 @@ def _footprints(paths: dict):
     import shapely
     from osgeo import ogr
 
-    from wit_plugin import step_layers
+    from wit_plugin.infra import step_layers
 
     ds = ogr.Open(paths["prepared"])  # kept referenced: the layer dies with its data source
     wkbs = [bytes(f.GetGeometryRef().ExportToIsoWkb()) for f in ds.GetLayerByName(step_layers.PREPARED_BUILDINGS)]

@@ -46,7 +46,7 @@ def run_case(case: str, path: str) -> dict:
     from osgeo import gdal
 
     gdal.SetConfigOption("SHAPE_ENCODING", "")
-    from wit_plugin.io import bulk_read, vector_io
+    from wit_plugin.infra.io import bulk_read, vector_io
 
     if case == "features":
         bulk_read.arrow_ready = lambda layer: False  # the fallback, as for non-UTF-8 names

@@ -55,9 +55,9 @@ def cpu_seconds() -> float:
 def prepare_data() -> dict:
     """The sample, and its vectors prepared in both CRSs (once; later runs reuse them)."""
     _setup()
-    from wit_plugin.area import StudyArea
+    from wit_plugin.prepare.area import StudyArea
+    from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
     sample = DATA / "sample"
     if not (sample / "sample_manifest.json").exists():
@@ -74,17 +74,19 @@ def prepare_data() -> dict:
 
 
 def _area(prepared: str):
-    from wit_plugin import step_layers
-    from wit_plugin.io.vector_io import read_prepared
+    from wit_plugin.infra import step_layers
+    from wit_plugin.infra.io.vector_io import read_prepared
 
     return read_prepared(f"{prepared}|layername={step_layers.STUDY_AREA}", step_layers.STUDY_AREA).geoms[0]
 
 
 def run_case(case: str, kind: str, paths: dict) -> dict:
     _setup()
-    from wit_plugin import extrude, step_layers, terrain
+    from wit_plugin import terrain
+    from wit_plugin.buildings import extrude
     from wit_plugin.chain.coverage import require_dem
-    from wit_plugin.dem import Dem
+    from wit_plugin.infra import step_layers
+    from wit_plugin.infra.dem import Dem
 
     prepared, crs = paths[kind], CRSS[kind]
     area = _area(prepared)
@@ -114,7 +116,7 @@ def accuracy(dem_path: str, bounds: tuple[float, float, float, float], points: i
     import numpy as np
     import pyproj
 
-    from wit_plugin.dem import Dem
+    from wit_plugin.infra.dem import Dem
 
     source = Dem.open(dem_path)
     warped = Dem.open(dem_path, bounds, crs="EPSG:5187")

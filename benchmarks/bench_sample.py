@@ -42,7 +42,7 @@ def make_layers(folder: str) -> dict:
     import shapely
     from pyproj import Transformer
 
-    from wit_plugin.io.vector_io import read_layer
+    from wit_plugin.infra.io.vector_io import read_layer
     from wit_plugin.sample import SampleConfig, generate_sample
 
     districts = read_layer(JUSO / "TL_SCCO_EMD.shp")
@@ -59,7 +59,7 @@ def make_layers(folder: str) -> dict:
 def run_case(case: str, out: str, pixel: float, layers: dict) -> dict:
     """One case in this process: seconds, tiles, buildings and roads drawn, peak RSS."""
     _core()
-    from wit_plugin.area import StudyArea
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers, generate_sample
 
     kind, size = case.split("-")

@@ -49,7 +49,7 @@ def make_inputs(folder: Path) -> tuple[str, str, str]:
     from osgeo import gdal, ogr, osr
 
     sys.path.insert(0, str(ROOT))
-    from wit_plugin import step_layers
+    from wit_plugin.infra import step_layers
 
     folder.mkdir(parents=True, exist_ok=True)
     ortho, lod1, tin = folder / "ortho.tif", folder / "lod1.gpkg", folder / "tin.gpkg"

@@ -36,7 +36,7 @@ def blocks(n: int) -> list[str]:
     """n sheets forming a square block (n = 1, 4, 16) of 1:1,000 sheets around Suseo station."""
     import pyproj
 
-    from wit_plugin.mapsheet import sheet_at
+    from wit_plugin.infra.mapsheet import sheet_at
 
     side = int(round(n ** 0.5))
     west, south = 127.0975, 37.4775  # south-west of the station: the 4 × 4 block lies inside the sample's DEM
@@ -67,8 +67,8 @@ def main() -> int:
 
     import shapely
 
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.sheetrun.plan import tile_of
     from wit_plugin.sheetrun.runner import run_tiles
@@ -177,8 +177,8 @@ def edit_sheet(buildings: str, scale: int, folder: Path, footprints: bool, skip:
     import shapely
     from osgeo import gdal, ogr
 
-    from wit_plugin.io.vector_io import read_layer
-    from wit_plugin.polygons import repair_polygons, transform
+    from wit_plugin.infra.io.vector_io import read_layer
+    from wit_plugin.infra.polygons import repair_polygons, transform
     from wit_plugin.sheetrun.plan import owners, plan_tiles
     from wit_plugin.sheetrun.prepare import area_of_layer
 
@@ -221,7 +221,7 @@ def updates(inputs, options, output: Path, workers: int, footprints: bool, full:
     sheet's (another one): wall time beside the full run's."""
     from dataclasses import replace
 
-    from wit_plugin.feedback import Feedback
+    from wit_plugin.infra.feedback import Feedback
     from wit_plugin.sheetrun.runner import run_tiles
 
     class Log(Feedback):

@@ -41,8 +41,9 @@ def child_area(key: int) -> dict:
     """One backend on the 1 km sample, in this (child) process."""
     os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
     from benchmarks import bench_geometry
-    from wit_plugin import terrain, triangulators
-    from wit_plugin.dem import Dem
+    from wit_plugin import terrain
+    from wit_plugin.infra.dem import Dem
+    from wit_plugin.terrain import triangulators
 
     paths = bench_geometry.prepare_data()
     _, footprints, roads = bench_geometry._inputs(paths)
@@ -64,12 +65,12 @@ def run_tiles_case(key: int, tiles: int) -> dict:
 
     from benchmarks.bench_tiles import OUT as TILES_OUT
     from benchmarks.bench_tiles import blocks
-    from wit_plugin import triangulators
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.sheetrun.plan import tile_of
     from wit_plugin.sheetrun.runner import run_tiles
+    from wit_plugin.terrain import triangulators
 
     folder = TILES_OUT / "sample"
     if not (folder / "sample_manifest.json").is_file():  # the same sample as bench_tiles.py

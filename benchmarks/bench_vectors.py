@@ -33,9 +33,9 @@ def run_case(name: str, n_buildings: int | None) -> dict:
     """Generate (or reuse) the sample, then time prepare_vectors on it; this process's peak RSS."""
     sys.path.insert(0, str(ROOT))
     os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
-    from wit_plugin.area import StudyArea
+    from wit_plugin.prepare.area import StudyArea
+    from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
     config = SampleConfig(n_buildings=n_buildings, with_ortho=False, with_dem=False)
     folder = OUT / "vectors_data" / name

@@ -130,7 +130,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
     p = _paths(sample, run)
     info: dict = {}
     if step == "georeference":
-        from wit_plugin import georef
+        from wit_plugin.mosaic import georef
 
         tiles = georef.list_tifs(p["tiles"])
         start = time.perf_counter()
@@ -147,8 +147,8 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         seconds = time.perf_counter() - start
         info = {"width": report.width, "height": report.height, "blended_pixels": report.blended_pixels}
     elif step == "prepare":
-        from wit_plugin.area import StudyArea
-        from wit_plugin.vectors import PrepareConfig, prepare_vectors
+        from wit_plugin.prepare.area import StudyArea
+        from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
 
         start = time.perf_counter()
         report = prepare_vectors(p["buildings"], p["roads"], p["districts"],
@@ -158,7 +158,8 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
     elif step == "terrain":
 
         from benchmarks.bench_geometry import terrain_clock
-        from wit_plugin import step_layers, terrain
+        from wit_plugin import terrain
+        from wit_plugin.infra import step_layers
 
         clock = terrain_clock()
         start = time.perf_counter()
@@ -171,7 +172,7 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         info = {"split_s": split, "triangles": stats.triangles, "vertices": stats.vertices,
                 "max_vertical_error": stats.max_vertical_error, "max_edge": stats.max_edge}
     elif step == "extrude":
-        from wit_plugin import extrude
+        from wit_plugin.buildings import extrude
 
         start = time.perf_counter()
         stats = extrude.extrude_buildings(p["prepared"], p["dem"], p["lod1"], spatial_index=False)

@@ -67,7 +67,7 @@ class Cluster:
     """A stock scheduler (no core) and ``workers`` ``dask worker`` processes with the core, logging to ``logs``."""
 
     def __init__(self, python: str, workers: int, threads: int, logs: Path):
-        from wit_plugin.interpreter import core_env
+        from wit_plugin.infra.interpreter import core_env
 
         logs.mkdir(parents=True, exist_ok=True)
         self.address = f"tcp://127.0.0.1:{free_port()}"
@@ -145,8 +145,8 @@ def stress(args: argparse.Namespace) -> int:
     import shapely
     from bench_tiles import blocks
 
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sample import SampleConfig, generate_sample
     from wit_plugin.sheetrun.plan import tile_of
     from wit_plugin.sheetrun.runner import run_tiles, worker_python

@@ -21,11 +21,11 @@ from qgis.core import (
 )
 from qgis.PyQt.QtGui import QIcon
 
-from ..wit_plugin import deps
-from ..wit_plugin.errors import CanceledError, WitError
-from ..wit_plugin.feedback import Feedback
-from ..wit_plugin.gdal_env import no_sidecars
-from ..wit_plugin.io import fileio
+from ..wit_plugin.infra import deps
+from ..wit_plugin.infra.errors import CanceledError, WitError
+from ..wit_plugin.infra.feedback import Feedback
+from ..wit_plugin.infra.gdal_env import no_sidecars
+from ..wit_plugin.infra.io import fileio
 from . import safeguards
 from .dependency_notice import NOTICE
 from .help_links import help_url
@@ -73,7 +73,7 @@ class WitAlgorithm(QgsProcessingAlgorithm):
     display_name = ""
     group_name = ""
     help_text = ""
-    #: import names of the optional packages the core step needs (see wit_plugin.deps)
+    #: import names of the optional packages the core step needs (see wit_plugin.infra.deps)
     requirements: tuple[str, ...] = ()
     #: string parameters that name an input file (checked against the outputs like layer inputs)
     path_parameters: tuple[str, ...] = ()

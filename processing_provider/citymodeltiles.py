@@ -119,7 +119,7 @@ class CityModelTiles(CityModel):
             "REBUILD_REASONS", self.tr("Why tiles were built again (JSON: reason → number of tiles)")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.area import StudyArea
+        from ..wit_plugin.prepare.area import StudyArea
         from ..wit_plugin.sheetrun.plan import TILE_SCALES
         from ..wit_plugin.sheetrun.runner import run_tiles
 

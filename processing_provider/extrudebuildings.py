@@ -59,8 +59,8 @@ class ExtrudeBuildings(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("DEFAULT_HEIGHTS", self.tr("Buildings with the default height")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin import step_layers
-        from ..wit_plugin.extrude import extrude_buildings
+        from ..wit_plugin.buildings.extrude import extrude_buildings
+        from ..wit_plugin.infra import step_layers
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)

@@ -72,7 +72,7 @@ class GeoreferenceMapSheets(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("FAILED", self.tr("Files failed")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.georef import FAILED, OK, SKIPPED, georeference_sheets, list_tifs
+        from ..wit_plugin.mosaic.georef import FAILED, OK, SKIPPED, georeference_sheets, list_tifs
 
         target_crs = self.parameterAsCrs(parameters, self.TARGET_CRS, context)
         results = georeference_sheets(
@@ -106,7 +106,7 @@ class GeoreferenceMapSheets(WitAlgorithm):
 
 def index_fields() -> QgsFields:
     """The footprint index's columns, as the core's ``write_footprint_index`` writes them."""
-    from ..wit_plugin.georef import INDEX_FIELDS
+    from ..wit_plugin.mosaic.georef import INDEX_FIELDS
 
     fields = QgsFields()
     for name, kind in INDEX_FIELDS:

@@ -1,5 +1,5 @@
 """wit:installdependencies — the missing Python packages, installed for QGIS's own Python into the user's
-QGIS profile (wit_plugin.installer)."""
+QGIS profile (wit_plugin.infra.installer)."""
 from qgis.core import (
     Qgis,
     QgsApplication,
@@ -10,8 +10,8 @@ from qgis.core import (
     QgsProcessingParameterString,
 )
 
-from ..wit_plugin import installer
-from ..wit_plugin.errors import CanceledError
+from ..wit_plugin.infra import installer
+from ..wit_plugin.infra.errors import CanceledError
 from .base import WitAlgorithm
 from .qgis_compat import AlgorithmFlag, ParameterFlag
 from .translation import tr

@@ -19,7 +19,7 @@ from qgis.core import (
 )
 from qgis.PyQt.QtGui import QColor
 
-from ..wit_plugin import step_layers
+from ..wit_plugin.infra import step_layers
 from .translation import tr, translatable
 
 GROUP_NAME = translatable("WIT city model")

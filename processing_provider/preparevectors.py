@@ -86,8 +86,8 @@ class PrepareVectors(WitAlgorithm):
             name, label, NumberType.Double, defaultValue=default, minValue=minimum))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin import step_layers
-        from ..wit_plugin.vectors import PrepareConfig, prepare_vectors
+        from ..wit_plugin.infra import step_layers
+        from ..wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
 
         buildings, roads, districts = (self.vector_source(parameters, name, context, feedback)
                                        for name in (self.BUILDINGS, self.ROADS, self.DISTRICTS))

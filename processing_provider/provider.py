@@ -2,7 +2,7 @@
 from qgis.core import QgsApplication, QgsProcessingModelAlgorithm, QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
-from ..wit_plugin.version import plugin_version
+from ..wit_plugin.infra.version import plugin_version
 from .base import PLUGIN_DIR
 from .citymodel import CityModel
 from .citymodeltiles import CityModelTiles

@@ -9,7 +9,7 @@ them without code of its own:
 * a vector layer of the wrong geometry type (points given as buildings) is refused up front:
   ``QgsProcessingParameterVectorLayer`` type filters are not enforced for file paths;
 * an output that would replace or share a file with an input (links, ``|layername=`` sources and
-  sidecars resolved, see ``wit_plugin.io.fileio``) is refused before anything is written.
+  sidecars resolved, see ``wit_plugin.infra.io.fileio``) is refused before anything is written.
 """
 from __future__ import annotations
 
@@ -26,8 +26,8 @@ from qgis.core import (
     QgsWkbTypes,
 )
 
-from ..wit_plugin.io import fileio
-from ..wit_plugin.io.raster_io import raster_file_problem
+from ..wit_plugin.infra.io import fileio
+from ..wit_plugin.infra.io.raster_io import raster_file_problem
 from .qgis_compat import GeometryType, SourceType, code
 from .translation import tr, translatable
 

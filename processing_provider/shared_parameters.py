@@ -34,7 +34,7 @@ ROADS_LABEL = translatable("Roads: centre lines or road polygons (TL_SPRD_MANAGE
                            "OpenStreetMap…)")
 TRIANGULATOR = "TRIANGULATOR"
 MAX_EDGE, TOLERANCE = "MAX_EDGE", "TOLERANCE"
-#: the TRIANGULATOR options, in the order of wit_plugin.triangulators.BACKENDS (a test holds them equal)
+#: the TRIANGULATOR options, in the order of wit_plugin.terrain.triangulators.BACKENDS (a test holds them equal)
 TRIANGULATOR_OPTIONS = (translatable("Triangle (non-commercial licence)"), translatable("CDT (MPL-2.0)"))
 WEB_PROFILE = "WEB_PROFILE"
 CITYJSON = "CITYJSON"
@@ -72,7 +72,7 @@ def add_area_parameters(algorithm, radius: float = 1000.0) -> None:
 
 def study_area(algorithm, parameters: dict, context, feedback=None):
     """The core's StudyArea: a district if one is named, else the area layer, else the circle."""
-    from ..wit_plugin.area import StudyArea
+    from ..wit_plugin.prepare.area import StudyArea
 
     code = algorithm.parameterAsString(parameters, DISTRICT_CODE, context).strip()
     if code:
@@ -88,7 +88,7 @@ def study_area(algorithm, parameters: dict, context, feedback=None):
 
 def add_triangulator_parameter(algorithm) -> None:
     """The terrain's triangulation library; by default Triangle where it is installed, else CDT."""
-    from ..wit_plugin import triangulators
+    from ..wit_plugin.terrain import triangulators
 
     algorithm.addParameter(QgsProcessingParameterEnum(
         TRIANGULATOR, tr("Triangulator (licence: Triangle is free for non-commercial use only)"),
@@ -97,7 +97,7 @@ def add_triangulator_parameter(algorithm) -> None:
 
 def add_mesh_parameters(algorithm) -> None:
     """The terrain mesh's maximum edge length and vertical tolerance (defaults: the core's)."""
-    from ..wit_plugin import triangulators
+    from ..wit_plugin.terrain import triangulators
 
     algorithm.addParameter(QgsProcessingParameterNumber(
         MAX_EDGE, tr("Maximum edge length (m)"), NumberType.Double, defaultValue=triangulators.MAX_EDGE,
@@ -109,7 +109,7 @@ def add_mesh_parameters(algorithm) -> None:
 
 def triangulator(algorithm, parameters: dict, context, feedback) -> int:
     """The TRIANGULATOR chosen; says so when Triangle is not installed and CDT is used instead."""
-    from ..wit_plugin import triangulators
+    from ..wit_plugin.terrain import triangulators
 
     key = algorithm.parameterAsEnum(parameters, TRIANGULATOR, context)
     if key != triangulators.TRIANGLE and not triangulators.available(triangulators.BACKENDS[triangulators.TRIANGLE]):
@@ -119,7 +119,7 @@ def triangulator(algorithm, parameters: dict, context, feedback) -> int:
 
 
 def add_height_parameters(algorithm, parent: str) -> None:
-    """Storey height, height field, height expression and default height (the rules: wit_plugin.heights)."""
+    """Storey height, height field, height expression and default height (the rules: wit_plugin.buildings.heights)."""
     algorithm.addParameter(QgsProcessingParameterNumber(
         STOREY_HEIGHT, tr("Storey height (m)"), NumberType.Double, defaultValue=3.0, minValue=0.5))
     algorithm.addParameter(QgsProcessingParameterField(
@@ -137,7 +137,7 @@ def height_options(algorithm, parameters: dict, context, layer):
 
     Returns (options, the checked expression or None) so the caller can warn about failures after the run.
     """
-    from ..wit_plugin.heights import HeightOptions
+    from ..wit_plugin.buildings.heights import HeightOptions
 
     fields = algorithm.parameterAsFields(parameters, HEIGHT_FIELD, context)
     expression = checked_expression(algorithm, parameters, HEIGHT_EXPRESSION, layer, context)
@@ -198,7 +198,7 @@ def model_inputs(algorithm, parameters: dict, context, feedback):
 
 def add_facade_parameter(algorithm) -> None:
     """Wall textures: none, or generated facades (the core's default)."""
-    from ..wit_plugin.step_layers import DEFAULT_FACADES, FACADE_CHOICES
+    from ..wit_plugin.infra.step_layers import DEFAULT_FACADES, FACADE_CHOICES
 
     algorithm.addParameter(QgsProcessingParameterEnum(
         FACADES, tr("Wall textures (an orthoimage sees no facades)"), options=[tr(o) for o in FACADE_OPTIONS],
@@ -207,7 +207,7 @@ def add_facade_parameter(algorithm) -> None:
 
 def facade_choice(algorithm, parameters: dict, context) -> str:
     """The FACADES parameter as ``TextureConfig.facades`` takes it."""
-    from ..wit_plugin.step_layers import FACADE_CHOICES
+    from ..wit_plugin.infra.step_layers import FACADE_CHOICES
 
     return FACADE_CHOICES[algorithm.parameterAsEnum(parameters, FACADES, context)]
 

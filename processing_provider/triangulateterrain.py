@@ -66,7 +66,7 @@ class TriangulateTerrain(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("MAX_EDGE_MEASURED", self.tr("Measured maximum edge length (m)")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin import step_layers
+        from ..wit_plugin.infra import step_layers
         from ..wit_plugin.terrain import TerrainConfig, triangulate_terrain
 
         def source(name):

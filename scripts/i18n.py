@@ -16,7 +16,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CONTEXT = "WitCityModel"
-SOURCES = ["plugin.py", "processing_provider", "wit_plugin/installer.py"]  # the installer speaks to QGIS users
+SOURCES = ["plugin.py", "processing_provider", "wit_plugin/infra/installer.py"]  # the installer speaks to QGIS users
 TRANSLATED_ATTRIBUTES = {"display_name", "group_name", "help_text"}
 LANGUAGES = {"en": "en_US", "ko": "ko_KR"}
 

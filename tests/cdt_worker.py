@@ -23,9 +23,9 @@ from shapely import affinity
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from wit_plugin import terrain
-from wit_plugin.dem import Dem
-from wit_plugin.errors import InputError
-from wit_plugin.step_layers import TIN_SURFACES
+from wit_plugin.infra.dem import Dem
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.step_layers import TIN_SURFACES
 
 
 def hill_dem(cell: float = 2.0, origin: float = -60.0, size: int = 120) -> Dem:

@@ -191,7 +191,7 @@ def run_algorithm(wit_provider):
 @pytest.fixture
 def cancel_after_checks():
     """A core Feedback factory: ``cancel_after_checks(n)`` answers "cancel" from its (n+1)-th check on."""
-    from wit_plugin.feedback import Feedback
+    from wit_plugin.infra.feedback import Feedback
 
     class CancelAfter(Feedback):
         def __init__(self, checks: int):
@@ -309,10 +309,10 @@ def suseo_buildings(tmp_path_factory, shared_dir) -> Path:
     import shapely
     from osgeo import ogr, osr
 
-    from wit_plugin.io.vector_io import read_layer
-    from wit_plugin.polygons import transform
+    from wit_plugin.infra.io.vector_io import read_layer
+    from wit_plugin.infra.polygons import transform
+    from wit_plugin.prepare.vectors import road_widths
     from wit_plugin.sample import SampleConfig, generate_sample
-    from wit_plugin.vectors import road_widths
 
     folder = tmp_path_factory.mktemp("suseo")
     synthetic = generate_sample(folder / "synthetic", SampleConfig(radius_m=350.0, with_ortho=False, with_dem=False))

@@ -124,7 +124,7 @@ def run_install(packages, python, feedback):
 
 
 def package_index(module: str) -> int:
-    from wit_citymodel.wit_plugin import installer
+    from wit_citymodel.wit_plugin.infra import installer
 
     return [p.module for p in installer.PACKAGES].index(module)
 
@@ -190,7 +190,7 @@ def test_cancel_kills_pip_and_its_children_and_leaves_nothing(wit_provider, fake
 
 
 def test_a_finished_install_is_merged_and_importable_at_once(wit_provider, fake_pip, monkeypatch):
-    from wit_citymodel.wit_plugin import installer
+    from wit_citymodel.wit_plugin.infra import installer
 
     python, folder, _ = fake_pip
     fake = len(installer.PACKAGES)

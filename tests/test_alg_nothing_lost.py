@@ -13,7 +13,7 @@ import pytest
 from osgeo import gdal, ogr, osr
 from qgis.core import QgsProcessingException
 
-from wit_plugin import step_layers
+from wit_plugin.infra import step_layers
 
 pytestmark = pytest.mark.qgis_facing
 
@@ -212,8 +212,8 @@ def test_links_to_an_input_are_refused(data, tmp_path, run_algorithm):
 
 def test_atomic_writes_refuse_to_replace_a_protected_input(tmp_path):
     """The core-level guard: whoever calls, a write inside ``protect`` never replaces an input."""
-    from wit_plugin.errors import InputError
-    from wit_plugin.io.fileio import atomic_file, atomic_files, protect, refuse_overlap
+    from wit_plugin.infra.errors import InputError
+    from wit_plugin.infra.io.fileio import atomic_file, atomic_files, protect, refuse_overlap
 
     source = tmp_path / "a.shp"
     source.write_bytes(b"shape")

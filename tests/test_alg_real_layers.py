@@ -20,10 +20,10 @@ from conftest import ROOT, ensure_wit_provider, qgis_gui_profile
 from lxml import etree
 from osgeo import gdal, ogr
 
-from wit_plugin import step_layers
-from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.colorstore import build_color_store
+from wit_plugin.infra import step_layers
+from wit_plugin.prepare.area import StudyArea
 from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers
 
 pytestmark = pytest.mark.slow

@@ -15,9 +15,9 @@ from conftest import ROOT
 from lxml import etree
 from osgeo import gdal, ogr
 
-from wit_plugin import step_layers
-from wit_plugin.dem import Dem
-from wit_plugin.georef import georeference_sheets
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.dem import Dem
+from wit_plugin.mosaic.georef import georeference_sheets
 from wit_plugin.sample import SampleConfig, generate_sample
 
 SUSEO = (127.1020, 37.4876)

@@ -11,9 +11,9 @@ from conftest import juso_roads
 from qgis.core import QgsProcessingException
 from test_sample_given import snapshot
 
-from wit_plugin import mapsheet
-from wit_plugin.io.vector_io import read_layer
-from wit_plugin.polygons import transform
+from wit_plugin.infra import mapsheet
+from wit_plugin.infra.io.vector_io import read_layer
+from wit_plugin.infra.polygons import transform
 
 pytestmark = pytest.mark.qgis_facing
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from osgeo import ogr
 
-from wit_plugin.io import bulk_read
-from wit_plugin.numtext import ring_texts
+from wit_plugin.infra.io import bulk_read
+from wit_plugin.infra.numtext import ring_texts
 
 TRIANGLE = "POLYGON Z ((200000.125 540000 10.5, 200004 540000 11, 200000 540003.3 12.25, 200000.125 540000 10.5))"
 SHAPES = [TRIANGLE, None, "POLYGON Z ((0 0 1, 9 0 1, 9 9 1, 0 9 1, 0 0 1), (1 1 1, 2 1 1, 2 2 1, 1 1 1))",
@@ -96,7 +96,7 @@ def test_ring_texts_equal_point_by_point_formatting(point_format):
 def test_the_collector_is_paused_inside_and_restored_after():
     import gc
 
-    from wit_plugin.gc_pause import collector_paused
+    from wit_plugin.infra.gc_pause import collector_paused
 
     assert gc.isenabled()
     with pytest.raises(KeyError), collector_paused():

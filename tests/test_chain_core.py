@@ -13,12 +13,12 @@ import shapely
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import step_layers
-from wit_plugin.area import StudyArea
+from wit_plugin.buildings.heights import HeightOptions
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
-from wit_plugin.errors import InputError
-from wit_plugin.heights import HeightOptions
-from wit_plugin.io.vector_io import read_layer
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.io.vector_io import read_layer
+from wit_plugin.prepare.area import StudyArea
 from wit_plugin.sample import SampleConfig, generate_sample
 
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "core": "http://www.opengis.net/citygml/3.0",
@@ -191,7 +191,7 @@ def test_the_chain_writes_the_3d_tiles_web_profile_on_request(sample, tmp_path):
 
 
 def test_the_web_profile_without_meshoptimizer_stops_before_anything_is_written(sample, tmp_path, monkeypatch):
-    from wit_plugin.errors import MissingDependencyError
+    from wit_plugin.infra.errors import MissingDependencyError
 
     monkeypatch.setitem(sys.modules, "meshoptimizer", None)  # as if it were not installed
     with pytest.raises(MissingDependencyError, match=r'pip install .*"meshoptimizer==0.2.30a0"'):

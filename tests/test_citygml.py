@@ -11,11 +11,11 @@ import pytest
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import step_layers
 from wit_plugin.citygml import inputs as citygml_inputs
 from wit_plugin.citygml import writer as citygml
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 from wit_plugin.texture import TEXCOORDS_FILE
 
 NS = citygml.NS

@@ -15,15 +15,15 @@ import shapely
 from osgeo import gdal, ogr
 from test_citygml import ROAD, A, B, _add, _layer, make_inputs
 
-from wit_plugin import step_layers
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.citygml.validate import validate_files
 from wit_plugin.cityjson import schema
 from wit_plugin.cityjson import writer as cityjson
 from wit_plugin.cityjson.sequence import RUN_INDEX, run_translate, write_run_index
 from wit_plugin.cityjson.validate import image_folder_of, validate_cityjson_files
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 
 FACADE_IMAGE = "facade_house_1.png"
 TILE_A, TILE_B = "37709005", "37709006"

@@ -11,7 +11,7 @@ from test_citygml import A, B, make_inputs
 
 from wit_plugin.cityjson import writer as cityjson
 from wit_plugin.cityjson.validate import validate_cityjson_files
-from wit_plugin.errors import InputError
+from wit_plugin.infra.errors import InputError
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,7 @@ import shapely
 from osgeo import gdal, osr
 
 from wit_plugin import colorstore
-from wit_plugin.errors import CanceledError, InputError
+from wit_plugin.infra.errors import CanceledError, InputError
 
 ROOT = Path(__file__).resolve().parents[1]
 W, H, PX = 700, 500, 0.5

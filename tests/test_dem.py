@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from osgeo import gdal
 
-from wit_plugin.dem import Dem
-from wit_plugin.errors import InputError
+from wit_plugin.infra.dem import Dem
+from wit_plugin.infra.errors import InputError
 
 SUSEO = (209020.9, 543132.8)  # EPSG:5186, data README
 

@@ -7,8 +7,8 @@ import types
 import pytest
 import shapely
 
-from wit_plugin import deps
-from wit_plugin.errors import MissingDependencyError
+from wit_plugin.infra import deps
+from wit_plugin.infra.errors import MissingDependencyError
 
 pytestmark = pytest.mark.qgis_facing  # the platform's shapely (Debian sid's says "0+unknown") in the chroot too
 

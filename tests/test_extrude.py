@@ -9,10 +9,11 @@ import pytest
 import shapely
 from osgeo import ogr
 
-from wit_plugin import extrude, heights, step_layers
-from wit_plugin.dem import Dem
-from wit_plugin.errors import InputError
-from wit_plugin.heights import HeightOptions
+from wit_plugin.buildings import extrude, heights
+from wit_plugin.buildings.heights import HeightOptions
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.dem import Dem
+from wit_plugin.infra.errors import InputError
 
 
 def plane_dem(a=0.1, b=-0.05, c=50.0):

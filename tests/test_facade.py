@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from test_texture import X0, Y0, make_ortho
 
-from wit_plugin import step_layers
+from wit_plugin.infra import step_layers
 from wit_plugin.texture import TextureConfig, texture_model
 from wit_plugin.texture.facade import modules, uses
 from wit_plugin.texture.facade.walls import wall_texcoords
@@ -149,7 +149,7 @@ def _lod1_with_uses(path: Path) -> str:
         layer.CreateField(ogr.FieldDefn(name, kind))
     import shapely
 
-    from wit_plugin.extrude import solid_faces
+    from wit_plugin.buildings.extrude import solid_faces
     x, y = X0 + 10, Y0 - 50
     buildings = [("BLD_APT", shapely.box(x, y, x + 30, y + 12), 15, "02001"),
                  ("BLD_SHOP", shapely.box(x + 40, y, x + 60, y + 20).difference(

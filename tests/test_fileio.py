@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from wit_plugin.errors import InputError
-from wit_plugin.io.fileio import atomic_file, atomic_files, ensure_writable_dir
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.io.fileio import atomic_file, atomic_files, ensure_writable_dir
 
 
 def test_atomic_file_appears_only_on_success(tmp_path):
@@ -57,9 +57,9 @@ def test_unwritable_output_folder_is_a_clear_error(tmp_path):
 
 def test_core_steps_refuse_an_output_over_their_input(tmp_path):
     """Scripts that call the core directly get the same refusal, before anything is read or written."""
-    from wit_plugin.area import StudyArea
+    from wit_plugin.prepare.area import StudyArea
+    from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
     from wit_plugin.terrain import triangulate_terrain as triangulate
-    from wit_plugin.vectors import PrepareConfig, prepare_vectors
 
     source = tmp_path / "buildings.shp"
     source.write_bytes(b"not read")

@@ -7,8 +7,8 @@ import shapely
 from osgeo import gdal, ogr, osr
 
 from wit_plugin.chain.fingerprint import Fingerprint, LayerDigests
-from wit_plugin.io.digests import digest, file_digest, raster_window_digest
-from wit_plugin.io.vector_io import read_layer
+from wit_plugin.infra.io.digests import digest, file_digest, raster_window_digest
+from wit_plugin.infra.io.vector_io import read_layer
 
 
 def _layer(path, features: list[tuple[str, int, str]]) -> str:

@@ -8,9 +8,9 @@ import pytest
 from osgeo import gdal
 
 from wit_plugin import mosaic
-from wit_plugin.errors import InputError
-from wit_plugin.gdal_env import no_sidecars
-from wit_plugin.io.raster_io import open_raster, raster_file_problem, read_window
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.gdal_env import no_sidecars
+from wit_plugin.infra.io.raster_io import open_raster, raster_file_problem, read_window
 
 
 @pytest.fixture

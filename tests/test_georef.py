@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import georef
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
+from wit_plugin.mosaic import georef
 
 W, H = 200, 250
 # sheet 37713074's envelope + 50 m: the extent of NGII's real orthoimage of that sheet (../shared/data)

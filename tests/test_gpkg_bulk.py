@@ -9,9 +9,9 @@ import pytest
 import shapely
 from osgeo import ogr
 
-from wit_plugin.errors import CanceledError
-from wit_plugin.io import gpkg_bulk
-from wit_plugin.io.vector_io import FieldDef
+from wit_plugin.infra.errors import CanceledError
+from wit_plugin.infra.io import gpkg_bulk
+from wit_plugin.infra.io.vector_io import FieldDef
 
 CRS = pyproj.CRS.from_epsg(5186)
 FIELDS = [FieldDef("n", ogr.OFTInteger), FieldDef("h", ogr.OFTReal), FieldDef("name", ogr.OFTString)]
@@ -113,8 +113,8 @@ import json, os, resource, signal, sys, tempfile
 sys.path.insert(0, sys.argv[1])
 import numpy as np, pyproj
 from osgeo import ogr
-from wit_plugin.io.gpkg_bulk import write_layer
-from wit_plugin.io.vector_io import FieldDef
+from wit_plugin.infra.io.gpkg_bulk import write_layer
+from wit_plugin.infra.io.vector_io import FieldDef
 
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG, as on a full disk
 corners = np.random.default_rng(3).uniform(0, 1000, (3000, 3, 3)) + [200000, 540000, 0]
@@ -167,8 +167,8 @@ import sys
 sys.path.insert(0, sys.argv[1])
 import numpy as np, pyproj
 from osgeo import ogr
-from wit_plugin.io.gpkg_bulk import write_layer
-from wit_plugin.io.vector_io import FieldDef
+from wit_plugin.infra.io.gpkg_bulk import write_layer
+from wit_plugin.infra.io.vector_io import FieldDef
 
 kept = []
 create_layer = ogr.DataSource.CreateLayer
@@ -214,7 +214,7 @@ import sys
 sys.path.insert(0, sys.argv[1])
 import numpy as np, pyproj, shapely
 from osgeo import ogr
-from wit_plugin.io.vector_io import FieldDef, OutputLayer, write_gpkg
+from wit_plugin.infra.io.vector_io import FieldDef, OutputLayer, write_gpkg
 
 kept = []
 create_layer = ogr.DataSource.CreateLayer

@@ -1,10 +1,10 @@
-"""wit_plugin.heights: height rules for the common real building layers, and their order."""
+"""wit_plugin.buildings.heights: height rules for the common real building layers, and their order."""
 from __future__ import annotations
 
 import pytest
 
-from wit_plugin.errors import InputError
-from wit_plugin.heights import FIELD, FLOORS, HeightOptions, building_height, parse_height, recognise
+from wit_plugin.buildings.heights import FIELD, FLOORS, HeightOptions, building_height, parse_height, recognise
+from wit_plugin.infra.errors import InputError
 
 # field lists as the real downloads have them (abridged)
 JUSO = ["BD_MGT_SN", "BUL_MAN_NO", "SIG_CD", "GRO_FLO_CO", "UND_FLO_CO", "BULD_NM"]

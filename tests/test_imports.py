@@ -18,13 +18,13 @@ CORE, GLUE = "wit_plugin", "processing_provider"
 #: the core's layers, lowest first: a module imports from its own layer or a lower one, never from a higher one.
 #: Keys are the names directly under wit_plugin/ (a module or a subpackage); a new one must be given a layer.
 LAYERS: tuple[tuple[str, frozenset[str]], ...] = (
-    ("infrastructure", frozenset({
-        "arrays", "deps", "dem", "errors", "feedback", "gc_pause", "gdal_env", "installer", "interpreter", "io",
-        "mapsheet", "meshes", "numtext", "pip_bootstrap", "polygons", "raster_crs", "step_layers", "version",
-    })),
+    ("infrastructure", frozenset({"infra"})),
+    # the pipeline's steps, in its order: orthoimage sheets merged, layers prepared, terrain, LoD1 buildings,
+    # textures (and the colour store beside them), CityGML and CityJSON, metrics, 3D Tiles and the preview;
+    # the generated sample feeds them all
     ("steps", frozenset({
-        "area", "citygml", "cityjson", "colorstore", "extrude", "georef", "heights", "metrics", "mosaic", "preview",
-        "roads", "sample", "simplify", "steiner", "terrain", "texture", "tiles3d", "tone", "triangulators", "vectors",
+        "mosaic", "prepare", "terrain", "buildings", "texture", "colorstore", "citygml", "cityjson", "metrics",
+        "tiles3d", "preview", "sample",
     })),
     ("chain", frozenset({"chain"})),
     ("map-sheet runs", frozenset({"sheetrun"})),
@@ -164,11 +164,11 @@ def test_find_cycle_finds_a_cycle_and_only_a_cycle():
 
 def test_relative_imports_resolve_and_packages_collapse():
     modules = {"wit_plugin.chain", "wit_plugin.chain.citymodel", "wit_plugin.sheetrun", "wit_plugin.sheetrun.job",
-               "wit_plugin.step_layers"}
-    source = ("from .. import step_layers\nfrom ..sheetrun.job import TileJob\nfrom . import coverage\n"
+               "wit_plugin.infra.step_layers"}
+    source = ("from ..infra import step_layers\nfrom ..sheetrun.job import TileJob\nfrom . import coverage\n"
               "import qgis.core\n")
     assert imported_names(source, "wit_plugin.chain.citymodel", False, modules) == {
-        "wit_plugin.step_layers", "wit_plugin.sheetrun.job", "wit_plugin.chain", "qgis.core"}
+        "wit_plugin.infra.step_layers", "wit_plugin.sheetrun.job", "wit_plugin.chain", "qgis.core"}
     assert imported_names("from .job import TileJob\n", "wit_plugin.sheetrun", True, modules) == {
         "wit_plugin.sheetrun.job"}
     toy = {"wit_plugin.chain.citymodel": {"wit_plugin.sheetrun.job"}, "wit_plugin.sheetrun.job": {"wit_plugin.chain"},
@@ -177,15 +177,16 @@ def test_relative_imports_resolve_and_packages_collapse():
 
 
 def test_uphill_import_is_found():
-    layers = (("low", frozenset({"errors"})), ("high", frozenset({"chain"})))
-    toy = {"wit_plugin.errors": {"wit_plugin.chain.citymodel"}, "wit_plugin.chain.citymodel": {"wit_plugin.errors"}}
-    assert uphill(toy, layers) == ["wit_plugin.errors (low) → wit_plugin.chain.citymodel (high)"]
+    layers = (("low", frozenset({"infra"})), ("high", frozenset({"chain"})))
+    toy = {"wit_plugin.infra.errors": {"wit_plugin.chain.citymodel"},
+           "wit_plugin.chain.citymodel": {"wit_plugin.infra.errors"}}
+    assert uphill(toy, layers) == ["wit_plugin.infra.errors (low) → wit_plugin.chain.citymodel (high)"]
 
 
 def test_the_graph_is_read():
     """Known edges, so that an empty graph cannot pass the checks below."""
     assert "wit_plugin.chain" in GRAPH["wit_plugin.sheetrun.worker"]
-    assert "wit_plugin.errors" in GRAPH["processing_provider.base"]
+    assert "wit_plugin.infra.errors" in GRAPH["processing_provider.base"]
     assert "wit_plugin.citygml.validation.names" in GRAPH["wit_plugin.citygml.validation.geometry"]
     assert len([m for m in GRAPH if m.startswith(CORE + ".")]) > 60
 

@@ -1,4 +1,4 @@
-"""The installer core (wit_plugin.installer) without QGIS: the package table, the folder on sys.path, the
+"""The installer core (wit_plugin.infra.installer) without QGIS: the package table, the folder on sys.path, the
 merge of a finished install, and the Linux rules that keep a bundled C library out of QGIS."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from wit_plugin import installer
-from wit_plugin.errors import WitError
+from wit_plugin.infra import installer
+from wit_plugin.infra.errors import WitError
 
 
 def by_module(name: str) -> installer.Package:
@@ -31,7 +31,7 @@ def test_the_folder_is_per_python_version_inside_the_profile(tmp_path):
 
 
 def test_activate_puts_the_folder_before_site_packages_once_and_on_the_core_processes_path(tmp_path, monkeypatch):
-    from wit_plugin import interpreter
+    from wit_plugin.infra import interpreter
 
     monkeypatch.setattr(sys, "path", ["/usr/lib/python3.11", "/usr/lib/python3/dist-packages", "/x/site-packages"])
     monkeypatch.setattr(interpreter, "PACKAGE_FOLDERS", [])
@@ -129,7 +129,7 @@ def test_no_rule_but_pip_on_windows_and_macos(monkeypatch):
 
 def test_pip_runs_in_this_very_python_not_another_of_the_same_version(tmp_path, monkeypatch):
     """Inside qgis_process sys.executable was a pyenv shim of another Python 3.11: it must not be taken."""
-    from wit_plugin import interpreter
+    from wit_plugin.infra import interpreter
 
     other = tmp_path / "python3"
     other.write_text(f"#!/bin/sh\nprintf '{sys.version_info[0]}.{sys.version_info[1]}\\n/opt/elsewhere\\n'\n")
@@ -147,7 +147,7 @@ def test_the_cores_processes_run_their_numeric_libraries_on_one_thread_unless_to
     spun on every core in the 3D Tiles export (its CPU time 1.3 × its wall time) and slowed the steps beside it."""
     import subprocess
 
-    from wit_plugin import interpreter
+    from wit_plugin.infra import interpreter
 
     for name in interpreter.SINGLE_THREADED:
         monkeypatch.delenv(name, raising=False)

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from wit_plugin.io import jsontext
+from wit_plugin.infra.io import jsontext
 
 
 @pytest.fixture

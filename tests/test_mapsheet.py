@@ -6,9 +6,9 @@ import pytest
 from osgeo import ogr
 from pyproj import Transformer
 
-from wit_plugin import mapsheet
-from wit_plugin.errors import InputError
-from wit_plugin.mapsheet import MapSheet
+from wit_plugin.infra import mapsheet
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.mapsheet import MapSheet
 
 CM = 0.01
 

@@ -11,15 +11,17 @@ import pytest
 import shapely
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import extrude, georef, metrics, step_layers
-from wit_plugin.area import StudyArea
+from wit_plugin import metrics
+from wit_plugin.buildings import extrude
 from wit_plugin.citygml import reader
 from wit_plugin.citygml import writer as citygml
-from wit_plugin.errors import InputError
-from wit_plugin.mosaic import merge_tiles
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import InputError
+from wit_plugin.mosaic import georef, merge_tiles
+from wit_plugin.prepare.area import StudyArea
+from wit_plugin.prepare.vectors import prepare_vectors
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.texture import TextureConfig, texture_model
-from wit_plugin.vectors import prepare_vectors
 
 A = 255.0
 X0, Y0 = 209000.0, 543000.0  # near Suseo station, EPSG:5186

@@ -9,9 +9,10 @@ import pytest
 from osgeo import gdal, osr
 from osgeo_utils import gdal_merge
 
-from wit_plugin import georef, metrics, mosaic, tone
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin import metrics, mosaic
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
+from wit_plugin.mosaic import georef, tone
 from wit_plugin.sample import SampleConfig, generate_sample
 
 EPSG = 5186

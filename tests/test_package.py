@@ -47,7 +47,7 @@ def test_package_zip_installs_and_loads_in_qgis_process_and_says_what_an_upload_
     names = archive.namelist()
     assert all(n.startswith("wit_citymodel/") for n in names)
     for required in ("metadata.txt", "__init__.py", "plugin.py", "icon.svg", "LICENSE",
-                     "processing_provider/provider.py", "wit_plugin/errors.py",
+                     "processing_provider/provider.py", "wit_plugin/infra/errors.py",
                      "i18n/wit_citymodel_ko.qm", "i18n/wit_citymodel_ko.ts",
                      "README.md", "CHANGELOG.md"):  # README: the Help buttons open it
         assert f"wit_citymodel/{required}" in names, required

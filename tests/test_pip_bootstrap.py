@@ -1,4 +1,4 @@
-"""pip for a Python without one (wit_plugin.pip_bootstrap, and the installer using it): the index pip's
+"""pip for a Python without one (wit_plugin.infra.pip_bootstrap, and the installer using it): the index pip's
 configuration names, the newest wheel that suits, a checked and cancellable download, and a whole install by a
 Python that has no pip, from a local index holding a pip wheel and a small package.
 
@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from wit_plugin import installer, pip_bootstrap
-from wit_plugin.errors import CanceledError
-from wit_plugin.feedback import Feedback
+from wit_plugin.infra import installer, pip_bootstrap
+from wit_plugin.infra.errors import CanceledError
+from wit_plugin.infra.feedback import Feedback
 
 
 def write_config(path: Path, text: str) -> None:

@@ -8,9 +8,10 @@ import pytest
 import shapely
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import preview, step_layers
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin import preview
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 
 X0, Y0 = 200000.0, 500000.0  # EPSG:5186 origin of the synthetic scenes
 RED, BLUE, GREEN = (220, 30, 30), (30, 40, 220), (40, 170, 60)

@@ -18,12 +18,13 @@ import shapely
 from conftest import ROOT
 from osgeo import gdal, ogr
 
-from wit_plugin import roads, step_layers
-from wit_plugin.area import StudyArea
-from wit_plugin.errors import InputError
-from wit_plugin.feedback import Feedback
-from wit_plugin.io import bulk_read, vector_io
-from wit_plugin.vectors import PrepareConfig, prepare_vectors
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.feedback import Feedback
+from wit_plugin.infra.io import bulk_read, vector_io
+from wit_plugin.prepare import roads
+from wit_plugin.prepare.area import StudyArea
+from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
 
 AREA = StudyArea.polygon("POLYGON((217870 361780,218260 361780,218260 361940,217870 361940,217870 361780))",
                          "EPSG:5187")
@@ -84,7 +85,7 @@ def test_gdal_36_arrow_reader_crashes_on_such_a_layer_and_arrow_ready_refuses_it
     guarded = _json(in_subprocess(f"""
         import json
         from osgeo import ogr
-        from wit_plugin.io import bulk_read
+        from wit_plugin.infra.io import bulk_read
         ds = ogr.Open({str(layers['buildings'])!r})
         layer = ds.GetLayer(0)
         names = [layer.GetLayerDefn().GetFieldDefn(i).GetName() for i in range(8)]
@@ -98,7 +99,7 @@ def test_gdal_36_arrow_reader_crashes_on_such_a_layer_and_arrow_ready_refuses_it
 READ_EVERY_WAY = """
     import json
     import numpy as np
-    from wit_plugin.io import bulk_read, vector_io
+    from wit_plugin.infra.io import bulk_read, vector_io
     path = {path!r}
     plain = vector_io.read_layer(path)
     near = vector_io.read_layer(path, bbox=(217890.0, 361790.0, 217980.0, 361900.0))
@@ -147,7 +148,7 @@ def test_korean_field_names_with_ascii_text_are_still_decoded(tmp_path):
                                 [{"층수": 3, "구분": "A1"}], [ngii.building_wkt(0, 0)], cpg=None)
     found = _json(in_subprocess(f"""
         import json
-        from wit_plugin.io import vector_io
+        from wit_plugin.infra.io import vector_io
         layer = vector_io.read_layer({str(path)!r})
         print(json.dumps([[f.name for f in layer.fields], layer.columns["층수"], layer.encoding], ensure_ascii=False))
         """))
@@ -161,8 +162,8 @@ def test_a_csv_with_cp949_field_names_is_read_feature_by_feature(tmp_path):
     path.write_bytes('WKT,층수,용도\n"POLYGON((0 0,10 0,10 10,0 10,0 0))",3,단독주택\n'.encode("cp949"))
     found = _json(in_subprocess(f"""
         import json
-        from wit_plugin.io import vector_io
-        from wit_plugin.feedback import Feedback
+        from wit_plugin.infra.io import vector_io
+        from wit_plugin.infra.feedback import Feedback
         class F(Feedback):
             warnings = []
             def warning(self, message):

@@ -14,13 +14,13 @@ import pytest
 import shapely
 from osgeo import gdal, ogr
 
-from wit_plugin import step_layers
 from wit_plugin.chain.coverage import ortho_coverage, require_dem
-from wit_plugin.dem import Dem
-from wit_plugin.errors import InputError
-from wit_plugin.feedback import Feedback
-from wit_plugin.georef import OK, georeference_sheets, list_tifs
-from wit_plugin.mapsheet import parse_sheet_number, projected_envelope
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.dem import Dem
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.feedback import Feedback
+from wit_plugin.infra.mapsheet import parse_sheet_number, projected_envelope
+from wit_plugin.mosaic.georef import OK, georeference_sheets, list_tifs
 
 SUSEO_5186 = (209020.9, 543132.8)
 TO_5187 = pyproj.Transformer.from_crs("EPSG:5186", "EPSG:5187", always_xy=True)
@@ -353,8 +353,8 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
 @pytest.fixture(scope="module")
 def east_belt_run(tmp_path_factory):
     """The sample (DEM and sheets in EPSG:5186, the sheets georeferenced as GeoTIFFs) modelled in EPSG:5187."""
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sample import SampleConfig, generate_sample
 
     folder = tmp_path_factory.mktemp("east-belt")
@@ -454,8 +454,8 @@ def test_a_mosaic_in_another_crs_is_reprojected_by_the_texture_step(east_belt_ru
 
 def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east_belt_run, dem_4326, tmp_path,
                                                                               monkeypatch):
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sheetrun import runner
 
     def no_cluster(*args, **kwargs):
@@ -476,8 +476,8 @@ def test_a_tiled_run_checks_the_dem_in_its_own_crs_before_any_worker_starts(east
 
 def test_a_tiled_run_checks_the_orthoimage_sheets_before_any_worker_starts(east_belt_run, tmp_path, monkeypatch):
     """The sheet under the area missing (surfaces outside the orthoimage: fail): refused in seconds, naming it."""
-    from wit_plugin.area import StudyArea
     from wit_plugin.chain import ChainInputs, ChainOptions
+    from wit_plugin.prepare.area import StudyArea
     from wit_plugin.sheetrun import runner
 
     def no_cluster(*args, **kwargs):

@@ -12,9 +12,10 @@ import shapely
 from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
-from wit_plugin import mapsheet, sample
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin import sample
+from wit_plugin.infra import mapsheet
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 
 SMALL = sample.SampleConfig(radius_m=300.0, ortho_pixel_size=2.0)
 SUSEO_5179 = Transformer.from_crs("EPSG:4737", "EPSG:5179", always_xy=True).transform(127.1020, 37.4876)

@@ -15,18 +15,18 @@ from conftest import juso_roads
 from lxml import etree
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import mapsheet
-from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
-from wit_plugin.georef import OK, georeference_sheets
-from wit_plugin.io.vector_io import read_layer
-from wit_plugin.polygons import repair_polygons, transform
+from wit_plugin.infra import mapsheet
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
+from wit_plugin.infra.io.vector_io import read_layer
+from wit_plugin.infra.polygons import repair_polygons, transform
+from wit_plugin.mosaic.georef import OK, georeference_sheets
+from wit_plugin.prepare.area import StudyArea
+from wit_plugin.prepare.vectors import ROAD_QUAD_SEGS, road_widths
 from wit_plugin.sample import GivenLayers, SampleConfig, draw_from_layers
 from wit_plugin.sample.ortho import RASTER_CRS
 from wit_plugin.sample.rasters import _PALETTE, ASPHALT, ROOF_COLOURS, roof_styles
-from wit_plugin.vectors import ROAD_QUAD_SEGS, road_widths
 
 SUSEO = (127.1020, 37.4876)
 TARGET = pyproj.CRS(RASTER_CRS)

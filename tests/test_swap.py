@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from wit_plugin.io.fileio import restore_folder, swap_folder
+from wit_plugin.infra.io.fileio import restore_folder, swap_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,7 +55,8 @@ def test_a_swap_killed_between_its_renames_is_put_back_by_the_next_one(tmp_path)
     """A real SIGKILL of the process after the first rename: the old folder waits aside, none is in place; the
     next swap (or ``restore_folder``, which the runner calls first) puts it back."""
     target, new, old = _folders(tmp_path)
-    code = ("import os, signal, sys\nfrom pathlib import Path\nfrom wit_plugin.io import fileio\nreplace = os.replace\n"
+    code = ("import os, signal, sys\nfrom pathlib import Path\n"
+            "from wit_plugin.infra.io import fileio\nreplace = os.replace\n"
             "def killed(source, destination):\n"
             "    if Path(source) == Path(sys.argv[1]):\n        os.kill(os.getpid(), signal.SIGKILL)\n"
             "    replace(source, destination)\n"

@@ -11,9 +11,11 @@ import pytest
 import shapely
 from osgeo import ogr, osr
 
-from wit_plugin import step_layers, terrain, triangulators
-from wit_plugin.dem import Dem
-from wit_plugin.errors import InputError
+from wit_plugin import terrain
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.dem import Dem
+from wit_plugin.infra.errors import InputError
+from wit_plugin.terrain import triangulators
 
 sys.path.insert(0, str(Path(__file__).parent))
 from cdt_worker import check_mesh, hill_dem
@@ -217,8 +219,8 @@ def test_run_on_the_seoul_dem_writes_a_tin(tmp_path, shared_dir):
 
 
 def test_cancel_leaves_no_output(tmp_path, shared_dir):
-    from wit_plugin.errors import CanceledError
-    from wit_plugin.feedback import Feedback
+    from wit_plugin.infra.errors import CanceledError
+    from wit_plugin.infra.feedback import Feedback
 
     class CancelAtOnce(Feedback):
         def is_canceled(self) -> bool:

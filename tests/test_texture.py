@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from osgeo import gdal, ogr, osr
 
-from wit_plugin import step_layers, texture
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin import texture
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 from wit_plugin.texture import TextureConfig, texture_model
 from wit_plugin.texture.images import mip_chain
 

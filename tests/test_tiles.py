@@ -22,18 +22,18 @@ import shapely
 from conftest import view_in_chromium
 from lxml import etree
 
-from wit_plugin import triangulators
-from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.chain.fingerprint import Fingerprint
 from wit_plugin.cityjson.validate import validate_cityjson_files
-from wit_plugin.errors import CanceledError
-from wit_plugin.feedback import Feedback
-from wit_plugin.mapsheet import sheet_at
+from wit_plugin.infra.errors import CanceledError
+from wit_plugin.infra.feedback import Feedback
+from wit_plugin.infra.mapsheet import sheet_at
+from wit_plugin.prepare.area import StudyArea
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.sheetrun import plan
 from wit_plugin.sheetrun.index import read_index
 from wit_plugin.sheetrun.runner import run_tiles, stop_workers, worker_python
+from wit_plugin.terrain import triangulators
 
 ROOT = Path(__file__).resolve().parents[1]
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "gml": "http://www.opengis.net/gml/3.2",
@@ -74,7 +74,7 @@ def test_ownership_is_one_sheet_per_point_and_follows_the_grid():
 
 
 def test_tile_scale_must_be_a_sheet_grid():
-    from wit_plugin.errors import InputError
+    from wit_plugin.infra.errors import InputError
 
     with pytest.raises(InputError, match="1:2500 is not offered"):
         plan.plan_tiles(shapely.box(0, 0, 1, 1), "EPSG:5186", 2500)
@@ -445,7 +445,7 @@ def test_an_unexpected_error_fails_its_tile_once_with_where_it_happened(sample, 
     nothing but a lost worker — and nothing of it stays."""
     from distributed import Client, LocalCluster
 
-    from wit_plugin.feedback import SILENT
+    from wit_plugin.infra.feedback import SILENT
     from wit_plugin.sheetrun import runner, worker
     from wit_plugin.sheetrun.index import write_index
 
@@ -676,7 +676,7 @@ def test_a_tile_recorded_is_not_built_again_when_its_worker_dies_later(sample, t
 def test_workers_without_the_core_fail_every_tile_saying_so(sample, tmp_path):
     """A cluster whose workers cannot import the core (not installed there): every tile failed with what to
     install, and the run ends with that reason."""
-    from wit_plugin.errors import InputError
+    from wit_plugin.infra.errors import InputError
 
     address, scheduler = _stock_scheduler(tmp_path)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
@@ -922,7 +922,7 @@ def test_every_setting_of_the_run_reaches_its_tiles(sample, tmp_path):
     given (the facades did not: a tiled run's walls were generated whatever FACADES said)."""
     import dataclasses
 
-    from wit_plugin.heights import HeightOptions
+    from wit_plugin.buildings.heights import HeightOptions
     from wit_plugin.sheetrun import runner, worker
 
     changed = dict(target_crs="EPSG:5179", sheet_crs="EPSG:4326", margin=40.0, max_edge=7.0, tolerance=0.25,

@@ -15,9 +15,9 @@ import shapely
 from conftest import ensure_wit_provider, view_in_chromium
 from osgeo import gdal, ogr
 
-from wit_plugin import step_layers
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 from wit_plugin.sample import SampleConfig, generate_sample
 from wit_plugin.tiles3d import TilesetConfig, export_tileset
 from wit_plugin.tiles3d.check import check_tileset, read_glb

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from osgeo import ogr
 
-from wit_plugin import step_layers
+from wit_plugin.infra import step_layers
 from wit_plugin.tiles3d.check import check_glb_metadata, check_tileset, read_glb
 from wit_plugin.tiles3d.glb import GlbBuilder
 from wit_plugin.tiles3d.metadata import BUILDING_CLASS, INT32_NO_DATA, building_schema, property_columns

@@ -12,8 +12,8 @@ import pytest
 import shapely
 from osgeo import ogr
 
-from wit_plugin import step_layers
-from wit_plugin.mapsheet import sheets_covering
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.mapsheet import sheets_covering
 from wit_plugin.tiles3d.check import check_glb_metadata, read_glb
 from wit_plugin.tiles3d.geo import Georeference, gltf_to_model
 from wit_plugin.tiles3d.glb import GlbBuilder

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 import shapely
 
-from wit_plugin import steiner, terrain, triangulators
-from wit_plugin.dem import Dem
+from wit_plugin import terrain
+from wit_plugin.infra.dem import Dem
+from wit_plugin.terrain import steiner, triangulators
 
 sys.path.insert(0, str(Path(__file__).parent))
 from cdt_worker import check_mesh, hill_dem
@@ -193,7 +194,7 @@ def test_the_default_is_cdt_where_triangle_cannot_be_imported(tmp_path):
         "        if name == 'triangle':\n            raise ImportError('blocked')\n\n\n"
         "sys.meta_path.insert(0, NoTriangle())\n")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(tmp_path), os.environ.get("PYTHONPATH")])))
-    code = ("from wit_plugin import triangulators as t; print(t.default_key(), t.available(t.BACKENDS[0]), "
+    code = ("from wit_plugin.terrain import triangulators as t; print(t.default_key(), t.available(t.BACKENDS[0]), "
             "t.backend(None).label)")
     out = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parents[1], env=env, capture_output=True,
                          text=True, timeout=120, check=True).stdout.strip().split(maxsplit=2)
@@ -235,7 +236,7 @@ def test_snapping_leaves_no_edge_shorter_than_a_centimetre():
 
 
 def test_components_join_linked_items_under_their_smallest():
-    from wit_plugin.arrays import components
+    from wit_plugin.infra.arrays import components
 
     labels = components(np.array([[5, 1], [1, 3], [7, 8], [3, 0]]), 10)
     assert labels.tolist() == [0, 0, 2, 0, 4, 0, 6, 7, 7, 9]

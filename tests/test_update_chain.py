@@ -14,10 +14,10 @@ import test_tiles
 from test_tiles import _inputs
 from test_update_tiles import _edited_buildings
 
-from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainOptions, rerun, run_city_model
 from wit_plugin.chain.fingerprint import BUILD_FILE, read_record
 from wit_plugin.chain.rerun import FORCED, NO_RECORD, update_city_model
+from wit_plugin.prepare.area import StudyArea
 
 sample = test_tiles.sample  # the tiled runs' sample (a fixture: this module's own copy)
 

@@ -19,14 +19,14 @@ import test_tiles
 from osgeo import gdal, ogr
 from test_tiles import AREA, _inputs
 
-from wit_plugin.area import StudyArea
 from wit_plugin.chain import ChainOptions
-from wit_plugin.io.vector_io import read_layer
+from wit_plugin.infra.io.vector_io import read_layer
+from wit_plugin.prepare.area import StudyArea
+from wit_plugin.prepare.vectors import building_reach
 from wit_plugin.sheetrun import plan
 from wit_plugin.sheetrun.index import read_index
 from wit_plugin.sheetrun.prepare import CONTEXT_MARGIN
 from wit_plugin.sheetrun.runner import run_tiles
-from wit_plugin.vectors import building_reach
 
 sample = test_tiles.sample  # the tiled runs' sample (a fixture: this module's own copy)
 

@@ -19,8 +19,8 @@ import pytest
 from wit_plugin.citygml import reader as streaming
 from wit_plugin.citygml import schemas, validate
 from wit_plugin.citygml.validation import ids as id_store
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 
 DATA = Path(__file__).parent / "data" / "citygml"
 VALID_EXAMPLES = ["Building_LOD1-EPSG25832.gml", "Building_LOD2-EPSG25832.gml", "LocalCRS_CityGML3.gml",

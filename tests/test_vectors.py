@@ -11,12 +11,13 @@ import shapely
 from ngii import shapefile_text
 from osgeo import ogr, osr
 
-from wit_plugin import polygons, simplify, step_layers, vectors
-from wit_plugin.area import StudyArea
-from wit_plugin.errors import CanceledError, InputError
-from wit_plugin.feedback import Feedback
-from wit_plugin.io import vector_io
-from wit_plugin.vectors import PrepareConfig, prepare_vectors
+from wit_plugin.infra import polygons, step_layers
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
+from wit_plugin.infra.io import vector_io
+from wit_plugin.prepare import simplify, vectors
+from wit_plugin.prepare.area import StudyArea
+from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
 
 SUSEO_5179 = (964814.9, 1943225.0)
 SUSEO_5186 = (209020.9, 543132.8)

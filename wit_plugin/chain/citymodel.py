@@ -30,29 +30,32 @@ from pathlib import Path
 
 from shapely.geometry.base import BaseGeometry
 
-from .. import extrude, step_layers, terrain, triangulators
-from ..area import StudyArea
+from .. import terrain
+from ..buildings import extrude
+from ..buildings.heights import HeightOptions
 from ..citygml import schemas
 from ..citygml.validate import validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
 from ..cityjson.sequence import PART_FILE
 from ..cityjson.validate import validate_cityjson_files
 from ..cityjson.writer import SequencePart, texture_folder_of, write_cityjson
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..georef import OK, georeference_sheets, list_tifs, write_footprint_index
-from ..heights import HeightOptions
-from ..interpreter import core_env, core_python
-from ..io import jsontext
-from ..io.fileio import ensure_writable_dir
-from ..io.vector_io import read_prepared
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.interpreter import core_env, core_python
+from ..infra.io import jsontext
+from ..infra.io.fileio import ensure_writable_dir
+from ..infra.io.vector_io import read_prepared
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
+from ..mosaic.georef import OK, georeference_sheets, list_tifs, write_footprint_index
+from ..prepare.area import StudyArea
+from ..prepare.vectors import PrepareConfig, prepare_vectors
+from ..terrain import triangulators
 from ..terrain.constraints import Seam
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
-from ..vectors import PrepareConfig, prepare_vectors
 from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")

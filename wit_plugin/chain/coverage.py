@@ -18,19 +18,13 @@ import shapely
 from osgeo import gdal
 from shapely.geometry.base import BaseGeometry
 
-from ..dem import NODATA_THRESHOLD, reprojection, shortfall
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..georef import sheet_footprint
-from ..io.raster_io import open_raster, read_window
-from ..mapsheet import MapSheet, find_sheet_in_name, projected_envelope, sheets_covering
-from ..raster_crs import (
-    cell_size,
-    crs_code,
-    crs_name,
-    raster_extent,
-    transform_geometry,
-)
+from ..infra.dem import NODATA_THRESHOLD, reprojection, shortfall
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.raster_io import open_raster, read_window
+from ..infra.mapsheet import MapSheet, find_sheet_in_name, projected_envelope, sheets_covering
+from ..infra.raster_crs import cell_size, crs_code, crs_name, raster_extent, transform_geometry
+from ..mosaic.georef import sheet_footprint
 
 #: NoData under more than this share of the area is an error (filling it would invent the terrain)
 MAX_DEM_NODATA_SHARE = 0.05

@@ -22,16 +22,16 @@ import numpy as np
 import pyproj
 import shapely
 
-from .. import triangulators
-from ..dem import reprojection
-from ..io import jsontext
-from ..io.digests import digest, file_digest, raster_window_digest, raw_digest
-from ..io.fileio import atomic_file
-from ..io.raster_io import open_raster
-from ..io.vector_io import VectorLayer, bbox_transformer, non_finite, read_layer, source_bbox
-from ..raster_crs import cell_size
-from ..vectors import source_ids
-from ..version import plugin_version
+from ..infra.dem import reprojection
+from ..infra.io import jsontext
+from ..infra.io.digests import digest, file_digest, raster_window_digest, raw_digest
+from ..infra.io.fileio import atomic_file
+from ..infra.io.raster_io import open_raster
+from ..infra.io.vector_io import VectorLayer, bbox_transformer, non_finite, read_layer, source_bbox
+from ..infra.raster_crs import cell_size
+from ..infra.version import plugin_version
+from ..prepare.vectors import source_ids
+from ..terrain import triangulators
 from .coverage import OrthoCoverage
 
 BUILD_FILE = "build.json"

@@ -17,14 +17,14 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from ..area import StudyArea
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..georef import list_tifs
-from ..io.digests import digest
-from ..io.fileio import ensure_writable_dir
-from ..io.vector_io import read_layer
-from ..polygons import repair_polygons, transform
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.digests import digest
+from ..infra.io.fileio import ensure_writable_dir
+from ..infra.io.vector_io import read_layer
+from ..infra.polygons import repair_polygons, transform
+from ..mosaic.georef import list_tifs
+from ..prepare.area import StudyArea
 from .citymodel import ChainInputs, ChainOptions, ChainReport, run_city_model
 from .coverage import ortho_coverage
 from .fingerprint import (

@@ -22,12 +22,12 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import step_layers
-from ..errors import InputError
-from ..io import bulk_read
-from ..io.gpkg_bulk import sql_name
-from ..io.vector_io import open_step_layer, split_source
-from ..numtext import ring_texts
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.io import bulk_read
+from ..infra.io.gpkg_bulk import sql_name
+from ..infra.io.vector_io import open_step_layer, split_source
+from ..infra.numtext import ring_texts
 
 BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
 _LOOKUP_BATCH = 10_000  # buildings per district lookup (as many as the writer's progress batch)

@@ -21,8 +21,8 @@ from pathlib import Path
 
 from lxml import etree
 
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
 
 ENTRY_POINT = "citygml3-all.xsd"
 EMBEDDED_DIR = Path(__file__).resolve().parent / "xsd"

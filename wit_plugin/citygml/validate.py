@@ -23,9 +23,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..io.fileio import atomic_file
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.fileio import atomic_file
 from . import reader as streaming
 from .namespaces import CITYGML3_NAMESPACES
 from .schemas import load_schema, schema_namespaces

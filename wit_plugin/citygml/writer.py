@@ -43,13 +43,13 @@ from xml.sax.saxutils import escape  # nosec B406  # escapes what is written; no
 from lxml import etree
 from osgeo import ogr
 
-from .. import step_layers
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..gc_pause import collector_paused
-from ..io import bulk_read
-from ..io.fileio import atomic_file
-from ..numtext import ring_texts
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.gc_pause import collector_paused
+from ..infra.io import bulk_read
+from ..infra.io.fileio import atomic_file
+from ..infra.numtext import ring_texts
 from .inputs import (
     BULK,
     CityGMLInputs,

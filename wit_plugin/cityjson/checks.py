@@ -15,7 +15,7 @@ import numpy as np
 from ..citygml.validation.crs import frame_of
 from ..citygml.validation.geometry import SolidBatch, SolidCheck, Where, triangle_areas
 from ..citygml.validation.names import IssueList
-from ..feedback import Feedback
+from ..infra.feedback import Feedback
 from . import schema
 
 _REMOTE = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]+://")

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..arrays import unique_rows
+from ..infra.arrays import unique_rows
 from .objects import SOLID, THEMES, Surfaces
 
 SCALE = 0.001  # the millimetre grid the CityGML's coordinates are written on (3 decimals)

@@ -18,8 +18,6 @@ from operator import itemgetter
 import numpy as np
 from osgeo import ogr
 
-from .. import step_layers
-from ..arrays import components, triangle_edge_keys
 from ..citygml.inputs import (
     BULK,
     FacadeRows,
@@ -43,8 +41,10 @@ from ..citygml.writer import (
     TIN_RELIEF_ID,
     join_sorted,
 )
-from ..errors import InputError
-from ..io import bulk_read
+from ..infra import step_layers
+from ..infra.arrays import components, triangle_edge_keys
+from ..infra.errors import InputError
+from ..infra.io import bulk_read
 
 SOLID, MULTI_SURFACE, COMPOSITE_SURFACE = "Solid", "MultiSurface", "CompositeSurface"
 THEMES = (APPEARANCE_THEME, FACADE_THEME)  # theme index 0: the orthoimage's; 1: the walls' generated facades

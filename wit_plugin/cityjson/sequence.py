@@ -18,7 +18,7 @@ from pathlib import Path
 
 from shapely.geometry.base import BaseGeometry
 
-from ..io.fileio import atomic_file
+from ..infra.io.fileio import atomic_file
 from .encoding import Transform, json_text
 from .writer import SequencePart, header
 

@@ -22,8 +22,8 @@ from pathlib import Path
 
 from ..citygml.validate import file_start
 from ..citygml.validation.names import FileReport, Issue, IssueList
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
 from . import schema
 from .checks import ModelCheck
 from .sequence import RUN_INDEX

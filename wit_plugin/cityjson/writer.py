@@ -29,13 +29,13 @@ from typing import IO
 
 import numpy as np
 
-from .. import step_layers
 from ..citygml.inputs import CityGMLInputs, FacadeRows, Membership, ModelLayers
 from ..citygml.writer import image_uri, srs_name_of
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..gc_pause import collector_paused
-from ..io.fileio import atomic_file
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.gc_pause import collector_paused
+from ..infra.io.fileio import atomic_file
 from .encoding import Transform, encode, geometry_text, json_text, uv_text, vertices_text
 from .objects import THEMES, CityObject, ModelObjects
 

@@ -13,9 +13,9 @@ import numpy as np
 import shapely
 from osgeo import gdal, ogr, osr
 
-from ..errors import InputError, MissingDependencyError
-from ..feedback import Feedback
-from ..io import jsontext
+from ..infra.errors import InputError, MissingDependencyError
+from ..infra.feedback import Feedback
+from ..infra.io import jsontext
 from .schema import _QUERY_COLUMNS, CELL_COLUMNS, COLOR_COLUMNS, LATTICE_COLUMNS, _Cells, _check_table_name
 
 

@@ -12,11 +12,11 @@ import numpy as np
 import shapely
 from osgeo import gdal
 
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..gdal_env import capped_block_cache
-from ..io.fileio import atomic_file
-from ..io.raster_io import open_raster, read_window
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.gdal_env import capped_block_cache
+from ..infra.io.fileio import atomic_file
+from ..infra.io.raster_io import open_raster, read_window
 from .backends import _GpkgWriter, _PostgisWriter, _redact
 from .schema import (
     DEFAULT_BLOCK_SIZE,

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 from osgeo import gdal
 
-from ..errors import InputError, WitError
-from ..io.fileio import atomic_file
+from ..infra.errors import InputError, WitError
+from ..infra.io.fileio import atomic_file
 from .backends import _GpkgReader, _is_dsn, _PostgisReader, _redact
 from .schema import _QUERY_COLUMNS, DEFAULT_TABLE, FORMAT, FORMAT_VERSION, _check_table_name
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..infra.errors import InputError
 
 DEFAULT_TABLE = "color_cells"
 

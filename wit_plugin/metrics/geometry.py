@@ -37,13 +37,13 @@ import shapely
 from lxml import etree
 from osgeo import osr
 
-from .. import step_layers
 from ..citygml.namespaces import BLDG, CORE, GML, GML_ID
 from ..citygml.reader import Stream, SyntaxProblem, envelope_srs
 from ..citygml.validation.crs import frame_of
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..io.vector_io import open_step_layer, split_source
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.vector_io import open_step_layer, split_source
 
 MATCHED, MODEL_ONLY, SOURCE_ONLY = "matched", "model_only", "source_only"
 _PART = re.compile(r"^(.*)_part\d+$")

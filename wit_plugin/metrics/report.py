@@ -19,13 +19,13 @@ import pyproj
 import shapely
 from osgeo import ogr
 
-from .. import step_layers
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..io.fileio import atomic_file
-from ..io.raster_io import open_raster
-from ..io.vector_io import FieldDef, OutputLayer, write_gpkg
-from ..raster_crs import crs_name, foreign_crs, transform_geometry
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.fileio import atomic_file
+from ..infra.io.raster_io import open_raster
+from ..infra.io.vector_io import FieldDef, OutputLayer, write_gpkg
+from ..infra.raster_crs import crs_name, foreign_crs, transform_geometry
 from .geometry import MATCHED, MODEL_ONLY, BuildingMetrics, GeometryMetrics, geometry_metrics
 from .seam import SeamMetrics, seam_metrics
 from .texture import TextureMetrics, texture_metrics

@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 from osgeo import gdal, osr
 
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..io.raster_io import open_raster, read_window
-from ..io.vector_io import split_source
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.raster_io import open_raster, read_window
+from ..infra.io.vector_io import split_source
 from .texture import open_vector
 
 

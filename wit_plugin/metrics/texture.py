@@ -36,13 +36,13 @@ import numpy as np
 import shapely
 from osgeo import gdal, ogr
 
-from .. import step_layers
-from ..arrays import ragged_indices
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..gdal_env import quiet_gdal
-from ..io import bulk_read
-from ..io.raster_io import open_raster, read_window
+from ..infra import step_layers
+from ..infra.arrays import ragged_indices
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.gdal_env import quiet_gdal
+from ..infra.io import bulk_read
+from ..infra.io.raster_io import open_raster, read_window
 
 BORDERS = ("reflect101", "valid")
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")

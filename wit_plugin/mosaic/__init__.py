@@ -37,10 +37,10 @@ from collections.abc import Sequence
 import numpy as np
 from osgeo import gdal, gdal_array
 
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..gdal_env import capped_block_cache
-from ..io.fileio import atomic_file
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.gdal_env import capped_block_cache
+from ..infra.io.fileio import atomic_file
 from .output import MergeReport, _estimate_tone, _write
 from .sources import (
     _BlockIndex,

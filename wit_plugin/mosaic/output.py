@@ -8,10 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from osgeo import gdal, gdal_array
 
-from ..errors import InputError, WitError
-from ..feedback import Feedback
-from ..tone import ToneSolver, is_elevation
+from ..infra.errors import InputError, WitError
+from ..infra.feedback import Feedback
 from .sources import _BlockIndex, _intersect, _read
+from .tone import ToneSolver, is_elevation
 
 _TILE = 512  # output GeoTIFF block size; also the size below which no more overviews are built
 

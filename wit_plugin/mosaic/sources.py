@@ -8,9 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 from osgeo import gdal, gdal_array, osr
 
-from ..errors import InputError
-from ..feedback import Feedback
-from ..io.raster_io import open_raster, read_window
+from ..infra.errors import InputError
+from ..infra.feedback import Feedback
+from ..infra.io.raster_io import open_raster, read_window
 
 _PIXEL_SIZE_DRIFT = 0.01  # same pixel size if the difference drifts < 1 % of a pixel over a tile
 

@@ -42,9 +42,9 @@ from pathlib import Path
 import numpy as np
 from osgeo import gdal
 
-from ..errors import InputError, WitError
-from ..feedback import SILENT, Feedback, LoggingFeedback
-from ..io.fileio import atomic_file
+from ..infra.errors import InputError, WitError
+from ..infra.feedback import SILENT, Feedback, LoggingFeedback
+from ..infra.io.fileio import atomic_file
 from .camera import _Camera, _rasterise
 from .scene import _KINDS, PreviewReport, _Mesh, _read_lod1, _read_tin, _TexTable
 from .shading import _downsample, _ImageCache, _shade

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..feedback import Feedback
+from ..infra.feedback import Feedback
 
 DISTANCE = 3.0  # camera distance in model radii (a field of view of about 35°)
 

@@ -10,11 +10,11 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import step_layers
-from ..errors import InputError
-from ..io import bulk_read
-from ..io.vector_io import open_step_layer
-from ..meshes import fan_corners, parse_texcoords, planar_triangles, triangle_vertices
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.io import bulk_read
+from ..infra.io.vector_io import open_step_layer
+from ..infra.meshes import fan_corners, parse_texcoords, planar_triangles, triangle_vertices
 
 _KINDS = ("roof", "wall", "terrain", "road", "footprint")
 

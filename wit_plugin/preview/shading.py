@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..feedback import Feedback
-from ..io.raster_io import open_raster, read_window
+from ..infra.feedback import Feedback
+from ..infra.io.raster_io import open_raster, read_window
 from ..texture.images import mip_chain
 from .camera import _Camera, _Frame
 from .scene import _WALL, _Mesh

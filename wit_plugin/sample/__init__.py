@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 from pyproj import Transformer
 
-from .. import mapsheet
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..io import jsontext
-from ..io.fileio import atomic_files
+from ..infra import mapsheet
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io import jsontext
+from ..infra.io.fileio import atomic_files
 from .config import MANIFEST, SampleConfig, check_rasters
 from .given import DrawnSample, GivenLayers, draw_from_layers
 from .layout import CityLayout

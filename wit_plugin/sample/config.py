@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..errors import InputError
+from ..infra.errors import InputError
 
 MANIFEST = "sample_manifest.json"
 

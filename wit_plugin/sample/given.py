@@ -29,17 +29,17 @@ import numpy as np
 import pyproj
 import shapely
 
-from .. import mapsheet
-from ..area import StudyArea
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..heights import HeightOptions, building_height
-from ..io import jsontext
-from ..io.fileio import atomic_files, refuse_overlap, source_file
-from ..io.vector_io import VectorLayer, layer_extent, non_finite, read_layer
-from ..polygons import polygonal, repair_polygons, transform
+from ..buildings.heights import HeightOptions, building_height
+from ..infra import mapsheet
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io import jsontext
+from ..infra.io.fileio import atomic_files, refuse_overlap, source_file
+from ..infra.io.vector_io import VectorLayer, layer_extent, non_finite, read_layer
+from ..infra.polygons import polygonal, repair_polygons, transform
+from ..prepare.area import StudyArea
+from ..prepare.vectors import ROAD_QUAD_SEGS, PrepareConfig, road_widths
 from ..terrain import covering_area
-from ..vectors import ROAD_QUAD_SEGS, PrepareConfig, road_widths
 from .config import MANIFEST, SampleConfig, check_rasters
 from .gangnam import GROUND_LANE
 from .ortho import DEM_NAME, ORTHO_DIR, RASTER_CRS, render_tiles, sheet_envelopes, write_sample_dem

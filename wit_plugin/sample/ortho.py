@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import mapsheet
-from ..feedback import SILENT, Feedback
+from ..infra import mapsheet
+from ..infra.feedback import SILENT, Feedback
 from .rasters import OrthoScene, Rasteriser, Terrain, noise_tables, render_tile, write_dem
 
 RASTER_CRS = "EPSG:5186"

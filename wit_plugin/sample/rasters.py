@@ -20,8 +20,8 @@ import shapely
 from osgeo import gdal, ogr, osr
 from pyproj import Transformer
 
-from ..feedback import SILENT, Feedback
-from ..io.raster_io import read_window
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.raster_io import read_window
 from .blocks import footprints
 from .gangnam import GROUND_BARE, GROUND_FOREST, GROUND_LANE, GROUND_LAWN, GROUND_PARKING, PITCHED_ROOFS
 from .layout import CityLayout

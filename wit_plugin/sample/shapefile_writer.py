@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..infra.errors import InputError
 
 SHP_POLYLINE = 3
 SHP_POLYGON = 5

@@ -16,7 +16,7 @@ import numpy as np
 import shapely
 from osgeo import osr
 
-from ..errors import InputError
+from ..infra.errors import InputError
 from .blocks import Building, Superblock, footprints
 from .gangnam import DONGS, PITCHED_ROOFS
 from .layout import CityLayout

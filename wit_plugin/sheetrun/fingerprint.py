@@ -29,7 +29,6 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import step_layers
 from ..chain import ChainInputs, ChainOptions
 from ..chain.coverage import OrthoCoverage
 from ..chain.fingerprint import (
@@ -44,11 +43,12 @@ from ..chain.fingerprint import (
     union_bounds,
 )
 from ..cityjson.sequence import run_translate
-from ..io.digests import digest
-from ..io.vector_io import VectorLayer, non_finite
-from ..polygons import repair_polygons, transform
+from ..infra import step_layers
+from ..infra.io.digests import digest
+from ..infra.io.vector_io import VectorLayer, non_finite
+from ..infra.polygons import repair_polygons, transform
+from ..prepare.vectors import BUILDING_KEYS, BUILDING_PREFIX, PrepareConfig, building_reach
 from ..tiles3d.groups import square
-from ..vectors import BUILDING_KEYS, BUILDING_PREFIX, PrepareConfig, building_reach
 from .plan import Tile, owners
 from .prepare import CONTEXT_MARGIN
 

@@ -16,8 +16,8 @@ import numpy as np
 import pyproj
 from osgeo import ogr
 
-from ..io.fileio import atomic_file
-from ..io.vector_io import FieldDef, OutputLayer, write_gpkg
+from ..infra.io.fileio import atomic_file
+from ..infra.io.vector_io import FieldDef, OutputLayer, write_gpkg
 from .plan import Tile
 
 INDEX_FILE = "index.gpkg"

@@ -8,10 +8,10 @@ from pathlib import Path
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import step_layers
 from ..chain import ChainInputs, ChainOptions, PreparedLayers
-from ..feedback import Feedback
-from ..io.vector_io import read_prepared
+from ..infra import step_layers
+from ..infra.feedback import Feedback
+from ..infra.io.vector_io import read_prepared
 from ..terrain.constraints import Seam
 from .plan import TileOwner, tile_of
 from .prepare import clip_context, prepare_tile_buildings

@@ -22,8 +22,8 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from ..errors import InputError
-from ..mapsheet import parse_sheet_number, sheet_polygon, sheets_at, sheets_overlapping
+from ..infra.errors import InputError
+from ..infra.mapsheet import parse_sheet_number, sheet_polygon, sheets_at, sheets_overlapping
 
 TILE_SCALES = (5000, 1000)
 

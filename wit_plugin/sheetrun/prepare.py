@@ -17,12 +17,12 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import step_layers
-from ..area import StudyArea
-from ..feedback import SILENT, Feedback
-from ..io.fileio import atomic_file
-from ..io.vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
-from ..vectors import PrepareConfig, prepare_vectors
+from ..infra import step_layers
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.fileio import atomic_file
+from ..infra.io.vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
+from ..prepare.area import StudyArea
+from ..prepare.vectors import PrepareConfig, prepare_vectors
 from .plan import TileOwner
 
 #: neighbours within this distance of a tile take part in simplifying its buildings (m)

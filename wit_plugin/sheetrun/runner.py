@@ -29,20 +29,20 @@ from pathlib import Path
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from .. import triangulators
-from ..area import StudyArea
 from ..chain import ChainInputs, ChainOptions
 from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
 from ..chain.coverage import OrthoCoverage, ortho_coverage, require_dem, require_ortho, require_sheet_names
 from ..chain.fingerprint import Fingerprint
 from ..chain.rerun import study_polygon
 from ..cityjson.sequence import PART_FILE, remove_run_index, run_translate, write_run_index
-from ..deps import require
-from ..errors import CanceledError, InputError
-from ..feedback import SILENT, Feedback
-from ..georef import list_tifs
-from ..interpreter import core_env, core_python
-from ..io.fileio import ensure_writable_dir
+from ..infra.deps import require
+from ..infra.errors import CanceledError, InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.interpreter import core_env, core_python
+from ..infra.io.fileio import ensure_writable_dir
+from ..mosaic.georef import list_tifs
+from ..prepare.area import StudyArea
+from ..terrain import triangulators
 from ..tiles3d.combine import remove_run_tileset, tile_areas, write_run_tileset
 from ..tiles3d.web import require_web_profile
 from .fingerprint import RunInputs
@@ -93,7 +93,7 @@ WORKER_MODULES = ("distributed", "numpy", "shapely", "pyproj", "lxml", "osgeo")
 
 
 def worker_python(configured: str | None = None, triangulator: str = "pythoncdt") -> str:
-    """The interpreter for Dask worker processes (``wit_plugin.interpreter.core_python`` with Dask and the
+    """The interpreter for Dask worker processes (``wit_plugin.infra.interpreter.core_python`` with Dask and the
     triangulation library ``triangulator``)."""
     return core_python(configured, (*WORKER_MODULES, triangulator), "wit_plugin.sheetrun.worker")
 

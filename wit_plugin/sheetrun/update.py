@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..chain.fingerprint import Fingerprint, read_record
 from ..chain.rerun import FILES_MISSING, NO_RECORD, rebuild_reason
-from ..io.fileio import restore_folder, swap_folder
+from ..infra.io.fileio import restore_folder, swap_folder
 from .index import DONE, EMPTY, FAILED, PENDING, update_row
 from .plan import Tile
 from .worker import STAGED, STAGING_DIR, TILES_DIR, tile_folder

@@ -21,13 +21,13 @@ import time
 import traceback
 from pathlib import Path
 
-from ..area import StudyArea
+from ..buildings.heights import HeightOptions
 from ..chain import ChainInputs, ChainOptions, run_city_model
 from ..chain.fingerprint import BUILD_FILE, write_record
 from ..cityjson.sequence import tile_part
-from ..errors import WitError
-from ..feedback import LoggingFeedback
-from ..heights import HeightOptions
+from ..infra.errors import WitError
+from ..infra.feedback import LoggingFeedback
+from ..prepare.area import StudyArea
 from .index import DONE, EMPTY, FAILED
 from .job import TileJob
 from .plan import TileOwner

@@ -15,22 +15,17 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from ..dem import Dem
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..io.fileio import refuse_overlap
-from ..io.vector_io import VectorLayer, read_layer, read_prepared
-from ..polygons import transform
-from ..step_layers import (
-    FOREIGN_BUILDINGS,
-    PREPARED_BUILDINGS,
-    PREPARED_ROADS,
-    WIT_ID,
-)
-from ..triangulators import MAX_EDGE, VERTICAL_TOLERANCE
+from ..infra.dem import Dem
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.fileio import refuse_overlap
+from ..infra.io.vector_io import VectorLayer, read_layer, read_prepared
+from ..infra.polygons import transform
+from ..infra.step_layers import FOREIGN_BUILDINGS, PREPARED_BUILDINGS, PREPARED_ROADS, WIT_ID
 from .constraints import GRID, Feature, Seam, _polygonal, clean_polygons
 from .mesh import TinStats, _longest_edges, max_vertical_error, triangulate, vertical_error
 from .output import snap_to_grid, write_tin
+from .triangulators import MAX_EDGE, VERTICAL_TOLERANCE
 
 
 @dataclass(frozen=True)

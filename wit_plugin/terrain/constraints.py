@@ -20,7 +20,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from ..errors import InputError
+from ..infra.errors import InputError
 
 #: snapping grid for constraint coordinates (m): far below survey accuracy, far above float noise
 GRID = 0.001

@@ -17,15 +17,13 @@ import shapely
 from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
-from .. import triangulators
-from ..arrays import edge_pairs, ragged_indices, triangle_edge_keys
-from ..dem import Dem
-from ..deps import require
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..step_layers import (
-    TIN_SURFACES,
-)
+from ..infra.arrays import edge_pairs, ragged_indices, triangle_edge_keys
+from ..infra.dem import Dem
+from ..infra.deps import require
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.step_layers import TIN_SURFACES
+from . import triangulators
 from .constraints import MIN_WIDTH, Constraints, Feature, Seam, _classify, clean_constraints
 
 ROUNDING = 1e-3  # m: the precision coordinates are written with

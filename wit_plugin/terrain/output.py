@@ -8,17 +8,12 @@ import pyproj
 import shapely
 from osgeo import ogr
 
-from ..arrays import edge_pairs, triangle_edge_keys
-from ..dem import Dem
-from ..feedback import SILENT, Feedback
-from ..io.gpkg_bulk import write_layer
-from ..io.vector_io import FieldDef
-from ..step_layers import (
-    TIN_FEATURE_ID,
-    TIN_LAYER,
-    TIN_SURFACE,
-    TIN_TRIANGLE_ID,
-)
+from ..infra.arrays import edge_pairs, triangle_edge_keys
+from ..infra.dem import Dem
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.gpkg_bulk import write_layer
+from ..infra.io.vector_io import FieldDef
+from ..infra.step_layers import TIN_FEATURE_ID, TIN_LAYER, TIN_SURFACE, TIN_TRIANGLE_ID
 from .constraints import Constraints
 from .mesh import ROUNDING, Tin, _areas_3d, _triangle_areas, _with_heights
 

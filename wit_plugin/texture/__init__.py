@@ -69,16 +69,16 @@ import shapely
 from osgeo import ogr
 from shapely.geometry.base import BaseGeometry
 
-from .. import step_layers
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..gc_pause import collector_paused
-from ..gdal_env import capped_block_cache
-from ..io import bulk_read
-from ..io.fileio import atomic_files
-from ..io.gpkg_bulk import BulkTable
-from ..io.vector_io import FieldDef
-from ..numtext import ring_texts
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.gc_pause import collector_paused
+from ..infra.gdal_env import capped_block_cache
+from ..infra.io import bulk_read
+from ..infra.io.fileio import atomic_files
+from ..infra.io.gpkg_bulk import BulkTable
+from ..infra.io.vector_io import FieldDef
+from ..infra.numtext import ring_texts
 from .config import (
     FACADE_CHOICES,
     FACADES_GENERATED,

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .. import step_layers
+from ..infra import step_layers
 
 FORMATS = {"JPEG": "jpg", "PNG": "png"}
 

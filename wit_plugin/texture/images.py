@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 from osgeo import gdal, ogr
 
-from .. import step_layers
-from ..errors import InputError
-from ..io.gpkg_bulk import BulkTable
-from ..io.vector_io import FieldDef
-from ..numtext import ring_texts
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.io.gpkg_bulk import BulkTable
+from ..infra.io.vector_io import FieldDef
+from ..infra.numtext import ring_texts
 from .config import TEXCOORDS_FILE, TextureConfig, TextureReport
 from .sources import _Patch, _Rings
 

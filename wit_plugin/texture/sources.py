@@ -13,19 +13,12 @@ import shapely
 from osgeo import gdal, osr
 from shapely.geometry.base import BaseGeometry
 
-from ..errors import InputError
-from ..feedback import Feedback
-from ..io import bulk_read
-from ..io.raster_io import open_raster, read_window
-from ..io.vector_io import open_layer, open_step_layer, split_source
-from ..raster_crs import (
-    aligned,
-    cell_size,
-    crs_name,
-    foreign_crs,
-    transform_geometry,
-    warp,
-)
+from ..infra.errors import InputError
+from ..infra.feedback import Feedback
+from ..infra.io import bulk_read
+from ..infra.io.raster_io import open_raster, read_window
+from ..infra.io.vector_io import open_layer, open_step_layer, split_source
+from ..infra.raster_crs import aligned, cell_size, crs_name, foreign_crs, transform_geometry, warp
 from .config import TextureConfig
 
 _POINTS_IN_MEMORY = 4_000_000  # ring points read at a time (~100 MB with their rings' data): a run of tiles

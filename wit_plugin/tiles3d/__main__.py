@@ -6,9 +6,9 @@ import argparse
 import sys
 from dataclasses import asdict
 
-from ..errors import WitError
-from ..feedback import LoggingFeedback
-from ..io import jsontext
+from ..infra.errors import WitError
+from ..infra.feedback import LoggingFeedback
+from ..infra.io import jsontext
 from .tileset import TilesetConfig, export_tileset
 
 

@@ -29,12 +29,12 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..georef import OK, georeference_sheets
-from ..io import jsontext
-from ..io.digests import digest
-from ..io.fileio import atomic_file, restore_folder, swap_folder
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io import jsontext
+from ..infra.io.digests import digest
+from ..infra.io.fileio import atomic_file, restore_folder, swap_folder
+from ..mosaic.georef import OK, georeference_sheets
 from .geo import Georeference, column_major, union_region
 from .group_buildings import GROUP_BUILDINGS, Candidates, read_tile_buildings
 from .group_summary import load_meta, load_parts, save_summary, summary_path

@@ -15,7 +15,7 @@ import numpy as np
 from pyproj import CRS, Transformer
 from pyproj.exceptions import CRSError
 
-from ..errors import InputError
+from ..infra.errors import InputError
 
 #: glTF is y-up; 3D Tiles runtimes turn glTF (x, y, z) into (x, −z, y). Local ENU (e, n, u) is
 #: therefore stored as (e, u, −n).

@@ -23,7 +23,7 @@ import struct
 import numpy as np
 import pygltflib as gl
 
-from ..io import jsontext
+from ..infra.io import jsontext
 
 UNLIT = "KHR_materials_unlit"
 MESH_FEATURES = "EXT_mesh_features"

@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from .. import step_layers
-from ..io.vector_io import open_step_layer
-from ..meshes import triangulate
+from ..infra import step_layers
+from ..infra.io.vector_io import open_step_layer
+from ..infra.meshes import triangulate
 from .geo import Georeference
 from .glb import GlbBuilder, unit_normals
 from .metadata import BUILDING_CLASS, building_schema, property_columns

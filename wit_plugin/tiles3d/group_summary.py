@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from ..io import jsontext
+from ..infra.io import jsontext
 from .group_buildings import Candidates
 from .groups import Terrain
 

@@ -28,10 +28,10 @@ import shapely
 from osgeo import gdal
 from shapely.geometry.base import BaseGeometry
 
-from ..dem import Dem
-from ..errors import InputError, WitError
-from ..io.raster_io import open_raster
-from ..mapsheet import parse_sheet_number, sheet_at
+from ..infra.dem import Dem
+from ..infra.errors import InputError, WitError
+from ..infra.io.raster_io import open_raster
+from ..infra.mapsheet import parse_sheet_number, sheet_at
 from .coarse import Patch, fill_colours, grid_triangles, mem_raster, neighbour_mean
 from .geo import Georeference
 from .glb import GlbBuilder

@@ -17,7 +17,7 @@ import re
 
 from osgeo import ogr
 
-from .. import step_layers
+from ..infra import step_layers
 
 BUILDING_CLASS = "building"
 SCHEMA_ID = "wit_citymodel"

@@ -35,12 +35,12 @@ import numpy as np
 import shapely
 from osgeo import ogr
 
-from .. import step_layers
-from ..errors import InputError
-from ..feedback import Feedback
-from ..io import bulk_read, jsontext
-from ..io.vector_io import open_step_layer
-from ..meshes import parse_texcoords, triangle_vertices
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import Feedback
+from ..infra.io import bulk_read, jsontext
+from ..infra.io.vector_io import open_step_layer
+from ..infra.meshes import parse_texcoords, triangle_vertices
 
 FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not exported
 SURFACES = {name: number for number, name in enumerate(step_layers.TIN_SURFACES)}

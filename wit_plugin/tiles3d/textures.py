@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from osgeo import gdal
 
-from ..errors import InputError
+from ..infra.errors import InputError
 from ..texture.images import mip_chain
 
 TEXTURE_DIR = "textures"

@@ -38,13 +38,13 @@ import numpy as np
 import shapely
 from osgeo import osr
 
-from .. import step_layers
-from ..errors import InputError
-from ..feedback import SILENT, Feedback
-from ..io import jsontext
-from ..io.fileio import atomic_files, refuse_overlap
-from ..io.vector_io import open_step_layer
-from ..meshes import fan_corners, planar_triangles
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io import jsontext
+from ..infra.io.fileio import atomic_files, refuse_overlap
+from ..infra.io.vector_io import open_step_layer
+from ..infra.meshes import fan_corners, planar_triangles
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
 from .geo import Georeference, column_major, union_region
 from .glb import GlbBuilder, unit_normals

@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import pygltflib as gl
 
-from ..deps import require
-from ..feedback import SILENT, Feedback
-from ..io.fileio import atomic_file
+from ..infra.deps import require
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.fileio import atomic_file
 from .glb import glb_bytes
 
 MESHOPT = "EXT_meshopt_compression"

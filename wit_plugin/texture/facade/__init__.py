@@ -19,12 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from ... import step_layers
-from ...errors import InputError
-from ...heights import HeightOptions
-from ...io import bulk_read
-from ...io.gpkg_bulk import sql_name
-from ...io.vector_io import open_step_layer, split_source
+from ...buildings.heights import HeightOptions
+from ...infra import step_layers
+from ...infra.errors import InputError
+from ...infra.io import bulk_read
+from ...infra.io.gpkg_bulk import sql_name
+from ...infra.io.vector_io import open_step_layer, split_source
 from .modules import facade_image
 from .uses import Facade, UseRule
 from .walls import QUAD_POINTS, wall_texcoords

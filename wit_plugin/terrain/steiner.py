@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .arrays import edge_keys, edge_pairs, ragged_indices, triangle_edge_keys
+from ..infra.arrays import edge_keys, edge_pairs, ragged_indices, triangle_edge_keys
 
 if TYPE_CHECKING:
     from .triangulators import Mesh, Pslg, Triangulator

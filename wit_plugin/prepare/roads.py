@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from .heights import parse_height, positive
+from ..buildings.heights import parse_height, positive
 
 #: m per lane when only the lane count is known: the middle of the 3.0–3.5 m that the Korean road
 #: design rule (도로의 구조·시설 기준에 관한 규칙, art. 10) sets by design speed and area

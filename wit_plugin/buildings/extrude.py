@@ -4,7 +4,7 @@ Base: the minimum of the bilinear DEM surface over the footprint (exact: vertice
 DEM cell centres inside), so no building floats above the terrain; "median" is offered for
 footprints on steep ground where the minimum buries one side deeply.
 
-Height: the first source of the rule that gives a finite height > 0 (``wit_plugin.heights``:
+Height: the first source of the rule that gives a finite height > 0 (``wit_plugin.buildings.heights``:
 ``GRO_FLO_CO`` × storey height, the chosen field / expression, or the height and floor fields of
 the common layers recognised by name), else the default; recorded per building as the kind
 (``step_layers.HEIGHT_SOURCE``: floors, field, expression, default) and the exact rule
@@ -35,13 +35,12 @@ from osgeo import ogr
 from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
-from .dem import Dem
-from .errors import InputError
-from .feedback import SILENT, Feedback
-from .heights import DEFAULT, HeightOptions, HeightRule, building_height
-from .io.gpkg_bulk import write_layer
-from .io.vector_io import FieldDef, keep_source_fields, read_prepared
-from .step_layers import (
+from ..infra.dem import Dem
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.gpkg_bulk import write_layer
+from ..infra.io.vector_io import FieldDef, keep_source_fields, read_prepared
+from ..infra.step_layers import (
     BASE_Z,
     FACE_NUMBER,
     FACE_TYPE,
@@ -54,7 +53,8 @@ from .step_layers import (
     STOREYS_BELOW,
     WIT_ID,
 )
-from .terrain.constraints import clean_polygons
+from ..terrain.constraints import clean_polygons
+from .heights import DEFAULT, HeightOptions, HeightRule, building_height
 
 BASE_MODES = ("min", "median")
 

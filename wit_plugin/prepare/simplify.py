@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from .feedback import SILENT, Feedback
-from .polygons import orient
+from ..infra.feedback import SILENT, Feedback
+from ..infra.polygons import orient
 
 GRID_SIZE = 0.001  # m: coordinates are snapped to this grid where boundaries are noded
 OVERLAP_TOLERANCE = 1e-4  # m²: growth of an overlap between two polygons that simplification may cause

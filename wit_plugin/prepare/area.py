@@ -10,10 +10,10 @@ import numpy as np
 import pyproj
 import shapely
 
-from .errors import InputError
-from .feedback import SILENT, Feedback
-from .io.vector_io import VectorLayer, non_finite, read_layer
-from .polygons import polygonal, transform
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.vector_io import VectorLayer, non_finite, read_layer
+from ..infra.polygons import polygonal, transform
 
 CIRCLE_QUAD_SEGS = 64  # 256-gon: at most 0.08 m inside a 1 km circle
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from .errors import InputError
 
-CORE_ROOT = Path(__file__).resolve().parents[1]  # the folder holding the package wit_plugin
+CORE_ROOT = Path(__file__).resolve().parents[2]  # the folder holding the package wit_plugin
 
 
 #: folders of packages the plugin put on ``sys.path`` (``installer.activate``): its processes need them too

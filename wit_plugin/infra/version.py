@@ -9,7 +9,7 @@ import configparser
 from importlib import metadata
 from pathlib import Path
 
-PLUGIN_DIR = Path(__file__).resolve().parents[1]
+PLUGIN_DIR = Path(__file__).resolve().parents[2]
 CORE_DISTRIBUTION = "wit-citymodel-core"
 
 

@@ -82,7 +82,7 @@ class Package:
 #: every package ``wit:installdependencies`` offers
 PACKAGES: tuple[Package, ...] = (
     Package("shapely", ("shapely>=2,<3",), linux_package="python3-shapely", needs_system_geos=True),
-    # the terrain's triangulators (wit_plugin.triangulators): CDT (MPL-2.0) by default, Triangle when asked for
+    # the terrain's triangulators (wit_plugin.terrain.triangulators): CDT (MPL-2.0) by default, Triangle when asked for
     Package("pythoncdt", ("pythoncdt>=2.0.2,<3",)),
     Package("triangle", ("triangle>=20230923", "triangle3"), default=False, licence=TRIANGLE_LICENCE),
     Package("pyproj", ("pyproj",), linux_package="python3-pyproj"),

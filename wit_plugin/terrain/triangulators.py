@@ -5,7 +5,7 @@ Two libraries can mesh the terrain; the user picks one with the ``TRIANGULATOR``
 * 0 — ``triangle``: J. R. Shewchuk's Triangle, free for non-commercial use only. Its own quality and
   area switches refine the mesh.
 * 1 — ``pythoncdt``: A. Amirkhanov's CDT, MPL-2.0 (usable in commercial work). It only triangulates:
-  the Steiner points that make triangles small enough are ours (``wit_plugin.steiner``), and so is
+  the Steiner points that make triangles small enough are ours (``wit_plugin.terrain.steiner``), and so is
   telling holes from regions (a flood fill across the edges that are not constraints).
 
 Both take the same planar straight-line graph (``Pslg``: noded constraint segments, hole and region
@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from ..infra.arrays import edge_keys, edge_pairs, triangle_edge_keys
+from ..infra.deps import require
 from . import steiner
-from .arrays import edge_keys, edge_pairs, triangle_edge_keys
-from .deps import require
 
 #: Triangle's minimum angle (degrees). Kept tiny on purpose: what matters is that with any "q"
 #: Triangle keeps new vertices off constraint segments (its encroachment lens, here ~0.4 % of a

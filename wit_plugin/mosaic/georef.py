@@ -23,21 +23,13 @@ import shapely
 from osgeo import gdal, ogr, osr
 from shapely.geometry.base import BaseGeometry
 
-from .errors import InputError
-from .feedback import SILENT, Feedback
-from .gdal_env import quiet_gdal, thread_config
-from .io.fileio import atomic_file, atomic_files, ensure_writable_dir
-from .io.raster_io import open_raster
-from .mapsheet import find_sheet_in_name, projected_envelope
-from .raster_crs import (
-    aligned,
-    cell_size,
-    crs_code,
-    foreign_crs,
-    raster_extent,
-    transform_geometry,
-    warp,
-)
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.gdal_env import quiet_gdal, thread_config
+from ..infra.io.fileio import atomic_file, atomic_files, ensure_writable_dir
+from ..infra.io.raster_io import open_raster
+from ..infra.mapsheet import find_sheet_in_name, projected_envelope
+from ..infra.raster_crs import aligned, cell_size, crs_code, foreign_crs, raster_extent, transform_geometry, warp
 
 OK, SKIPPED, FAILED = "ok", "skipped", "failed"
 FORMATS = {"GTiff": ".tif", "VRT": ".vrt"}

@@ -45,12 +45,11 @@ import pyproj
 import shapely
 from osgeo import ogr
 
-from . import step_layers
-from .area import StudyArea
-from .errors import InputError
-from .feedback import SILENT, Feedback
-from .io.fileio import atomic_file, refuse_overlap
-from .io.vector_io import (
+from ..infra import step_layers
+from ..infra.errors import InputError
+from ..infra.feedback import SILENT, Feedback
+from ..infra.io.fileio import atomic_file, refuse_overlap
+from ..infra.io.vector_io import (
     BUILDING_FIELDS,
     DISTRICT_FIELDS,
     ROAD_FIELDS,
@@ -62,7 +61,7 @@ from .io.vector_io import (
     read_layer,
     write_gpkg,
 )
-from .polygons import (
+from ..infra.polygons import (
     REPAIR_KINDS,
     REPEATED_POINT_TOLERANCE,
     exact_duplicates,
@@ -72,6 +71,7 @@ from .polygons import (
     transform,
     vertex_count,
 )
+from .area import StudyArea
 from .roads import WidthRule, field_text
 from .roads import widths as road_widths_of
 from .simplify import GRID_SIZE, simplify_shared

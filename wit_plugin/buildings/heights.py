@@ -36,7 +36,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import InputError
+from ..infra.errors import InputError
 
 FLOORS = "floors"
 FIELD = "field"
