@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import configparser
-import re
 import subprocess
 import sys
 import textwrap
@@ -11,6 +10,7 @@ from pathlib import Path
 import pytest
 import wit_citymodel
 from conftest import ROOT
+from markdown_links import github_anchors
 from qgis.core import QgsApplication
 from qgis.PyQt.QtCore import QUrl
 from wit_citymodel import plugin as plugin_module
@@ -125,33 +125,9 @@ def test_plugin_loads_without_optional_packages_and_explains_how_to_install(tmp_
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
-def _github_anchors(markdown: str) -> set[str]:
-    """The anchors GitHub gives a Markdown file's headings: lower case, punctuation dropped (letters, digits,
-    '_', '-' and spaces kept), spaces as '-', a repeated anchor suffixed -1, -2, ...; code blocks skipped."""
-    anchors: set[str] = set()
-    counts: dict[str, int] = {}
-    fenced = False
-    for line in markdown.splitlines():
-        if line.startswith("```"):
-            fenced = not fenced
-        heading = re.match(r"#{1,6} +(.*?) *#* *$", line)
-        if fenced or not heading:
-            continue
-        slug = re.sub(r"[^\w\- ]", "", heading.group(1).lower()).replace(" ", "-")
-        anchors.add(slug if slug not in counts else f"{slug}-{counts[slug]}")
-        counts[slug] = counts.get(slug, 0) + 1
-    return anchors
-
-
-def test_github_anchors_as_github_forms_them():
-    assert _github_anchors("# WIT City Model — textured (QGIS plugin)\n## Sample data (`wit:generatesample`)\n"
-                           "```sh\n# not a heading\n```\n## Sample data (`wit:generatesample`)\n") == {
-        "wit-city-model--textured-qgis-plugin", "sample-data-witgeneratesample", "sample-data-witgeneratesample-1"}
-
-
 def test_every_help_button_opens_a_readme_section_that_exists(loaded_plugin):
     """The Help button: the README shipped in the plugin folder, at a heading's anchor."""
-    anchors = _github_anchors((ROOT / "README.md").read_text(encoding="utf-8"))
+    anchors = github_anchors((ROOT / "README.md").read_text(encoding="utf-8"))
     provider = QgsApplication.processingRegistry().providerById("wit")
     targets = {}
     for algorithm in provider.algorithms():
