@@ -19,7 +19,7 @@ test: setup
 test-fast: setup
 	bash scripts/test.sh --core -m "not slow"
 
-# ruff, then plugins.qgis.org's security scan (Bandit, detect-secrets) of what the plugin ZIP ships, as make test
+# ruff, mypy (the core's types), then plugins.qgis.org's security scan (Bandit, detect-secrets) of what the plugin ZIP ships, as make test
 # runs them (bash scripts/lint.sh --fix: ruff's safe fixes only)
 lint: setup
 	bash scripts/lint.sh

@@ -181,10 +181,10 @@ def parse_height(value: Any) -> float | None:
         number = float(match.group(1).replace(",", "."))
         if match.group(2).lower() in ("ft", "feet", "'"):
             number *= _FEET
+    elif (given := positive(value)) is not None:
+        number = given
     else:
-        number = positive(value)
-        if number is None:
-            return None
+        return None
     return number if math.isfinite(number) and number > 0 else None
 
 

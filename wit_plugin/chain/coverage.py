@@ -85,7 +85,9 @@ def ortho_coverage(files: list[str], area: BaseGeometry, target_crs: str, source
     Only the files whose sheet lies near the area are opened (to see whether they carry their own
     georeference in another CRS): a folder of a whole city's sheets is judged in seconds.
     """
-    used, unused, unnamed = [], [], []
+    used: list[SheetFile] = []
+    unused: list[SheetFile] = []
+    unnamed: list[tuple[str, str]] = []
     xmin, ymin, xmax, ymax = area.bounds
     near = shapely.box(xmin - NEAR_SHEET, ymin - NEAR_SHEET, xmax + NEAR_SHEET, ymax + NEAR_SHEET)
     for path in files:

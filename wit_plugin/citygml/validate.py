@@ -110,7 +110,8 @@ class _FileValidation:
         self.tolerances = (planarity_tol, vertex_tol, min_triangle_area)
         self.max_issues, self.on_chunk = max_issues, on_chunk
         self.syntax, self.schema_issues, self.other = (IssueList(str(path), max_issues) for _ in range(3))
-        self.bulk, self.nsmap = False, {}
+        self.bulk = False
+        self.nsmap: dict[str | None, str] = {}
 
     def run(self) -> list[Issue]:
         root = self._first_look()

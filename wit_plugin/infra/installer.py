@@ -38,6 +38,7 @@ from collections.abc import Callable, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import IO, cast
 
 from . import deps, pip_bootstrap
 from .errors import CanceledError, WitError
@@ -384,18 +385,19 @@ class _Pip:
                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                    env=self.env, text=True, encoding="utf-8", errors="replace",
                                    start_new_session=posix,
-                                   creationflags=0 if posix else subprocess.CREATE_NEW_PROCESS_GROUP)
+                                   creationflags=getattr(subprocess, "CREATE_NEW_PROCESS_GROUP", 0))  # (Windows only)
+        stdout = cast("IO[str]", process.stdout)  # stdout=PIPE: never None
         lines: list[str] = []
         output: queue.Queue = queue.Queue()
 
         def read() -> None:
-            for line in process.stdout:
+            for line in stdout:
                 output.put(line)
             output.put(None)
 
         reader = threading.Thread(target=read, daemon=True)
         reader.start()
-        with process.stdout:
+        with stdout:
             while True:
                 if feedback.is_canceled():
                     _kill(process)

@@ -64,9 +64,9 @@ def _candidates() -> list[str]:
     (``bin/python3``, or ``python.exe`` on Windows), then ``python3`` / ``python`` on the PATH."""
     candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
     prefix = Path(sys.exec_prefix)
-    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), shutil.which("python3"),
-                   shutil.which("python")]
-    return list(dict.fromkeys(c for c in candidates if c and Path(c).is_file()))
+    on_path = (shutil.which("python3"), shutil.which("python"))
+    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), *(c for c in on_path if c)]
+    return list(dict.fromkeys(c for c in candidates if Path(c).is_file()))
 
 
 def this_python(configured: str | None = None) -> str:

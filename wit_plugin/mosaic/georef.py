@@ -95,7 +95,8 @@ def _open(path: str) -> tuple[gdal.Dataset | None, str]:
 def _plan(sources: Sequence[str], out_dir: Path, suffix: str, target_crs: str, source_crs: str,
           margin: float) -> list[SheetResult]:
     """Read every name first, so skips are known before any pixel is touched."""
-    results, taken = [], {}
+    results: list[SheetResult] = []
+    taken: dict[str, str] = {}  # sheet number → the file it comes from
     for source in sources:
         result = SheetResult(source=source)
         results.append(result)

@@ -122,8 +122,7 @@ class WidthRule:
     def width_of(self, row: dict[str, Any]) -> tuple[float, str]:
         """(width in m, its source: the field, ``<lanes field> × lane width``, ``<class field>=<value>``
         or ``default``) of one centre line from its attributes."""
-        width = parse_height(row.get(self.width)) if self.width else None
-        if width is not None:
+        if self.width and (width := parse_height(row.get(self.width))) is not None:
             return width, self.width
         lanes = positive(row.get(self.lanes)) if self.lanes else None
         if lanes is not None:

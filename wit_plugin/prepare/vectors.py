@@ -187,7 +187,8 @@ def source_ids(layer: VectorLayer, prefix: str, keys: Sequence[Sequence[str]]) -
 def unique_ids(ids: Sequence[str], skip: np.ndarray | None = None) -> list[str]:
     """A repeated id gets ``_2``, ``_3``… in source order, so ids stay unique and the same for the same
     input; features in ``skip`` (duplicates about to be dropped) keep the id they repeat."""
-    out, seen = [], {}
+    out: list[str] = []
+    seen: dict[str, int] = {}
     for i, wid in enumerate(ids):
         if skip is not None and skip[i]:
             out.append(wid)

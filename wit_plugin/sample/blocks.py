@@ -85,8 +85,8 @@ class _Quad:
     def __init__(self, q: np.ndarray):
         self.q = q
         self._corners = [(float(x), float(y)) for x, y in q]
-        self.la = 0.5 * (np.linalg.norm(q[1] - q[0]) + np.linalg.norm(q[2] - q[3]))
-        self.lb = 0.5 * (np.linalg.norm(q[3] - q[0]) + np.linalg.norm(q[2] - q[1]))
+        self.la = float(0.5 * (np.linalg.norm(q[1] - q[0]) + np.linalg.norm(q[2] - q[3])))
+        self.lb = float(0.5 * (np.linalg.norm(q[3] - q[0]) + np.linalg.norm(q[2] - q[1])))
 
     def rolled(self, r: int) -> _Quad:
         """The same quad with its corners renumbered so that side ``r`` becomes side 0."""
@@ -326,8 +326,8 @@ def _fill_apartment(quad: _Quad, frontage, block: int, dong: int, rng: random.Ra
                               GROUND_PARKING))
         b += depth + spacing
     for _ in range(int(la * lb / 260)):
-        a, bb = rng.random(), rng.random()
-        sb.trees.append((*quad.ring([(a, bb)])[0], rng.uniform(2.0, 3.8)))
+        tree_a, tree_b = rng.random(), rng.random()
+        sb.trees.append((*quad.ring([(tree_a, tree_b)])[0], rng.uniform(2.0, 3.8)))
 
 
 def _fill_school(quad: _Quad, frontage, block: int, dong: int, rng: random.Random, sb: Superblock) -> None:

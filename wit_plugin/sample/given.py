@@ -154,7 +154,7 @@ def _region(layers: GivenLayers, target: pyproj.CRS,
     if layers.area is None:
         return extent, None
     districts = None
-    if layers.area.kind == "district":
+    if layers.area.kind == "district" and layers.districts:  # (given: checked up front)
         districts = _read(layers.districts, layers, None, target, feedback)
         districts = replace(districts, geoms=repair_polygons(districts.geoms).geoms)
     area = layers.area.geometry(target, districts, feedback)

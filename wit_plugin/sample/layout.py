@@ -122,7 +122,8 @@ class CityLayout:
             family, index = ("v", j) if k < len(a_lines) else ("u", i)
             sb.roads.append(InnerRoad(coords, width, (family, index)))
         cells = grid.cells(rng)
-        cell_heights = self._heights(np.array([c.mean(axis=0) for c, _, _ in cells])) if cells else []
+        cell_heights: np.ndarray | list[float] = (
+            self._heights(np.array([c.mean(axis=0) for c, _, _ in cells])) if cells else [])
         kinds = _cell_kinds(sb.kind, len(cells), rng)
         for block, ((_, inset, frontage), h, cell_kind) in enumerate(zip(cells, cell_heights, kinds)):
             if inset is None:
@@ -182,8 +183,8 @@ def _inner_lines(kind: str, corners: np.ndarray, rng: random.Random):
     Family A runs from the bottom edge to the top edge (a fraction along u), family B from the left
     to the right edge. Ends differ slightly so that inner roads are not parallel to the arterials.
     """
-    length_u = 0.5 * (np.linalg.norm(corners[1] - corners[0]) + np.linalg.norm(corners[2] - corners[3]))
-    length_v = 0.5 * (np.linalg.norm(corners[3] - corners[0]) + np.linalg.norm(corners[2] - corners[1]))
+    length_u = float(0.5 * (np.linalg.norm(corners[1] - corners[0]) + np.linalg.norm(corners[2] - corners[3])))
+    length_v = float(0.5 * (np.linalg.norm(corners[3] - corners[0]) + np.linalg.norm(corners[2] - corners[1])))
     if kind == "villa":
         a = _splits(length_u, (95.0, 140.0), lambda k, n: 15.0 + 5 * rng.random() if k == n // 2 else
                     rng.choice([8.0, 10.0, 12.0]), rng)

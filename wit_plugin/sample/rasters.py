@@ -362,8 +362,9 @@ def _markings(lines: np.ndarray, widths: np.ndarray) -> tuple[np.ndarray, np.nda
         for k in range(1, int((width / 2 - 1.5) // 3.4)):
             for sign in (-1, 1):
                 white += _dashes(shapely.offset_curve(line, sign * 3.4 * k), 3.0, 5.0)
-    yellow, white = grouped(np.array(yellow, dtype=object)), grouped(np.array(white, dtype=object))
-    return np.concatenate([yellow, white]), np.array([YELLOW_LINE] * len(yellow) + [WHITE_LINE] * len(white))
+    yellow_lines, white_lines = grouped(np.array(yellow, dtype=object)), grouped(np.array(white, dtype=object))
+    return (np.concatenate([yellow_lines, white_lines]),
+            np.array([YELLOW_LINE] * len(yellow_lines) + [WHITE_LINE] * len(white_lines)))
 
 
 def street_trees(lines: np.ndarray, widths: np.ndarray, rng: np.random.Generator) -> np.ndarray:

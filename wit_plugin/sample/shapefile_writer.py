@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import datetime
 import struct
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,7 +37,7 @@ class Field:
 
 
 def write_shapefile(base: Path, shape_type: int, geometries: Sequence[Parts], fields: Sequence[Field],
-                    columns: dict[str, Sequence[Any]], prj_wkt: str, encoding: str = "cp949",
+                    columns: Mapping[str, Sequence[Any]], prj_wkt: str, encoding: str = "cp949",
                     dbf_date: datetime.date = datetime.date(2022, 12, 31)) -> None:
     """Write ``base``.shp/.shx/.dbf/.prj; ``columns`` maps field names to one value per feature.
 
@@ -79,7 +79,7 @@ def _shp_bytes(shape_type: int, geometries: Sequence[Parts]) -> tuple[bytes, byt
     return shp, shx
 
 
-def _dbf_bytes(fields: Sequence[Field], columns: dict[str, Sequence[Any]], count: int, encoding: str,
+def _dbf_bytes(fields: Sequence[Field], columns: Mapping[str, Sequence[Any]], count: int, encoding: str,
                dbf_date: datetime.date) -> bytes:
     record_len = 1 + sum(f.width for f in fields)
     header_len = 32 + 32 * len(fields) + 1

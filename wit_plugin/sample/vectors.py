@@ -106,12 +106,18 @@ def select(layout: CityLayout, half: float | None, n_buildings: int | None, dens
     the first guess of how far to look.
     """
     center = layout.center
-    guess = half if n_buildings is None else 1.15 * np.sqrt(n_buildings / (4.0 * density)) + 300.0
+    if n_buildings is None:
+        if half is None:
+            raise ValueError("select needs the half-size or the number of buildings")
+        guess = half
+    else:
+        guess = 1.15 * float(np.sqrt(n_buildings / (4.0 * density))) + 300.0
     while True:
         superblocks = layout.superblocks(_square(center, guess))
         pairs = [(_extent(b, center), sb, b) for sb in superblocks for b in sb.buildings]
         extents = np.array([p[0] for p in pairs])
         if n_buildings is None:
+            half = guess
             break
         if (extents <= guess).sum() >= n_buildings:
             half = float(np.sort(extents)[n_buildings - 1])
@@ -306,7 +312,8 @@ def district_layer(data: VectorData) -> tuple[list[list[np.ndarray]], dict[str, 
     for sb in data.superblocks:
         by_dong.setdefault(sb.dong, []).append(shapely.Polygon(sb.corners))
     square = shapely.box(*_square(data.center, data.half))
-    geoms, cols = [], {f.name: [] for f in DISTRICT_FIELDS}
+    geoms: list = []
+    cols: dict[str, list] = {f.name: [] for f in DISTRICT_FIELDS}
     for dong in sorted(by_dong, key=lambda d: DONGS[d][0]):
         shape = shapely.orient_polygons(shapely.intersection(shapely.union_all(by_dong[dong]), square),
                                         exterior_cw=True)

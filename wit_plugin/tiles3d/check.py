@@ -251,7 +251,7 @@ def _accessor(gltf: dict, blob: bytes, index: int) -> np.ndarray | None:
         count = accessor["count"]
         if count and start + stride * (count - 1) + dtype.itemsize * width > len(blob):
             return None
-        rows = np.ndarray((count, width), dtype=dtype.newbyteorder("<"), buffer=blob, offset=start,
+        rows: np.ndarray = np.ndarray((count, width), dtype=dtype.newbyteorder("<"), buffer=blob, offset=start,
                           strides=(stride, dtype.itemsize))
         return rows.astype(np.float64).ravel()
     except (KeyError, IndexError, TypeError):

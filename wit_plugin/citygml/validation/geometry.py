@@ -340,7 +340,8 @@ def _vertex_ids(solid: np.ndarray, cells: np.ndarray) -> np.ndarray:
 def _tolerant_ids(points: np.ndarray, tol: float) -> list[int]:
     """Vertex ids where points within ``tol`` share an id (grid cells plus their 26 neighbours)."""
     cells: dict = defaultdict(list)
-    ids, reps = [], []
+    ids: list[int] = []
+    reps: list[np.ndarray] = []
     offsets = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)]
     for p in points:
         c = tuple(np.floor(p / tol).astype(int))

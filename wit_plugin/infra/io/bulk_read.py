@@ -15,6 +15,7 @@ layers (and GDAL < 3.6) take the feature API, which gives the same columns.
 from __future__ import annotations
 
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import shapely
@@ -88,7 +89,7 @@ def feature_batches(layer: ogr.Layer, size: int = BATCH, fid: bool = False) -> I
     fields = [(i, defn.GetFieldDefn(i)) for i in range(defn.GetFieldCount()) if not defn.GetFieldDefn(i).IsIgnored()]
     layer.ResetReading()
     while True:
-        rows = []
+        rows: list[tuple[int, bytes | None, list]] = []
         while len(rows) < size and (feature := layer.GetNextFeature()) is not None:
             geom = feature.GetGeometryRef()
             rows.append((feature.GetFID(), None if geom is None else bytes(geom.ExportToIsoWkb()),
@@ -124,7 +125,7 @@ def valid(column: np.ndarray) -> np.ndarray:
     return ~np.ma.getmaskarray(column)
 
 
-def geometry_name(wkb: object) -> str:
+def geometry_name(wkb: Any) -> str:
     """What an entry of a geometry column holds, for messages: 'a POINT', 'an empty POLYGON', 'no geometry'."""
     geom = None if wkb is None or wkb is np.ma.masked else shapely.from_wkb(bytes(wkb))
     if geom is None:
@@ -161,7 +162,7 @@ def exterior_rings(wkb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
               & (shapely.get_num_geometries(geoms) == 1))
     geoms = np.where(single, shapely.get_geometry(geoms, 0), geoms)
     polygonal = (shapely.get_type_id(geoms) == shapely.GeometryType.POLYGON) & ~shapely.is_empty(geoms)
-    geoms = np.where(polygonal, geoms, None)
+    geoms = np.where(polygonal, geoms, None)  # type: ignore[call-overload]  # numpy's stubs refuse None, numpy takes it
     points, index = shapely.get_coordinates(shapely.get_exterior_ring(geoms), include_z=True, return_index=True)
     rings = np.where(polygonal, shapely.get_num_interior_rings(geoms) + 1, 0).astype(np.int64)
     return points, np.bincount(index, minlength=len(geoms)).astype(np.int64), rings

@@ -15,7 +15,7 @@ import os
 import shutil
 import sqlite3
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 from ..errors import InputError
@@ -80,7 +80,7 @@ def vector_file_problem(source: str | os.PathLike) -> str | None:
         if missing:
             return (f"{path.name} has no {' and no '.join(missing)} beside it in {path.parent}: a shapefile needs "
                     "its .shp, .shx and .dbf files together (copy all the files of the layer).")
-        empty = [found.name for found in parts.values() if found.stat().st_size == 0]
+        empty = [found.name for found in parts.values() if found is not None and found.stat().st_size == 0]
         if empty:
             return f"{', '.join(empty)} beside {path.name} is empty (0 bytes): copy the layer's files again."
     elif suffix in (".gpkg", ".sqlite"):
@@ -212,7 +212,7 @@ def atomic_file(target: str | os.PathLike) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
-def atomic_files(targets: list[str | os.PathLike]) -> Iterator[Path]:
+def atomic_files(targets: Sequence[str | os.PathLike]) -> Iterator[Path]:
     """Yield a temporary folder; on success move every file in it into the targets' folder.
 
     For multi-file outputs (a shapefile and its sidecars, an image set): the caller writes

@@ -23,6 +23,7 @@ import contextlib
 import sqlite3
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import pyproj
@@ -234,12 +235,13 @@ def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[
         raise ValueError("one column per field, one value per geometry")
     with atomic_file(path) as tmp:
         table = BulkTable(tmp, layer, fields, crs, geometry_type)
+        srs_id = cast(int, table.srs_id)  # set: the table has a CRS
         try:
             for start in range(0, len(geoms), BATCH):
                 feedback.check_canceled()
                 feedback.progress(90 * start / max(len(geoms), 1))
                 stop = start + BATCH
-                blobs = geometry_blobs(geoms[start:stop], table.srs_id)
+                blobs = geometry_blobs(geoms[start:stop], srs_id)
                 table.insert(list(zip(blobs, *(c[start:stop] for c in columns))))
         finally:
             table.close(_total_bounds(geoms) if len(geoms) else None)

@@ -8,18 +8,21 @@ describe. Every JSON the core writes goes through ``dumps``.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
+from typing import Any
 
+_C_ENCODER: Callable[..., Any] | None = None
 try:
     import _json
+    _C_ENCODER = _json.make_encoder
 except ImportError:  # an interpreter without the C accelerator
-    _json = None
-_C_ENCODER = getattr(_json, "make_encoder", None)
+    pass
 
 
 def dumps(value: object, **options) -> str:
     """``json.dumps(value, **options)`` with the module's own float formatting and encoder for the call (another
     package's replacement, if any, is put back after it)."""
-    module = json.encoder
+    module: Any = json.encoder  # its attributes as another package may have replaced them
     encoder, number = module.c_make_encoder, module.__dict__.get("float")  # cjio shadows the built-in float there
     module.c_make_encoder = _C_ENCODER
     module.__dict__.pop("float", None)

@@ -462,8 +462,8 @@ def write_gpkg(path: str | os.PathLike, layers: Sequence[OutputLayer], crs: pypr
         lyr = ds.CreateLayer(lay.name, srs if spatial else None, ogr.wkbMultiPolygon if spatial else ogr.wkbNone,
                              options=["SPATIAL_INDEX=YES"] if spatial else [])
         create_fields(lyr, lay.fields)
-        n = len(lay.geoms) if spatial else len(next(iter(lay.columns.values()), []))
-        wkbs = shapely.to_wkb(_as_multi(lay.geoms)) if spatial else None
+        n = len(lay.geoms) if lay.geoms is not None else len(next(iter(lay.columns.values()), []))
+        wkbs = shapely.to_wkb(_as_multi(lay.geoms)) if lay.geoms is not None else None
         layer_defn = lyr.GetLayerDefn()
         setters = [_SETTERS.get(fd.type, ogr.Feature.SetField) for fd in lay.fields]
         columns = [lay.columns[fd.name] for fd in lay.fields]
@@ -479,7 +479,7 @@ def write_gpkg(path: str | os.PathLike, layers: Sequence[OutputLayer], crs: pypr
                     feat.SetFieldNull(j)
                 else:
                     setter(feat, j, value)
-            if spatial and wkbs[i] is not None:
+            if wkbs is not None and wkbs[i] is not None:
                 feat.SetGeometryDirectly(ogr.CreateGeometryFromWkb(wkbs[i]))
             lyr.CreateFeature(feat)
         lyr.CommitTransaction()

@@ -130,15 +130,15 @@ class UseRule:
                floors_field: str | None) -> Facade:
         """The facade of one building (``storeys``: the layer's count above ground, from ``floors_field``)."""
         style, rule = self._style(attributes)
-        counted = storeys is not None and storeys >= 1
+        counted = storeys if storeys is not None and storeys >= 1 else None
         if not math.isfinite(height) or height <= 0:  # (the extrusion always gives one; another layer may not)
-            height = (storeys if counted else 1) * STOREY_HEIGHT[style or VILLA]
+            height = (counted or 1) * STOREY_HEIGHT[style or VILLA]
         if style is None:  # housing of no stated kind, or no use at all: by storeys
-            guess = storeys if counted else max(1, round(height / STOREY_HEIGHT[VILLA]))
+            guess = counted or max(1, round(height / STOREY_HEIGHT[VILLA]))
             style = HOUSE if guess <= 2 else VILLA if guess <= 4 else APARTMENT
             rule = f"{rule}, {guess} storeys" if rule else f"{guess} storeys (no use field)"
         if counted:
-            count, source = int(storeys), str(floors_field)
+            count, source = int(counted), str(floors_field)
         else:
             count = max(1, round(height / STOREY_HEIGHT[style]))
             source = f"height ÷ {STOREY_HEIGHT[style]:g} m"
