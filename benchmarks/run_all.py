@@ -427,9 +427,9 @@ def run_colorstore(name: str, data: Path, mosaic: str, radius: float, quick: boo
 
 # --- Markdown ----------------------------------------------------------------------------------------
 
-def markdown(report: dict) -> str:
+def _md_header(report: dict, names: list[str]) -> list[str]:
+    """The title, the machine and, per size, its sample."""
     sizes = report["sizes"]
-    names = list(sizes)
     md = ["# WIT City Model benchmarks vs the paper (Kang 2025)", "",
           (f"{report['machine']['cpus']} CPUs, {report['machine']['platform']}, Python {report['machine']['python']}; "
           f"runs per size: {report['runs']}; started {report['started']}; "
@@ -442,14 +442,17 @@ def markdown(report: dict) -> str:
         md.append(f"* **{name}**: radius {s['radius_m']:g} m around Suseo station; sample {d['tiles']} ortho sheets "
                   f"(0.5 m), {c.get('buildings', '?')} buildings generated; TIN {tin.get('triangles', 0):,} triangles.")
     md.append("")
+    return md
 
-    # Table 20
-    md += ["## Table 20 — 3D object generation time (s)", "",
-           ("Paper: Method A / B / proposed, as printed; its total (15 s) is the sum of its three stages. Ours: "
-           "seconds inside the library calls, mean ± std over the runs; vector data loading = "
-           "wit:preparevectors (read, clean, write); mesh generation and DEM mapping = the split of "
-           "wit:triangulateterrain; total = the same three stages. The two rows below it are not in the "
-           "paper: every 3D object on disk, and the whole chain (8 steps, the next table)."), ""]
+
+def _md_table20(sizes: dict, names: list[str]) -> list[str]:
+    """Table 20, the 3D object generation time, and the goal on the default sample."""
+    md = ["## Table 20 — 3D object generation time (s)", "",
+          ("Paper: Method A / B / proposed, as printed; its total (15 s) is the sum of its three stages. Ours: "
+          "seconds inside the library calls, mean ± std over the runs; vector data loading = "
+          "wit:preparevectors (read, clean, write); mesh generation and DEM mapping = the split of "
+          "wit:triangulateterrain; total = the same three stages. The two rows below it are not in the "
+          "paper: every 3D object on disk, and the whole chain (8 steps, the next table)."), ""]
     head = "| No. | Processing stage | Method A | Method B | Proposed (paper) | " + " | ".join(
         f"ours, {n}" for n in names) + " |"
     md += [head, "|" + "---|" * (5 + len(names))]
@@ -485,7 +488,12 @@ def markdown(report: dict) -> str:
         md.append(f"*{n}*: Table 20 total {fmt(ch['table20_total_s'])} s; whole chain {fmt(ch['total_s'])} s "
                   f"in the calls, {fmt(ch['total_wall_s'])} s wall (one Python start-up + imports per step).{goal}")
     md.append("")
-    md += ["### Per step (time s, peak RSS MB of the step's process)", ""]
+    return md
+
+
+def _md_steps(sizes: dict, names: list[str]) -> list[str]:
+    """The chain per step (time, wall time, peak memory) and what run 1 made."""
+    md = ["### Per step (time s, peak RSS MB of the step's process)", ""]
     md += ["| step | " + " | ".join(f"{n} s | {n} wall s | {n} peak MB" for n in names) + " |",
            "|---|" + "---|---|---|" * len(names)]
     for step in STEPS + ("terrain: mesh", "terrain: DEM mapping", "terrain: write TIN", "terrain: read/other",
@@ -523,78 +531,94 @@ def markdown(report: dict) -> str:
                       f"triangles; {g('extrude', 'solids')} solids; {g('texture', 'images')} texture images "
                       f"({g('texture', 'mb_written')} MB); CityGML {g('citygml', 'gml_mb')} MB; valid: {valid}.")
     md.append("")
+    return md
 
-    # Tables 15 and 16
+
+def _md_colorstore(sizes: dict, names: list[str]) -> list[str]:
+    """Tables 15 and 16, the colour store beside the raster: query time and memory."""
     cs_names = [n for n in names if sizes[n].get("colorstore")]
-    if cs_names:
-        md += ["## Table 15 — query response time", "",
-               ("Paper: three experiments of growing complexity (1st, 2nd, 3rd), seconds per query incl. loading. "
-               "Ours: three runs with different random queries (run 1, 2, 3), mean seconds per query; raster "
-               "whole-load = per query gdal.Open + ReadAsArray of the whole image (the paper's raster way); "
-               "windowed = the tiled GeoTIFF kept open, read only the window; store = ColorStore (GeoPackage), "
-               "opened once. Patch = 64 m × 64 m at 0.5 m (128 × 128 texels); point = one colour."), ""]
-        md += ["| approach | query | 1st / run 1 | 2nd / run 2 | 3rd / run 3 | average ± std |",
-               "|---|---|---|---|---|---|"]
-        md.append(f"| paper: raster-based | – | {' | '.join(f'{v} s' for v in PAPER_T15['raster'])} | "
-                  f"{PAPER_T15['raster_avg']} s |")
-        md.append(f"| paper: vector-based | – | {' | '.join(f'{v} s' for v in PAPER_T15['vector'])} | "
-                  f"{PAPER_T15['vector_avg']} s |")
-        labels = {"raster-full": "raster whole-load", "raster-window": "raster windowed",
-                  "store-gpkg": "vector store (GeoPackage)", "store-postgis": "vector store (PostGIS)"}
-        for n in cs_names:
-            cs = sizes[n]["colorstore"]
-            for method, row in cs["methods"].items():
-                for kind in ("patch", "point"):
-                    s = row[kind]["mean_s"]
-                    runs = " | ".join(f"{v:.2e} s" for v in s["runs"])
-                    md.append(f"| ours {n}: {labels[method]} | {kind} | {runs} | {s['mean']:.2e} ± {s['std']:.1e} s |")
-        md.append("")
-        md += ["## Table 16 — memory consumption", "",
-               ("Ours: peak RSS of the querying process (GNU time) minus that of a process that only does the "
-               "same imports, MB, per run (patch queries)."), ""]
-        md += ["| approach | 1st / run 1 | 2nd / run 2 | 3rd / run 3 | average ± std |", "|---|---|---|---|---|"]
-        md.append(f"| paper: raster-based | {' | '.join(PAPER_T16['raster'])} | {PAPER_T16['raster_avg']} |")
-        md.append(f"| paper: vector-based | {' | '.join(PAPER_T16['vector'])} | {PAPER_T16['vector_avg']} |")
-        for n in cs_names:
-            cs = sizes[n]["colorstore"]
-            for method, row in cs["methods"].items():
-                s = row["patch"]["peak_mb"]
-                md.append(f"| ours {n}: {labels[method]} | " + " | ".join(f"{v:.1f} MB" for v in s["runs"])
-                          + f" | {fmt(s, 1)} MB |")
-        md.append("")
-        for n in cs_names:
-            d = sizes[n]["colorstore"]["data"]
-            md.append(f"*{n}*: image {d['px']} × {d['px']} px ({d['image_raw_mb']} MB raw RGB, {d['image_file_mb']} MB "
-                      f"DEFLATE GeoTIFF), colour store {d['cells']:,} cells, {d['store_mb']} MB GeoPackage "
-                      f"(paper Table 14: 12 MB image, 52 MB store); import baseline "
-                      f"{sizes[n]['colorstore']['baseline_rss_mb']:.0f} MB.")
-        md.append("")
+    if not cs_names:
+        return []
+    md = ["## Table 15 — query response time", "",
+          ("Paper: three experiments of growing complexity (1st, 2nd, 3rd), seconds per query incl. loading. "
+          "Ours: three runs with different random queries (run 1, 2, 3), mean seconds per query; raster "
+          "whole-load = per query gdal.Open + ReadAsArray of the whole image (the paper's raster way); "
+          "windowed = the tiled GeoTIFF kept open, read only the window; store = ColorStore (GeoPackage), "
+          "opened once. Patch = 64 m × 64 m at 0.5 m (128 × 128 texels); point = one colour."), ""]
+    md += ["| approach | query | 1st / run 1 | 2nd / run 2 | 3rd / run 3 | average ± std |",
+           "|---|---|---|---|---|---|"]
+    md.append(f"| paper: raster-based | – | {' | '.join(f'{v} s' for v in PAPER_T15['raster'])} | "
+              f"{PAPER_T15['raster_avg']} s |")
+    md.append(f"| paper: vector-based | – | {' | '.join(f'{v} s' for v in PAPER_T15['vector'])} | "
+              f"{PAPER_T15['vector_avg']} s |")
+    labels = {"raster-full": "raster whole-load", "raster-window": "raster windowed",
+              "store-gpkg": "vector store (GeoPackage)", "store-postgis": "vector store (PostGIS)"}
+    for n in cs_names:
+        cs = sizes[n]["colorstore"]
+        for method, row in cs["methods"].items():
+            for kind in ("patch", "point"):
+                s = row[kind]["mean_s"]
+                runs = " | ".join(f"{v:.2e} s" for v in s["runs"])
+                md.append(f"| ours {n}: {labels[method]} | {kind} | {runs} | {s['mean']:.2e} ± {s['std']:.1e} s |")
+    md.append("")
+    md += ["## Table 16 — memory consumption", "",
+           ("Ours: peak RSS of the querying process (GNU time) minus that of a process that only does the "
+           "same imports, MB, per run (patch queries)."), ""]
+    md += ["| approach | 1st / run 1 | 2nd / run 2 | 3rd / run 3 | average ± std |", "|---|---|---|---|---|"]
+    md.append(f"| paper: raster-based | {' | '.join(PAPER_T16['raster'])} | {PAPER_T16['raster_avg']} |")
+    md.append(f"| paper: vector-based | {' | '.join(PAPER_T16['vector'])} | {PAPER_T16['vector_avg']} |")
+    for n in cs_names:
+        cs = sizes[n]["colorstore"]
+        for method, row in cs["methods"].items():
+            s = row["patch"]["peak_mb"]
+            md.append(f"| ours {n}: {labels[method]} | " + " | ".join(f"{v:.1f} MB" for v in s["runs"])
+                      + f" | {fmt(s, 1)} MB |")
+    md.append("")
+    for n in cs_names:
+        d = sizes[n]["colorstore"]["data"]
+        md.append(f"*{n}*: image {d['px']} × {d['px']} px ({d['image_raw_mb']} MB raw RGB, {d['image_file_mb']} MB "
+                  f"DEFLATE GeoTIFF), colour store {d['cells']:,} cells, {d['store_mb']} MB GeoPackage "
+                  f"(paper Table 14: 12 MB image, 52 MB store); import baseline "
+                  f"{sizes[n]['colorstore']['baseline_rss_mb']:.0f} MB.")
+    md.append("")
+    return md
 
-    # Table 19
+
+def _md_table19(sizes: dict, names: list[str]) -> list[str]:
+    """Table 19, the objective texture quality."""
     m_names = [n for n in names if sizes[n].get("metrics")]
-    if m_names:
-        md += ["## Table 19 — objective texture quality", "",
-               ("Paper: screenshots of Bing Maps, V-World and WIT at ten places. Ours (run 1): the model's texture "
-               "images inside their texture-coordinate rings (what the CityGML shows: roofs, terrain, roads), and "
-               "the merged orthoimage they were cut from (over the buildings' box; inside the footprints). The "
-               "paper's images are not ours: its figures are context, not targets."), ""]
-        cols = []
+    if not m_names:
+        return []
+    md = ["## Table 19 — objective texture quality", "",
+          ("Paper: screenshots of Bing Maps, V-World and WIT at ten places. Ours (run 1): the model's texture "
+          "images inside their texture-coordinate rings (what the CityGML shows: roofs, terrain, roads), and "
+          "the merged orthoimage they were cut from (over the buildings' box; inside the footprints). The "
+          "paper's images are not ours: its figures are context, not targets."), ""]
+    cols = []
+    for n in m_names:
+        cols += [f"ours {n}: model textures", f"ours {n}: mosaic (box)", f"ours {n}: mosaic in footprints"]
+    md += ["| No. | metric | Bing Maps | V-World | WIT (paper) | " + " | ".join(cols) + " |",
+           "|" + "---|" * (5 + len(cols))]
+    for k, (key, label) in enumerate((("laplacian_variance", "Edge sharpness (Laplacian variance)"),
+                                      ("contrast", "Contrast (pixel intensity STD)")), 1):
+        p = PAPER_T19[key]
+        cells = []
         for n in m_names:
-            cols += [f"ours {n}: model textures", f"ours {n}: mosaic (box)", f"ours {n}: mosaic in footprints"]
-        md += ["| No. | metric | Bing Maps | V-World | WIT (paper) | " + " | ".join(cols) + " |",
-               "|" + "---|" * (5 + len(cols))]
-        for k, (key, label) in enumerate((("laplacian_variance", "Edge sharpness (Laplacian variance)"),
-                                          ("contrast", "Contrast (pixel intensity STD)")), 1):
-            p = PAPER_T19[key]
-            cells = []
-            for n in m_names:
-                m = sizes[n]["metrics"]
-                cells += [f"{m['model_textures'][key]:.2f}", f"{m['mosaic_buildings_box'][key]:.2f}",
-                          f"{m['mosaic_in_footprints'][key]:.2f}"]
-            md.append(f"| {k} | {label} | {p['Bing Maps']} | {p['V-World']} | {p['WIT']} | " + " | ".join(cells) + " |")
-        md.append("")
-    return "\n".join(md)
+            m = sizes[n]["metrics"]
+            cells += [f"{m['model_textures'][key]:.2f}", f"{m['mosaic_buildings_box'][key]:.2f}",
+                      f"{m['mosaic_in_footprints'][key]:.2f}"]
+        md.append(f"| {k} | {label} | {p['Bing Maps']} | {p['V-World']} | {p['WIT']} | " + " | ".join(cells) + " |")
+    md.append("")
+    return md
 
+
+def markdown(report: dict) -> str:
+    """The report as Markdown: the paper's tables beside ours, size by size."""
+    sizes = report["sizes"]
+    names = list(sizes)
+    md = _md_header(report, names) + _md_table20(sizes, names) + _md_steps(sizes, names)
+    md += _md_colorstore(sizes, names) + _md_table19(sizes, names)
+    return "\n".join(md)
 
 def run_script(script: str, extra: list[str]) -> str:
     """Run another benchmark of this folder, its output shown as it comes; its printed summary (the

@@ -116,35 +116,13 @@ def scan_source(source: str, path: str = "<source>") -> list[Finding]:
 
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            for alias in node.names:
-                if alias.name.split(".")[0] == "PyQt5":
-                    report(node, "pyqt5-import", f"import {alias.name}: import from qgis.PyQt")
-                elif alias.name == "sip":
-                    report(node, "pyqt5-import", "import sip: use 'from qgis.PyQt import sip'")
+            _check_import(node, report)
         elif isinstance(node, ast.ImportFrom) and node.module:
-            if node.module.split(".")[0] == "PyQt5":
-                report(node, "pyqt5-import", f"from {node.module} import …: import from qgis.PyQt")
-            if node.module == "qgis.PyQt.Qt":
-                report(node, "removed-api", "qgis.PyQt.Qt is gone: import Qt from qgis.PyQt.QtCore")
-            for alias in node.names:
-                if alias.name in REMOVED_NAMES:
-                    report(node, "removed-api", f"{alias.name} is gone in Qt 6: use {REMOVED_NAMES[alias.name]}")
+            _check_import_from(node, node.module, report)
         elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name == "exec_":
             report(node, "exec_", "def exec_(): PyQt6 calls exec()")
         elif isinstance(node, ast.Call):
-            func = node.func
-            if isinstance(func, ast.Attribute) and func.attr == "exec_":
-                report(node, "exec_", "exec_() is gone in PyQt6: call exec()")
-            elif isinstance(func, ast.Attribute) and func.attr == "addAction" and len(node.args) >= 4:
-                report(node, "changed-api", "addAction(…) with 4+ arguments is fragile in Qt 6: "
-                                            "create the QAction, then addAction(action)")
-            elif _calls(node, ("QDateTime",)) and (len(node.args) == 8 or (len(node.args) == 1 and _calls(
-                    node.args[0], ("QDate",)))):
-                report(node, "changed-api", "this QDateTime(…) form is gone in Qt 6: QDateTime(QDate(…), QTime(…))")
-            elif isinstance(func, ast.Attribute) and func.attr == "desktop" and not node.args:
-                report(node, "removed-api", "desktop() (QDesktopWidget) is gone in Qt 6: use QScreen")
-            elif isinstance(func, ast.Name) and func.id == "QVariant" and not node.args:
-                report(node, "qvariant-type", "QVariant() is gone in PyQt6: use NULL from qgis.core")
+            _check_call(node, report)
         elif isinstance(node, ast.Subscript):
             value = node.value
             if (isinstance(value, ast.Attribute) and value.attr == "activated"
@@ -153,6 +131,40 @@ def scan_source(source: str, path: str = "<source>") -> list[Finding]:
         elif isinstance(node, ast.Attribute):
             _check_attribute(node, imported, report, metrics)
     return sorted(findings, key=lambda f: (f.line, f.rule))
+
+
+def _check_import(node: ast.Import, report) -> None:
+    for alias in node.names:
+        if alias.name.split(".")[0] == "PyQt5":
+            report(node, "pyqt5-import", f"import {alias.name}: import from qgis.PyQt")
+        elif alias.name == "sip":
+            report(node, "pyqt5-import", "import sip: use 'from qgis.PyQt import sip'")
+
+
+def _check_import_from(node: ast.ImportFrom, module: str, report) -> None:
+    if module.split(".")[0] == "PyQt5":
+        report(node, "pyqt5-import", f"from {module} import …: import from qgis.PyQt")
+    if module == "qgis.PyQt.Qt":
+        report(node, "removed-api", "qgis.PyQt.Qt is gone: import Qt from qgis.PyQt.QtCore")
+    for alias in node.names:
+        if alias.name in REMOVED_NAMES:
+            report(node, "removed-api", f"{alias.name} is gone in Qt 6: use {REMOVED_NAMES[alias.name]}")
+
+
+def _check_call(node: ast.Call, report) -> None:
+    func = node.func
+    if isinstance(func, ast.Attribute) and func.attr == "exec_":
+        report(node, "exec_", "exec_() is gone in PyQt6: call exec()")
+    elif isinstance(func, ast.Attribute) and func.attr == "addAction" and len(node.args) >= 4:
+        report(node, "changed-api", "addAction(…) with 4+ arguments is fragile in Qt 6: "
+                                    "create the QAction, then addAction(action)")
+    elif _calls(node, ("QDateTime",)) and (len(node.args) == 8 or (len(node.args) == 1 and _calls(
+            node.args[0], ("QDate",)))):
+        report(node, "changed-api", "this QDateTime(…) form is gone in Qt 6: QDateTime(QDate(…), QTime(…))")
+    elif isinstance(func, ast.Attribute) and func.attr == "desktop" and not node.args:
+        report(node, "removed-api", "desktop() (QDesktopWidget) is gone in Qt 6: use QScreen")
+    elif isinstance(func, ast.Name) and func.id == "QVariant" and not node.args:
+        report(node, "qvariant-type", "QVariant() is gone in PyQt6: use NULL from qgis.core")
 
 
 def _calls(node: ast.AST, names: tuple[str, ...]) -> bool:

@@ -170,23 +170,8 @@ def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding],
                 children = [c for c in children if c.tag == CORE + "cityObjectMember"]
             faces: dict[str, list] = {}  # per building, in document order: the faces of its solids in this part
             for child in children:
-                for building in child.iter(BLDG + "Building"):
-                    if not building.get(GML_ID):  # named once, so that a later part finds the same name
-                        building.set(GML_ID, f"Building_{len(buildings) + 1}")
-                    buildings.setdefault(building.get(GML_ID), _ModelBuilding())
-                for solid in child.iter(CORE + "lod1Solid"):
-                    building = _building_of(solid)
-                    if building is None:
-                        continue
-                    if order is None:
-                        order = [1, 0, 2] if srs and frame_of(srs).lat_axis == 0 else [0, 1, 2]
-                    gml_id = building.get(GML_ID) or f"Building_{len(buildings) + 1}"
-                    building.set(GML_ID, gml_id)
-                    solid_faces = faces.setdefault(gml_id, [])
-                    for polygon in solid.iter(GML + "Polygon"):
-                        rings = [_poslist(r, gml_id)[:, order] for r in polygon.iter(GML + "LinearRing")]
-                        if rings:
-                            solid_faces.append((*_polygon_3d(rings), None))
+                _name_buildings(child, buildings)
+                order = _collect_solid_faces(child, buildings, srs, order, faces)
             for gml_id, solid_faces in faces.items():
                 _add_solid(buildings.setdefault(gml_id, _ModelBuilding()), solid_faces)
     except SyntaxProblem as exc:
@@ -196,6 +181,35 @@ def _read_gml(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding],
         raise InputError(f"{path} has no CityGML 3.0 bldg:Building: give the .gml written by wit:writecitygml "
                          "(or the LoD1 faces GeoPackage).")
     return buildings, srs
+
+
+def _name_buildings(element: etree._Element, buildings: dict[str, _ModelBuilding]) -> None:
+    """Every bldg:Building under ``element`` in ``buildings``, one without a gml:id named once (so that a later
+    part finds the same name)."""
+    for building in element.iter(BLDG + "Building"):
+        if not building.get(GML_ID):
+            building.set(GML_ID, f"Building_{len(buildings) + 1}")
+        buildings.setdefault(building.get(GML_ID), _ModelBuilding())
+
+
+def _collect_solid_faces(element: etree._Element, buildings: dict[str, _ModelBuilding], srs: str | None,
+                         order: list[int] | None, faces: dict[str, list]) -> list[int] | None:
+    """The faces of the LoD1 solids under ``element`` added to ``faces`` (per building's gml:id); returns the axis
+    order, fixed at the first solid by the srsName read before it."""
+    for solid in element.iter(CORE + "lod1Solid"):
+        building = _building_of(solid)
+        if building is None:
+            continue
+        if order is None:
+            order = [1, 0, 2] if srs and frame_of(srs).lat_axis == 0 else [0, 1, 2]
+        gml_id = building.get(GML_ID) or f"Building_{len(buildings) + 1}"
+        building.set(GML_ID, gml_id)
+        solid_faces = faces.setdefault(gml_id, [])
+        for polygon in solid.iter(GML + "Polygon"):
+            rings = [_poslist(r, gml_id)[:, order] for r in polygon.iter(GML + "LinearRing")]
+            if rings:
+                solid_faces.append((*_polygon_3d(rings), None))
+    return order
 
 
 def _read_lod1(path: str, feedback: Feedback) -> tuple[dict[str, _ModelBuilding], osr.SpatialReference | None]:
@@ -335,7 +349,7 @@ def geometry_metrics(model_source: str, source_buildings: str, feedback: Feedbac
                              else models[m].grounds[0] for m in matched_ids], dtype=object))
         position = shapely.distance(shapely.centroid(a), shapely.centroid(b))
         area_a, area_b = shapely.area(a), shapely.area(b)
-        ssi = shape_similarity(a, b)
+        ssi = np.asarray(shape_similarity(a, b))  # (arrays in, an array out)
         hausdorff = shapely.hausdorff_distance(shapely.boundary(a), shapely.boundary(b))
         feedback.progress(75.0)
         all_errors = []
@@ -369,11 +383,13 @@ def geometry_metrics(model_source: str, source_buildings: str, feedback: Feedbac
         return float(how(values)) if values.size else math.nan
 
     result = GeometryMetrics(
-        rows, len(ids), len(models), len(matched_ids), model_only, source_only, int(errors.size),
-        stat(errors, np.mean), stat(errors, np.max), stat(position, np.mean), stat(position, np.std),
-        stat(position, np.max), stat(hausdorff, np.mean), stat(hausdorff, np.max),
-        stat(ssi, np.mean), stat(ssi, np.std), stat(ssi, np.min),
-        source_srs.ExportToWkt() if source_srs else None)
+        buildings=rows, source_count=len(ids), model_count=len(models), matched=len(matched_ids),
+        model_only=model_only, source_only=source_only, vertices=int(errors.size),
+        coordinate_mean_error=stat(errors, np.mean), coordinate_max_error=stat(errors, np.max),
+        placement_mean_error=stat(position, np.mean), placement_std=stat(position, np.std),
+        placement_max_error=stat(position, np.max), hausdorff_mean=stat(hausdorff, np.mean),
+        hausdorff_max=stat(hausdorff, np.max), ssi_mean=stat(ssi, np.mean), ssi_std=stat(ssi, np.std),
+        ssi_min=stat(ssi, np.min), crs_wkt=source_srs.ExportToWkt() if source_srs else None)
     feedback.info(f"Geometry: {result.matched} matched building(s); "
                   f"placement error {result.placement_mean_error:.4f} m "
                   f"(max {result.placement_max_error:.4f}), vertex error {result.coordinate_mean_error:.4f} m "

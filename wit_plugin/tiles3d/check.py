@@ -23,8 +23,12 @@ import re
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from typing import TypeGuard  # (Python 3.10; annotations only)
 
 METADATA = "EXT_structural_metadata"
 MESH_FEATURES = "EXT_mesh_features"
@@ -171,38 +175,50 @@ def _check_column(column: dict, spec: dict, count: int, views: list[dict], blob:
         return [f"values {column.get('values')!r} is not a buffer view"]
     if len(data) != values.get("byteLength", 0):
         return ["the values buffer view runs past the binary chunk"]
-    problems = []
     if kind in NUMERIC:
-        size = COMPONENT_BYTES.get(spec.get("componentType"), 1)
-        if values.get("byteOffset", 0) % size:
-            problems.append(f"values start at byte {values.get('byteOffset', 0)}, not aligned to {size}")
-        expected = count * COMPONENTS[kind] * size
-        if len(data) != expected:
-            problems.append(f"values hold {len(data)} bytes for {count} rows of {kind} "
-                            f"{spec.get('componentType')} ({expected} expected)")
-    elif kind == "STRING":
-        offset_type = column.get("stringOffsetType", "UINT32")
-        size = COMPONENT_BYTES.get(offset_type)
-        if size is None or not offset_type.startswith("UINT"):
-            return problems + [f"stringOffsetType {offset_type!r}"]
-        view, raw = _view(column.get("stringOffsets"), views, blob)
-        if view is None:
-            return problems + ["no stringOffsets buffer view"]
-        if view.get("byteOffset", 0) % size:
-            problems.append(f"stringOffsets start at byte {view.get('byteOffset', 0)}, not aligned to {size}")
-        if len(raw) != (count + 1) * size:
-            return problems + [f"stringOffsets hold {len(raw)} bytes for {count} rows ({(count + 1) * size} expected)"]
-        offsets = np.frombuffer(raw, dtype=f"<u{size}").astype(np.int64)
-        if (np.diff(offsets) < 0).any():
-            problems.append("stringOffsets are not ascending")
-        if offsets[-1] != len(data):
-            problems.append(f"the last string offset is {offsets[-1]}, the values hold {len(data)} bytes")
-        try:
-            data.decode("utf-8")
-        except UnicodeDecodeError:
-            problems.append("the strings are not UTF-8")
-    elif kind == "BOOLEAN" and len(data) != math.ceil(count / 8):
-        problems.append(f"values hold {len(data)} bytes for {count} booleans")
+        return _check_numeric_values(values, data, spec, count)
+    if kind == "STRING":
+        return _check_strings(column, data, count, views, blob)
+    if kind == "BOOLEAN" and len(data) != math.ceil(count / 8):
+        return [f"values hold {len(data)} bytes for {count} booleans"]
+    return []
+
+
+def _check_numeric_values(values: dict, data: bytes, spec: dict, count: int) -> list[str]:
+    problems = []
+    kind = spec["type"]
+    size = COMPONENT_BYTES.get(spec.get("componentType", ""), 1)
+    if values.get("byteOffset", 0) % size:
+        problems.append(f"values start at byte {values.get('byteOffset', 0)}, not aligned to {size}")
+    expected = count * COMPONENTS[kind] * size
+    if len(data) != expected:
+        problems.append(f"values hold {len(data)} bytes for {count} rows of {kind} "
+                        f"{spec.get('componentType')} ({expected} expected)")
+    return problems
+
+
+def _check_strings(column: dict, data: bytes, count: int, views: list[dict], blob: bytes) -> list[str]:
+    offset_type = column.get("stringOffsetType", "UINT32")
+    size = COMPONENT_BYTES.get(offset_type)
+    if size is None or not offset_type.startswith("UINT"):
+        return [f"stringOffsetType {offset_type!r}"]
+    view, raw = _view(column.get("stringOffsets"), views, blob)
+    if view is None:
+        return ["no stringOffsets buffer view"]
+    problems = []
+    if view.get("byteOffset", 0) % size:
+        problems.append(f"stringOffsets start at byte {view.get('byteOffset', 0)}, not aligned to {size}")
+    if len(raw) != (count + 1) * size:
+        return problems + [f"stringOffsets hold {len(raw)} bytes for {count} rows ({(count + 1) * size} expected)"]
+    offsets = np.frombuffer(raw, dtype=f"<u{size}").astype(np.int64)
+    if (np.diff(offsets) < 0).any():
+        problems.append("stringOffsets are not ascending")
+    if offsets[-1] != len(data):
+        problems.append(f"the last string offset is {offsets[-1]}, the values hold {len(data)} bytes")
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        problems.append("the strings are not UTF-8")
     return problems
 
 
@@ -317,25 +333,32 @@ def _check_tile(tile: dict, where: str, base: Path, top: Path, result: TilesetCh
     here = {"error": error, "region": region}
     content = tile.get("content")
     if content is not None:
-        uri = content.get("uri", "")
-        target = (base / uri).resolve()
-        if not target.is_file():
-            result.problems.append(f"{where}: the content {uri} is missing")
-        elif uri.endswith(".json"):
-            _check_file(target, top, result, glb_metadata, here)
-        else:
-            result.contents += 1
-            if glb_metadata and uri.endswith(".glb"):
-                try:
-                    gltf, blob = read_glb(target.read_bytes())
-                except ValueError as exc:
-                    result.problems.append(f"{_relative(target, top)}: {exc}")
-                else:
-                    problems, tables = check_glb_metadata(gltf, blob)
-                    result.property_tables += tables
-                    result.problems += [f"{_relative(target, top)}: {p}" for p in problems]
+        _check_content(content.get("uri", ""), where, base, top, result, glb_metadata, here)
     for k, child in enumerate(tile.get("children", [])):
         _check_tile(child, f"{where}/children/{k}", base, top, result, glb_metadata, here)
+
+
+def _check_content(uri: str, where: str, base: Path, top: Path, result: TilesetCheck, glb_metadata: bool,
+                   here: dict) -> None:
+    """A tile's content: an external tileset checked in turn, or a .glb (its metadata with ``glb_metadata``)."""
+    target = (base / uri).resolve()
+    if not target.is_file():
+        result.problems.append(f"{where}: the content {uri} is missing")
+        return
+    if uri.endswith(".json"):
+        _check_file(target, top, result, glb_metadata, here)
+        return
+    result.contents += 1
+    if not (glb_metadata and uri.endswith(".glb")):
+        return
+    try:
+        gltf, blob = read_glb(target.read_bytes())
+    except ValueError as exc:
+        result.problems.append(f"{_relative(target, top)}: {exc}")
+        return
+    problems, tables = check_glb_metadata(gltf, blob)
+    result.property_tables += tables
+    result.problems += [f"{_relative(target, top)}: {p}" for p in problems]
 
 
 def region_inside(inner: list[float], outer: list[float]) -> bool:
@@ -353,7 +376,7 @@ def _region(region) -> bool:
             and -math.pi / 2 <= south <= north <= math.pi / 2 and west <= east and low <= high)
 
 
-def _number(value) -> bool:
+def _number(value: object) -> TypeGuard[float]:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
