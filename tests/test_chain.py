@@ -1,175 +1,258 @@
-"""The whole chain through Processing on a small sample: every step's output feeds the next,
-and the CityGML 3.0 result is valid for xmllint (an independent tool) and for our validator."""
+"""The chain in the core (wit_plugin.chain, no QGIS): any building layer's heights, coverage checked
+before the heavy steps (naming the missing sheets), surfaces outside the ortho left untextured on
+request, and nothing left behind when a run fails."""
 from __future__ import annotations
 
-import json
-import subprocess
+import shutil
+import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
-from conftest import ensure_wit_provider
+import shapely
 from lxml import etree
-from osgeo import ogr
-from qgis.core import QgsVectorLayer
+from osgeo import gdal, ogr, osr
 
+from wit_plugin.buildings.heights import HeightOptions
+from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+from wit_plugin.infra import step_layers
+from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.io.vector_io import read_layer
+from wit_plugin.prepare.area import StudyArea
 from wit_plugin.sample import SampleConfig, generate_sample
 
-pytestmark = pytest.mark.qgis_facing
-
 NS = {"bldg": "http://www.opengis.net/citygml/building/3.0", "core": "http://www.opengis.net/citygml/3.0",
-      "app": "http://www.opengis.net/citygml/appearance/3.0", "dem": "http://www.opengis.net/citygml/relief/3.0",
-      "tran": "http://www.opengis.net/citygml/transportation/3.0", "gml": "http://www.opengis.net/gml/3.2",
-      "grp": "http://www.opengis.net/citygml/cityobjectgroup/3.0",
-      "gen": "http://www.opengis.net/citygml/generics/3.0"}
+      "gen": "http://www.opengis.net/citygml/generics/3.0", "con": "http://www.opengis.net/citygml/construction/3.0",
+      "gml": "http://www.opengis.net/gml/3.2"}
+SUSEO = (127.1020, 37.4876)
 
 
 @pytest.fixture(scope="module")
-def chain(tmp_path_factory, qgis_processing):
-    """Run every step once (module scope): the tests below inspect the results."""
-    import processing
-
-    ensure_wit_provider()
-    out = tmp_path_factory.mktemp("chain")
-    sample = generate_sample(out / "sample", SampleConfig(radius_m=250.0, seed=11, ortho_pixel_size=1.0))
-    run = processing.run
-    results = {"sample": sample}
-    results["geo"] = run("wit:georeferencemapsheets", {
-        "INPUT": [str(sample.ortho_tiles[0].parent)], "OUTPUT": str(out / "geo"),
-        "OUTPUT_INDEX": str(out / "sheets.gpkg")})
-    results["mosaic"] = run("wit:mergetiles", {
-        "INPUT": results["geo"]["OUTPUT_LAYERS"], "OVERLAP": 1, "OUTPUT": str(out / "mosaic.tif")})
-    results["prepared"] = run("wit:preparevectors", {
-        "BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads), "DISTRICTS": str(sample.districts),
-        "RADIUS": 200.0, "OUTPUT": str(out / "prepared.gpkg")})
-    prepared = results["prepared"]["OUTPUT"]
-    results["tin"] = run("wit:triangulateterrain", {
-        "DEM": str(sample.dem), "AREA": f"{prepared}|layername=study_area",
-        "BUILDINGS": results["prepared"]["BUILDINGS_OUT"], "ROADS": results["prepared"]["ROADS_OUT"],
-        "OUTPUT": str(out / "tin.gpkg")})
-    results["lod1"] = run("wit:extrudebuildings", {
-        "BUILDINGS": results["prepared"]["BUILDINGS_OUT"], "DEM": str(sample.dem), "SPATIAL_INDEX": False,
-        "OUTPUT": str(out / "lod1.gpkg")})
-    results["texture"] = run("wit:wittexture", {
-        "ORTHO": results["mosaic"]["OUTPUT"], "LOD1": results["lod1"]["LOD1"], "TIN": results["tin"]["TIN"],
-        "OUTPUT": str(out / "textures")})
-    results["gml"] = run("wit:writecitygml", {
-        "LOD1": results["lod1"]["LOD1"], "TIN": results["tin"]["TIN"], "ROADS": results["prepared"]["ROADS_OUT"],
-        "DISTRICTS": results["prepared"]["DISTRICTS_OUT"], "TEXTURES": results["texture"]["OUTPUT"],
-        "OUTPUT": str(out / "model" / "suseo.gml")})
-    results["out"] = out
-    return results
+def sample(tmp_path_factory):
+    """A small sample around Suseo; its study area straddles sheets 37709004 (west) and 37709005."""
+    return generate_sample(tmp_path_factory.mktemp("sample"), SampleConfig(radius_m=300.0, seed=5,
+                                                                             ortho_pixel_size=1.0))
 
 
-def test_steps_produce_consistent_counts(chain):
-    kept = chain["prepared"]["BUILDING_COUNT"]
-    assert kept > 50
-    assert chain["lod1"]["SOLIDS"] >= kept
-    assert chain["gml"]["BUILDINGS"] == chain["lod1"]["SOLIDS"]  # a multipart footprint gives one solid per part
-    assert chain["tin"]["MAX_VERTICAL_ERROR"] <= 0.5 and chain["tin"]["MAX_EDGE_MEASURED"] <= 5.0 + 1e-6
-    assert chain["gml"]["TRIANGLES"] == chain["tin"]["TRIANGLES"]
-    assert chain["gml"]["TEXTURED_SURFACES"] == chain["texture"]["TEXTURED_SURFACES"] > 0
-    assert chain["gml"]["GROUPS"] >= 1
-    tin = QgsVectorLayer(chain["tin"]["TIN"], "tin", "ogr")
-    assert tin.featureCount() == chain["tin"]["TRIANGLES"]
+def _options(**kwargs) -> ChainOptions:
+    base = dict(area=StudyArea.circle(*SUSEO, 220.0), max_edge=15.0, metrics=False)
+    base.update(kwargs)
+    return ChainOptions(**base)
 
 
-def test_spatial_index_only_where_asked(chain):
-    """The TIN (default) has a sound R-tree holding every triangle; the LoD1 faces were asked for none."""
-    import sqlite3
-
-    tin = sqlite3.connect(chain["tin"]["OUTPUT"])
-    assert tin.execute("SELECT rtreecheck('rtree_tin_geom')").fetchone() == ("ok",)
-    assert tin.execute("SELECT count(*) FROM rtree_tin_geom").fetchone() == (chain["tin"]["TRIANGLES"],)
-    lod1 = sqlite3.connect(chain["lod1"]["OUTPUT"])
-    assert lod1.execute("SELECT count(*) FROM sqlite_master WHERE name LIKE 'rtree%'").fetchone() == (0,)
-    assert lod1.execute("SELECT count(*) FROM lod1_faces").fetchone()[0] > 6 * chain["lod1"]["SOLIDS"] - 1
+def _inputs(sample, **kwargs) -> ChainInputs:
+    base = dict(ortho=[str(sample.ortho_tiles[0].parent)], dem=str(sample.dem), buildings=str(sample.buildings),
+                roads=str(sample.roads), districts=str(sample.districts))
+    base.update(kwargs)
+    return ChainInputs(**base)
 
 
-def test_citygml_is_valid_for_xmllint(chain, shared_dir):
-    result = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
-                             str(shared_dir / "schemas" / "citygml3-all.xsd"), chain["gml"]["OUTPUT"]],
-                            capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stderr[-2000:]
+def _osm_layer(sample, path: Path) -> tuple[Path, dict[str, tuple]]:
+    """The sample's footprints as an OpenStreetMap export: ``height`` (text with units, sometimes),
+    ``building:levels``, ``name`` — no GRO_FLO_CO. Returns the layer and osm_id → (height, levels)."""
+    src = read_layer(sample.buildings, encoding="CP949")
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    srs = osr.SpatialReference()
+    srs.ImportFromWkt(src.crs.to_wkt())
+    layer = ds.CreateLayer("buildings", srs, ogr.wkbPolygon)
+    for name, kind in (("osm_id", ogr.OFTString), ("building", ogr.OFTString), ("height", ogr.OFTString),
+                       ("building:levels", ogr.OFTString), ("name", ogr.OFTString)):
+        layer.CreateField(ogr.FieldDefn(name, kind))
+    rows = {}
+    for k, geom in enumerate(src.geoms):
+        if geom is None:
+            continue
+        osm_id = f"way/{1000 + k}"
+        height = ("", f"{10 + k % 7}.5", f"{20 + k % 5} m", "")[k % 4]
+        levels = ("4", "", "", "")[k % 4] if k % 8 else ""  # every 8th has neither: default height
+        rows[osm_id] = (height, levels)
+        feature = ogr.Feature(layer.GetLayerDefn())
+        for field, value in (("osm_id", osm_id), ("building", "yes"), ("height", height),
+                             ("building:levels", levels), ("name", f"건물 {k}")):
+            if value:
+                feature.SetField(field, value)
+        feature.SetGeometry(ogr.CreateGeometryFromWkb(shapely.to_wkb(geom)))
+        layer.CreateFeature(feature)
+    ds = None
+    return path, rows
 
 
-def test_citygml_is_valid_for_our_validator(chain, shared_dir):
-    import processing
+def test_openstreetmap_heights_flow_into_the_citygml(sample, tmp_path):
+    osm, rows = _osm_layer(sample, tmp_path / "osm.gpkg")
+    report = run_city_model(_inputs(sample, buildings=str(osm), roads=None, districts=None), _options(),
+                            tmp_path / "city")
+    assert report.valid and report.errors == 0
+    doc = etree.parse(report.gml)
+    buildings = doc.findall(".//bldg:Building", NS)
+    assert len(buildings) == report.buildings > 20
 
-    ensure_wit_provider()
+    def generic(building, name):
+        values = building.xpath(f"core:genericAttribute/*[gen:name='{name}']/gen:value/text()", namespaces=NS)
+        return values[0] if values else None
 
-    result = processing.run("wit:validatecitygml", {
-        "INPUT": [chain["gml"]["OUTPUT"]], "SCHEMA_DIR": str(shared_dir / "schemas"),
-        "OUTPUT": str(chain["out"] / "validation.html")})
-    html = (chain["out"] / "validation.html").read_text(encoding="utf-8")
-    assert result["VALID"] is True, html[:3000]
-    assert result["ERROR_COUNT"] == 0
-
-
-def test_citygml_content(chain):
-    tree = etree.parse(chain["gml"]["OUTPUT"])
-    buildings = tree.findall(".//bldg:Building", NS)
-    assert len(buildings) == chain["lod1"]["SOLIDS"]
-    assert all(b.find("core:lod1Solid/gml:Solid", NS) is not None for b in buildings)
-    assert tree.find(".//tran:Road", NS) is not None
-    assert tree.find(".//dem:TINRelief", NS) is not None
-    images = [e.text for e in tree.iterfind(".//app:imageURI", NS)]
-    model_dir = chain["out"] / "model"
-    assert images and all((model_dir / i).exists() for i in images)
-    assert tree.find(".//gen:StringAttribute", NS) is not None
-    assert len(tree.findall(".//grp:CityObjectGroup", NS)) == chain["gml"]["GROUPS"]
-    korean = {v.text for v in tree.iterfind(".//gen:StringAttribute/gen:value", NS)}
-    assert any("동" in (t or "") for t in korean)
-
-
-def test_building_positions_match_the_prepared_footprints_to_the_millimetre(chain):
-    ds = ogr.Open(chain["prepared"]["OUTPUT"])
-    footprints = {f["wit_id"]: f.GetGeometryRef().Clone() for f in ds.GetLayerByName("buildings")}
-    tree = etree.parse(chain["gml"]["OUTPUT"])
-    checked = 0
-    for building in tree.iterfind(".//bldg:Building", NS):
-        gid = building.get("{http://www.opengis.net/gml/3.2}id")
-        if gid not in footprints:
-            continue  # multipart footprints become <id>_partN solids
-        pos = building.find(".//gml:posList", NS).text.split()
-        xy = [(float(pos[i]), float(pos[i + 1])) for i in range(0, len(pos), 3)]
-        boundary = footprints[gid].GetBoundary()
-        for x, y in xy:
-            point = ogr.Geometry(ogr.wkbPoint)
-            point.AddPoint_2D(x, y)
-            assert boundary.Distance(point) <= 0.0015, (gid, x, y)
-        checked += 1
-    assert checked > 50
+    expected_default = 0
+    for building in buildings:
+        osm_id = generic(building, "osm_id")
+        height_text, levels = rows[osm_id]
+        height = float(building.find("con:height/con:Height/con:value", NS).text)
+        if height_text:
+            assert height == pytest.approx(float(height_text.split()[0]), abs=5e-4)
+            assert generic(building, step_layers.HEIGHT_RULE) == "height (m)"
+            assert generic(building, "height") == height_text  # the source attribute, not shadowed
+            assert building.find("con:height/con:Height/con:status", NS).text == "measured"
+        elif levels:
+            assert height == pytest.approx(3.0 * int(levels))
+            assert generic(building, step_layers.HEIGHT_SOURCE) == "floors"
+            assert building.find("bldg:storeysAboveGround", NS).text == levels
+        else:
+            expected_default += 1
+            assert generic(building, step_layers.HEIGHT_SOURCE) == "default" and height == 3.0
+    assert report.default_heights == expected_default > 0
 
 
-def test_citymodel_in_one_call_gives_the_same_model(chain, shared_dir, tmp_path):
-    import processing
+def test_an_explicit_height_field_and_expression(sample, tmp_path):
+    osm, rows = _osm_layer(sample, tmp_path / "osm.gpkg")
+    heights = HeightOptions(expression_text="(levels) * 4", expression=lambda a: float(a["building:levels"]) * 4
+                            if a.get("building:levels") else None, default_height=7.0)
+    report = run_city_model(_inputs(sample, buildings=str(osm), roads=None, districts=None),
+                            _options(heights=heights), tmp_path / "city")
+    doc = etree.parse(report.gml)
+    values = {float(v) for v in doc.xpath("//con:height/con:Height/con:value/text()", namespaces=NS)}
+    assert values == {16.0, 7.0}  # the expression replaces the recognised height field; the rest default
 
-    ensure_wit_provider()
-    sample = chain["sample"]
-    result = processing.run("wit:citymodel", {
-        "ORTHO_INPUT": [str(sample.ortho_tiles[0].parent)], "DEM": str(sample.dem),
-        "BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads), "DISTRICTS": str(sample.districts),
-        "RADIUS": 200.0, "SCHEMA_DIR": str(shared_dir / "schemas"), "CITYJSON": True, "OUTPUT": str(tmp_path / "city")})
-    assert result["VALID"] is True and result["ERROR_COUNT"] == 0
-    ids = lambda path: {b.get("{http://www.opengis.net/gml/3.2}id")  # noqa: E731
-                        for b in etree.parse(path).iterfind(".//bldg:Building", NS)}
-    assert ids(result["GML"]) == ids(chain["gml"]["OUTPUT"])
-    # CityJSON beside it (CITYJSON): the same buildings, validated with it (validation.html lists both)
-    assert result["CITYJSON_FILE"] == str(tmp_path / "city" / "model.city.json")
-    cityjson = json.loads(Path(result["CITYJSON_FILE"]).read_text(encoding="utf-8"))
-    assert {k for k, v in cityjson["CityObjects"].items() if v["type"] == "Building"} == ids(result["GML"])
-    assert all((tmp_path / "city" / t["image"]).is_file() for t in cityjson["appearance"]["textures"])
-    assert "model.city.json" in (tmp_path / "city" / "validation.html").read_text(encoding="utf-8")
-    assert result["BUILDINGS_WRITTEN"] == chain["gml"]["BUILDINGS"]
-    produced = {p.name for p in (tmp_path / "city").iterdir()}
-    assert {"model.gml", "model_textures", "validation.html", "metrics.csv", "metrics.html", "steps.json"} <= produced
-    assert not any(name.startswith((".wit-run-", "work")) for name in produced), "staging or work folder left"
-    assert list(json.loads(result["STEP_TIMES"])) == ["prepare", "coverage", "georeference", "merge", "terrain",
-                                                       "extrude", "texture", "citygml", "cityjson", "3dtiles",
-                                                       "validate", "metrics"]
-    assert result["TILESET"] == str(tmp_path / "city" / "3dtiles" / "tileset.json")
-    assert Path(result["TILESET"]).is_file()
-    assert {"lod1.gpkg", "tin.gpkg", "3dtiles"} <= produced
-    # the sample's one building without floors here
-    assert result["DEFAULT_HEIGHTS"] == chain["lod1"]["DEFAULT_HEIGHTS"] == 1
-    assert result["UNTEXTURED"] == 0
+
+def test_missing_sheet_is_named_before_any_heavy_step_and_nothing_is_written(sample, tmp_path, monkeypatch):
+    """The coverage check names the missing sheet before georeferencing or meshing anything."""
+    from wit_plugin.chain import citymodel
+
+    def heavy(*args, **kwargs):
+        raise AssertionError("a heavy step ran before the coverage check")
+
+    monkeypatch.setattr(citymodel, "georeference_sheets", heavy)
+    monkeypatch.setattr(citymodel.terrain, "triangulate_terrain", heavy)
+    ortho = tmp_path / "ortho"
+    ortho.mkdir()
+    for tile in sample.ortho_tiles:
+        if "37709004" not in tile.name:
+            shutil.copy(tile, ortho / tile.name)
+    out = tmp_path / "city"
+    with pytest.raises(InputError, match=r"uncovered .*the sheets that would cover it: 37709004\. Add those TIFs"):
+        run_city_model(_inputs(sample, ortho=[str(ortho)]), _options(area=StudyArea.circle(*SUSEO, 290.0)), out)
+    assert list(out.iterdir()) == []
+
+
+def test_outside_the_ortho_left_untextured_on_request(sample, tmp_path):
+    ortho = tmp_path / "ortho"
+    ortho.mkdir()
+    kept = [t for t in sample.ortho_tiles if "37709004" not in t.name]
+    for tile in kept:
+        shutil.copy(tile, ortho / tile.name)
+    report = run_city_model(_inputs(sample, ortho=[str(ortho)]),
+                            _options(area=StudyArea.circle(*SUSEO, 290.0), outside_ortho="untextured"),
+                            tmp_path / "city")
+    assert report.valid and report.untextured_outside > 0
+    assert sorted(p.name for p in Path(report.output).iterdir()) == [
+        "3dtiles", "lod1.gpkg", "model.gml", "model_textures", "steps.json", "tin.gpkg", "validation.html"]
+
+
+def test_dem_that_stops_short_is_named(sample, tmp_path):
+    short = tmp_path / "dem_short.tif"
+    ds = gdal.Open(str(sample.dem))
+    gt = ds.GetGeoTransform()
+    gdal.Translate(str(short), ds, srcWin=[0, 0, ds.RasterXSize // 2, ds.RasterYSize])  # the western half
+    east = gt[0] + gt[1] * (ds.RasterXSize // 2)
+    with pytest.raises(InputError, match=r"does not cover the area .* stops short by [\d,.]+ m to the east"):
+        run_city_model(_inputs(sample, dem=str(short)), _options(), tmp_path / "city")
+    assert east < 209020.9 + 220  # (the cut really is inside the area)
+    assert list((tmp_path / "city").iterdir()) == []
+
+
+def test_district_by_name_and_the_whole_chain_result(sample, tmp_path):
+    districts = read_layer(sample.districts, encoding="CP949")
+    names = [n for n in districts.columns["EMD_KOR_NM"]]
+    suseo = names[int(np.argmax([g.area for g in districts.geoms]))]
+    report = run_city_model(_inputs(sample), _options(area=StudyArea.from_district_code(suseo), metrics=True),
+                            tmp_path / "city")
+    assert report.valid and report.buildings > 0 and report.metrics
+    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude",
+                                    "texture", "citygml", "3dtiles", "validate", "metrics"]
+
+
+def test_the_chain_writes_the_3d_tiles_web_profile_on_request(sample, tmp_path):
+    import pygltflib
+
+    report = run_city_model(_inputs(sample), _options(area=StudyArea.circle(*SUSEO, 150.0), tiles3d_web=True),
+                            tmp_path / "city")
+    tiles = sorted((Path(report.output) / "3dtiles").rglob("*.glb"))
+    assert report.valid and tiles
+    for path in tiles:
+        gltf = pygltflib.GLTF2().load_binary(str(path))
+        assert {"EXT_meshopt_compression", "KHR_mesh_quantization"} <= set(gltf.extensionsRequired), path
+
+
+def test_the_web_profile_without_meshoptimizer_stops_before_anything_is_written(sample, tmp_path, monkeypatch):
+    from wit_plugin.infra.errors import MissingDependencyError
+
+    monkeypatch.setitem(sys.modules, "meshoptimizer", None)  # as if it were not installed
+    with pytest.raises(MissingDependencyError, match=r'pip install .*"meshoptimizer==0.2.30a0"'):
+        run_city_model(_inputs(sample), _options(tiles3d_web=True), tmp_path / "city")
+    assert not (tmp_path / "city").exists() or not any((tmp_path / "city").iterdir())
+
+
+def test_every_wall_of_the_sample_has_its_facade_one_image_row_per_storey_and_no_corner_jump(sample, tmp_path):
+    """The CityGML read back: every wall of every building is in the generatedFacade theme (its own appearance,
+    described as generated, wrapping), with one texture row per storey of its building (the image's rows are
+    storeys: the roof line on a row boundary) and u running on from wall to wall around each ring, closing on a
+    whole number of modules; each building says how its facade was made."""
+    report = run_city_model(_inputs(sample), _options(tiles3d=False), tmp_path / "city")
+    assert report.valid and report.errors == 0
+    doc = etree.parse(report.gml)
+    app = "http://www.opengis.net/citygml/appearance/3.0"
+    ns = {**NS, "app": app}
+    walls, storeys = {}, {}
+    for building in doc.iterfind(".//bldg:Building", ns):
+        wit_id = building.get(f"{{{ns['gml']}}}id")
+        generic = {n: v for n, v in zip(building.xpath("core:genericAttribute/*/gen:name/text()", namespaces=ns),
+                                        building.xpath("core:genericAttribute/*/gen:value/text()", namespaces=ns))}
+        assert generic[step_layers.FACADE] == "generated" and generic[step_layers.FACADE_STYLE]
+        storeys[wit_id] = int(generic[step_layers.FACADE_STOREYS])
+        above = building.find("bldg:storeysAboveGround", ns)
+        assert above is None or int(above.text) == storeys[wit_id]  # the layer's floor count when it has one
+        for polygon in building.iterfind(".//gml:Polygon", ns):
+            points = np.array(polygon.find(".//gml:posList", ns).text.split(), dtype=float).reshape(-1, 3)
+            if len(points) == 5 and points[0, 2] != points[2, 2]:  # a wall: base edge, then up
+                walls[polygon.get(f"{{{ns['gml']}}}id")] = (wit_id, points)
+    assert len(storeys) == report.buildings > 20
+    facades = [a for a in doc.iterfind(".//app:Appearance", ns) if a.findtext("app:theme", namespaces=ns)
+               == "generatedFacade"]
+    assert facades and all("Generated facade" in a.findtext("gml:description", namespaces=ns) for a in facades)
+    found = {}
+    for appearance in facades:
+        texture = appearance.find(".//app:ParameterizedTexture", ns)
+        assert texture.findtext("app:wrapMode", namespaces=ns) == "wrap"
+        image = Path(report.gml).parent / texture.findtext("app:imageURI", namespaces=ns)
+        rows = gdal.Open(str(image)).RasterYSize // 32
+        for association in texture.iterfind(".//app:TextureAssociation", ns):
+            target = association.findtext("app:target", namespaces=ns)[1:]
+            uv = np.array(association.findtext(".//app:textureCoordinates", namespaces=ns).split(),
+                          dtype=float).reshape(-1, 2)
+            found[target] = (uv, rows)
+    assert set(found) == set(walls)  # every wall, and walls only
+    by_building = {}
+    for face, (wit_id, points) in walls.items():
+        by_building.setdefault(wit_id, []).append((int(face.rsplit("_f", 1)[1]), points, *found[face]))
+    for wit_id, faces in by_building.items():
+        faces.sort(key=lambda f: f[0])
+        ring_start = None
+        for k, (_, points, uv, rows) in enumerate(faces):
+            assert uv[[0, 1, 4], 1].tolist() == [0.0, 0.0, 0.0]
+            assert uv[2, 1] * rows == pytest.approx(storeys[wit_id], abs=1e-5), wit_id  # a row per storey
+            if ring_start is None:
+                ring_start = uv[0, 0]
+            following = faces[k + 1] if k + 1 < len(faces) else None
+            if following is not None and np.allclose(following[1][0], points[1], atol=1e-6):
+                assert following[2][0, 0] == pytest.approx(uv[1, 0], abs=1e-5)  # no jump at the corner
+            else:  # the ring closes: a whole number of modules around it
+                turns = uv[1, 0] - ring_start
+                assert turns == pytest.approx(round(turns), abs=1e-4) and round(turns) >= 1
+                ring_start = None

@@ -32,7 +32,7 @@ def test_qgis_tests_are_marked_the_others_are_core_and_run_without_qgis():
     assert _collected(without_qgis=True) == core_tests
     assert any(t.startswith("tests/test_provider.py::") for t in qgis_tests)  # the module imports qgis
     assert not any(t.startswith("tests/test_provider.py::") for t in core_tests)
-    assert "tests/test_tiles.py::test_citymodeltiles_headless_through_qgis_process" in qgis_tests  # runs qgis_process
+    assert "tests/test_sheetrun.py::test_citymodeltiles_headless_through_qgis_process" in qgis_tests  # qgis_process
     assert "tests/test_alg_real_layers.py::test_ngii_as_shipped_tiled_on_map_sheets_headless" in qgis_tests  # a helper
     assert "tests/test_plugin_card.py::test_pyproject_version_is_the_cards" in core_tests
-    assert "tests/test_tiles.py::test_a_second_run_resumes" in core_tests
+    assert "tests/test_sheetrun.py::test_a_second_run_resumes" in core_tests

@@ -87,7 +87,7 @@ def model_run(sample, shared_dir):
 
 @pytest.fixture(scope="module")
 def chain_gml(sample):
-    """The chain step by step (as tests/test_chain.py runs it), for comparison."""
+    """The chain step by step (as tests/test_alg_citymodel.py runs it), for comparison."""
     import processing
 
     out, data = sample

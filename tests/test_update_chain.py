@@ -10,8 +10,8 @@ from pathlib import Path
 import pyproj
 import pytest
 import shapely
-import test_tiles
-from test_tiles import _inputs
+import test_sheetrun
+from test_sheetrun import _inputs
 from test_update_tiles import _edited_buildings
 
 from wit_plugin.chain import ChainOptions, rerun, run_city_model
@@ -19,7 +19,7 @@ from wit_plugin.chain.fingerprint import BUILD_FILE, read_record
 from wit_plugin.chain.rerun import FORCED, NO_RECORD, update_city_model
 from wit_plugin.prepare.area import StudyArea
 
-sample = test_tiles.sample  # the tiled runs' sample (a fixture: this module's own copy)
+sample = test_sheetrun.sample  # the tiled runs' sample (a fixture: this module's own copy)
 
 AREA = StudyArea.circle(127.1020, 37.4876, 90.0)
 

@@ -9,13 +9,13 @@ import subprocess
 from pathlib import Path
 
 import pytest
-import test_tiles
-from test_tiles import ROOT, _parameters
+import test_sheetrun
+from test_sheetrun import ROOT, _parameters
 
 from wit_plugin.sheetrun.index import read_index
 
 pytestmark = pytest.mark.qgis_facing
-sample = test_tiles.sample  # the tiled runs' sample (a fixture: this module's own copy)
+sample = test_sheetrun.sample  # the tiled runs' sample (a fixture: this module's own copy)
 
 
 def _qgis_process(parameters: dict, tmp_path: Path) -> tuple[dict, str]:

@@ -3,7 +3,7 @@ whose inputs or settings changed — and says why —, keeps the others untouche
 refreshes the groups above only where a child changed, and ends equal to a fresh run on the new inputs: every
 tile's CityGML, textures and 3D Tiles byte for byte, the groups and the run's tileset, the index.
 
-The run is the 1:1,000 tiles of ``test_tiles``' sample over AREA: 377090320 (the big one), 377090229 to its
+The run is the 1:1,000 tiles of ``test_sheetrun``'s sample over AREA: 377090320 (the big one), 377090229 to its
 west, 377090310 (the park: no building) north and the sliver 377090321 east; orthoimage sheets 37709004 (west
 of x ≈ 208,845) and 37709005 (east of it)."""
 from __future__ import annotations
@@ -15,9 +15,9 @@ import numpy as np
 import pyproj
 import pytest
 import shapely
-import test_tiles
+import test_sheetrun
 from osgeo import gdal, ogr
-from test_tiles import AREA, _inputs
+from test_sheetrun import AREA, _inputs
 
 from wit_plugin.chain import ChainOptions
 from wit_plugin.infra.io.vector_io import read_layer
@@ -28,7 +28,7 @@ from wit_plugin.sheetrun.index import read_index
 from wit_plugin.sheetrun.prepare import CONTEXT_MARGIN
 from wit_plugin.sheetrun.runner import run_tiles
 
-sample = test_tiles.sample  # the tiled runs' sample (a fixture: this module's own copy)
+sample = test_sheetrun.sample  # the tiled runs' sample (a fixture: this module's own copy)
 
 BIG, WEST, PARK, SLIVER = "377090320", "377090229", "377090310", "377090321"
 ALL = {BIG, WEST, PARK, SLIVER}

@@ -1,6 +1,6 @@
 """Preview picture of the textured city model: a small numpy software renderer (PNG for a README).
 
-Reads the step outputs named in ``model`` (LoD1 faces, optionally the TIN and the texture folder of
+Reads the step outputs named in ``infra.step_layers`` (LoD1 faces, optionally the TIN and the texture folder of
 ``wit:wittexture``) and draws the model seen obliquely through a perspective camera:
 
 * **Geometry**: roof faces (holes included) are cut into triangles by a constrained Delaunay

@@ -1,6 +1,6 @@
 """Texture roofs, terrain and roads from the merged orthoimage (``wit:wittexture``).
 
-Inputs follow ``model``: the LoD1 faces layer (``lod1_faces``), the TIN layer (``tin``) and the
+Inputs follow ``infra.step_layers``: the LoD1 faces layer (``lod1_faces``), the TIN layer (``tin``) and the
 merged orthoimage (north-up RGB GeoTIFF; in another CRS than the layers', the window over them
 is reprojected as it is read, bilinear, ``_Ortho.reproject_to``). Outputs, in ``output_dir`` (the texture
 folder): JPEG or PNG images and ``texcoords.gpkg`` holding the attribute table ``texcoords``
