@@ -114,7 +114,7 @@ def update_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: st
     fingerprint = city_model_fingerprint(inputs, options)
     record = read_record(output)
     reason = rebuild_reason(fingerprint, record, output, rebuild)
-    if not reason:
+    if not reason and record is not None:  # (no reason: a finished build is recorded)
         feedback.info(f"Nothing changed since the last build (fingerprint {fingerprint.digest}): {output} is kept "
                       "as it is.")
         feedback.progress(100.0)

@@ -247,7 +247,7 @@ def write_report_csv(reports: Sequence[FileReport], path: str) -> None:
             writer = csv.writer(out)
             writer.writerow(_COLUMNS)
             for rep in reports:
-                rows = rep.issues or [None]
+                rows: list[Issue | None] = [*rep.issues] or [None]
                 for issue in rows:
                     writer.writerow([rep.file, rep.status, rep.details] + (
                         [issue.check, issue.severity, issue.line if issue.line is not None else "",

@@ -52,7 +52,8 @@ class Transform:
     @classmethod
     def around(cls, lower_corner: tuple[float, ...]) -> Transform:
         """A translate on whole metres at or below ``lower_corner`` (x, y, z), so integers stay small."""
-        return cls(tuple(float(np.floor(v)) for v in lower_corner[:3]))
+        x, y, z = (float(np.floor(v)) for v in lower_corner[:3])
+        return cls((x, y, z))
 
     def as_json(self) -> dict:
         return {"scale": [self.scale] * 3, "translate": list(self.translate)}

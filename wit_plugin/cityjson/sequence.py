@@ -35,7 +35,10 @@ def run_translate(area: BaseGeometry) -> tuple[float, float, float]:
 def tile_part(sheet: str, translate: list[float] | None, folder: str) -> SequencePart | None:
     """A tile's share of its run's sequence (None when the run writes no CityJSON); ``folder``: the tile's folder
     from the run's."""
-    return SequencePart(tuple(translate), f"_{sheet}", folder) if translate is not None else None
+    if translate is None:
+        return None
+    x, y, z = translate
+    return SequencePart((x, y, z), f"_{sheet}", folder)
 
 
 def write_run_index(output: Path, parts: list[tuple[str, str]], srs_name: str,

@@ -70,7 +70,7 @@ def validate_cityjson_files(paths: Sequence[str], feedback: Feedback = SILENT, p
             raise InputError(f"CityJSON file {path} does not exist or is not a file.")
     if not schema.available():
         feedback.warning(f"The CityJSON schemas are not checked: fastjsonschema is not installed ({schema.INSTALL}).")
-    reports = []
+    reports: list[FileReport] = []
     for number, path in enumerate(files):
         feedback.check_canceled()
         feedback.info(f"Validating {path.name}")

@@ -117,10 +117,12 @@ def merge_tiles(
                 tiles.append(tile)
         np_dtype = np.dtype(gdal_array.GDALTypeCodeToNumericTypeCode(dtype))
         out_nodata = _output_nodata(sources, nodata, np_dtype)
-        window = _clip_window(gt, width, height, extent) if extent is not None else (0, 0, width, height)
-        if window[2:] != (width, height):
-            feedback.info(f"Writing the {window[2]} × {window[3]} px window of the {width} × {height} px mosaic "
-                          f"that meets the extent {tuple(round(v, 1) for v in extent)}.")
+        window = (0, 0, width, height)
+        if extent is not None:
+            window = _clip_window(gt, width, height, extent)
+            if window[2:] != (width, height):
+                feedback.info(f"Writing the {window[2]} × {window[3]} px window of the {width} × {height} px "
+                              f"mosaic that meets the extent {tuple(round(v, 1) for v in extent)}.")
         feedback.info(f"Output grid {width} × {height} px, {bands} band(s) {gdal.GetDataTypeName(dtype)}, "
                       f"pixel size {gt[1]:g} × {-gt[5]:g}, mode {mode}, gain {'on' if use_gain else 'off'}.")
         _check_coverage(tiles, width, height, bands, np_dtype, max_empty, feedback)

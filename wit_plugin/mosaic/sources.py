@@ -115,7 +115,7 @@ def _bounds(ds: gdal.Dataset) -> tuple[float, float, float, float]:
 
 
 def _warp_options(first: gdal.Dataset, ds: gdal.Dataset, nodata: float | None) -> dict:
-    options = dict(format="VRT", resampleAlg="bilinear")
+    options: dict[str, object] = dict(format="VRT", resampleAlg="bilinear")
     if first.GetProjection():
         options["dstSRS"] = first.GetProjection()
     if nodata is not None:

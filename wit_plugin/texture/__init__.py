@@ -160,7 +160,7 @@ def texture_model(
             try:
                 if roofs is not None:
                     _texture_roofs(roofs, image, grid, out, config, inside, feedback.scaled(0.0, share))
-                if facades:
+                if facades and lod1_gpkg:  # (facades: the roofs' layer is given)
                     _texture_walls(lod1_gpkg, tmp, out, feedback.scaled(share, share + walls))
                 if tin is not None:
                     _texture_ground(tin, image, grid, out, config, inside, feedback.scaled(share + walls, 100.0))

@@ -132,7 +132,7 @@ def facade_images(report: FacadeReport) -> Iterator[tuple[str, np.ndarray]]:
         yield name, facade_image(style, int(variant), 1 << max(0, storeys - 1).bit_length())
 
 
-def wall_rows(source: FacadeSource, report: FacadeReport) -> Iterator[list[tuple[str, str, int, str, np.ndarray]]]:
+def wall_rows(source: FacadeSource, report: FacadeReport) -> Iterator[list[tuple[str, str, int, np.ndarray]]]:
     """Pass 2: the texture table's rows of the walls, (wit_id, image, face number, uv (5, 2)) per wall, in batches."""
     for walls in source.walls():
         rows, faces, points, counts = walls.rows, walls.faces, walls.points, walls.counts
