@@ -48,8 +48,8 @@ def grown(bounds: Bounds, by: float) -> Bounds:
 
 
 def union_bounds(*boxes: Bounds | None) -> Bounds:
-    boxes = [b for b in boxes if b is not None]
-    return (min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes), max(b[3] for b in boxes))
+    given = [b for b in boxes if b is not None]
+    return (min(b[0] for b in given), min(b[1] for b in given), max(b[2] for b in given), max(b[3] for b in given))
 
 
 @dataclass
