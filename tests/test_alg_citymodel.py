@@ -165,8 +165,8 @@ def test_citymodel_in_one_call_gives_the_same_model(chain, shared_dir, tmp_path)
     assert {"model.gml", "model_textures", "validation.html", "metrics.csv", "metrics.html", "steps.json"} <= produced
     assert not any(name.startswith((".wit-run-", "work")) for name in produced), "staging or work folder left"
     assert list(json.loads(result["STEP_TIMES"])) == ["prepare", "coverage", "georeference", "merge", "terrain",
-                                                       "extrude", "texture", "citygml", "cityjson", "3dtiles",
-                                                       "validate", "metrics"]
+                                                       "extrude", "texture", "3dtiles", "metrics", "citygml",
+                                                       "cityjson", "validate"]
     assert result["TILESET"] == str(tmp_path / "city" / "3dtiles" / "tileset.json")
     assert Path(result["TILESET"]).is_file()
     assert {"lod1.gpkg", "tin.gpkg", "3dtiles"} <= produced

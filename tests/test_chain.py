@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -15,8 +16,10 @@ from osgeo import gdal, ogr, osr
 
 from wit_plugin.buildings.heights import HeightOptions
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
+from wit_plugin.chain.citymodel import _Clock
 from wit_plugin.infra import step_layers
-from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.feedback import Feedback
 from wit_plugin.infra.io.vector_io import read_layer
 from wit_plugin.prepare.area import StudyArea
 from wit_plugin.sample import SampleConfig, generate_sample
@@ -174,8 +177,8 @@ def test_district_by_name_and_the_whole_chain_result(sample, tmp_path):
     report = run_city_model(_inputs(sample), _options(area=StudyArea.from_district_code(suseo), metrics=True),
                             tmp_path / "city")
     assert report.valid and report.buildings > 0 and report.metrics
-    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude",
-                                    "texture", "citygml", "3dtiles", "validate", "metrics"]
+    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude", "texture",
+                                    "3dtiles", "metrics", "citygml", "validate"]
 
 
 def test_the_chain_writes_the_3d_tiles_web_profile_on_request(sample, tmp_path):
@@ -256,3 +259,51 @@ def test_every_wall_of_the_sample_has_its_facade_one_image_row_per_storey_and_no
                 turns = uv[1, 0] - ring_start
                 assert turns == pytest.approx(round(turns), abs=1e-4) and round(turns) >= 1
                 ring_start = None
+
+
+class _Log(Feedback):
+    def __init__(self, cancel_after: float | None = None):
+        self.infos, self.warnings, self.cancel_at = [], [], cancel_after and time.perf_counter() + cancel_after
+
+    def info(self, message: str) -> None:
+        self.infos.append(message)
+
+    def warning(self, message: str) -> None:
+        self.warnings.append(message)
+
+    def is_canceled(self) -> bool:
+        return bool(self.cancel_at) and time.perf_counter() > self.cancel_at
+
+
+def _child(code: str) -> list[str]:
+    return [sys.executable, "-c", code]
+
+
+def test_a_step_beside_passes_its_messages_on_and_is_timed_by_its_own_end():
+    """A step in a second process (merge, 3dtiles, metrics): its information stays information, its warnings
+    warnings, each labelled; 200 kB on stderr (more than a pipe holds) does not stall it while the block runs;
+    its time is its own (0.3 s), not the 2 s the block took before waiting for it."""
+    log = _Log()
+    clock = _Clock(log)
+    code = ("import sys, time\nfrom wit_plugin.infra.feedback import step_process_feedback\n"
+            "f = step_process_feedback()\nf.info('read 3 sheets')\nf.warning('sheet 4 is empty')\n"
+            "sys.stderr.write('x' * 200_000 + '\\n')\ntime.sleep(0.3)\n")
+    with clock.beside("merge", _child(code)) as done:
+        time.sleep(2.0)
+        done()
+    assert "merge: read 3 sheets" in log.infos
+    assert log.warnings[0] == "merge: sheet 4 is empty" and log.warnings[1] == "merge: " + "x" * 200_000
+    assert 0.3 <= clock.seconds["merge"] < 1.5
+
+
+def test_a_step_beside_that_fails_or_is_cancelled_stops_the_run():
+    clock = _Clock(_Log())
+    with pytest.raises(InputError, match=r"^The metrics step failed: .*ValueError: no footprints"):
+        with clock.beside("metrics", _child("raise ValueError('no footprints')")) as done:
+            done()
+    clock = _Clock(_Log(cancel_after=0.5))
+    started = time.perf_counter()
+    with pytest.raises(CanceledError):
+        with clock.beside("3dtiles", _child("import time; time.sleep(60)")) as done:
+            done()
+    assert time.perf_counter() - started < 5

@@ -1,7 +1,10 @@
 """wit:mergetiles core: gdal_merge-exact grid and pixels, feather + gain seams, NoData, cancel."""
 from __future__ import annotations
 
+import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +15,7 @@ from osgeo_utils import gdal_merge
 from wit_plugin import metrics, mosaic
 from wit_plugin.infra.errors import CanceledError, InputError
 from wit_plugin.infra.feedback import Feedback
+from wit_plugin.infra.interpreter import core_env
 from wit_plugin.mosaic import georef, tone
 from wit_plugin.sample import SampleConfig, generate_sample
 
@@ -482,3 +486,25 @@ def test_mostly_empty_mosaic_is_a_warning_then_refused_before_anything_is_writte
     assert (report.width, report.height) == (420, 20)
     with pytest.raises(InputError, match="0–1"):
         mosaic.merge_tiles([a], str(out / "x.tif"), max_empty=1.5)
+
+
+def test_the_merge_in_its_own_process_writes_the_same_mosaic(tmp_path):
+    """The chain runs ``python -m wit_plugin.mosaic`` beside the terrain: the same pixels, grid and report as in
+    this process, for the chain's options (feather, tone, an extent); a refusal is one line and exit status 2."""
+    inputs, _ = seam_tiles(tmp_path)
+    extent = (ORIGIN[0] + 101.0, ORIGIN[1] - 150.0, ORIGIN[0] + 501.0, ORIGIN[1] - 3.0)
+    here = mosaic.merge_tiles(inputs, str(tmp_path / "here.tif"), mode="feather", gain=True, extent=extent)
+    done = subprocess.run([sys.executable, "-m", "wit_plugin.mosaic", str(tmp_path / "there.tif"), *inputs,
+                           "--mode", "feather", "--gain", "--extent", *map(repr, extent)],
+                          capture_output=True, text=True, env=core_env(), check=True)
+    there = json.loads(done.stdout)
+    assert (there["width"], there["height"], there["gain"]) == (here.width, here.height, True)
+    assert there["geotransform"] == list(here.geotransform)
+    a, ds_a = read(here.output)
+    b, ds_b = read(there["output"])
+    np.testing.assert_array_equal(a, b)
+    assert ds_a.GetGeoTransform() == ds_b.GetGeoTransform()
+    refused = subprocess.run([sys.executable, "-m", "wit_plugin.mosaic", str(tmp_path / "none.tif"),
+                              str(tmp_path / "missing.tif")], capture_output=True, text=True, env=core_env())
+    assert refused.returncode == 2 and "missing.tif" in refused.stderr and len(refused.stderr.splitlines()) == 1
+    assert not (tmp_path / "none.tif").exists()

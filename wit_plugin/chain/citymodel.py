@@ -13,6 +13,10 @@ step 1 (``ChainOptions.prepare``): the chain knows nothing of tiles. Order of th
 or a tile's ``model.city.jsonl`` of its run's CityJSONSeq), 8. the 3D Tiles tileset, 9. validation,
 10. quality metrics. The output folder also keeps the LoD1 and TIN GeoPackages (QGIS's 3D view).
 
+Two steps run in a second Python process, so that a second core works (threads would share the GIL): the
+merge beside the terrain and the solids (which do not read the orthoimage), and the 3D Tiles export and the
+metrics, which read the step layers rather than the CityGML, beside the CityGML and its validation.
+
 Everything is written into a staging folder inside the output folder and moved into place at the
 end, so a failed or cancelled run leaves nothing behind (and never a half-updated output folder).
 """
@@ -22,37 +26,39 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager, nullcontext
+from contextlib import AbstractContextManager, contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from shapely.geometry.base import BaseGeometry
 
 from .. import terrain
 from ..buildings import extrude
+from ..buildings.extrude import ExtrudeStats
 from ..buildings.heights import HeightOptions
 from ..citygml import schemas
-from ..citygml.validate import validate_files, write_report_html
+from ..citygml.validate import FileReport, validate_files, write_report_html
 from ..citygml.writer import CityGMLInputs, write_citygml
 from ..cityjson.sequence import PART_FILE
 from ..cityjson.validate import validate_cityjson_files
 from ..cityjson.writer import SequencePart, texture_folder_of, write_cityjson
 from ..infra import step_layers
 from ..infra.errors import InputError
-from ..infra.feedback import SILENT, Feedback
+from ..infra.feedback import SILENT, Feedback, read_step_line
 from ..infra.interpreter import core_env, core_python
 from ..infra.io import jsontext
 from ..infra.io.fileio import ensure_writable_dir
 from ..infra.io.vector_io import read_prepared
-from ..metrics import quality_report
-from ..mosaic import merge_tiles
 from ..mosaic.georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..prepare.area import StudyArea
 from ..prepare.vectors import PrepareConfig, prepare_vectors
 from ..terrain import triangulators
 from ..terrain.constraints import Seam
+from ..terrain.mesh import TinStats
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
@@ -61,13 +67,15 @@ from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
 DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
 TILESET_DIR = "3dtiles"
-TILES3D_MODULES = ("numpy", "shapely", "pyproj", "pygltflib", "osgeo")
+STEP_PROCESS_MODULES = ("numpy", "shapely", "pyproj", "osgeo")  # what the steps run in another process import
 MOSAIC_MARGIN = 10.0  # m of orthoimage kept around the area's box
 STEPS_FILE = "steps.json"
 
-#: (label, share of the progress bar) of each step, in order (3dtiles runs beside validate and metrics)
-STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 8), ("terrain", 10), ("extrude", 4),
-         ("texture", 14), ("citygml", 14), ("cityjson", 4), ("3dtiles", 0), ("validate", 26), ("metrics", 12))
+#: (label, share of the progress bar) of each step, in the order they start; those run in another process
+#: (share 0: the bar follows the steps beside them) are merge, beside terrain and extrude, and 3dtiles and
+#: metrics, beside citygml, cityjson and validate
+STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 0), ("terrain", 18), ("extrude", 4),
+         ("texture", 14), ("3dtiles", 0), ("metrics", 0), ("citygml", 20), ("cityjson", 4), ("validate", 34))
 CITYJSON_FILE = "model.city.json"
 
 
@@ -197,27 +205,35 @@ class _Clock:
         start = time.perf_counter()
         process = subprocess.Popen(command, env=core_env(), stdout=subprocess.PIPE,  # nosec B603  # our step, no shell
                                    stderr=subprocess.PIPE, text=True)
+        ended: dict[str, Any] = {}
+
+        def read() -> None:  # drains its pipes as it writes (a full pipe would stall it) and notes when it ended
+            ended["stderr"] = process.communicate()[1]
+            ended["at"] = time.perf_counter()
+
+        reader = threading.Thread(target=read, name=f"wit-{label}", daemon=True)
+        reader.start()
 
         def wait() -> None:
-            while process.poll() is None:
-                if self.feedback.is_canceled():
+            while reader.is_alive():
+                reader.join(0.1)
+                if reader.is_alive() and self.feedback.is_canceled():
                     process.kill()
-                    process.wait()
+                    reader.join()
                     self.feedback.check_canceled()
-                time.sleep(0.1)
-            out, err = process.communicate()
-            self.seconds[label] = round(time.perf_counter() - start, 3)
+            self.seconds[label] = round(ended["at"] - start, 3)  # its own time, not the time we waited
+            lines = ended["stderr"].strip().splitlines()
             if process.returncode != 0:
-                raise InputError(f"The {label} step failed: " + " | ".join(err.strip().splitlines()[-5:]))
-            for line in err.strip().splitlines():  # its warnings (logging's last-resort handler)
-                self.feedback.warning(f"{label}: {line}")
+                raise InputError(f"The {label} step failed: " + " | ".join(lines[-5:]))
+            for line in lines:
+                read_step_line(line, self.feedback, label)
 
         try:
             yield wait
         finally:
             if process.poll() is None:
                 process.kill()
-                process.wait()
+            reader.join()
 
 
 def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
@@ -241,7 +257,7 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     (output / STEPS_FILE).write_text(jsontext.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
                                        encoding="utf-8")
     feedback.info("Seconds per step: " + ", ".join(f"{k} {v:.1f}" for k, v in report.seconds.items())
-                  + f"; {report.wall_seconds:.1f} s in all (3D Tiles beside validation and metrics)")
+                  + f"; {report.wall_seconds:.1f} s in all (merge, 3D Tiles and metrics beside the next steps)")
     feedback.progress(100.0)
     return report
 
@@ -286,24 +302,15 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
             raise InputError("No orthoimage sheet could be read: " + "; ".join(
                 f"{Path(r.source).name}: {r.reason}" for r in sheets))
 
-    with clock.step("merge") as fb:
-        mosaic = str(work / "ortho.tif")
-        xmin, ymin, xmax, ymax = area.bounds  # the sheets' pixels the area needs (tone and seams: all of them)
-        merge_tiles(rasters, mosaic, mode="feather", gain=True, feedback=fb,
-                    extent=(xmin - MOSAIC_MARGIN, ymin - MOSAIC_MARGIN, xmax + MOSAIC_MARGIN, ymax + MOSAIC_MARGIN))
-
-    with clock.step("terrain") as fb:
-        tin = str(work / "tin.gpkg")
-        config = terrain.TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
-                                       triangulator=options.triangulator)
-        tile_context = terrain.TileContext(layers.foreign, layers.seam) if layers.seam is not None else None
-        tin_stats = terrain.triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
-                                                fb, tile_context)
-
-    with clock.step("extrude") as fb:  # a tile that owns no building: terrain and roads only
-        lod1 = str(work / "lod1.gpkg") if layers.buildings else None
-        lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
-                                               spatial_index=options.keep_work, feedback=fb) if lod1 else None
+    mosaic = str(work / "ortho.tif")
+    xmin, ymin, xmax, ymax = area.bounds  # the sheets' pixels the area needs (tone and seams: all of them)
+    extent = (xmin - MOSAIC_MARGIN, ymin - MOSAIC_MARGIN, xmax + MOSAIC_MARGIN, ymax + MOSAIC_MARGIN)
+    python = _step_python(options)
+    merge = [python, "-m", "wit_plugin.mosaic", mosaic, *rasters, "--mode", "feather", "--gain",
+             "--extent", *map(repr, extent)]
+    with clock.beside("merge", merge) as merge_done:  # beside the terrain and the solids: they do not read it
+        tin, tin_stats, lod1, lod1_stats = _terrain_and_solids(inputs, options, layers, work, clock)
+        merge_done()
 
     with clock.step("texture") as fb:
         textures = str(work / "textures")
@@ -312,44 +319,20 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
                                        TextureConfig(scale=options.texture_scale, facades=options.facades), fb,
                                        coverage=coverage.footprint if untextured else None)
 
-    with clock.step("citygml") as fb:
-        gml = staging / "model.gml"
-        written_inputs = CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
-                                       roads=layers.roads and layers.roads.split("|")[0],
-                                       districts=layers.districts and layers.districts.split("|")[0])
-        written = write_citygml(written_inputs, str(gml), srs_name=options.target_crs, feedback=fb)
-
-    cityjson = _write_cityjson(written_inputs, gml, options, clock) if options.cityjson else None
-
-    tileset = str(staging / TILESET_DIR / TILESET_FILE) if options.tiles3d else None
-    modules = TILES3D_MODULES + (("meshoptimizer",) if options.tiles3d_web else ())
-    beside = clock.beside("3dtiles", [core_python(None, modules, "wit_plugin.tiles3d"), "-m",
-                                      "wit_plugin.tiles3d", lod1 or "", tin, textures, str(staging / TILESET_DIR),
-                                      "--crs", options.target_crs] + (["--web"] if options.tiles3d_web else [])) \
-        if options.tiles3d else nullcontext(lambda: None)
-    with beside as tileset_done:  # the tileset is written beside validation and metrics
-        with clock.step("validate") as fb:
-            schema_dir, source = schemas.find_schema_dir(options.schema_dir,
-                                                         str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
-                                                         allow_download=True, feedback=fb)
-            fb.info(f"Schemas: {source} ({schema_dir})")
-            validation = validate_files([str(gml)], schema_dir, feedback=fb)
-            if cityjson:  # the same checks; a tile's image paths start from its run's folder
-                part = options.cityjson_part
-                validation += validate_cityjson_files([str(cityjson)], fb, image_folder=lambda _: staging,
-                                                      strip_prefix=f"{part.folder}/" if part else "")
-            for report in validation:  # name the file where it will be, not where it was validated
-                report.file = str(output / Path(report.file).name)
-            write_report_html(validation, str(staging / "validation.html"))
-
-        metrics_csv = None
-        if options.metrics and lod1:
-            with clock.step("metrics") as fb:
-                metrics_csv = staging / "metrics.csv"
-                quality_report(str(metrics_csv), model_source=lod1, source_buildings=layers.buildings,
-                               textures=textures, ortho=mosaic, mosaic=mosaic, footprints=str(work / "sheets.gpkg"),
-                               output_html=str(staging / "metrics.html"), feedback=fb)
+    metrics_csv = staging / "metrics.csv" if options.metrics and lod1 else None
+    with _tiles3d_beside(python, options, clock, lod1, tin, textures, staging) as tileset_done, \
+            _metrics_beside(python, metrics_csv, clock, lod1, layers, textures, mosaic, work) as metrics_done:
+        with clock.step("citygml") as fb:
+            gml = staging / "model.gml"
+            written_inputs = CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
+                                           roads=layers.roads and layers.roads.split("|")[0],
+                                           districts=layers.districts and layers.districts.split("|")[0])
+            written = write_citygml(written_inputs, str(gml), srs_name=options.target_crs, feedback=fb)
+        cityjson = _write_cityjson(written_inputs, gml, options, clock) if options.cityjson else None
+        validation = _validate(gml, cityjson, options, output, staging, clock)
+        metrics_done()
         tileset_done()
+    tileset = str(staging / TILESET_DIR / TILESET_FILE) if options.tiles3d else None
 
     for layer in filter(None, (lod1, tin)):  # the model's GIS layers, for QGIS's 3D view
         os.replace(layer, staging / Path(layer).name)
@@ -367,6 +350,74 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         lod1=str(output / Path(lod1).name) if lod1 else None, tin=str(output / Path(tin).name),
         tileset=str(output / TILESET_DIR / Path(tileset).name) if tileset else None,
         cityjson=str(output / cityjson.name) if cityjson else None)
+
+
+def _terrain_and_solids(inputs: ChainInputs, options: ChainOptions, layers: PreparedLayers, work: Path,
+                        clock: _Clock) -> tuple[str, TinStats, str | None, ExtrudeStats | None]:
+    """Steps 4 and 5: the TIN and the LoD1 solids (a tile that owns no building: terrain and roads only)."""
+    with clock.step("terrain") as fb:
+        tin = str(work / "tin.gpkg")
+        config = terrain.TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
+                                       triangulator=options.triangulator)
+        tile_context = terrain.TileContext(layers.foreign, layers.seam) if layers.seam is not None else None
+        tin_stats = terrain.triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
+                                                fb, tile_context)
+    with clock.step("extrude") as fb:
+        lod1 = str(work / "lod1.gpkg") if layers.buildings else None
+        lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
+                                               spatial_index=options.keep_work, feedback=fb) if lod1 else None
+    return tin, tin_stats, lod1, lod1_stats
+
+
+def _step_python(options: ChainOptions) -> str:
+    """The Python that runs the steps the chain starts in another process: one that imports all of them, found
+    (and checked) once."""
+    modules = STEP_PROCESS_MODULES + ("wit_plugin.mosaic",)
+    modules += ("pygltflib", "wit_plugin.tiles3d") if options.tiles3d else ()
+    modules += ("meshoptimizer",) if options.tiles3d and options.tiles3d_web else ()
+    return core_python(None, modules, "wit_plugin.metrics" if options.metrics else "wit_plugin.mosaic")
+
+
+def _tiles3d_beside(python: str, options: ChainOptions, clock: _Clock, lod1: str | None, tin: str, textures: str,
+                    staging: Path) -> AbstractContextManager[Callable[[], None]]:
+    """Step 8, asked for: the 3D Tiles export in a second process, from the step layers (not the CityGML),
+    so it runs beside the CityGML, its validation and the metrics; the block gets the function that waits."""
+    if not options.tiles3d:
+        return nullcontext(lambda: None)
+    return clock.beside("3dtiles", [python, "-m", "wit_plugin.tiles3d",
+                                    lod1 or "", tin, textures, str(staging / TILESET_DIR), "--crs", options.target_crs]
+                        + (["--web"] if options.tiles3d_web else []))
+
+
+def _metrics_beside(python: str, metrics_csv: Path | None, clock: _Clock, lod1: str | None, layers: PreparedLayers,
+                    textures: str, mosaic: str, work: Path) -> AbstractContextManager[Callable[[], None]]:
+    """Step 10, asked for: the quality metrics in a second process, from the step layers, the mosaic and the
+    sheets' footprints, beside the CityGML and its checks (``metrics.csv`` and ``metrics.html``)."""
+    if metrics_csv is None:
+        return nullcontext(lambda: None)
+    return clock.beside("metrics", [
+        python, "-m", "wit_plugin.metrics", str(metrics_csv),
+        "--model", lod1 or "", "--buildings", layers.buildings or "", "--textures", textures, "--ortho", mosaic,
+        "--mosaic", mosaic, "--footprints", str(work / "sheets.gpkg"), "--html", str(metrics_csv.with_suffix(".html"))])
+
+
+def _validate(gml: Path, cityjson: Path | None, options: ChainOptions, output: Path, staging: Path,
+              clock: _Clock) -> list[FileReport]:
+    """Step 9: the model (and its CityJSON) validated offline, ``validation.html`` written; the reports."""
+    with clock.step("validate") as fb:
+        schema_dir, source = schemas.find_schema_dir(options.schema_dir,
+                                                     str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
+                                                     allow_download=True, feedback=fb)
+        fb.info(f"Schemas: {source} ({schema_dir})")
+        validation = validate_files([str(gml)], schema_dir, feedback=fb)
+        if cityjson:  # the same checks; a tile's image paths start from its run's folder
+            part = options.cityjson_part
+            validation += validate_cityjson_files([str(cityjson)], fb, image_folder=lambda _: staging,
+                                                  strip_prefix=f"{part.folder}/" if part else "")
+        for report in validation:  # name the file where it will be, not where it was validated
+            report.file = str(output / Path(report.file).name)
+        write_report_html(validation, str(staging / "validation.html"))
+    return validation
 
 
 def _write_cityjson(inputs: CityGMLInputs, gml: Path, options: ChainOptions, clock: _Clock) -> Path:

@@ -1,5 +1,5 @@
-"""Which Python runs the core in another process (Dask workers, the 3D Tiles export beside validation),
-and which runs pip for QGIS's Python (``this_python``).
+"""Which Python runs the core in another process (Dask workers, the merge and the 3D Tiles export beside the
+next steps), and which runs pip for QGIS's Python (``this_python``).
 
 Inside QGIS on Windows and macOS ``sys.executable`` is QGIS itself: starting it would open QGIS again.
 So a separate process always gets an explicit interpreter: the one configured, else the first Python

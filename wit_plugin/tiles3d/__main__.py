@@ -1,5 +1,5 @@
 """``python -m wit_plugin.tiles3d LOD1 TIN TEXTURES OUTPUT [--crs EPSG:5186]``: the export in its own process
-(the chain runs it beside validation on the second core); prints the report as JSON."""
+(the chain runs it beside the CityGML and its checks on the second core); prints the report as JSON."""
 from __future__ import annotations
 
 import argparse
@@ -7,7 +7,7 @@ import sys
 from dataclasses import asdict
 
 from ..infra.errors import WitError
-from ..infra.feedback import LoggingFeedback
+from ..infra.feedback import step_process_feedback
 from ..infra.io import jsontext
 from .tileset import TilesetConfig, export_tileset
 
@@ -23,7 +23,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         report = export_tileset(args.lod1 or None, args.tin or None, args.textures or None, args.output, args.crs,
-                                LoggingFeedback(), TilesetConfig(web=args.web))
+                                step_process_feedback(), TilesetConfig(web=args.web))
     except WitError as exc:
         print(str(exc), file=sys.stderr)
         return 2

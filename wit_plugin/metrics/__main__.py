@@ -1,0 +1,38 @@
+"""``python -m wit_plugin.metrics OUTPUT_CSV [--model LOD1 --buildings PREPARED] [--textures DIR] [--ortho TIF]
+[--mosaic TIF --footprints GPKG] [--html HTML]``: the quality metrics in their own process (the chain runs them
+beside the CityGML and its checks on the second core); prints the written files as JSON."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..infra.errors import WitError
+from ..infra.feedback import step_process_feedback
+from ..infra.io import jsontext
+from .report import quality_report
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m wit_plugin.metrics", description=__doc__.splitlines()[0])
+    parser.add_argument("output_csv")
+    parser.add_argument("--model", help="the LoD1 faces GeoPackage (or a CityGML file)")
+    parser.add_argument("--buildings", help="the prepared source buildings (file|layername=...)")
+    parser.add_argument("--textures", help="the texture folder")
+    parser.add_argument("--ortho", help="the orthoimage the textures were cut from")
+    parser.add_argument("--mosaic", help="the merged orthoimage, for the seam step")
+    parser.add_argument("--footprints", help="the sheets' footprints, for the seam step")
+    parser.add_argument("--html", help="the HTML report")
+    args = parser.parse_args(argv)
+    try:
+        report = quality_report(args.output_csv, model_source=args.model, source_buildings=args.buildings,
+                                textures=args.textures, ortho=args.ortho, mosaic=args.mosaic,
+                                footprints=args.footprints, output_html=args.html, feedback=step_process_feedback())
+    except WitError as exc:
+        print(str(exc), file=sys.stderr)
+        return 2
+    print(jsontext.dumps(report.outputs))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

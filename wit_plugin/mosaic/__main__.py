@@ -1,0 +1,38 @@
+"""``python -m wit_plugin.mosaic OUTPUT INPUT... [--mode feather] [--[no-]gain] [--extent XMIN YMIN XMAX YMAX]``:
+the merge in its own process (the chain runs it beside the terrain on the second core); prints the report as
+JSON. GDAL's sidecars are off, as in the step: the inputs are the user's sheets or VRTs pointing at them."""
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import asdict
+
+from ..infra.errors import WitError
+from ..infra.feedback import step_process_feedback
+from ..infra.gdal_env import no_sidecars
+from ..infra.io import jsontext
+from . import MODES, merge_tiles
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m wit_plugin.mosaic", description=__doc__.splitlines()[0])
+    parser.add_argument("output")
+    parser.add_argument("inputs", nargs="+")
+    parser.add_argument("--mode", choices=MODES, default="feather")
+    parser.add_argument("--gain", action=argparse.BooleanOptionalAction, default=None,
+                        help="tone correction (default: with feather only)")
+    parser.add_argument("--extent", nargs=4, type=float, metavar=("XMIN", "YMIN", "XMAX", "YMAX"))
+    args = parser.parse_args(argv)
+    try:
+        with no_sidecars():
+            report = merge_tiles(args.inputs, args.output, mode=args.mode, gain=args.gain,
+                                 feedback=step_process_feedback(), extent=tuple(args.extent) if args.extent else None)
+    except WitError as exc:
+        print(str(exc), file=sys.stderr)
+        return 2
+    print(jsontext.dumps(asdict(report)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
