@@ -426,3 +426,13 @@ def test_texture_coordinates_are_checked_and_normalised_in_bulk():
                            ("0 0 1 x 1 1 0 0", True), ("", True), ("0 0 1 0 1 1 0 0 0 0", True)):
         with pytest.raises(InputError, match=r"triangle 1 are not a valid list"):
             citygml._uv([texts[1], bad], what, triangles)
+
+
+@pytest.mark.parametrize("text", ["", NASTY.replace("\x01", "").replace("\x1f", ""), "cr\r lf\n tab\t", "]]> 수서 😀"])
+def test_ready_made_text_is_what_lxml_writes(text, tmp_path):
+    """Attributes go out as ready-made markup: their text must be escaped exactly as lxml escapes element text."""
+    path = tmp_path / "t.xml"
+    with etree.xmlfile(str(path), encoding="utf-8") as xf, xf.element("v"):
+        xf.write(text)
+    assert path.read_text(encoding="utf-8") == f"<v>{citygml.xml_text(text)}</v>"
+    assert etree.fromstring(f"<v>{citygml.xml_text(text)}</v>".encode()).text == (text or None)

@@ -65,7 +65,7 @@ from .inputs import (
     typed_attributes,
     uv_values,
 )
-from .namespaces import APP, BLDG, CON, CORE, DEM, GEN, GML, GML_ID, GRP, TRAN, URIS, XLINK, XSI
+from .namespaces import APP, BLDG, CON, CORE, DEM, GML, GML_ID, GRP, TRAN, URIS, XLINK, XSI
 from .schemas import CITYGML_MODULES
 
 APPEARANCE_THEME = "rgbTexture"
@@ -218,6 +218,13 @@ class _Progress:
 SKIP_BUILDING_FIELDS = {step_layers.WIT_ID, step_layers.FACE_TYPE, step_layers.FACE_NUMBER, step_layers.HEIGHT,
                          step_layers.STOREYS_ABOVE, step_layers.STOREYS_BELOW}
 _GEN_TYPES = {"int": "IntAttribute", "double": "DoubleAttribute", "date": "DateAttribute", "string": "StringAttribute"}
+_CARRIAGE_RETURN = {"\r": "&#13;"}
+
+
+def xml_text(text: str) -> str:
+    """Element text escaped as lxml writes it: ``&``, ``<``, ``>`` and the carriage return (which a reader
+    would otherwise take for a line end). ``text`` holds only characters XML can carry (``clean_text``)."""
+    return escape(text, _CARRIAGE_RETURN)
 
 
 class _Writer:
@@ -272,14 +279,15 @@ class _Writer:
             yield
 
     def attributes(self, feature: ogr.Feature, fields: list[tuple[int, str, int]], skip: set[str]) -> None:
-        """Every set, finite attribute as a typed ``gen:`` attribute (UTF-8, XML-clean)."""
-        for name, kind, value in typed_attributes(feature, fields, skip):
-            with self.el(CORE + "genericAttribute"), self.el(GEN + _GEN_TYPES[kind]):
-                self.leaf(GEN + "name", name)
-                self.leaf(GEN + "value", repr(value) if kind == "double" else str(value))
-
-    def polygon(self, gml_id: str, geometry: ogr.Geometry) -> None:
-        self.raw(_polygon(gml_id, geometry))
+        """Every set, finite attribute as a typed ``gen:`` attribute (UTF-8, XML-clean), as ready-made markup:
+        what lxml wrote element by element, at a tenth of the calls."""
+        markup = "".join(
+            f"<core:genericAttribute><gen:{_GEN_TYPES[kind]}><gen:name>{xml_text(name)}</gen:name>"
+            f"<gen:value>{xml_text(repr(value) if kind == 'double' else str(value))}</gen:value>"
+            f"</gen:{_GEN_TYPES[kind]}></core:genericAttribute>"
+            for name, kind, value in typed_attributes(feature, fields, skip))
+        if markup:
+            self.raw(markup)
 
     # content ------------------------------------------------------------------------------------
     def buildings(self, lod1: InputLayer, members: Membership | None, facades: FacadeRows | None) -> None:
@@ -301,6 +309,7 @@ class _Writer:
                 self.attributes(facade, facades.fields, {step_layers.WIT_ID, step_layers.FACADE_IMAGE})
             with self.el(CORE + "lod1Solid"), self.el(GML + "Solid", {GML_ID: f"{wit_id}_lod1"}), \
                     self.el(GML + "exterior"), self.el(GML + "Shell"):
+                surfaces = []  # the faces' markup, written in one go
                 for face in chain([first], faces):
                     number, geometry = face.GetFieldAsInteger(number_col), face.GetGeometryRef()
                     if not face.IsFieldSetAndNotNull(number_col) or number <= last:
@@ -309,14 +318,14 @@ class _Writer:
                     if geometry is None or geometry.IsEmpty():
                         raise InputError(f"Face {number} of building {wit_id} has no geometry: "
                                          "re-run wit:extrudebuildings.")
-                    self.xf.write("\n")
-                    with self.el(GML + "surfaceMember"):
-                        self.polygon(f"{wit_id}_f{number}", geometry)
+                    surfaces.append(f"\n<gml:surfaceMember>{_polygon(f'{wit_id}_f{number}', geometry)}"
+                                    "</gml:surfaceMember>")
                     if members and face.GetFieldAsString(type_col) == "ground":
                         members.add(wit_id, bytes(geometry.ExportToIsoWkb()))
                     last = number
                     self.report.faces += 1
                     self.progress.tick()
+                self.raw("".join(surfaces))
             self.height(first, col)
             for name, tag in ((step_layers.STOREYS_ABOVE, "storeysAboveGround"),
                               (step_layers.STOREYS_BELOW, "storeysBelowGround")):
