@@ -452,7 +452,7 @@ class _Writer:
 
         ``rows``: (image, target, feature, face, uv) texts. The TIN's association lists the ring
         ids after all coordinates, so those ids (not the coordinates) are held for one image's
-        terrain triangles. Roads' and the TIN's markup is ready-made (``raw``), a batch at a time.
+        terrain triangles. The associations' markup is ready-made (``raw``), a batch at a time.
         """
         if target not in step_layers.TEX_TARGETS:
             raise InputError(f"Texture table {path} has the unknown target {target!r}: use roof, wall, road or tin.")
@@ -461,16 +461,14 @@ class _Writer:
             if target == "tin":
                 stack.enter_context(self.association(f"#{TIN_SURFACE_ID}"))
             for batch in _batches(rows, self.RAW_BATCH):
-                features = [escape(row[2]) for row in batch]
                 if target in ("roof", step_layers.TEX_WALL):
                     surfaces = [f"{row[2]}_f{row[3]}" for row in batch]
                     coords = _uv([row[4] for row in batch],
                                  lambda i, names=surfaces: f"{target} {names[i]} in {path}", False)
-                    for surface, uv in zip(surfaces, coords):
-                        with self.association(f"#{surface}"):
-                            self.leaf(APP + "textureCoordinates", uv)
-                            self.leaf(APP + "ring", f"#{surface}_r")
+                    self.raw("".join(_ASSOCIATION.format(surface=xml_text(surface), uv=uv)
+                                     for surface, uv in zip(surfaces, coords)))
                 else:
+                    features = [escape(row[2]) for row in batch]
                     label = "TIN triangle {} in {}" if target == "tin" else "road tri_{} in {}"
                     coords = _uv([row[4] for row in batch],
                                  lambda i, rows=batch, label=label: label.format(rows[i][2], path), True)
@@ -478,7 +476,7 @@ class _Writer:
                         self.raw("".join(f"<app:textureCoordinates>{uv}</app:textureCoordinates>" for uv in coords))
                         refs.extend(f"<app:ring>#tri_{feature}_r</app:ring>" for feature in features)
                     else:
-                        self.raw("".join(_ROAD_ASSOCIATION.format(tri=feature, uv=uv)
+                        self.raw("".join(_ASSOCIATION.format(surface=f"tri_{feature}", uv=uv)
                                          for feature, uv in zip(features, coords)))
                 self.report.textured_surfaces += len(batch)
                 self.progress.tick(len(batch))
@@ -499,12 +497,12 @@ ROAD_TRIANGLES = f"\"{step_layers.TIN_SURFACE}\" = 'road' AND \"{step_layers.TIN
 """Triangles written into their road's traffic area; every other triangle goes into the relief."""
 
 
-_ROAD_ASSOCIATION = (
-    "\n<app:textureParameterization><app:TextureAssociation><app:target>#tri_{tri}</app:target>"
+_ASSOCIATION = (
+    "\n<app:textureParameterization><app:TextureAssociation><app:target>#{surface}</app:target>"
     "<app:textureParameterization><app:TexCoordList><app:textureCoordinates>{uv}</app:textureCoordinates>"
-    "<app:ring>#tri_{tri}_r</app:ring></app:TexCoordList></app:textureParameterization></app:TextureAssociation>"
+    "<app:ring>#{surface}_r</app:ring></app:TexCoordList></app:textureParameterization></app:TextureAssociation>"
     "</app:textureParameterization>")
-"""What ``association`` writes for a road triangle, as ready-made markup."""
+"""What ``association`` writes for a face or a road triangle (its ring ``<surface>_r``), as ready-made markup."""
 
 
 def join_sorted(left: Iterator[tuple[str, Any]], right: Iterator[tuple[str, Any]]
