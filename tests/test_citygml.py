@@ -400,15 +400,17 @@ def test_a_tin_triangle_id_must_be_an_integer():
             citygml_inputs.tri_ids(bad)
 
 
-def test_raw_road_texture_association_is_what_lxml_would_write(tmp_path):
-    """The ready-made markup of a road triangle's texture association equals what ``association`` writes."""
+@pytest.mark.parametrize("surface", ["tri_7", "BLD_1_f3"])
+def test_raw_texture_association_is_what_lxml_would_write(tmp_path, surface):
+    """The ready-made markup of a road triangle's or a face's texture association equals what ``association``
+    writes."""
     with open(tmp_path / "a.xml", "wb") as fh, etree.xmlfile(fh, encoding="utf-8") as xf:
         with xf.element("r", nsmap={"app": citygml.NS["app"]}):
             writer = citygml._Writer(xf, fh, citygml.WriteReport(), None)
-            with writer.association("#tri_7"):
+            with writer.association(f"#{surface}"):
                 writer.leaf(citygml.APP + "textureCoordinates", "0.5 0.25 1 0 0 1 0.5 0.25")
-                writer.leaf(citygml.APP + "ring", "#tri_7_r")
-            writer.raw(citygml._ROAD_ASSOCIATION.format(tri="7", uv="0.5 0.25 1 0 0 1 0.5 0.25"))
+                writer.leaf(citygml.APP + "ring", f"#{surface}_r")
+            writer.raw(citygml._ASSOCIATION.format(surface=surface, uv="0.5 0.25 1 0 0 1 0.5 0.25"))
     text = (tmp_path / "a.xml").read_text(encoding="utf-8")
     body = text[text.index(">", text.index("<r ")) + 1:text.rindex("</r>")]
     lxml_part, raw_part = body[:len(body) // 2], body[len(body) // 2:]
@@ -426,3 +428,13 @@ def test_texture_coordinates_are_checked_and_normalised_in_bulk():
                            ("0 0 1 x 1 1 0 0", True), ("", True), ("0 0 1 0 1 1 0 0 0 0", True)):
         with pytest.raises(InputError, match=r"triangle 1 are not a valid list"):
             citygml._uv([texts[1], bad], what, triangles)
+
+
+@pytest.mark.parametrize("text", ["", NASTY.replace("\x01", "").replace("\x1f", ""), "cr\r lf\n tab\t", "]]> 수서 😀"])
+def test_ready_made_text_is_what_lxml_writes(text, tmp_path):
+    """Attributes go out as ready-made markup: their text must be escaped exactly as lxml escapes element text."""
+    path = tmp_path / "t.xml"
+    with etree.xmlfile(str(path), encoding="utf-8") as xf, xf.element("v"):
+        xf.write(text)
+    assert path.read_text(encoding="utf-8") == f"<v>{citygml.xml_text(text)}</v>"
+    assert etree.fromstring(f"<v>{citygml.xml_text(text)}</v>".encode()).text == (text or None)

@@ -73,6 +73,18 @@ def test_written_layer_reads_back_exactly(tmp_path, index):
         assert db.execute("SELECT count(*) FROM rtree_faces_geom").fetchone() == (len(geoms),)
 
 
+def test_rows_keep_their_order_across_insert_statements(tmp_path, monkeypatch):
+    """Many rows per INSERT: 3 a statement here (12 values, 4 columns), so 17 statements, the last one partial."""
+    monkeypatch.setattr(gpkg_bulk, "MAX_VALUES", 12)
+    geoms = _geoms(50)
+    names = [f"b{k}" for k in range(len(geoms))]
+    path = tmp_path / "faces.gpkg"
+    gpkg_bulk.write_layer(path, "faces", CRS, FIELDS, geoms, [np.arange(len(geoms)), [0.5] * len(geoms), names])
+    ds, lyr, rows = _read(path)
+    assert [(fid, n, name) for fid, _, n, _, name in rows] == [(k + 1, k, f"b{k}") for k in range(len(geoms))]
+    assert [shapely.from_wkb(r[1]).wkt for r in rows] == [g.wkt for g in geoms]
+
+
 def test_an_empty_layer_is_a_valid_geopackage(tmp_path):
     path = tmp_path / "faces.gpkg"
     assert gpkg_bulk.write_layer(path, "faces", CRS, FIELDS, np.array([], dtype=object), [[], [], []]) == 0

@@ -334,3 +334,23 @@ def test_terrain_covers_buildings_that_cross_the_rim(tmp_path, shared_dir):
     grown = terrain.covering_area(area, [crossing, inside, outside])
     assert grown.area == pytest.approx(shapely.union(area, crossing).area, rel=1e-6)  # on the 1 mm grid
     assert terrain.covering_area(area, [inside, outside]) is area
+
+
+def test_close_pairs_are_those_an_strtree_of_all_points_finds():
+    """``output._close_pairs`` (grid candidates, GEOS verdicts) finds exactly the pairs within MIN_EDGE that an
+    STRtree of every vertex finds, exactly 1 cm apart (10 steps: (10, 0), (6, 8), …) included."""
+    from wit_plugin.terrain import output
+
+    rng = np.random.default_rng(5)
+    base = rng.integers(0, 2_000_000, (3000, 2)) + [208_020_888, 542_132_772]  # mm steps of the Korean belt
+    offsets = rng.choice([0, 3, 6, 8, 10, 11, -6, -8, -10, 14], size=(3000, 2))
+    steps = np.unique(np.vstack([base, base + offsets, base[:500] + [[6, 8]], base[:500] + [[0, -10]]]), axis=0)
+    xyz = np.column_stack([steps * terrain.mesh.ROUNDING, np.zeros(len(steps))])
+    used = np.flatnonzero(rng.random(len(steps)) < 0.9)
+    points = shapely.points(xyz[used, :2])
+    near_a, near_b = shapely.STRtree(points).query(points, predicate="dwithin", distance=output.MIN_EDGE)
+    a, b = used[near_a], used[near_b]
+    expected = sorted(zip(a[a < b].tolist(), b[a < b].tolist()))
+    found = output._close_pairs(xyz, steps, used)
+    assert list(zip(*(f.tolist() for f in found))) == expected
+    assert len(expected) > 500  # the exact-1-cm pairs among them

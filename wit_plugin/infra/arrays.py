@@ -14,8 +14,8 @@ def ragged_indices(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def edge_keys(edges: np.ndarray) -> np.ndarray:
     """One int64 per undirected edge (vertex indices below 2³¹)."""
-    edges = np.sort(edges, axis=-1).astype(np.int64)
-    return (edges[..., 0] << 31) | edges[..., 1]
+    edges = np.asarray(edges, dtype=np.int64)  # min / max: a sort along an axis of two is ten times slower
+    return (np.minimum(edges[..., 0], edges[..., 1]) << 31) | np.maximum(edges[..., 0], edges[..., 1])
 
 
 def edge_pairs(keys: np.ndarray) -> np.ndarray:

@@ -245,44 +245,11 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
     if fixed:
         vertices, segments = _split_for_dem(vertices, segments, dem, origin, tolerance)
     pslg = triangulators.Pslg(vertices, segments, cons.holes, cons.regions, _face_locator(cons))
-    mesh = backend.mesh(pslg, target, fixed)
-    xy = np.empty((0, 2))
-    xyz = np.empty((0, 3))
-    longest = error = np.empty(0)
-    iterations = 0
-    while True:  # take the mesh in: heights of the new vertices, length and DEM error of the new triangles
-        known = len(xy) if np.array_equal(mesh.vertices[:len(xy)], xy) else 0  # refining keeps vertices
-        xy, tris = mesh.vertices, mesh.triangles
-        xyz = np.vstack([xyz[:known], _with_heights(dem, xy[known:] + origin)])
-        fresh = np.flatnonzero(mesh.origin < 0) if mesh.origin is not None and known else None
-        if fresh is None:
-            longest, error = _longest_edges(xy, tris), vertical_error(dem, xyz, tris, tolerance)
-        else:  # only the new triangles are measured
-            longest, error = longest[mesh.origin], error[mesh.origin]
-            longest[fresh] = _longest_edges(xy, tris[fresh])
-            error[fresh] = vertical_error(dem, xyz, tris[fresh], tolerance)
-        too_long = longest > target * (1 + 1e-9)
-        too_far = error > tolerance
-        feedback.info(f"Mesh pass {iterations}: {len(tris)} triangles, {int(too_long.sum())} with an edge over "
-                      f"{max_edge:g} m, {int(too_far.sum())} more than {tolerance:g} m off the DEM.")
-        if not (too_long.any() or too_far.any()) or iterations == max_iterations:
-            break
-        feedback.check_canceled()
-        feedback.progress(10 + 80 * (iterations + 1) / (max_iterations + 1))
-        iterations += 1
-        # error shrinks with the square of the size (area); at least halve what is too far off
-        shrink = np.ones(len(tris))
-        shrink[too_long] = 0.9 * (target / longest[too_long]) ** 2
-        shrink[too_far] = np.minimum(shrink[too_far], np.clip(0.8 * tolerance / error[too_far], 0.05, 0.5))
-        bad = too_long | too_far
-        limits = np.full(len(tris), -1.0)
-        limits[bad] = shrink[bad] * _triangle_areas(xy, tris[bad])
-        previous = len(tris)
-        mesh = backend.refine(mesh, pslg, limits, fixed, whole=bool(too_far.any()))
-        if len(mesh.triangles) == previous and np.array_equal(mesh.triangles, tris):
-            break  # no Steiner point could go where one is needed
-    tris = mesh.triangles
-    max_error = max_vertical_error(dem, xyz, tris, error, tolerance)
+    mesh, fit, iterations = _refine(backend, pslg, dem, origin, target, max_edge, tolerance, fixed, max_iterations,
+                                    feedback)
+    xyz, tris, longest = fit.xyz, mesh.triangles, fit.longest
+    max_error = max_vertical_error(dem, xyz, tris, fit.error, tolerance)
+    too_long, too_far = fit.misfits(target, tolerance)
     if too_long.any() or too_far.any():
         feedback.warning(f"After {iterations} refinement passes the mesh still has edges up to {longest.max():.2f} m "
                          f"and a vertical error up to {max_error:.3f} m.")
@@ -298,6 +265,84 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
                      dropped_features=cons.dropped, triangles_by_surface=counts)
     feedback.progress(100)
     return tin, stats
+
+
+@dataclass
+class _Fit:
+    """A mesh measured against the limits: its vertices with DEM heights, each triangle's longest edge and its
+    distance from the DEM (``vertical_error``)."""
+
+    xy: np.ndarray  # (n, 2) the mesh's vertices, origin-relative
+    xyz: np.ndarray  # (n, 3) world coordinates
+    longest: np.ndarray  # (m,)
+    error: np.ndarray  # (m,)
+
+    def misfits(self, target: float, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+        """(an edge over ``target``, farther than ``tolerance`` from the DEM) per triangle."""
+        return self.longest > target * (1 + 1e-9), self.error > tolerance
+
+
+def _measure(mesh: triangulators.Mesh, previous: _Fit | None, dem: Dem, origin: np.ndarray,
+             tolerance: float) -> _Fit:
+    """Take the mesh in: heights of its new vertices, length and DEM error of its new triangles.
+
+    Refining keeps the vertices, and a backend that tells each triangle's row in the previous mesh
+    (``Mesh.origin``) lets the unchanged triangles keep their measures: only the new ones are measured.
+    """
+    xy, tris = mesh.vertices, mesh.triangles
+    known = len(previous.xy) if previous is not None and np.array_equal(xy[:len(previous.xy)], previous.xy) else 0
+    xyz = _with_heights(dem, xy[known:] + origin)
+    if known:
+        xyz = np.vstack([previous.xyz[:known], xyz])
+    if mesh.origin is None or not known:
+        return _Fit(xy, xyz, _longest_edges(xy, tris), vertical_error(dem, xyz, tris, tolerance))
+    fresh = np.flatnonzero(mesh.origin < 0)
+    longest, error = previous.longest[mesh.origin], previous.error[mesh.origin]
+    longest[fresh] = _longest_edges(xy, tris[fresh])
+    error[fresh] = vertical_error(dem, xyz, tris[fresh], tolerance)
+    return _Fit(xy, xyz, longest, error)
+
+
+def _area_limits(fit: _Fit, tris: np.ndarray, too_long: np.ndarray, too_far: np.ndarray, target: float,
+                 tolerance: float) -> np.ndarray:
+    """The largest area each triangle may have in the next pass (−1: as it is).
+
+    A triangle too long shrinks to fit ``target``; the DEM error shrinks with the square of the size (the
+    area), so one too far off shrinks by that, and at least by half.
+    """
+    shrink = np.ones(len(tris))
+    shrink[too_long] = 0.9 * (target / fit.longest[too_long]) ** 2
+    shrink[too_far] = np.minimum(shrink[too_far], np.clip(0.8 * tolerance / fit.error[too_far], 0.05, 0.5))
+    bad = too_long | too_far
+    limits = np.full(len(tris), -1.0)
+    limits[bad] = shrink[bad] * _triangle_areas(fit.xy, tris[bad])
+    return limits
+
+
+def _refine(backend: triangulators.Triangulator, pslg: triangulators.Pslg, dem: Dem, origin: np.ndarray, target: float,
+            max_edge: float, tolerance: float, fixed: bool, max_iterations: int,
+            feedback: Feedback) -> tuple[triangulators.Mesh, _Fit, int]:
+    """Mesh the PSLG, then refine until every triangle fits ``target`` and ``tolerance``, or ``max_iterations``
+    passes, or no Steiner point can go where one is needed. Returns the mesh, its measures and the passes made.
+    """
+    mesh = backend.mesh(pslg, target, fixed)
+    fit = _measure(mesh, None, dem, origin, tolerance)
+    iterations = 0
+    while True:
+        too_long, too_far = fit.misfits(target, tolerance)
+        feedback.info(f"Mesh pass {iterations}: {len(mesh.triangles)} triangles, {int(too_long.sum())} with an edge "
+                      f"over {max_edge:g} m, {int(too_far.sum())} more than {tolerance:g} m off the DEM.")
+        if not (too_long.any() or too_far.any()) or iterations == max_iterations:
+            return mesh, fit, iterations
+        feedback.check_canceled()
+        feedback.progress(10 + 80 * (iterations + 1) / (max_iterations + 1))
+        iterations += 1
+        tris = mesh.triangles
+        limits = _area_limits(fit, tris, too_long, too_far, target, tolerance)
+        mesh = backend.refine(mesh, pslg, limits, fixed, whole=bool(too_far.any()))
+        if len(mesh.triangles) == len(tris) and np.array_equal(mesh.triangles, tris):
+            return mesh, fit, iterations  # no Steiner point could go where one is needed
+        fit = _measure(mesh, fit, dem, origin, tolerance)
 
 
 def _face_locator(cons: Constraints):

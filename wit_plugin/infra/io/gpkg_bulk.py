@@ -20,6 +20,7 @@ is checked: a disk that is full (or any I/O error) is an ``InputError`` naming t
 from __future__ import annotations
 
 import contextlib
+import itertools
 import sqlite3
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -40,7 +41,9 @@ from .vector_io import FieldDef, create_fields
 _HEADER = np.dtype([("magic", "S2"), ("version", "u1"), ("flags", "u1"), ("srs_id", "<i4"),
                     ("envelope", "<f8", 4)])
 _FLAGS_LE_XY_ENVELOPE = 0b0000_0011
-BATCH = 20_000  # rows per executemany: progress and Cancel between batches
+BATCH = 20_000  # rows per write_layer batch: progress and Cancel between batches
+#: bound values per INSERT statement: within SQLite's oldest limit (SQLITE_MAX_VARIABLE_NUMBER, 999 before 3.32)
+MAX_VALUES = 999
 
 
 #: a whole blob for a triangle: the header, then ISO WKB PolygonZ (1003) with one closed ring of 4 points
@@ -78,8 +81,7 @@ def geometry_blobs(geoms: np.ndarray, srs_id: int) -> list[bytes]:
                                                                  geoms[:, :, :2].max(axis=1)]))
         blobs["byte_order"], blobs["type"], blobs["rings"], blobs["points"] = 1, 1003, 1, 4
         blobs["xyz"] = geoms[:, [0, 1, 2, 0]]
-        raw, size = blobs.tobytes(), _TRIANGLE.itemsize
-        return [raw[k * size:(k + 1) * size] for k in range(len(geoms))]
+        return blobs.view(np.dtype((np.void, _TRIANGLE.itemsize))).tolist()  # a bytes object per row
     raw = _header(len(geoms), srs_id, shapely.bounds(geoms)).tobytes()
     size = _HEADER.itemsize
     wkbs = shapely.to_wkb(geoms, output_dimension=3, flavor="iso", byte_order=1)
@@ -148,9 +150,13 @@ class BulkTable:
             self.db.close()
             raise
         names = [self.geometry_column] * (crs is not None) + [fd.name for fd in fields]
-        quoted = ", ".join(map(sql_name, names))
-        self._insert = (f'INSERT INTO {sql_name(layer)} ({quoted}) '  # nosec B608  # names quoted, values bound (?)
-                        f'VALUES ({", ".join("?" * len(names))})')
+        self._columns = f'INSERT INTO {sql_name(layer)} ({", ".join(map(sql_name, names))}) VALUES '
+        self._row = f'({", ".join("?" * len(names))})'
+        self._rows_per_statement = max(1, MAX_VALUES // len(names))
+        self._insert_full = self._insert_statement(self._rows_per_statement)
+
+    def _insert_statement(self, rows: int) -> str:
+        return self._columns + ", ".join([self._row] * rows)  # nosec B608  # names quoted, values bound (?)
 
     def _error(self, reason: object) -> InputError:
         return _write_error(self.layer, self.path, reason)
@@ -166,9 +172,18 @@ class BulkTable:
             raise self._error(exc) from exc
 
     def insert(self, rows: Sequence[Sequence]) -> None:
-        """Append rows (values in the order of the geometry column, if any, then the fields)."""
+        """Append rows (values in the order of the geometry column, if any, then the fields).
+
+        Many rows go in one statement (``INSERT … VALUES (…), (…), …``), in their order: SQLite's work per
+        statement (the AUTOINCREMENT counter above all) is then done once for them all, which halves the
+        time of row-per-statement ``executemany``.
+        """
+        step = self._rows_per_statement
         with self._checked():
-            self.db.executemany(self._insert, rows)
+            for start in range(0, len(rows), step):
+                chunk = rows[start:start + step]
+                statement = self._insert_full if len(chunk) == step else self._insert_statement(len(chunk))
+                self.db.execute(statement, list(itertools.chain.from_iterable(chunk)))
             self.db.commit()
         self.count += len(rows)
 
