@@ -5,7 +5,7 @@ Data: the generated sample around Suseo station (``wit_plugin.sample``: about 5,
 and cached under ``out/bench/geometry_data``. Each case then runs in its own child process so
 that its peak RSS (``ru_maxrss``) is its own:
 
-* ``terrain``: ``terrain.mesh.triangulate`` with the defaults (max edge 5 m, tolerance 0.5 m, footprints
+* ``terrain``: ``terrain_mesh.triangulate`` with the defaults (max edge 5 m, tolerance 0.5 m, footprints
   as holes); the time inside is split into *mesh* (cleaning the constraints and every Triangle
   call) and *DEM mapping* (reading the DEM window, bilinear Z of every vertex, the exact vertical
   error measure that drives refinement), then writing the TIN GeoPackage;
@@ -76,30 +76,31 @@ def _study_area():
 
 
 def _inputs(paths: dict):
-    from wit_plugin import terrain
     from wit_plugin.infra import step_layers
     from wit_plugin.infra.io.vector_io import read_layer
+    from wit_plugin.terrain import build
 
     buildings = read_layer(paths["prepared"], step_layers.PREPARED_BUILDINGS)
     roads = read_layer(paths["prepared"], step_layers.PREPARED_ROADS)
-    return buildings, terrain.features(buildings), terrain.features(roads)
+    return buildings, build.features(buildings), build.features(roads)
 
 
 def terrain_clock() -> _Clock:
     """A clock splitting the terrain step as Table 20 does: mesh generation, DEM mapping, writing."""
     import triangle
 
-    from wit_plugin import terrain
     from wit_plugin.infra.dem import Dem
+    from wit_plugin.terrain import build
+    from wit_plugin.terrain import mesh as terrain_mesh
 
     clock = _Clock()
-    clock.wrap(terrain, "clean_constraints", "mesh")
+    clock.wrap(terrain_mesh, "clean_constraints", "mesh")  # where the mesher calls it
     clock.wrap(triangle, "triangulate", "mesh")
     clock.wrap(Dem, "open", "dem_mapping")
     clock.wrap(Dem, "sample", "dem_mapping")
-    clock.wrap(terrain, "vertical_error", "dem_mapping")
-    clock.wrap(terrain, "max_vertical_error", "dem_mapping")
-    clock.wrap(terrain, "write_tin", "write")
+    clock.wrap(build, "vertical_error", "dem_mapping")
+    clock.wrap(build, "max_vertical_error", "dem_mapping")
+    clock.wrap(build, "write_tin", "write")
     return clock
 
 
@@ -131,21 +132,22 @@ def case_terrain(paths: dict) -> dict:
     _setup()
     import numpy as np
 
-    from wit_plugin import terrain
     from wit_plugin.infra.dem import Dem
+    from wit_plugin.terrain import mesh as terrain_mesh
+    from wit_plugin.terrain import output
 
     buildings, footprints, roads = _inputs(paths)
     area = _study_area()
     clock = terrain_clock()
     start = time.perf_counter()
     dem = Dem.open(paths["dem"], area.bounds)
-    tin, stats = terrain.mesh.triangulate(area, footprints, roads, dem)
+    tin, stats = terrain_mesh.triangulate(area, footprints, roads, dem)
     together = time.perf_counter() - start
     start = time.perf_counter()
-    terrain.output.write_tin(OUT / "geometry_tin.gpkg", tin, buildings.crs)
+    output.write_tin(OUT / "geometry_tin.gpkg", tin, buildings.crs)
     write = time.perf_counter() - start
     start = time.perf_counter()
-    terrain.output.write_tin(OUT / "geometry_tin_noindex.gpkg", tin, buildings.crs, spatial_index=False)
+    output.write_tin(OUT / "geometry_tin_noindex.gpkg", tin, buildings.crs, spatial_index=False)
     write_no_index = time.perf_counter() - start
     np.savez(DATA / "tin.npz", vertices=tin.vertices, triangles=tin.triangles)
     return {"mesh_s": clock.seconds.get("mesh", 0.0), "dem_mapping_s": clock.seconds.get("dem_mapping", 0.0),
@@ -158,8 +160,8 @@ def case_mesh_only(paths: dict) -> dict:
     _setup()
     import numpy as np
 
-    from wit_plugin import terrain
     from wit_plugin.infra.dem import Dem
+    from wit_plugin.terrain import mesh as terrain_mesh
 
     _, footprints, roads = _inputs(paths)
     area = _study_area()
@@ -167,7 +169,7 @@ def case_mesh_only(paths: dict) -> dict:
     cx, cy = (x1 - x0 + 2) / 2, (y1 - y0 + 2) / 2  # 4 x 4 cells: the area lies between the cell centres
     flat = Dem(np.zeros((4, 4)), (x0 - 1 - cx, cx, 0.0, y1 + 1 + cy, 0.0, -cy))
     start = time.perf_counter()
-    _, stats = terrain.mesh.triangulate(area, footprints, roads, flat)
+    _, stats = terrain_mesh.triangulate(area, footprints, roads, flat)
     return {"seconds": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb(), "triangles": stats.triangles,
             "refinement_iterations": stats.refinement_iterations}
 
@@ -176,8 +178,8 @@ def case_dem_only(paths: dict) -> dict:
     _setup()
     import numpy as np
 
-    from wit_plugin import terrain
     from wit_plugin.infra.dem import Dem
+    from wit_plugin.terrain import mesh as terrain_mesh
 
     mesh = np.load(DATA / "tin.npz")
     vertices, triangles = mesh["vertices"], mesh["triangles"]
@@ -186,8 +188,8 @@ def case_dem_only(paths: dict) -> dict:
     dem = Dem.open(paths["dem"], area.bounds)
     z = dem.sample(vertices[:, 0], vertices[:, 1])
     xyz = np.column_stack([vertices[:, :2], z])
-    error = terrain.mesh.vertical_error(dem, xyz, triangles, 0.5)
-    max_error = terrain.mesh.max_vertical_error(dem, xyz, triangles, error, 0.5)
+    error = terrain_mesh.vertical_error(dem, xyz, triangles, 0.5)
+    max_error = terrain_mesh.max_vertical_error(dem, xyz, triangles, error, 0.5)
     return {"seconds": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb(), "vertices": len(vertices),
             "max_vertical_error": max_error, "nodata_filled": dem.nodata_cells}
 

@@ -7,7 +7,7 @@ holes), its vectors prepared once in EPSG:5186 and once in EPSG:5187 (the East B
 
 * ``open``: ``Dem.open`` of the study area's window: the plain read (layers in 5186) against the
   reprojection (layers in 5187: a 5 m grid warped in memory);
-* ``terrain``: ``terrain.triangulate_terrain`` (5 m edge, 0.5 m tolerance, without spatial index) in both CRSs;
+* ``terrain``: ``build.triangulate_terrain`` (5 m edge, 0.5 m tolerance, without spatial index) in both CRSs;
 * ``extrude``: ``extrude.extrude_buildings`` in both CRSs;
 * ``coverage``: ``chain.coverage.require_dem`` in both CRSs.
 
@@ -82,11 +82,11 @@ def _area(prepared: str):
 
 def run_case(case: str, kind: str, paths: dict) -> dict:
     _setup()
-    from wit_plugin import terrain
     from wit_plugin.buildings import extrude
     from wit_plugin.chain.coverage import require_dem
     from wit_plugin.infra import step_layers
     from wit_plugin.infra.dem import Dem
+    from wit_plugin.terrain import build
 
     prepared, crs = paths[kind], CRSS[kind]
     area = _area(prepared)
@@ -95,9 +95,9 @@ def run_case(case: str, kind: str, paths: dict) -> dict:
         dem = Dem.open(paths["dem"], area.bounds, crs=crs)
         result = {"cells": int(dem.values.size), "cell_m": dem.geotransform[1]}
     elif case == "terrain":
-        stats = terrain.triangulate_terrain(paths["dem"], f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}",
+        stats = build.triangulate_terrain(paths["dem"], f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}",
                                             f"{prepared}|layername={step_layers.PREPARED_ROADS}",
-                                            DATA / f"tin_{kind}.gpkg", area, terrain.TerrainConfig(spatial_index=False))
+                                            DATA / f"tin_{kind}.gpkg", area, build.TerrainConfig(spatial_index=False))
         result = {"triangles": stats.triangles, "max_vertical_error": stats.max_vertical_error}
     elif case == "extrude":
         stats = extrude.extrude_buildings(f"{prepared}|layername={step_layers.PREPARED_BUILDINGS}", paths["dem"],

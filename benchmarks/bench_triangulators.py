@@ -1,7 +1,7 @@
 """The two terrain triangulators side by side: Triangle (TRIANGULATOR 0, non-commercial licence)
 and CDT (TRIANGULATOR 1, MPL-2.0, with our Steiner points), on the same inputs.
 
-* ``area``: ``terrain.mesh.triangulate`` + the snap to the millimetre grid on the 1 km / 5 m sample (the data of
+* ``area``: ``mesh.triangulate`` + the snap to the millimetre grid on the 1 km / 5 m sample (the data of
   ``bench_geometry.py``: ~5,000 buildings, roads, 5 m DEM; max edge 5 m, tolerance 0.5 m), each backend in
   its own child process: wall and CPU seconds (CPU is the fairer figure on a shared machine), triangles,
   peak RSS, longest edge, measured maximum vertical error;
@@ -41,17 +41,16 @@ def child_area(key: int) -> dict:
     """One backend on the 1 km sample, in this (child) process."""
     os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
     from benchmarks import bench_geometry
-    from wit_plugin import terrain
     from wit_plugin.infra.dem import Dem
-    from wit_plugin.terrain import triangulators
+    from wit_plugin.terrain import mesh, output, triangulators
 
     paths = bench_geometry.prepare_data()
     _, footprints, roads = bench_geometry._inputs(paths)
     area = bench_geometry._study_area()
     dem = Dem.open(paths["dem"], area.bounds)
     wall, cpu = time.perf_counter(), _cpu()
-    tin, stats = terrain.mesh.triangulate(area, footprints, roads, dem, triangulator=key)
-    tin = terrain.output.snap_to_grid(tin, dem)
+    tin, stats = mesh.triangulate(area, footprints, roads, dem, triangulator=key)
+    tin = output.snap_to_grid(tin, dem)
     wall, cpu = time.perf_counter() - wall, _cpu() - cpu
     return {"backend": triangulators.BACKENDS[key].label, "seconds": round(wall, 2), "cpu_seconds": round(cpu, 2),
             "triangles": len(tin.triangles), "peak_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss

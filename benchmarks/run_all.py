@@ -158,14 +158,14 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
     elif step == "terrain":
 
         from benchmarks.bench_geometry import terrain_clock
-        from wit_plugin import terrain
         from wit_plugin.infra import step_layers
+        from wit_plugin.terrain import build
 
         clock = terrain_clock()
         start = time.perf_counter()
-        stats = terrain.triangulate_terrain(p["dem"], p["prepared"], p["prepared"], p["tin"],
+        stats = build.triangulate_terrain(p["dem"], p["prepared"], p["prepared"], p["tin"],
                                             f"{p['prepared']}|layername={step_layers.STUDY_AREA}",
-                                            terrain.TerrainConfig(spatial_index=False))  # as wit:citymodel
+                                            build.TerrainConfig(spatial_index=False))  # as wit:citymodel
         seconds = time.perf_counter() - start
         split = {k: round(v, 3) for k, v in clock.seconds.items()}
         split["other"] = round(seconds - sum(clock.seconds.values()), 3)  # reading the layers, bookkeeping

@@ -67,7 +67,7 @@ class TriangulateTerrain(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.infra import step_layers
-        from ..wit_plugin.terrain import TerrainConfig, triangulate_terrain
+        from ..wit_plugin.terrain.build import TerrainConfig, triangulate_terrain
 
         def source(name):
             return self.vector_source(parameters, name, context, feedback)

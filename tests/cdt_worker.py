@@ -22,10 +22,10 @@ from shapely import affinity
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from wit_plugin import terrain
 from wit_plugin.infra.dem import Dem
 from wit_plugin.infra.errors import InputError
 from wit_plugin.infra.step_layers import TIN_SURFACES
+from wit_plugin.terrain import constraints, mesh
 
 
 def hill_dem(cell: float = 2.0, origin: float = -60.0, size: int = 120) -> Dem:
@@ -36,7 +36,7 @@ def hill_dem(cell: float = 2.0, origin: float = -60.0, size: int = 120) -> Dem:
     return Dem(z, (origin, cell, 0.0, origin + size * cell, 0.0, -cell))
 
 
-def check_mesh(tin: terrain.mesh.Tin, dem: Dem, footprints_as_holes: bool) -> None:
+def check_mesh(tin: mesh.Tin, dem: Dem, footprints_as_holes: bool) -> None:
     """Assert the mesh invariants: non-degenerate, constraints kept, exact cover, heights from the DEM."""
     cons = tin.constraints
     xy = tin.vertices[:, :2]
@@ -57,7 +57,7 @@ def check_mesh(tin: terrain.mesh.Tin, dem: Dem, footprints_as_holes: bool) -> No
     # a face narrower than the snapping grid collapses onto a bent chain shared by both its sides
     # (segments are split at vertices snap rounding left within 0.7 mm): its area is not meshed
     widths = 2 * shapely.area(faces[meshed]) / shapely.length(faces[meshed])
-    collapsed = shapely.area(faces[meshed][widths < terrain.constraints.GRID]).sum()
+    collapsed = shapely.area(faces[meshed][widths < constraints.GRID]).sum()
     assert abs(areas.sum() - expected) <= 1e-6 * expected + collapsed, (areas.sum(), expected, collapsed)
     centroids = shapely.points((a + b + c) / 3 + origin)
     hit, _ = shapely.STRtree(faces[meshed]).query(centroids, predicate="within")
@@ -66,7 +66,7 @@ def check_mesh(tin: terrain.mesh.Tin, dem: Dem, footprints_as_holes: bool) -> No
     holes = shapely.union_all([g for _, g in cons.footprints]) if footprints_as_holes and cons.footprints else None
     target = cons.area.difference(holes) if holes is not None else cons.area
     perimeter = cons.area.length + sum(g.length for _, g in cons.footprints) + sum(g.length for _, g in cons.roads)
-    assert abs(expected - target.area) <= perimeter * terrain.constraints.GRID
+    assert abs(expected - target.area) <= perimeter * constraints.GRID
 
     # every constraint segment in or around a meshed face is a chain of mesh edges
     edges = {tuple(e) for e in np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)}
@@ -171,7 +171,7 @@ def main() -> int:
         b = [(f"B{k}", g) for k, g in enumerate(buildings)]
         r = [(f"R{k}", g) for k, g in enumerate(roads)]
         try:
-            tin, _ = terrain.mesh.triangulate(area, b, r, dem, max_edge=max_edge, tolerance=0.5,
+            tin, _ = mesh.triangulate(area, b, r, dem, max_edge=max_edge, tolerance=0.5,
                                          footprints_as_holes=holes, triangulator=args.triangulator)
         except InputError as exc:
             assert str(exc), "an InputError must say what is wrong"

@@ -59,7 +59,7 @@ def test_core_steps_refuse_an_output_over_their_input(tmp_path):
     """Scripts that call the core directly get the same refusal, before anything is read or written."""
     from wit_plugin.prepare.area import StudyArea
     from wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
-    from wit_plugin.terrain import triangulate_terrain as triangulate
+    from wit_plugin.terrain.build import triangulate_terrain as triangulate
 
     source = tmp_path / "buildings.shp"
     source.write_bytes(b"not read")

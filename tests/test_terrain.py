@@ -11,11 +11,10 @@ import pytest
 import shapely
 from osgeo import ogr, osr
 
-from wit_plugin import terrain
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.dem import Dem
 from wit_plugin.infra.errors import InputError
-from wit_plugin.terrain import triangulators
+from wit_plugin.terrain import build, constraints, mesh, triangulators
 
 sys.path.insert(0, str(Path(__file__).parent))
 from cdt_worker import check_mesh, hill_dem
@@ -57,7 +56,7 @@ BACKENDS = pytest.mark.parametrize("triangulator", [triangulators.TRIANGLE, tria
 @pytest.mark.parametrize("holes", [True, False])
 def test_every_building_and_road_edge_is_in_the_mesh(holes, triangulator):
     dem = hill_dem()
-    tin, stats = terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=5.0, tolerance=0.5,
+    tin, stats = mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=5.0, tolerance=0.5,
                                      footprints_as_holes=holes, triangulator=triangulator)
     check_mesh(tin, dem, holes)
     edges = mesh_edges(tin)
@@ -96,12 +95,12 @@ def test_vertical_error_is_within_tolerance_on_a_sharp_hill(triangulator):
     area = shapely.box(20, 20, 180, 180)
     building = [("BLD_H", shapely.box(95, 60, 110, 75))]
 
-    coarse, coarse_stats = terrain.mesh.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25,
+    coarse, coarse_stats = mesh.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25,
                                                max_iterations=0, triangulator=triangulator)
     assert _dense_error(dem, coarse) > 1.0  # the hill is badly missed without refinement
     assert coarse_stats.max_vertical_error >= _dense_error(dem, coarse) - 1e-9  # measured, not guessed
 
-    tin, stats = terrain.mesh.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25,
+    tin, stats = mesh.triangulate(area, building, [], dem, max_edge=30.0, tolerance=0.25,
                                      triangulator=triangulator)
     dense = _dense_error(dem, tin, n=16)
     assert stats.refinement_iterations > 0
@@ -117,7 +116,7 @@ def test_holes_and_constrained_footprints_are_labelled(triangulator):
     dem = hill_dem()
     footprint_area = sum(g.area for _, g in BUILDINGS)
     for holes in (True, False):
-        tin, stats = terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=8.0, footprints_as_holes=holes,
+        tin, stats = mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=8.0, footprints_as_holes=holes,
                                          triangulator=triangulator)
         xy = tin.vertices[:, :2][tin.triangles]
         areas = 0.5 * np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
@@ -143,15 +142,15 @@ def test_holes_and_constrained_footprints_are_labelled(triangulator):
 def test_bad_input_is_an_input_error():
     dem = hill_dem()
     with pytest.raises(InputError, match="study area is empty"):
-        terrain.mesh.triangulate(shapely.Polygon([(0, 0), (1, 1), (2, 2)]), [], [], dem)
+        mesh.triangulate(shapely.Polygon([(0, 0), (1, 1), (2, 2)]), [], [], dem)
     with pytest.raises(InputError, match="positive"):
-        terrain.mesh.triangulate(AREA, [], [], dem, max_edge=0)
+        mesh.triangulate(AREA, [], [], dem, max_edge=0)
     with pytest.raises(InputError, match="outside the DEM"):
-        terrain.mesh.triangulate(shapely.box(0, 0, 500, 500), [], [], dem, max_edge=50)
+        mesh.triangulate(shapely.box(0, 0, 500, 500), [], [], dem, max_edge=50)
     with pytest.raises(InputError, match="split the area"):
-        terrain.mesh.triangulate(shapely.box(0, 0, 100000, 100000), [], [], dem, max_edge=5)
+        mesh.triangulate(shapely.box(0, 0, 100000, 100000), [], [], dem, max_edge=5)
     with pytest.raises(InputError, match="cover the whole"):
-        terrain.mesh.triangulate(AREA, [("BLD_X", shapely.box(-10, -10, 130, 130))], [], dem)
+        mesh.triangulate(AREA, [("BLD_X", shapely.box(-10, -10, 130, 130))], [], dem)
 
 
 @pytest.mark.slow  # 200 examples per backend: 2.5 and 5 min on a loaded 2-core machine
@@ -196,7 +195,7 @@ def test_run_on_the_seoul_dem_writes_a_tin(tmp_path, shared_dir):
     _write_prepared(prepared, buildings, roads)
     area = shapely.Point(*suseo).buffer(150, quad_segs=16)
     out = tmp_path / "tin.gpkg"
-    stats = terrain.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
+    stats = build.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
                                                         area)
     assert stats.max_edge <= 5.0 * (1 + 1e-9) and stats.max_vertical_error <= 0.5
     ds = ogr.Open(str(out))
@@ -231,7 +230,7 @@ def test_cancel_leaves_no_output(tmp_path, shared_dir):
     _write_prepared(prepared, [("BLD_A", shapely.box(*(suseo - 5), *(suseo + 5)))], [])
     out = tmp_path / "tin.gpkg"
     with pytest.raises(CanceledError):
-        terrain.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
+        build.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, prepared, out,
                                     shapely.Point(*suseo).buffer(50), feedback=CancelAtOnce())
     assert not list(tmp_path.glob("*tin*")) and not list(tmp_path.glob(".tin*"))
 
@@ -241,10 +240,10 @@ def test_vertical_error_is_exact_where_it_matters(tolerance):
     """Exact above the tolerance (so refinement picks exactly the right triangles), a bound within
     it elsewhere, and the exact maximum over all triangles whatever the tolerance."""
     dem = hill_dem()
-    tin, _ = terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=12.0, tolerance=100.0, max_iterations=0)
-    exact = terrain.mesh.exact_vertical_error(dem, tin.vertices, tin.triangles)
-    error = terrain.mesh.vertical_error(dem, tin.vertices, tin.triangles, tolerance)
-    max_error = terrain.mesh.max_vertical_error(dem, tin.vertices, tin.triangles, error.copy(), tolerance)
+    tin, _ = mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=12.0, tolerance=100.0, max_iterations=0)
+    exact = mesh.exact_vertical_error(dem, tin.vertices, tin.triangles)
+    error = mesh.vertical_error(dem, tin.vertices, tin.triangles, tolerance)
+    max_error = mesh.max_vertical_error(dem, tin.vertices, tin.triangles, error.copy(), tolerance)
     assert max_error == pytest.approx(exact.max(), abs=1e-9) and exact.max() > 0.05
     np.testing.assert_array_equal(error > tolerance, exact > tolerance)
     over = exact > tolerance
@@ -258,7 +257,7 @@ def test_segments_are_split_at_vertices_snap_rounding_left_beside_them():
     v = np.array([[16.766, 1177.943], [16.766, 1177.944], [16.766, 1177.945], [15.61, 1171.734],
                   [29.447, 1142.441], [20.103, 1195.863], [0.0, 0.0], [10.0, 0.0005], [20.0, 0.0]])
     s = np.array([[3, 1], [0, 2], [1, 4], [1, 5], [6, 8], [7, 6]])
-    out = terrain.constraints._split_at_near_vertices(v, s, 0.7 * terrain.constraints.GRID)
+    out = constraints._split_at_near_vertices(v, s, 0.7 * constraints.GRID)
     assert {tuple(e) for e in out.tolist()} == {(0, 1), (0, 3), (0, 4), (1, 2), (2, 5), (6, 7), (7, 8)}
     lines = shapely.linestrings(v[out])
     i, j = shapely.STRtree(lines).query(lines, predicate="intersects")
@@ -273,19 +272,19 @@ def test_millimetre_slivers_between_roads_and_walls_cost_no_triangles(monkeypatc
     dem = hill_dem()
     road = [("RD_S", shapely.box(0, 40.001, 120, 50))]  # 1 mm from the buildings' north walls
     building = [("BLD_S", shapely.box(0, 20, 60, 40)), ("BLD_T", shapely.box(60, 20, 120, 40))]
-    tin, stats = terrain.mesh.triangulate(AREA, building, road, dem, max_edge=8.0)
+    tin, stats = mesh.triangulate(AREA, building, road, dem, max_edge=8.0)
     check_mesh(tin, dem, True)
     cons = tin.constraints
     widths = 2 * shapely.area(cons.faces) / shapely.length(cons.faces)
-    assert (cons.meshed & (widths < terrain.constraints.MIN_WIDTH)).sum() == 1  # the sliver is there
-    reference, ref_stats = terrain.mesh.triangulate(AREA, building, [("RD_S", shapely.box(0, 40, 120, 50))], dem,
+    assert (cons.meshed & (widths < constraints.MIN_WIDTH)).sum() == 1  # the sliver is there
+    reference, ref_stats = mesh.triangulate(AREA, building, [("RD_S", shapely.box(0, 40, 120, 50))], dem,
                                                max_edge=8.0)
     assert stats.triangles <= 1.05 * ref_stats.triangles
     xy = tin.vertices[:, :2][tin.triangles]
     areas = 0.5 * np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
     assert (areas < 0.01).sum() <= 4  # only where the sliver meets the area's edge
-    monkeypatch.setattr(terrain.constraints, "_sliver_hosts", lambda faces, meshed: np.arange(len(faces)))
-    _, unmerged = terrain.mesh.triangulate(AREA, building, road, dem, max_edge=8.0)
+    monkeypatch.setattr(constraints, "_sliver_hosts", lambda faces, meshed: np.arange(len(faces)))
+    _, unmerged = mesh.triangulate(AREA, building, road, dem, max_edge=8.0)
     assert unmerged.triangles > 2 * stats.triangles  # the needles the merge saves
 
 
@@ -299,7 +298,7 @@ def test_long_edges_are_fixed_by_refining_patches_only(monkeypatch):
     refine = triangulators.TriangleBackend._refine_patch
     monkeypatch.setattr(triangulators.TriangleBackend, "_refine_patch",
                         staticmethod(lambda *a: patches.append(len(a[2])) or refine(*a)))
-    tin, stats = terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, plane, max_edge=5.0,
+    tin, stats = mesh.triangulate(AREA, BUILDINGS, ROADS, plane, max_edge=5.0,
                                      triangulator=triangulators.TRIANGLE)
     assert patches and max(patches) < 0.2 * stats.triangles  # patches, not the whole mesh
     assert stats.refinement_iterations == len(patches)
@@ -322,8 +321,8 @@ def test_terrain_covers_buildings_that_cross_the_rim(tmp_path, shared_dir):
     prepared = tmp_path / "prepared.gpkg"
     _write_prepared(prepared, [("BLD_X", crossing), ("BLD_I", inside), ("BLD_O", outside)], [])
     out = tmp_path / "tin.gpkg"
-    terrain.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, None, out, area,
-                                terrain.TerrainConfig(max_edge=10.0, footprints_as_holes=False))
+    build.triangulate_terrain(shared_dir / "data/dem_seoul_90m_5186/seoul_dem.tif", prepared, None, out, area,
+                                build.TerrainConfig(max_edge=10.0, footprints_as_holes=False))
     ds = ogr.Open(str(out))
     triangles = [shapely.from_wkb(bytes(f.GetGeometryRef().ExportToIsoWkb()))
                  for f in ds.GetLayer(step_layers.TIN_LAYER)]
@@ -331,9 +330,9 @@ def test_terrain_covers_buildings_that_cross_the_rim(tmp_path, shared_dir):
     assert covered.buffer(1e-3).contains(crossing)  # the whole footprint, also its 30 m outside the circle
     assert covered.area == pytest.approx(shapely.union(area, crossing).area, rel=1e-3)
     assert not covered.intersects(outside)
-    grown = terrain.covering_area(area, [crossing, inside, outside])
+    grown = build.covering_area(area, [crossing, inside, outside])
     assert grown.area == pytest.approx(shapely.union(area, crossing).area, rel=1e-6)  # on the 1 mm grid
-    assert terrain.covering_area(area, [inside, outside]) is area
+    assert build.covering_area(area, [inside, outside]) is area
 
 
 def test_close_pairs_are_those_an_strtree_of_all_points_finds():
@@ -345,7 +344,7 @@ def test_close_pairs_are_those_an_strtree_of_all_points_finds():
     base = rng.integers(0, 2_000_000, (3000, 2)) + [208_020_888, 542_132_772]  # mm steps of the Korean belt
     offsets = rng.choice([0, 3, 6, 8, 10, 11, -6, -8, -10, 14], size=(3000, 2))
     steps = np.unique(np.vstack([base, base + offsets, base[:500] + [[6, 8]], base[:500] + [[0, -10]]]), axis=0)
-    xyz = np.column_stack([steps * terrain.mesh.ROUNDING, np.zeros(len(steps))])
+    xyz = np.column_stack([steps * mesh.ROUNDING, np.zeros(len(steps))])
     used = np.flatnonzero(rng.random(len(steps)) < 0.9)
     points = shapely.points(xyz[used, :2])
     near_a, near_b = shapely.STRtree(points).query(points, predicate="dwithin", distance=output.MIN_EDGE)

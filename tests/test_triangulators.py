@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import shapely
 
-from wit_plugin import terrain
 from wit_plugin.infra.dem import Dem
-from wit_plugin.terrain import steiner, triangulators
+from wit_plugin.terrain import constraints, output, steiner, triangulators
+from wit_plugin.terrain import mesh as terrain_mesh
 
 sys.path.insert(0, str(Path(__file__).parent))
 from cdt_worker import check_mesh, hill_dem
@@ -23,18 +23,18 @@ BACKENDS = pytest.mark.parametrize("backend", triangulators.BACKENDS, ids=["tria
 
 
 def _pslg(buildings=BUILDINGS, roads=ROADS, holes=True, max_edge=None):
-    cons = terrain.constraints.clean_constraints(AREA, buildings, roads, holes)
+    cons = constraints.clean_constraints(AREA, buildings, roads, holes)
     vertices, segments = cons.vertices, cons.segments
     if max_edge:
-        vertices, segments = terrain.mesh._split_long_segments(vertices, segments, max_edge)
-    return cons, triangulators.Pslg(vertices, segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
+        vertices, segments = terrain_mesh._split_long_segments(vertices, segments, max_edge)
+    return cons, triangulators.Pslg(vertices, segments, cons.holes, cons.regions, terrain_mesh._face_locator(cons))
 
 
 def _edges(tris: np.ndarray) -> set[int]:
     return set(triangulators.triangle_edge_keys(tris).ravel().tolist())
 
 
-def _lone_inner_edges(tin: terrain.mesh.Tin) -> int:
+def _lone_inner_edges(tin: terrain_mesh.Tin) -> int:
     """Edges that one triangle alone uses, farther than 1 cm from the area's rim and the footprints."""
     tris = tin.triangles
     keys, count = np.unique(triangulators.triangle_edge_keys(tris).ravel(), return_counts=True)
@@ -126,8 +126,8 @@ def test_refinement_meets_the_area_limits_without_touching_a_segment():
 
 def test_a_point_goes_to_the_circumcentre_or_the_longest_free_edge():
     cdt = triangulators.BACKENDS[triangulators.CDT]
-    cons = terrain.constraints.clean_constraints(shapely.box(0, 0, 40, 40), [], [])
-    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
+    cons = constraints.clean_constraints(shapely.box(0, 0, 40, 40), [], [])
+    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain_mesh._face_locator(cons))
     acute = np.array([[10.0, 10.0], [20.0, 10.5], [14.0, 19.0]])
     obtuse = np.array([[14.0, 38.0], [26.0, 38.0], [20.0, 39.0]])  # its circumcircle holds no other vertex
     expected = (steiner.circumcentres(*acute[:, None, :])[0], [20.0, 38.0])  # the obtuse: its longest edge's middle
@@ -145,20 +145,20 @@ def test_both_backends_give_the_same_guarantees(backend):
     """Same input: a valid TIN with every constraint, edges ≤ MAX_EDGE, DEM error ≤ TOLERANCE, and —
     on the millimetre grid — no edge that only one triangle uses away from the rim and the footprints."""
     dem = hill_dem()
-    tin, stats = terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, tolerance=0.3,
+    tin, stats = terrain_mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, tolerance=0.3,
                                      triangulator=backend.key)
     check_mesh(tin, dem, True)
     assert stats.max_edge <= 4.0 * (1 + 1e-9) and stats.max_vertical_error <= 0.3
-    exact = terrain.mesh.exact_vertical_error(dem, tin.vertices, tin.triangles)
+    exact = terrain_mesh.exact_vertical_error(dem, tin.vertices, tin.triangles)
     assert exact.max() == pytest.approx(stats.max_vertical_error, abs=1e-9)
-    snapped = terrain.output.snap_to_grid(tin, dem)
+    snapped = output.snap_to_grid(tin, dem)
     assert _lone_inner_edges(snapped) == 0
     np.testing.assert_allclose(snapped.vertices[:, :2], np.round(snapped.vertices[:, :2], 3), rtol=0, atol=1e-9)
 
 
 def test_the_backends_differ_little_in_triangle_count():
     dem = hill_dem()
-    counts = [terrain.mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, triangulator=b.key)[1].triangles
+    counts = [terrain_mesh.triangulate(AREA, BUILDINGS, ROADS, dem, max_edge=4.0, triangulator=b.key)[1].triangles
               for b in triangulators.BACKENDS]
     assert 0.7 * counts[0] <= counts[1] <= 1.1 * counts[0], counts
 
@@ -168,24 +168,24 @@ def test_snapping_welds_millimetre_neighbours_and_mends_flat_triangles():
     a road's edge falls onto it and the road triangle across it is split there: on the grid, no triangle
     without area and no edge that one triangle alone uses, and the road keeps its triangles."""
     flat = Dem(np.full((4, 4), 7.0), (-10.0, 10.0, 0.0, 30.0, 0.0, -10.0))
-    cons = terrain.constraints.clean_constraints(shapely.box(0, 0, 10, 10), [], [("R", shapely.box(2, 8, 6, 9))])
-    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
+    cons = constraints.clean_constraints(shapely.box(0, 0, 10, 10), [], [("R", shapely.box(2, 8, 6, 9))])
+    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain_mesh._face_locator(cons))
     points = np.array([[5.0004, 5.0], [5.0, 5.0], [4.0, 7.9997], [2.0, 2.0], [8.0, 2.0], [8.0, 6.0], [2.0, 5.0],
                        [4.0, 8.6]])
     mesh = triangulators.BACKENDS[triangulators.CDT].triangulate(pslg, points, pslg.locate(points))
-    road = int(np.flatnonzero(cons.region_surface == terrain.constraints.ROAD)[0])
+    road = int(np.flatnonzero(cons.region_surface == constraints.ROAD)[0])
     surface = np.where(mesh.region == road, "road", "terrain").astype(object)
     xyz = np.column_stack([mesh.vertices, np.full(len(mesh.vertices), 7.0)])
-    tin = terrain.mesh.Tin(xyz, mesh.triangles, surface, np.full(len(surface), None), cons)
+    tin = terrain_mesh.Tin(xyz, mesh.triangles, surface, np.full(len(surface), None), cons)
     assert _lone_inner_edges(tin) == 0
-    snapped = terrain.output.snap_to_grid(tin, flat)
+    snapped = output.snap_to_grid(tin, flat)
     assert len(snapped.triangles) == len(tin.triangles) - 2 - 1 + 1  # weld: −2; flat one: −1, road split: +1
     assert _lone_inner_edges(snapped) == 0
-    assert (terrain.mesh._areas_3d(snapped.vertices, snapped.triangles) > terrain.output.DEGENERATE_AREA).all()
-    assert (terrain.mesh._triangle_areas(snapped.vertices, snapped.triangles) > 0).all()
+    assert (terrain_mesh._areas_3d(snapped.vertices, snapped.triangles) > output.DEGENERATE_AREA).all()
+    assert (terrain_mesh._triangle_areas(snapped.vertices, snapped.triangles) > 0).all()
     np.testing.assert_allclose(snapped.vertices[:, :2], np.round(snapped.vertices[:, :2], 3), rtol=0, atol=1e-9)
     assert (snapped.surface == "road").sum() == (surface == "road").sum() + 1
-    assert terrain.mesh._triangle_areas(snapped.vertices, snapped.triangles).sum() == pytest.approx(100.0)
+    assert terrain_mesh._triangle_areas(snapped.vertices, snapped.triangles).sum() == pytest.approx(100.0)
 
 
 def test_the_default_is_cdt_where_triangle_cannot_be_imported(tmp_path):
@@ -217,19 +217,19 @@ def test_snapping_leaves_no_edge_shorter_than_a_centimetre():
     """Vertices under 1 cm apart (val3dity reads them as one at its 1 mm snap) become one: two inner ones 6 mm
     apart, and an inner one 5 mm from a corner of the area's rim, which keeps its place; the ground stays whole."""
     flat = Dem(np.full((4, 4), 7.0), (-10.0, 10.0, 0.0, 30.0, 0.0, -10.0))
-    cons = terrain.constraints.clean_constraints(shapely.box(0, 0, 10, 10), [], [("R", shapely.box(2, 8, 6, 9))])
-    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain.mesh._face_locator(cons))
+    cons = constraints.clean_constraints(shapely.box(0, 0, 10, 10), [], [("R", shapely.box(2, 8, 6, 9))])
+    pslg = triangulators.Pslg(cons.vertices, cons.segments, cons.holes, cons.regions, terrain_mesh._face_locator(cons))
     points = np.array([[5.0, 5.0], [5.006, 5.0], [0.004, 0.003], [2.0, 2.0], [8.0, 2.0], [8.0, 6.0], [2.0, 5.0]])
     mesh = triangulators.BACKENDS[triangulators.CDT].triangulate(pslg, points, pslg.locate(points))
     surface = np.full(len(mesh.triangles), "terrain", dtype=object)
     xyz = np.column_stack([mesh.vertices, np.full(len(mesh.vertices), 7.0)])
-    tin = terrain.mesh.Tin(xyz, mesh.triangles, surface, np.full(len(surface), None), cons)
+    tin = terrain_mesh.Tin(xyz, mesh.triangles, surface, np.full(len(surface), None), cons)
     edges = lambda t: np.hypot(*np.diff(t.vertices[t.triangles[:, [0, 1, 2, 0]], :2], axis=1).T)  # noqa: E731
     assert edges(tin).min() < 0.006
-    snapped = terrain.output.snap_to_grid(tin, flat)
-    assert edges(snapped).min() >= terrain.output.MIN_EDGE
+    snapped = output.snap_to_grid(tin, flat)
+    assert edges(snapped).min() >= output.MIN_EDGE
     assert _lone_inner_edges(snapped) == 0
-    assert terrain.mesh._triangle_areas(snapped.vertices, snapped.triangles).sum() == pytest.approx(100.0)
+    assert terrain_mesh._triangle_areas(snapped.vertices, snapped.triangles).sum() == pytest.approx(100.0)
     used = snapped.vertices[np.unique(snapped.triangles), :2].round(3).tolist()
     assert [0.0, 0.0] in used and [0.004, 0.003] not in used  # the rim's corner stays, the inner point goes
     assert [5.0, 5.0] in used and [5.006, 5.0] not in used  # the first in (x, y) order stays

@@ -36,7 +36,6 @@ from typing import Any
 
 from shapely.geometry.base import BaseGeometry
 
-from .. import terrain
 from ..buildings import extrude
 from ..buildings.extrude import ExtrudeStats
 from ..buildings.heights import HeightOptions
@@ -57,6 +56,7 @@ from ..mosaic.georef import OK, georeference_sheets, list_tifs, write_footprint_
 from ..prepare.area import StudyArea
 from ..prepare.vectors import PrepareConfig, prepare_vectors
 from ..terrain import triangulators
+from ..terrain.build import TerrainConfig, TileContext, covering_area, triangulate_terrain
 from ..terrain.constraints import Seam
 from ..terrain.mesh import TinStats
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
@@ -284,7 +284,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
 
     with clock.step("prepare") as fb:
         layers = _prepare(inputs, options, work, fb)
-        area = terrain.covering_area(layers.study,
+        area = covering_area(layers.study,
                                      read_prepared(layers.buildings, step_layers.PREPARED_BUILDINGS).geoms) \
             if layers.buildings else layers.study
 
@@ -357,10 +357,10 @@ def _terrain_and_solids(inputs: ChainInputs, options: ChainOptions, layers: Prep
     """Steps 4 and 5: the TIN and the LoD1 solids (a tile that owns no building: terrain and roads only)."""
     with clock.step("terrain") as fb:
         tin = str(work / "tin.gpkg")
-        config = terrain.TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
+        config = TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
                                        triangulator=options.triangulator)
-        tile_context = terrain.TileContext(layers.foreign, layers.seam) if layers.seam is not None else None
-        tin_stats = terrain.triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
+        tile_context = TileContext(layers.foreign, layers.seam) if layers.seam is not None else None
+        tin_stats = triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
                                                 fb, tile_context)
     with clock.step("extrude") as fb:
         lod1 = str(work / "lod1.gpkg") if layers.buildings else None

@@ -39,7 +39,7 @@ from ..infra.io.vector_io import VectorLayer, layer_extent, non_finite, read_lay
 from ..infra.polygons import polygonal, repair_polygons, transform
 from ..prepare.area import StudyArea
 from ..prepare.vectors import ROAD_QUAD_SEGS, PrepareConfig, road_widths
-from ..terrain import covering_area
+from ..terrain.build import covering_area
 from .config import MANIFEST, SampleConfig, check_rasters
 from .gangnam import GROUND_LANE
 from .ortho import DEM_NAME, ORTHO_DIR, RASTER_CRS, render_tiles, sheet_envelopes, write_sample_dem
