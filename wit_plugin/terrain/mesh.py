@@ -292,9 +292,9 @@ def _measure(mesh: triangulators.Mesh, previous: _Fit | None, dem: Dem, origin: 
     xy, tris = mesh.vertices, mesh.triangles
     known = len(previous.xy) if previous is not None and np.array_equal(xy[:len(previous.xy)], previous.xy) else 0
     xyz = _with_heights(dem, xy[known:] + origin)
-    if known:
+    if previous is not None and known:
         xyz = np.vstack([previous.xyz[:known], xyz])
-    if mesh.origin is None or not known:
+    if previous is None or mesh.origin is None or not known:
         return _Fit(xy, xyz, _longest_edges(xy, tris), vertical_error(dem, xyz, tris, tolerance))
     fresh = np.flatnonzero(mesh.origin < 0)
     longest, error = previous.longest[mesh.origin], previous.error[mesh.origin]

@@ -150,7 +150,7 @@ class BulkTable:
             self.db.close()
             raise
         names = [self.geometry_column] * (crs is not None) + [fd.name for fd in fields]
-        self._columns = f'INSERT INTO {sql_name(layer)} ({", ".join(map(sql_name, names))}) VALUES '
+        self._columns = f'INSERT INTO {sql_name(layer)} ({", ".join(map(sql_name, names))}) VALUES '  # nosec B608  # names quoted, values bound
         self._row = f'({", ".join("?" * len(names))})'
         self._rows_per_statement = max(1, MAX_VALUES // len(names))
         self._insert_full = self._insert_statement(self._rows_per_statement)
