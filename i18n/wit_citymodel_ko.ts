@@ -380,14 +380,6 @@
       <translation>모델의 레이어를 CityJSON 2.0(.city.json) 또는 CityJSONSeq(.city.jsonl: 머리 줄 다음에 한 줄에 피처 하나)로 씁니다. wit:writecitygml과 같은 객체, id, 속성, 텍스처입니다. 건물은 GroundSurface, RoofSurface, WallSurface 면을 가진 LoD1 Solid와 모든 원본 속성, 높이(heightStatus: measured 또는 estimated)와 층수를 갖고, 도로는 지형에 얹힌 삼각형(TrafficArea), 나머지 TIN 삼각형은 TINRelief 하나, 법정동마다 CityObjectGroup 하나가 되며 그 건물들은 그룹을 부모로 가리킵니다. 텍스처: 같은 이미지와 텍스처 좌표를 CityGML과 같은 테마로(rgbTexture: 정사영상; generatedFacade: 벽에 생성한 외벽 텍스처, 벽을 따라 반복: wrapMode wrap) 씁니다. 정점은 밀리미터 격자의 정수이고(transform), 좌표계는 metadata의 referenceSystem(OGC 좌표계 URL, 좌표는 동향 먼저)입니다. 스트리밍: 메모리가 건물 수에 따라 늘지 않습니다. 파일은 온전히 쓰이거나 전혀 쓰이지 않습니다. wit:validatecitygml로 검증하십시오(스키마와 기하).</translation>
     </message>
     <message>
-      <source>Road polygons (wit:preparevectors)</source>
-      <translation>도로 폴리곤 (wit:preparevectors)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (wit:preparevectors)</source>
-      <translation>법정동 (wit:preparevectors)</translation>
-    </message>
-    <message>
       <source>Copy texture images beside the CityJSON file</source>
       <translation>텍스처 이미지를 CityJSON 파일 옆에 복사</translation>
     </message>
@@ -672,8 +664,8 @@
       <translation>3D Tiles</translation>
     </message>
     <message>
-      <source>Merge tiles (WIT seam feathering)</source>
-      <translation>타일 병합 (WIT 경계 보간)</translation>
+      <source>Merge rasters (WIT seam feathering)</source>
+      <translation>래스터 병합 (WIT 경계 보간)</translation>
     </message>
     <message>
       <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused beyond the maximum empty share (advanced). With an extent, only the mosaic's pixels that meet it are written, with the tone and feathering of the whole mosaic.</source>
@@ -976,8 +968,12 @@
       <translation>지형 TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
-      <source>Build everything again, even what has not changed since the last run into this folder</source>
-      <translation>이 폴더에 대한 지난 실행 이후 바뀌지 않은 것까지 모두 다시 만들기</translation>
+      <source>Road polygons (wit:preparevectors)</source>
+      <translation>도로 폴리곤 (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (wit:preparevectors)</source>
+      <translation>법정동 (wit:preparevectors)</translation>
     </message>
     <message>
       <source>Wall textures (an orthoimage sees no facades)</source>
@@ -986,6 +982,10 @@
     <message>
       <source>Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile and index.city.jsonl)</source>
       <translation>CityGML 옆에 CityJSON 2.0도 쓰기 (model.city.json; 타일 실행: 타일마다 CityJSONSeq와 index.city.jsonl)</translation>
+    </message>
+    <message>
+      <source>Build everything again, even what has not changed since the last run into this folder</source>
+      <translation>이 폴더에 대한 지난 실행 이후 바뀌지 않은 것까지 모두 다시 만들기</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>

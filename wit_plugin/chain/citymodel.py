@@ -47,7 +47,7 @@ from ..infra.io import jsontext
 from ..infra.io.fileio import ensure_writable_dir
 from ..infra.io.vector_io import read_prepared
 from ..metrics import quality_report
-from ..mosaic import merge_tiles
+from ..mosaic import merge_rasters
 from ..mosaic.georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..prepare.area import StudyArea
 from ..prepare.vectors import PrepareConfig, prepare_vectors
@@ -289,7 +289,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     with clock.step("merge") as fb:
         mosaic = str(work / "ortho.tif")
         xmin, ymin, xmax, ymax = area.bounds  # the sheets' pixels the area needs (tone and seams: all of them)
-        merge_tiles(rasters, mosaic, mode="feather", gain=True, feedback=fb,
+        merge_rasters(rasters, mosaic, mode="feather", gain=True, feedback=fb,
                     extent=(xmin - MOSAIC_MARGIN, ymin - MOSAIC_MARGIN, xmax + MOSAIC_MARGIN, ymax + MOSAIC_MARGIN))
 
     with clock.step("terrain") as fb:

@@ -41,7 +41,7 @@ maps onto its texel rectangle and U, V are taken over the atlas.
 Scale S: a texel is about 1/S ortho pixels; windows are snapped to multiples of round(1/S)
 pixels, so S = 1/n averages exact n × n pixel blocks (GDAL average resampling). Every texture
 window is read with a windowed ``ReadAsArray``; the ortho is never loaded whole, and GDAL's block
-cache is capped during the run as in wit:mergetiles. Features are read in bulk (``bulk_read``): a
+cache is capped during the run as in wit:mergerasters. Features are read in bulk (``bulk_read``): a
 first pass places each in its ground tile (4 bytes a feature kept), then runs of tiles whose
 points fit in ``_POINTS_IN_MEMORY`` are read together (one run for the 1 km demo's 592,000
 triangles). Memory is bounded by the cache cap, one atlas and one run of tiles, whatever the

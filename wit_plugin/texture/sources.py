@@ -182,11 +182,11 @@ class _Ortho:
         ds = self.ds
         if ds.RasterCount < 3 or any(ds.GetRasterBand(b).DataType != gdal.GDT_Byte for b in (1, 2, 3)):
             raise InputError(f"The orthoimage {path} must be RGB with 8-bit bands (it has {ds.RasterCount} band(s)): "
-                             "use the output of wit:mergetiles.")
+                             "use the output of wit:mergerasters.")
         gt = ds.GetGeoTransform(can_return_null=True)
         if gt is None or gt[2] or gt[4] or gt[5] >= 0:
             raise InputError(f"The orthoimage {path} is not georeferenced north-up: georeference it "
-                             "(wit:georeferencemapsheets) and merge it (wit:mergetiles) first.")
+                             "(wit:georeferencemapsheets) and merge it (wit:mergerasters) first.")
         self._grid(ds)
         wkt = ds.GetProjection()
         self.srs = osr.SpatialReference(wkt) if wkt else None
@@ -238,7 +238,7 @@ class _Ortho:
                 f"Layer {layer.name!r} in {layer.path} reaches beyond the orthoimage, whose pixels are needed for "
                 f"every textured surface: layer x {lx0:.2f}–{lx1:.2f}, y {ly0:.2f}–{ly1:.2f}; ortho x "
                 f"{ox0:.2f}–{ox1:.2f}, y {oy0:.2f}–{oy1:.2f}. Merge the ortho tiles that cover the whole study "
-                "area (wit:mergetiles) or make the study area smaller.")
+                "area (wit:mergerasters) or make the study area smaller.")
 
     def patch(self, bbox: tuple[float, float, float, float], limit: int, margin: int = 0) -> _Patch:
         """The texels over ``bbox`` (+ ``margin`` texels, within the ortho), at most ``limit`` a side."""
