@@ -1,7 +1,7 @@
 """Benchmark the colour store against raster reads, like the paper's Tables 14–16 (Kang et al. 2025, §4.1).
 
 Data: the project's sample generator (radius 300 m, 0.5 m ortho: two 1:5,000 sheets), the tiles
-georeferenced and merged (wit:georeference, wit:mergetiles), then a centred ``--size`` px square
+georeferenced and merged (wit:georeference, wit:mergerasters), then a centred ``--size`` px square
 cut out as a tiled (512 px) DEFLATE GeoTIFF; ``--size 2048`` (default) is 12.6 MB of RGB, the
 size of the paper's image (Table 14: 12 MB). Cached under out/bench/colorstore_data.
 
@@ -63,7 +63,7 @@ def make_ortho(size: int) -> Path:
     from osgeo import gdal
 
     sys.path.insert(0, str(ROOT))
-    from wit_plugin.mosaic import merge_tiles
+    from wit_plugin.mosaic import merge_rasters
     from wit_plugin.mosaic.georef import georeference_sheets
     from wit_plugin.sample import SampleConfig, generate_sample
 
@@ -71,7 +71,7 @@ def make_ortho(size: int) -> Path:
     if not merged.exists():
         sample = generate_sample(DATA / "sample", SampleConfig(radius_m=300, ortho_pixel_size=0.5, with_dem=False))
         sheets = georeference_sheets([str(p) for p in sample.ortho_tiles], DATA / "georef")
-        merge_tiles([r.output for r in sheets], str(merged))
+        merge_rasters([r.output for r in sheets], str(merged))
     crop = DATA / f"ortho_{size}.tif"
     if not crop.exists():
         ds = gdal.Open(str(merged))

@@ -2,7 +2,7 @@
 
 Data (built once, cached under ``out/bench/metrics_data``): the generated sample around Suseo
 station (``wit_plugin.sample``, 1 km radius, 0.5 m NGII-style ortho tiles, 5 m DEM) →
-wit:georeferencemapsheets (+ footprint index) → wit:mergetiles twice (``overwrite``; ``feather``
+wit:georeferencemapsheets (+ footprint index) → wit:mergerasters twice (``overwrite``; ``feather``
 with gain) → wit:preparevectors → wit:extrudebuildings → wit:wittexture (roofs, from the feather
 mosaic, JPEG, S = 1) → wit:writecitygml (with textures). Each measurement then runs in its own
 child process so that its peak RSS (``ru_maxrss``) is its own:
@@ -49,7 +49,7 @@ def prepare_data(data: Path, radius: float) -> dict:
     _setup()
     from wit_plugin.buildings import extrude
     from wit_plugin.citygml import writer as citygml
-    from wit_plugin.mosaic import georef, merge_tiles
+    from wit_plugin.mosaic import georef, merge_rasters
     from wit_plugin.prepare.area import StudyArea
     from wit_plugin.prepare.vectors import prepare_vectors
     from wit_plugin.sample import SampleConfig, generate_sample
@@ -79,8 +79,8 @@ def prepare_data(data: Path, radius: float) -> dict:
 
     step("georeference", p["footprints"], georeference)
     sheets = sorted(str(t) for t in Path(p["georef"]).glob("*.tif"))
-    step("merge_overwrite", p["overwrite"], lambda: merge_tiles(sheets, p["overwrite"], mode="overwrite"))
-    step("merge_feather", p["feather"], lambda: merge_tiles(sheets, p["feather"], mode="feather"))
+    step("merge_overwrite", p["overwrite"], lambda: merge_rasters(sheets, p["overwrite"], mode="overwrite"))
+    step("merge_feather", p["feather"], lambda: merge_rasters(sheets, p["feather"], mode="feather"))
     step("prepare_vectors", p["prepared"], lambda: prepare_vectors(
         sample / "TL_SPBD_BULD.shp", None, None, StudyArea.circle(*CENTER, radius, "EPSG:4737"), p["prepared"]))
     step("extrude", p["lod1"], lambda: extrude.extrude_buildings(p["prepared"], sample / "dem_5186.tif", p["lod1"]))

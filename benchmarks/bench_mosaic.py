@@ -1,10 +1,10 @@
-"""Benchmark ``wit:mergetiles`` against GDAL's own mosaicking tools.
+"""Benchmark ``wit:mergerasters`` against GDAL's own mosaicking tools.
 
 Generates four 1:5,000-sheet-like RGB tiles (0.25 m, about 9000 × 11000 px each, 2 × 2 layout
 overlapping by 400 px = 100 m like NGII's 50 m margins, each tile with its own brightness), then
 times each method in its own process and reads that process's peak RSS:
 
-* ``merge_tiles`` overwrite, feather + gain (our output: tiled DEFLATE GeoTIFF + overviews);
+* ``merge_rasters`` overwrite, feather + gain (our output: tiled DEFLATE GeoTIFF + overviews);
 * ``gdal_merge.py`` with the same creation options (no overviews);
 * ``gdalbuildvrt`` + ``gdal_translate`` to GTiff with the same creation options (no overviews);
 * ``gdalbuildvrt`` + ``gdal_translate -of COG`` (DEFLATE + overviews: the same product as ours).
@@ -89,12 +89,12 @@ def _run(cmd: list[str]) -> tuple[float, float, int]:
 
 
 def _merge_child(args: list[str]) -> None:
-    """Child-process entry: run merge_tiles once."""
+    """Child-process entry: run merge_rasters once."""
     sys.path.insert(0, str(ROOT))
-    from wit_plugin.mosaic import merge_tiles
+    from wit_plugin.mosaic import merge_rasters
 
     mode, output, *inputs = args
-    merge_tiles(inputs, output, mode=mode)
+    merge_rasters(inputs, output, mode=mode)
 
 
 def main() -> None:
@@ -110,8 +110,8 @@ def main() -> None:
     co = [x for c in CREATION for x in ("-co", c)]
     vrt = str(work / "mosaic.vrt")
     methods = {
-        "merge_tiles overwrite": [[py, __file__, "--child", "overwrite", str(work / "o.tif"), *tiles]],
-        "merge_tiles feather+gain": [[py, __file__, "--child", "feather", str(work / "f.tif"), *tiles]],
+        "merge_rasters overwrite": [[py, __file__, "--child", "overwrite", str(work / "o.tif"), *tiles]],
+        "merge_rasters feather+gain": [[py, __file__, "--child", "feather", str(work / "f.tif"), *tiles]],
         "gdal_merge.py": [[py, "/usr/bin/gdal_merge.py", "-q", *co, "-o", str(work / "m.tif"), *tiles]],
         "gdalbuildvrt + gdal_translate GTiff": [
             ["gdalbuildvrt", "-q", vrt, *tiles],

@@ -1,7 +1,7 @@
 """Benchmark wit:wittexture: ~5,000 roofs and a ~100,000-triangle TIN over an 8000 × 8000 ortho.
 
 Generates (and caches under /tmp) a synthetic 0.25 m RGB orthoimage of 8000 × 8000 px (2 km
-square, tiled GeoTIFF like wit:mergetiles writes), an LoD1 faces layer of 5,041 buildings
+square, tiled GeoTIFF like wit:mergerasters writes), an LoD1 faces layer of 5,041 buildings
 (roof + ground + 4 walls each) and a TIN of 100,352 grid triangles (70 % terrain, 20 % road,
 10 % footprint), all in EPSG:5186 in the ``step_layers`` schema. Each configuration then runs
 ``texture_model`` in its own child process under ``/usr/bin/time``, whose peak RSS is the run's

@@ -139,11 +139,11 @@ def child_step(step: str, sample: str, run: str, radius: float) -> dict:
         seconds = time.perf_counter() - start
         info = {"sheets": sum(r.status == "ok" for r in results)}
     elif step == "merge":
-        from wit_plugin.mosaic import merge_tiles
+        from wit_plugin.mosaic import merge_rasters
 
         sheets = sorted(str(t) for t in Path(p["georef"]).glob("*.tif"))
         start = time.perf_counter()
-        report = merge_tiles(sheets, p["mosaic"], mode="feather", gain=True)
+        report = merge_rasters(sheets, p["mosaic"], mode="feather", gain=True)
         seconds = time.perf_counter() - start
         info = {"width": report.width, "height": report.height, "blended_pixels": report.blended_pixels}
     elif step == "prepare":

@@ -380,14 +380,6 @@
       <translation>Writes the model's layers as CityJSON 2.0 (.city.json), or as a CityJSONSeq (.city.jsonl: a header line, then one feature a line): the same objects, ids, attributes and textures as wit:writecitygml. Buildings with a LoD1 Solid whose surfaces are GroundSurface, RoofSurface and WallSurface, every source attribute, height (with heightStatus: measured or estimated) and storeys; roads as their draped triangles (TrafficArea); the other TIN triangles as one TINRelief; one CityObjectGroup per legal dong, its buildings naming it as their parent. Textures: the same images and texture coordinates, in the themes of the CityGML (rgbTexture: the orthoimage; generatedFacade: the walls' generated facades, which repeat along the wall: wrapMode wrap). Vertices are integers on the millimetre grid (transform); the CRS is the metadata's referenceSystem (an OGC CRS URL, coordinates easting first). Streaming: memory does not grow with the number of buildings. The file is written whole or not at all. Validate it with wit:validatecitygml (schemas and geometry).</translation>
     </message>
     <message>
-      <source>Road polygons (wit:preparevectors)</source>
-      <translation>Road polygons (wit:preparevectors)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (wit:preparevectors)</source>
-      <translation>Legal dongs (wit:preparevectors)</translation>
-    </message>
-    <message>
       <source>Copy texture images beside the CityJSON file</source>
       <translation>Copy texture images beside the CityJSON file</translation>
     </message>
@@ -672,8 +664,8 @@
       <translation>3D Tiles</translation>
     </message>
     <message>
-      <source>Merge tiles (WIT seam feathering)</source>
-      <translation>Merge tiles (WIT seam feathering)</translation>
+      <source>Merge rasters (WIT seam feathering)</source>
+      <translation>Merge rasters (WIT seam feathering)</translation>
     </message>
     <message>
       <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused beyond the maximum empty share (advanced). With an extent, only the mosaic's pixels that meet it are written, with the tone and feathering of the whole mosaic.</source>
@@ -976,8 +968,12 @@
       <translation>Terrain TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
-      <source>Build everything again, even what has not changed since the last run into this folder</source>
-      <translation>Build everything again, even what has not changed since the last run into this folder</translation>
+      <source>Road polygons (wit:preparevectors)</source>
+      <translation>Road polygons (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (wit:preparevectors)</source>
+      <translation>Legal dongs (wit:preparevectors)</translation>
     </message>
     <message>
       <source>Wall textures (an orthoimage sees no facades)</source>
@@ -986,6 +982,10 @@
     <message>
       <source>Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile and index.city.jsonl)</source>
       <translation>Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile and index.city.jsonl)</translation>
+    </message>
+    <message>
+      <source>Build everything again, even what has not changed since the last run into this folder</source>
+      <translation>Build everything again, even what has not changed since the last run into this folder</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
@@ -1084,8 +1084,8 @@
       <translation>WIT texturing</translation>
     </message>
     <message>
-      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
-      <translation>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</translation>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground square. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground square. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</translation>
     </message>
     <message>
       <source>Merged orthoimage</source>

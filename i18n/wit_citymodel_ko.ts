@@ -380,14 +380,6 @@
       <translation>모델의 레이어를 CityJSON 2.0(.city.json) 또는 CityJSONSeq(.city.jsonl: 머리 줄 다음에 한 줄에 피처 하나)로 씁니다. wit:writecitygml과 같은 객체, id, 속성, 텍스처입니다. 건물은 GroundSurface, RoofSurface, WallSurface 면을 가진 LoD1 Solid와 모든 원본 속성, 높이(heightStatus: measured 또는 estimated)와 층수를 갖고, 도로는 지형에 얹힌 삼각형(TrafficArea), 나머지 TIN 삼각형은 TINRelief 하나, 법정동마다 CityObjectGroup 하나가 되며 그 건물들은 그룹을 부모로 가리킵니다. 텍스처: 같은 이미지와 텍스처 좌표를 CityGML과 같은 테마로(rgbTexture: 정사영상; generatedFacade: 벽에 생성한 외벽 텍스처, 벽을 따라 반복: wrapMode wrap) 씁니다. 정점은 밀리미터 격자의 정수이고(transform), 좌표계는 metadata의 referenceSystem(OGC 좌표계 URL, 좌표는 동향 먼저)입니다. 스트리밍: 메모리가 건물 수에 따라 늘지 않습니다. 파일은 온전히 쓰이거나 전혀 쓰이지 않습니다. wit:validatecitygml로 검증하십시오(스키마와 기하).</translation>
     </message>
     <message>
-      <source>Road polygons (wit:preparevectors)</source>
-      <translation>도로 폴리곤 (wit:preparevectors)</translation>
-    </message>
-    <message>
-      <source>Legal dongs (wit:preparevectors)</source>
-      <translation>법정동 (wit:preparevectors)</translation>
-    </message>
-    <message>
       <source>Copy texture images beside the CityJSON file</source>
       <translation>텍스처 이미지를 CityJSON 파일 옆에 복사</translation>
     </message>
@@ -672,8 +664,8 @@
       <translation>3D Tiles</translation>
     </message>
     <message>
-      <source>Merge tiles (WIT seam feathering)</source>
-      <translation>타일 병합 (WIT 경계 보간)</translation>
+      <source>Merge rasters (WIT seam feathering)</source>
+      <translation>래스터 병합 (WIT 경계 보간)</translation>
     </message>
     <message>
       <source>Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, block by block so memory does not grow with the mosaic. The output grid is the one gdal_merge.py builds (union extent, first input's pixel size). Overlap 'overwrite' lets later tiles overwrite earlier ones (the paper's method); 'feather' (WIT) blends each overlap pixel as the mean of the tiles weighted by the distance to each tile's edge. Tone correction (GAIN) equalises the tiles' tone from their overlaps: every pixel of a tile becomes gain × value + offset, per band, solved over all overlaps at once; heights (one band of floats or signed integers, a DEM) get an offset only, never a gain. NoData pixels are never blended. Inputs with another CRS or pixel size are resampled onto the first input's grid, with a warning. A mosaic that would be mostly empty (tiles far apart) is refused beyond the maximum empty share (advanced). With an extent, only the mosaic's pixels that meet it are written, with the tone and feathering of the whole mosaic.</source>
@@ -976,8 +968,12 @@
       <translation>지형 TIN (wit:triangulateterrain)</translation>
     </message>
     <message>
-      <source>Build everything again, even what has not changed since the last run into this folder</source>
-      <translation>이 폴더에 대한 지난 실행 이후 바뀌지 않은 것까지 모두 다시 만들기</translation>
+      <source>Road polygons (wit:preparevectors)</source>
+      <translation>도로 폴리곤 (wit:preparevectors)</translation>
+    </message>
+    <message>
+      <source>Legal dongs (wit:preparevectors)</source>
+      <translation>법정동 (wit:preparevectors)</translation>
     </message>
     <message>
       <source>Wall textures (an orthoimage sees no facades)</source>
@@ -986,6 +982,10 @@
     <message>
       <source>Write CityJSON 2.0 beside the CityGML (model.city.json; a tiled run: a CityJSONSeq per tile and index.city.jsonl)</source>
       <translation>CityGML 옆에 CityJSON 2.0도 쓰기 (model.city.json; 타일 실행: 타일마다 CityJSONSeq와 index.city.jsonl)</translation>
+    </message>
+    <message>
+      <source>Build everything again, even what has not changed since the last run into this folder</source>
+      <translation>이 폴더에 대한 지난 실행 이후 바뀌지 않은 것까지 모두 다시 만들기</translation>
     </message>
     <message>
       <source>Code field of the district layer (empty = EMD_CD)</source>
@@ -1084,8 +1084,8 @@
       <translation>WIT 텍스처링</translation>
     </message>
     <message>
-      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
-      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 타일마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 생성된 외벽 텍스처를 입힙니다(FACADES, 기본값): 각 건물의 용도(국가 건축물 용도코드 BDTYP_CD, 국토지리정보원의 용도/종류, AL_D010, OpenStreetMap building 태그, 없으면 층수)에 맞는 층 모듈을 플러그인이 직접 그리며, 층마다 이미지 한 줄(레이어의 층수, 없으면 높이로 계산)에 대응하고, 측정값과 분리해 생성된 것임을 표시합니다(facades.gpkg, CityGML 테마 generatedFacade). 없음을 고를 수도 있습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽으며, 레이어와 다른 좌표계의 정사영상은 읽는 대로 재투영합니다(쌍선형). 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
+      <source>Cuts textures for roofs (LoD1 roof faces), terrain and road triangles (TIN) from the merged orthoimage. Texture coordinates follow U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin) over each image's ground extent with the half-pixel correction, so a vertex at a pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters (edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one image per ground square. An orthoimage sees no facades: walls get generated facades (FACADES, the default), storey modules drawn by the plugin for each building's use (the national use code BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image row per storey (the layer's floor count, else its height), kept apart and marked as generated (facades.gpkg, the CityGML theme generatedFacade); or none. Scale S (0 &lt; S ≤ 1) sets the resolution; the mip chain down to 1×1 can be written too. The orthoimage is read in windows, never whole; one in another CRS than the layers is reprojected as it is read (bilinear). Output: a folder of images and texcoords.gpkg, the input of wit:writecitygml.</source>
+      <translation>정사영상에서 지붕(LoD1 지붕 면), 지형 및 도로 삼각형(TIN)의 텍스처를 잘라냅니다. 텍스처 좌표는 각 이미지의 지상 범위에 대해 U = (x − xmin)/(xmax − xmin), V = (y − ymin)/(ymax − ymin)이며 반 픽셀 보정을 하므로 픽셀 중심의 꼭짓점은 그 픽셀 텍셀의 중심에 놓입니다. 지붕은 거터(가장자리 픽셀 반복)를 둔 아틀라스에 배치되어 밉맵에서 이웃이 번지지 않으며, 지형과 도로는 지상 정사각형 구역마다 한 이미지를 씁니다. 정사영상에는 벽면이 보이지 않으므로 벽에는 생성된 외벽 텍스처를 입힙니다(FACADES, 기본값): 각 건물의 용도(국가 건축물 용도코드 BDTYP_CD, 국토지리정보원의 용도/종류, AL_D010, OpenStreetMap building 태그, 없으면 층수)에 맞는 층 모듈을 플러그인이 직접 그리며, 층마다 이미지 한 줄(레이어의 층수, 없으면 높이로 계산)에 대응하고, 측정값과 분리해 생성된 것임을 표시합니다(facades.gpkg, CityGML 테마 generatedFacade). 없음을 고를 수도 있습니다. 배율 S(0 &lt; S ≤ 1)가 해상도를 정하며, 1×1까지의 밉 체인도 쓸 수 있습니다. 정사영상은 전체가 아니라 창 단위로 읽으며, 레이어와 다른 좌표계의 정사영상은 읽는 대로 재투영합니다(쌍선형). 출력: 이미지 폴더와 texcoords.gpkg(wit:writecitygml의 입력).</translation>
     </message>
     <message>
       <source>Merged orthoimage</source>

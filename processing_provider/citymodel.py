@@ -43,8 +43,6 @@ from .shared_parameters import (
     triangulator,
 )
 
-OUTSIDE_ORTHO = ("fail", "untextured")
-
 
 class CityModel(WitAlgorithm):
     algorithm_id = "citymodel"
@@ -152,7 +150,7 @@ class CityModel(WitAlgorithm):
 
     def chain_settings(self, parameters, context, feedback):
         """(ChainInputs, ChainOptions, checked height expression) from the parameters."""
-        from ..wit_plugin.chain import ChainInputs, ChainOptions
+        from ..wit_plugin.chain import OUTSIDE_ORTHO_CHOICES, ChainInputs, ChainOptions
 
         def source(name):
             return self.vector_source(parameters, name, context, feedback)
@@ -172,7 +170,8 @@ class CityModel(WitAlgorithm):
             triangulator=triangulator(self, parameters, context, feedback),
             texture_scale=self.parameterAsDouble(parameters, self.TEXTURE_SCALE, context),
             facades=facade_choice(self, parameters, context),
-            heights=heights, outside_ortho=OUTSIDE_ORTHO[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
+            heights=heights,
+            outside_ortho=OUTSIDE_ORTHO_CHOICES[self.parameterAsEnum(parameters, self.OUTSIDE_ORTHO, context)],
             schema_dir=configured, schema_cache=cache,
             tiles3d_web=self.parameterAsBool(parameters, WEB_PROFILE, context),
             cityjson=self.parameterAsBool(parameters, CITYJSON, context))

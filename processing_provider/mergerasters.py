@@ -1,5 +1,6 @@
-"""wit:mergetiles — streaming mosaic of georeferenced rasters (orthoimage sheets, DEM pieces), overwrite (paper)
-or WIT feather. The id keeps its first name: saved models call the algorithm by it."""
+"""wit:mergerasters — streaming mosaic of georeferenced rasters (orthoimage sheets, DEM pieces), overwrite (paper)
+or WIT feather. Its first id, wit:mergetiles, still runs (saved models and scripts call it) but is deprecated:
+hidden from the toolbox and the modeler, as QGIS hides its own renamed algorithms."""
 from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
@@ -12,14 +13,14 @@ from qgis.core import (
 
 from ..wit_plugin.mosaic import DEFAULT_MAX_EMPTY
 from .base import WitAlgorithm
-from .qgis_compat import NumberType, ParameterFlag, SourceType
+from .qgis_compat import AlgorithmFlag, NumberType, ParameterFlag, SourceType
 
 MODES = ("overwrite", "feather")
 
 
 class MergeRasters(WitAlgorithm):
-    algorithm_id = "mergetiles"
-    display_name = "Merge tiles (WIT seam feathering)"
+    algorithm_id = "mergerasters"
+    display_name = "Merge rasters (WIT seam feathering)"
     group_name = "Rasters"
     help_text = (
         "Mosaics georeferenced tiles into one tiled, compressed GeoTIFF with internal overviews, "
@@ -66,13 +67,13 @@ class MergeRasters(WitAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("BLENDED_PIXELS", self.tr("Blended pixels")))
 
     def execute(self, parameters, context, feedback):
-        from ..wit_plugin.mosaic import merge_tiles
+        from ..wit_plugin.mosaic import merge_rasters
 
         layers = self.parameterAsLayerList(parameters, self.INPUT, context)
         mode = MODES[self.parameterAsEnum(parameters, self.OVERLAP, context)]
         nodata = parameters.get(self.NODATA)
         output = self.parameterAsOutputLayer(parameters, self.OUTPUT, context)
-        report = merge_tiles(
+        report = merge_rasters(
             [layer.source() for layer in layers],
             output,
             mode=mode,
@@ -90,3 +91,12 @@ class MergeRasters(WitAlgorithm):
             return None
         box = self.parameterAsExtent(parameters, self.EXTENT, context, layers[0].crs())
         return box.xMinimum(), box.yMinimum(), box.xMaximum(), box.yMaximum()
+
+
+class MergeRastersFirstId(MergeRasters):
+    """The same algorithm under its first id, for models and scripts saved before the rename."""
+
+    algorithm_id = "mergetiles"
+
+    def flags(self):
+        return super().flags() | AlgorithmFlag.Deprecated

@@ -13,7 +13,7 @@ from .extrudebuildings import ExtrudeBuildings
 from .generatesample import GenerateSample
 from .georeferencemapsheets import GeoreferenceMapSheets
 from .installdependencies import InstallDependencies
-from .mergerasters import MergeRasters
+from .mergerasters import MergeRasters, MergeRastersFirstId
 from .preparevectors import PrepareVectors
 from .qualitymetrics import QualityMetrics
 from .translation import tr, translatable
@@ -26,6 +26,7 @@ ALGORITHMS = (
     GenerateSample,
     GeoreferenceMapSheets,
     MergeRasters,
+    MergeRastersFirstId,
     PrepareVectors,
     TriangulateTerrain,
     ExtrudeBuildings,

@@ -26,7 +26,7 @@ class WitTexture(WitAlgorithm):
         "ymin) over each image's ground extent with the half-pixel correction, so a vertex at a "
         "pixel centre lands on that pixel's texel centre. Roofs are packed into atlases with gutters "
         "(edge pixels repeated) so that mipmaps do not bleed neighbours in; terrain and roads use one "
-        "image per ground tile. An orthoimage sees no facades: walls get generated facades (FACADES, the "
+        "image per ground square. An orthoimage sees no facades: walls get generated facades (FACADES, the "
         "default), storey modules drawn by the plugin for each building's use (the national use code "
         "BDTYP_CD, NGII's 용도/종류, AL_D010, OpenStreetMap's building tag, else its storeys) with one image "
         "row per storey (the layer's floor count, else its height), kept apart and marked as generated "

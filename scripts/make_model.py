@@ -172,7 +172,7 @@ def build_model():
     steps = [
         ("GEOREFERENCE", "wit:georeferencemapsheets", "1 Georeference the NGII map sheets",
          {"INPUT": param("ORTHO")}),
-        ("MERGE", "wit:mergetiles", "2 Merge the tiles (WIT feather + gain)",
+        ("MERGE", "wit:mergerasters", "2 Merge the tiles (WIT feather + gain)",
          {"INPUT": child("GEOREFERENCE", "OUTPUT_LAYERS"), "OVERLAP": static(1), "GAIN": static(True)}),
         ("PREPARE", "wit:preparevectors", "3 Prepare buildings, roads, legal dongs",
          {"BUILDINGS": param("BUILDINGS"), "ROADS": param("ROADS"), "DISTRICTS": param("DISTRICTS"),

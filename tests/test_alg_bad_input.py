@@ -42,7 +42,7 @@ def _empty(path):
 
 
 CASES = {
-    "mergetiles: different band counts": ("wit:mergetiles", lambda i, o: {
+    "mergerasters: different band counts": ("wit:mergerasters", lambda i, o: {
         "INPUT": [i["rgb"], i["gray"]], "OUTPUT": str(o / "out.tif")}, r"has 1 band\(s\) but"),
     "triangulateterrain: DEM elsewhere": ("wit:triangulateterrain", lambda i, o: {
         "DEM": i["far_dem"], "AREA": i["footprints"], "OUTPUT": str(o / "out.gpkg")}, "does not cover the area"),
@@ -61,7 +61,7 @@ CASES = {
         "INPUT": i["gray"], "OUTPUT": str(o / "out.gpkg")}, "is not an RGB orthoimage"),
     "qualitymetrics: nothing to measure": ("wit:qualitymetrics", lambda i, o: {
         "OUTPUT": str(o / "out.csv")}, "Nothing to measure"),
-    "mergetiles: zero-byte tile": ("wit:mergetiles", lambda i, o: {
+    "mergerasters: zero-byte tile": ("wit:mergerasters", lambda i, o: {
         "INPUT": [i["rgb"], i["zero"]], "OUTPUT": str(o / "out.tif")},
         r"^Unable to execute algorithm\nInput rasters: The raster .*37709005.tif is empty \(0 bytes\)"),
     "buildcolorstore: zero-byte orthoimage": ("wit:buildcolorstore", lambda i, o: {
@@ -135,7 +135,7 @@ def damaged(tmp_path_factory, real_rasters):
 
 
 DAMAGED = {
-    "mergetiles": ("wit:mergetiles", "ortho", lambda d, o: {"INPUT": [d["ortho"]], "OUTPUT": str(o / "m.tif")}),
+    "mergerasters": ("wit:mergerasters", "ortho", lambda d, o: {"INPUT": [d["ortho"]], "OUTPUT": str(o / "m.tif")}),
     "buildcolorstore": ("wit:buildcolorstore", "ortho", lambda d, o: {"INPUT": d["ortho"],
                                                                       "OUTPUT": str(o / "c.gpkg")}),
     "wittexture": ("wit:wittexture", "ortho", lambda d, o: {"ORTHO": d["ortho"], "LOD1": d["lod1"],
@@ -162,7 +162,7 @@ def test_damaged_raster_is_one_message_naming_the_file(case, damage, damaged, tm
     with pytest.raises(QgsProcessingException, match="truncated or damaged") as error:
         run_algorithm(algorithm, parameters({**damaged, **rasters}, out))
     message = str(error.value)
-    kind = "DEM" if raster == "dem" else "tile" if case == "mergetiles" else "orthoimage"
+    kind = "DEM" if raster == "dem" else "tile" if case == "mergerasters" else "orthoimage"
     if damage == "truncated":
         assert f"The raster {rasters[raster]} is truncated: its pixel data runs to byte" in message  # up front
     else:

@@ -36,7 +36,7 @@ def chain(tmp_path_factory, qgis_processing):
     results["geo"] = run("wit:georeferencemapsheets", {
         "INPUT": [str(sample.ortho_tiles[0].parent)], "OUTPUT": str(out / "geo"),
         "OUTPUT_INDEX": str(out / "sheets.gpkg")})
-    results["mosaic"] = run("wit:mergetiles", {
+    results["mosaic"] = run("wit:mergerasters", {
         "INPUT": results["geo"]["OUTPUT_LAYERS"], "OVERLAP": 1, "OUTPUT": str(out / "mosaic.tif")})
     results["prepared"] = run("wit:preparevectors", {
         "BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads), "DISTRICTS": str(sample.districts),

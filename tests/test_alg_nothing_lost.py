@@ -93,7 +93,7 @@ def _write(path: Path, content: bytes) -> Path:
 #: per algorithm: parameters with every input given (outputs are added by the tests)
 INPUTS = {
     "wit:georeferencemapsheets": lambda d: {"INPUT": [str(Path(d["sheet"]).parent)]},
-    "wit:mergetiles": lambda d: {"INPUT": [d["rgb"], d["sheet"]]},
+    "wit:mergerasters": lambda d: {"INPUT": [d["rgb"], d["sheet"]]},
     "wit:preparevectors": lambda d: {"BUILDINGS": d["buildings_shp"], "ROADS": d["roads_shp"],
                                      "DISTRICTS": d["area"], "AREA_LAYER": d["area"]},
     "wit:triangulateterrain": lambda d: {"DEM": d["dem"], "AREA": d["area"], "BUILDINGS": d["buildings"]},
@@ -118,7 +118,7 @@ INPUTS = {
 #: per algorithm: its destination parameters (name → "file" or "folder")
 DESTINATIONS = {
     "wit:georeferencemapsheets": {"OUTPUT": "folder", "OUTPUT_INDEX": "file"},
-    "wit:mergetiles": {"OUTPUT": "file"},
+    "wit:mergerasters": {"OUTPUT": "file"},
     "wit:preparevectors": {"OUTPUT": "file"},
     "wit:triangulateterrain": {"OUTPUT": "file"},
     "wit:extrudebuildings": {"OUTPUT": "file"},

@@ -51,7 +51,7 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
     assert rows["notes_2022.tif"][0] == "skipped" and "sheet number" in rows["notes_2022.tif"][1]
     assert rows["37709006"][0] == "failed" and "is empty (0 bytes)" in rows["37709006"][1]
 
-    merged = run_algorithm("wit:mergetiles", {
+    merged = run_algorithm("wit:mergerasters", {
         "INPUT": result["OUTPUT_LAYERS"], "OVERLAP": 1, "GAIN": False,
         "OUTPUT": str(tmp_path / "mosaic.tif")})
     mosaic = gdal.Open(merged["OUTPUT"])
@@ -61,7 +61,7 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
     assert merged["BLENDED_PIXELS"] > 0
 
     box = (x0 + 1000.0, y0 - 2000.0, x0 + 1600.0, y0 - 1000.0)  # in 37709005's part of the mosaic
-    clipped = run_algorithm("wit:mergetiles", {
+    clipped = run_algorithm("wit:mergerasters", {
         "INPUT": result["OUTPUT_LAYERS"], "OVERLAP": 1, "GAIN": False,
         "EXTENT": f"{box[0]},{box[2]},{box[1]},{box[3]} [EPSG:5186]", "OUTPUT": str(tmp_path / "clipped.tif")})
     part = gdal.Open(clipped["OUTPUT"])
@@ -74,6 +74,23 @@ def test_georeference_then_merge_through_processing(tmp_path, run_algorithm):
     col, row = round((cx0 - mosaic.GetGeoTransform()[0]) / cdx), round((cy0 - mosaic.GetGeoTransform()[3]) / cdy)
     np.testing.assert_array_equal(part.ReadAsArray(), mosaic.ReadAsArray(col, row, part.RasterXSize,
                                                                           part.RasterYSize))
+
+
+def test_the_first_id_of_merge_rasters_still_runs_and_is_marked_deprecated(tmp_path, run_algorithm, wit_provider):
+    """wit:mergetiles was merge rasters' id until 0.2: saved models and scripts that call it get the same
+    mosaic, and QGIS hides it from the toolbox and the modeler (the Deprecated flag)."""
+    from qgis.core import QgsApplication
+    from wit_citymodel.processing_provider.qgis_compat import AlgorithmFlag
+
+    tiles = [_tile(tmp_path / "a.tif", 0, 0), _tile(tmp_path / "b.tif", 150, 0)]
+    old = run_algorithm("wit:mergetiles", {"INPUT": tiles, "OUTPUT": str(tmp_path / "old.tif")})
+    new = run_algorithm("wit:mergerasters", {"INPUT": tiles, "OUTPUT": str(tmp_path / "new.tif")})
+    np.testing.assert_array_equal(gdal.Open(old["OUTPUT"]).ReadAsArray(), gdal.Open(new["OUTPUT"]).ReadAsArray())
+    assert old["BLENDED_PIXELS"] == new["BLENDED_PIXELS"] > 0
+    registry = QgsApplication.processingRegistry()
+    first, renamed = registry.algorithmById("wit:mergetiles"), registry.algorithmById("wit:mergerasters")
+    assert first.flags() & AlgorithmFlag.Deprecated and not renamed.flags() & AlgorithmFlag.Deprecated
+    assert renamed.displayName() == "Merge rasters (WIT seam feathering)"
 
 
 def test_georeference_rejects_unwritable_output_with_a_message(tmp_path, run_algorithm):
@@ -124,11 +141,11 @@ def test_sparse_mosaic_is_refused_before_writing_unless_the_limit_is_raised(tmp_
     out.mkdir()
     with pytest.raises(QgsProcessingException, match=r"520 × 20 px.*about 92% of it would be empty.*raise the "
                                                      r"maximum empty share \(now 90%\)") as error:
-        processing.run("wit:mergetiles", {"INPUT": tiles, "OUTPUT": str(out / "m.tif")})
+        processing.run("wit:mergerasters", {"INPUT": tiles, "OUTPUT": str(out / "m.tif")})
     assert "Traceback" not in str(error.value)
     assert list(out.iterdir()) == []
     feedback = _Warnings()
-    result = processing.run("wit:mergetiles", {"INPUT": tiles, "MAX_EMPTY": 95, "OUTPUT": str(out / "m.tif")},
+    result = processing.run("wit:mergerasters", {"INPUT": tiles, "MAX_EMPTY": 95, "OUTPUT": str(out / "m.tif")},
                             feedback=feedback)
     ds = gdal.Open(result["OUTPUT"])
     assert (ds.RasterXSize, ds.RasterYSize) == (520, 20)
@@ -144,7 +161,7 @@ def test_an_extent_the_tiles_do_not_meet_is_refused_before_writing(tmp_path, wit
     out = tmp_path / "out"
     out.mkdir()
     with pytest.raises(QgsProcessingException, match=r"do not meet the extent x 210000\.0–210500\.0") as error:
-        processing.run("wit:mergetiles", {"INPUT": tiles, "EXTENT": "210000,210500,560000,560500 [EPSG:5186]",
+        processing.run("wit:mergerasters", {"INPUT": tiles, "EXTENT": "210000,210500,560000,560500 [EPSG:5186]",
                                           "OUTPUT": str(out / "m.tif")})
     assert "Traceback" not in str(error.value)
     assert list(out.iterdir()) == [] and {t: Path(t).read_bytes() for t in tiles} == before
@@ -155,7 +172,7 @@ def _listing(folder):
 
 
 READERS = {
-    "mergetiles": ("wit:mergetiles", lambda r, o: {"INPUT": [r["ortho"]], "OUTPUT": str(o / "m.tif")}),
+    "mergerasters": ("wit:mergerasters", lambda r, o: {"INPUT": [r["ortho"]], "OUTPUT": str(o / "m.tif")}),
     "buildcolorstore": ("wit:buildcolorstore", lambda r, o: {"INPUT": r["ortho"], "OUTPUT": str(o / "c.gpkg")}),
     "wittexture": ("wit:wittexture", lambda r, o: {"ORTHO": r["ortho"], "LOD1": r["lod1"], "OUTPUT": str(o / "tex")}),
     "triangulateterrain": ("wit:triangulateterrain", lambda r, o: {
@@ -187,6 +204,6 @@ def test_georeferencing_writes_nothing_beside_the_sources(real_rasters, tmp_path
     before = _listing(sources)
     result = run_algorithm("wit:georeferencemapsheets", {"INPUT": [str(sources)], "OUTPUT": str(tmp_path / "geo")})
     assert result["GEOREFERENCED"] == 1
-    run_algorithm("wit:mergetiles", {"INPUT": result["OUTPUT_LAYERS"], "OUTPUT": str(tmp_path / "m.tif")})
+    run_algorithm("wit:mergerasters", {"INPUT": result["OUTPUT_LAYERS"], "OUTPUT": str(tmp_path / "m.tif")})
     assert _listing(sources) == before
     assert sorted(p.name for p in (tmp_path / "geo").iterdir()) == ["37709005.tif"]

@@ -86,6 +86,6 @@ def test_reading_writes_no_sidecar_and_an_existing_one_is_read_untouched(landsat
                    '<PAMRasterBand band="3"><NoDataValue>0</NoDataValue></PAMRasterBand></PAMDataset>')
     before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
     assert open_raster(plain).GetRasterBand(1).GetNoDataValue() == 0.0
-    report = mosaic.merge_tiles([str(plain)], str(tmp_path / "out" / "m.tif"))
+    report = mosaic.merge_rasters([str(plain)], str(tmp_path / "out" / "m.tif"))
     assert report.nodata == 0.0
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before

@@ -17,7 +17,7 @@ from wit_plugin.citygml import reader
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.errors import InputError
-from wit_plugin.mosaic import georef, merge_tiles
+from wit_plugin.mosaic import georef, merge_rasters
 from wit_plugin.prepare.area import StudyArea
 from wit_plugin.prepare.vectors import prepare_vectors
 from wit_plugin.sample import SampleConfig, generate_sample
@@ -382,8 +382,8 @@ def _tile(path, x0: float, width: int, gain: float) -> str:
 def test_seam_step_overwrite_vs_feather(tmp_path):
     tiles = [_tile(tmp_path / "a.tif", 0, 300, 0.85), _tile(tmp_path / "b.tif", 200, 300, 1.15)]
     overwrite, feather = str(tmp_path / "overwrite.tif"), str(tmp_path / "feather.tif")
-    merge_tiles(tiles, overwrite, mode="overwrite")
-    merge_tiles(tiles, feather, mode="feather", gain=True)
+    merge_rasters(tiles, overwrite, mode="overwrite")
+    merge_rasters(tiles, feather, mode="feather", gain=True)
     index = tmp_path / "footprints.gpkg"
     georef.write_footprint_index(
         [georef.SheetResult(t, "0", 5000, georef.OK, "", t, metrics.seam._raster_bounds(t)[0]) for t in tiles]
@@ -406,7 +406,7 @@ def test_seam_step_overwrite_vs_feather(tmp_path):
 def test_quality_report_texture_and_seam_only(tmp_path):
     tiles = [_tile(tmp_path / "a.tif", 0, 300, 0.9), _tile(tmp_path / "b.tif", 200, 300, 1.1)]
     mosaic = str(tmp_path / "m.tif")
-    merge_tiles(tiles, mosaic, mode="overwrite")
+    merge_rasters(tiles, mosaic, mode="overwrite")
     out = tmp_path / "out"
     report = metrics.quality_report(str(out / "q.csv"), ortho=mosaic, mosaic=mosaic, footprints=tiles,
                                     output_html=str(out / "q.html"))

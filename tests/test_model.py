@@ -96,7 +96,7 @@ def chain_gml(sample):
     run = processing.run
     geo = run("wit:georeferencemapsheets", {"INPUT": [str(data.ortho_tiles[0].parent)], "OUTPUT": str(work / "geo"),
                                              "OUTPUT_INDEX": str(work / "sheets.gpkg")})
-    mosaic = run("wit:mergetiles", {"INPUT": geo["OUTPUT_LAYERS"], "OVERLAP": 1, "OUTPUT": str(work / "mosaic.tif")})
+    mosaic = run("wit:mergerasters", {"INPUT": geo["OUTPUT_LAYERS"], "OVERLAP": 1, "OUTPUT": str(work / "mosaic.tif")})
     prepared = run("wit:preparevectors", {"BUILDINGS": str(data.buildings), "ROADS": str(data.roads),
                                           "DISTRICTS": str(data.districts), "RADIUS": 200.0,
                                           "OUTPUT": str(work / "prepared.gpkg")})

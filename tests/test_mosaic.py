@@ -1,4 +1,4 @@
-"""wit:mergetiles core: gdal_merge-exact grid and pixels, feather + gain seams, NoData, cancel."""
+"""wit:mergerasters core: gdal_merge-exact grid and pixels, feather + gain seams, NoData, cancel."""
 from __future__ import annotations
 
 import json
@@ -95,14 +95,14 @@ def test_grid_and_pixels_match_gdal_merge_for_non_aligned_origins(tmp_path):
     ]
     expected, gm = read(run_gdal_merge(inputs, tmp_path / "gdal_merge.tif"))
     feedback = Recorder()
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "over.tif"), mode="overwrite", feedback=feedback)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "over.tif"), mode="overwrite", feedback=feedback)
     over, ds = read(report.output)
     assert ds.GetGeoTransform() == gm.GetGeoTransform()
     assert (ds.RasterXSize, ds.RasterYSize) == (gm.RasterXSize, gm.RasterYSize) == (report.width, report.height)
     np.testing.assert_array_equal(over, expected)  # overwrite is gdal_merge everywhere
     assert len([w for w in feedback.warnings if "off the output grid" in w]) == 3  # grid origin: c.x, a.y
 
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "feather.tif"), mode="feather", gain=False)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "feather.tif"), mode="feather", gain=False)
     feather, ds = read(report.output)
     assert ds.GetGeoTransform() == gm.GetGeoTransform()
     single = coverage(report) <= 1
@@ -138,8 +138,8 @@ def tone_difference(image: np.ndarray, scene: np.ndarray) -> float:
 
 def test_feather_and_gain_remove_the_seam(tmp_path):
     inputs, scene = seam_tiles(tmp_path)
-    over, _ = read(mosaic.merge_tiles(inputs, str(tmp_path / "over.tif"), mode="overwrite").output)
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "wit.tif"), mode="feather")
+    over, _ = read(mosaic.merge_rasters(inputs, str(tmp_path / "over.tif"), mode="overwrite").output)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "wit.tif"), mode="feather")
     wit, _ = read(report.output)
     assert report.gain
     assert seam_step(over) > 15
@@ -156,9 +156,9 @@ def test_feather_and_gain_remove_the_seam(tmp_path):
 def test_an_extent_writes_the_same_pixels_as_the_whole_mosaic_there(tmp_path, block_size):
     """Tone, feathering and values of the clipped mosaic are the whole mosaic's, pixel for pixel, on its grid."""
     inputs, _ = seam_tiles(tmp_path)
-    whole = mosaic.merge_tiles(inputs, str(tmp_path / "whole.tif"), block_size=block_size)
+    whole = mosaic.merge_rasters(inputs, str(tmp_path / "whole.tif"), block_size=block_size)
     extent = (ORIGIN[0] + 101.0, ORIGIN[1] - 151.0, ORIGIN[0] + 433.0, ORIGIN[1] - 21.0)  # inside the overlap band
-    clipped = mosaic.merge_tiles(inputs, str(tmp_path / "clip.tif"), block_size=block_size, extent=extent)
+    clipped = mosaic.merge_rasters(inputs, str(tmp_path / "clip.tif"), block_size=block_size, extent=extent)
     a, _ = read(whole.output)
     b, ds = read(clipped.output)
     assert clipped.window == (50, 10, 167, 66) and (clipped.width, clipped.height) == (167, 66)
@@ -167,7 +167,7 @@ def test_an_extent_writes_the_same_pixels_as_the_whole_mosaic_there(tmp_path, bl
     assert clipped.gains == whole.gains and clipped.offsets == whole.offsets
     assert clipped.blended_pixels == 60 * 66 and clipped.tile_windows[0] == (-50, -10, 200, 80)
     with pytest.raises(InputError, match="do not meet the extent"):
-        mosaic.merge_tiles(inputs, str(tmp_path / "none.tif"), extent=(0.0, 0.0, 10.0, 10.0))
+        mosaic.merge_rasters(inputs, str(tmp_path / "none.tif"), extent=(0.0, 0.0, 10.0, 10.0))
     assert not (tmp_path / "none.tif").exists()
 
 
@@ -179,7 +179,7 @@ def test_heights_are_offset_along_a_chain_never_scaled_and_an_isolated_tile_is_l
     inputs = [write_tif(tmp_path / f"t{k}.tif", flat * 100 * 1.1 ** k, (ORIGIN[0] + k * 120.0, ORIGIN[1]))
               for k in range(3)]
     inputs.append(write_tif(tmp_path / "far.tif", flat * 300, (ORIGIN[0] + 1000.0, ORIGIN[1])))
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"))
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "m.tif"))
     assert report.gains == [[1.0]] * 4
     heights = np.array([100.0, 110.0, 121.0])
     offsets = np.array(report.offsets)[:, 0]
@@ -195,7 +195,7 @@ def test_feather_without_gain_keeps_single_coverage_pixels_and_weights_by_edge_d
     inputs, _ = seam_tiles(tmp_path)
     t1, _ = read(inputs[0])
     t2, _ = read(inputs[1])
-    out, _ = read(mosaic.merge_tiles(inputs, str(tmp_path / "f.tif"), gain=False).output)
+    out, _ = read(mosaic.merge_rasters(inputs, str(tmp_path / "f.tif"), gain=False).output)
     np.testing.assert_array_equal(out[:, :, :140], t1[:, :, :140])
     np.testing.assert_array_equal(out[:, :, 200:], t2[:, :, 60:])
     row, col = 40, 150  # 10 columns into the overlap: centre 50.5 px from t1's right edge, 10.5 from t2's left
@@ -214,7 +214,7 @@ def test_nodata_holes_are_filled_from_the_other_tile(tmp_path, mode):
     dem2[5:12, 2:8] = -9999.0  # output rows 15:22, cols 32:38: inside tile 1 too
     inputs = [write_tif(tmp_path / "d1.tif", dem1, ORIGIN, nodata=-9999.0),
               write_tif(tmp_path / "d2.tif", dem2, (ORIGIN[0] + 60.0, ORIGIN[1] - 20.0), nodata=-9999.0)]
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"), mode=mode, gain=False)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "m.tif"), mode=mode, gain=False)
     out, ds = read(report.output)
     assert (report.width, report.height) == (70, 40)
     assert ds.GetRasterBand(1).GetNoDataValue() == -9999.0 and report.nodata == -9999.0
@@ -234,7 +234,7 @@ def test_nodata_parameter_overrides_and_rgb_holes(tmp_path):
     rgb2[:, 5:10, 0:5] = 0
     inputs = [write_tif(tmp_path / "r1.tif", rgb1, ORIGIN),
               write_tif(tmp_path / "r2.tif", rgb2, (ORIGIN[0] + 20.0, ORIGIN[1]))]
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"), nodata=0, gain=False)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "m.tif"), nodata=0, gain=False)
     out, ds = read(report.output)
     np.testing.assert_array_equal(out[:, 5:10, 10:15], 100)
     assert ds.GetRasterBand(1).GetNoDataValue() == 0
@@ -250,7 +250,7 @@ def test_identical_dem_overlaps_reproduce_the_dem_exactly(tmp_path):
     inputs = [write_tif(tmp_path / "a.tif", dem[:, :100], ORIGIN),
               write_tif(tmp_path / "b.tif", dem[:, 60:], (ORIGIN[0] + 120.0, ORIGIN[1]))]
     feedback = Recorder()
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "dem.tif"), mode="feather", gain=True, feedback=feedback)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "dem.tif"), mode="feather", gain=True, feedback=feedback)
     out, _ = read(report.output)
     assert feedback.warnings == []
     assert report.gains == [[1.0], [1.0]] and report.offsets == [[0.0], [0.0]]
@@ -265,7 +265,7 @@ def test_dem_tiles_with_a_vertical_bias_get_an_offset_not_a_gain(tmp_path):
     dem = (300 + rng.normal(0, 4, (120, 160)).cumsum(axis=1)).astype(np.float32)
     inputs = [write_tif(tmp_path / "a.tif", dem[:, :100], ORIGIN, nodata=-9999.0),
               write_tif(tmp_path / "b.tif", dem[:, 60:] + 5, (ORIGIN[0] + 120.0, ORIGIN[1]), nodata=-9999.0)]
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "dem.tif"))
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "dem.tif"))
     assert report.gains == [[1.0], [1.0]]
     np.testing.assert_allclose(report.offsets, [[2.5], [-2.5]], atol=1e-4)
     out, _ = read(report.output)
@@ -287,7 +287,7 @@ def test_cancel_leaves_no_file(tmp_path):
               write_tif(folder / "b.tif", textured(rng, 3, 64, 64), (ORIGIN[0] + 100.0, ORIGIN[1]))]
     out_dir = tmp_path / "out"
     with pytest.raises(CanceledError):
-        mosaic.merge_tiles(inputs, str(out_dir / "m.tif"), feedback=Recorder(cancel_after=2), block_size=16)
+        mosaic.merge_rasters(inputs, str(out_dir / "m.tif"), feedback=Recorder(cancel_after=2), block_size=16)
     assert list(out_dir.iterdir()) == []
     assert sorted(os.listdir(folder)) == ["a.tif", "b.tif"]
 
@@ -298,7 +298,7 @@ def test_different_pixel_size_is_resampled_with_a_warning(tmp_path):
     inputs = [write_tif(tmp_path / "fine.tif", fine, ORIGIN, 2.0),
               write_tif(tmp_path / "coarse.tif", coarse, (ORIGIN[0] + 40.0, ORIGIN[1]), 4.0)]
     feedback = Recorder()
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"), mode="overwrite", feedback=feedback)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "m.tif"), mode="overwrite", feedback=feedback)
     out, ds = read(report.output)
     assert ds.GetGeoTransform()[1] == 2.0 and (report.width, report.height) == (40, 20)
     assert report.resampled == [inputs[1]]
@@ -313,7 +313,7 @@ def test_different_crs_is_reprojected_with_a_warning(tmp_path):
     other = str(tmp_path / "b.tif")
     gdal.Warp(other, other_src, dstSRS="EPSG:5179")
     feedback = Recorder()
-    report = mosaic.merge_tiles([first, other], str(tmp_path / "m.tif"), feedback=feedback)
+    report = mosaic.merge_rasters([first, other], str(tmp_path / "m.tif"), feedback=feedback)
     out, _ = read(report.output)
     assert any("CRS" in w for w in feedback.warnings)
     assert report.width >= 40
@@ -325,12 +325,12 @@ def test_refuses_mixed_band_counts_and_missing_crs(tmp_path):
     rgb = write_tif(tmp_path / "rgb.tif", np.ones((3, 10, 10), np.uint8), ORIGIN)
     grey = write_tif(tmp_path / "grey.tif", np.ones((10, 10), np.uint8), ORIGIN)
     with pytest.raises(InputError, match="band"):
-        mosaic.merge_tiles([rgb, grey], str(tmp_path / "m.tif"))
+        mosaic.merge_rasters([rgb, grey], str(tmp_path / "m.tif"))
     bare = write_tif(tmp_path / "bare.tif", np.ones((3, 10, 10), np.uint8), ORIGIN, epsg=None)
     with pytest.raises(InputError, match="no coordinate reference system"):
-        mosaic.merge_tiles([rgb, bare], str(tmp_path / "m.tif"))
+        mosaic.merge_rasters([rgb, bare], str(tmp_path / "m.tif"))
     with pytest.raises(InputError, match="mode"):
-        mosaic.merge_tiles([rgb], str(tmp_path / "m.tif"), mode="blend")
+        mosaic.merge_rasters([rgb], str(tmp_path / "m.tif"), mode="blend")
     assert not (tmp_path / "m.tif").exists()
 
 
@@ -338,7 +338,7 @@ def test_landsat_tiles_overwrite_equal_gdal_merge(tmp_path, shared_dir):
     folder = shared_dir / "data" / "rgb_landsat_rasterio_cc0"
     inputs = [str(folder / f"rgb{i}.tif") for i in range(1, 5)]
     expected, gm = read(run_gdal_merge(inputs, tmp_path / "gdal_merge.tif"))
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"), mode="overwrite", block_size=256)
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "m.tif"), mode="overwrite", block_size=256)
     out, ds = read(report.output)
     assert ds.GetGeoTransform() == gm.GetGeoTransform()
     assert (ds.RasterXSize, ds.RasterYSize) == (791, 718)
@@ -402,8 +402,8 @@ def test_tone_correction_removes_gain_and_offset_between_real_tiles(tmp_path, la
     +40); single-coverage NoData stays NoData."""
     inputs = [cut_tile(landsat_scene, tmp_path / "left.tif", (0, 0, 450, 718)),
               cut_tile(landsat_scene, tmp_path / "right.tif", (350, 0, 441, 718), TONE_CHANGES[change])]
-    over = mosaic.merge_tiles(inputs, str(tmp_path / "over.tif"), mode="overwrite")
-    wit = mosaic.merge_tiles(inputs, str(tmp_path / "wit.tif"), mode="feather")
+    over = mosaic.merge_rasters(inputs, str(tmp_path / "over.tif"), mode="overwrite")
+    wit = mosaic.merge_rasters(inputs, str(tmp_path / "wit.tif"), mode="feather")
     before, after = overlap_tone_difference(over, 0, 1), overlap_tone_difference(wit, 0, 1)
     assert before > 9
     assert after * 5 <= before and after < 0.5
@@ -425,7 +425,7 @@ def test_tone_is_solved_over_all_overlaps_of_four_real_tiles(tmp_path, landsat_s
     changes = [lambda v: v, lambda v: v + 40, lambda v: v * 1.2, lambda v: v * 0.9 + 15]
     windows = [(0, 0, 450, 410), (341, 0, 450, 410), (0, 308, 450, 410), (341, 308, 450, 410)]
     inputs = [cut_tile(landsat_scene, tmp_path / f"q{k}.tif", w, c) for k, (w, c) in enumerate(zip(windows, changes))]
-    report = mosaic.merge_tiles(inputs, str(tmp_path / "m.tif"))
+    report = mosaic.merge_rasters(inputs, str(tmp_path / "m.tif"))
     for i in range(4):
         for j in range(i + 1, 4):
             before = overlap_tone_difference(report, i, j, corrected=False)
@@ -445,7 +445,7 @@ def test_tone_correction_on_the_generated_sample_recovers_its_tile_exposures(tmp
                                                                 with_dem=False))
     results = georef.georeference_sheets([str(p) for p in sample.ortho_tiles], tmp_path / "geo")
     tiles = [r.output for r in results]
-    report = mosaic.merge_tiles(tiles, str(tmp_path / "m.tif"))
+    report = mosaic.merge_rasters(tiles, str(tmp_path / "m.tif"))
     exposure = [np.array(sample.tile_gains[str(Path(r.source).relative_to(sample.folder))]) for r in results]
     true_ratio = exposure[1] / exposure[0]
     gains = np.array(report.gains)
@@ -474,18 +474,18 @@ def test_mostly_empty_mosaic_is_a_warning_then_refused_before_anything_is_writte
     near = write_tif(tmp_path / "near.tif", grey, (ORIGIN[0] + 160.0, ORIGIN[1]))
     far = write_tif(tmp_path / "far.tif", grey, (ORIGIN[0] + 800.0, ORIGIN[1]))
     feedback = Recorder()
-    mosaic.merge_tiles([a, near], str(tmp_path / "near_m.tif"), feedback=feedback)
+    mosaic.merge_rasters([a, near], str(tmp_path / "near_m.tif"), feedback=feedback)
     assert feedback.warnings == [("The mosaic is 100 × 20 px, 0.0 GB uncompressed, and about 60% of it is empty "
                                   "(no tile covers it): the tiles lie far apart.")]
     out = tmp_path / "out"
     with pytest.raises(InputError, match=r"^The mosaic would be 420 × 20 px, 0.0 GB uncompressed, and about 90% of it "
                                          r"would be empty .* raise the maximum empty share \(now 90%\)"):
-        mosaic.merge_tiles([a, far], str(out / "m.tif"))
+        mosaic.merge_rasters([a, far], str(out / "m.tif"))
     assert not out.exists()
-    report = mosaic.merge_tiles([a, far], str(out / "m.tif"), max_empty=0.95)
+    report = mosaic.merge_rasters([a, far], str(out / "m.tif"), max_empty=0.95)
     assert (report.width, report.height) == (420, 20)
     with pytest.raises(InputError, match="0–1"):
-        mosaic.merge_tiles([a], str(out / "x.tif"), max_empty=1.5)
+        mosaic.merge_rasters([a], str(out / "x.tif"), max_empty=1.5)
 
 
 def test_the_merge_in_its_own_process_writes_the_same_mosaic(tmp_path):
@@ -493,7 +493,7 @@ def test_the_merge_in_its_own_process_writes_the_same_mosaic(tmp_path):
     this process, for the chain's options (feather, tone, an extent); a refusal is one line and exit status 2."""
     inputs, _ = seam_tiles(tmp_path)
     extent = (ORIGIN[0] + 101.0, ORIGIN[1] - 150.0, ORIGIN[0] + 501.0, ORIGIN[1] - 3.0)
-    here = mosaic.merge_tiles(inputs, str(tmp_path / "here.tif"), mode="feather", gain=True, extent=extent)
+    here = mosaic.merge_rasters(inputs, str(tmp_path / "here.tif"), mode="feather", gain=True, extent=extent)
     done = subprocess.run([sys.executable, "-m", "wit_plugin.mosaic", str(tmp_path / "there.tif"), *inputs,
                            "--mode", "feather", "--gain", "--extent", *map(repr, extent)],
                           capture_output=True, text=True, env=core_env(), check=True)

@@ -19,7 +19,7 @@ from wit_citymodel.processing_provider.translation import tr
 
 pytestmark = pytest.mark.qgis_facing
 
-EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles", "wit:preparevectors",
+EXPECTED_IDS = {"wit:generatesample", "wit:georeferencemapsheets", "wit:mergerasters", "wit:preparevectors",
                 "wit:wittexture", "wit:writecitygml", "wit:validatecitygml", "wit:triangulateterrain",
                 "wit:extrudebuildings", "wit:buildcolorstore", "wit:querycolorstore", "wit:qualitymetrics",
                 "wit:citymodel", "wit:export3dtiles", "wit:exportcityjson"}
@@ -140,7 +140,7 @@ def test_every_help_button_opens_a_readme_section_that_exists(loaded_plugin):
         targets[algorithm.id()] = url.fragment()
     assert len(targets) == len(ALGORITHMS)
     assert targets["wit:generatesample"] == "sample-data-witgeneratesample"
-    assert targets["wit:mergetiles"] == "algorithms-provider-wit"
+    assert targets["wit:mergerasters"] == "algorithms-provider-wit"
 
 
 def test_provider_version_is_the_plugin_cards(loaded_plugin):

@@ -31,7 +31,7 @@ def test_list_shows_the_wit_provider(profile):
     listing = subprocess.run([str(ROOT / "scripts" / "qgis-process"), "list"], capture_output=True,
                              text=True, env=env, timeout=300).stdout
     assert "WIT City Model" in listing
-    for algorithm in ("wit:generatesample", "wit:georeferencemapsheets", "wit:mergetiles"):
+    for algorithm in ("wit:generatesample", "wit:georeferencemapsheets", "wit:mergerasters"):
         assert algorithm in listing
 
 
@@ -73,7 +73,7 @@ def test_raster_inputs_get_no_aux_xml_beside_them_headless(tmp_path, profile, sh
     dem = folder / "seoul_dem.tif"
     shutil.copy(shared_dir / "data" / "dem_seoul_90m_5186" / "seoul_dem.tif", dem)
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
-    qgis_process("run", "wit:mergetiles", f"--INPUT={dem}", f"--OUTPUT={tmp_path / 'm.tif'}", profile=profile)
+    qgis_process("run", "wit:mergerasters", f"--INPUT={dem}", f"--OUTPUT={tmp_path / 'm.tif'}", profile=profile)
     assert (tmp_path / "m.tif").is_file()
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # no seoul_dem.tif.aux.xml
 

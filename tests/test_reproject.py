@@ -435,12 +435,12 @@ def test_the_inputs_of_a_reprojecting_run_are_untouched(east_belt_run):
 def test_a_mosaic_in_another_crs_is_reprojected_by_the_texture_step(east_belt_run, tmp_path):
     """wit:wittexture with the layers in 5187 and the merged orthoimage in 5186: its pixels over the layers
     are warped as they are read; the roof atlas matches the one cut from the chain's 5187 mosaic."""
-    from wit_plugin.mosaic import merge_tiles
+    from wit_plugin.mosaic import merge_rasters
     from wit_plugin.texture import texture_model
 
     report = east_belt_run["report"]
     mosaic = tmp_path / "mosaic_5186.tif"
-    merge_tiles(east_belt_run["sheets"], str(mosaic), mode="feather", gain=True)
+    merge_rasters(east_belt_run["sheets"], str(mosaic), mode="feather", gain=True)
     log = Log()
     texture_model(str(mosaic), report.lod1, report.tin, str(tmp_path / "textures"), feedback=log)
     assert any("mosaic_5186.tif is in Korea 2000 / Central Belt 2010 (EPSG:5186): its pixels over the layers are "

@@ -183,7 +183,7 @@ def test_uv_hits_pixel_centres_exactly_at_full_scale(scene: dict, tmp_path: Path
     assert 0 < targets.count("road") < sum(s == "road" for s, _ in scene["triangles"])
     assert report.untextured == {"wall": 4 + 4 + 4 + 6, "ground": 4,
                                  "footprint": sum(s == "footprint" for s, _ in scene["triangles"])}
-    assert report.atlases == 1 and report.ground_images == 4  # 128 px images: 112 px (56 m) ground tiles
+    assert report.atlases == 1 and report.ground_images == 4  # 128 px images: 112 px (56 m) ground squares
     assert len(report.images) == report.atlases + report.ground_images
     images = {}
     for row in rows:
@@ -343,8 +343,8 @@ def test_ortho_is_read_in_windows(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     assert all(w is not None and h is not None and w <= 256 and h <= 256 for w, h in reads)  # ≤ one atlas
 
 
-def test_triangles_on_ground_tile_borders_come_once(scene: dict, tmp_path: Path) -> None:
-    side = math.floor(64 * 0.875) * PX  # ground tile side for 64 px images: 28 m
+def test_triangles_on_ground_square_borders_come_once(scene: dict, tmp_path: Path) -> None:
+    side = math.floor(64 * 0.875) * PX  # ground square side for 64 px images: 28 m
     lines = [k * side / 2 for k in range(6)]  # every other line is a tile border; 70 m < the ortho's 75 m
     tris = []
     for i in range(5):
@@ -421,7 +421,7 @@ def test_surfaces_outside_the_coverage_are_left_untextured_and_counted(tmp_path)
         texture_model(ortho, lod1, None, str(tmp_path / "refused"))
     coverage = shapely.box(X0, Y0 - 100, X0 + 100, Y0)  # the ortho: 200 px of 0.5 m
     report = texture_model(ortho, lod1, None, str(tmp_path / "tex"), coverage=coverage)
-    assert report.surfaces[texture.ROOF_TARGET] == 1 and report.untextured[texture.OUTSIDE_ORTHO] == 1
+    assert report.surfaces[texture.ROOF_TARGET] == 1 and report.untextured[texture.BEYOND_ORTHO] == 1
     rows = sqlite3.connect(tmp_path / "tex" / step_layers.TEXCOORD_FILE).execute(
         f"SELECT {step_layers.TEX_TARGET}, {step_layers.TEX_FEATURE} FROM {step_layers.TEXCOORD_TABLE}").fetchall()
     # generated facades need no orthoimage: both buildings' walls have theirs

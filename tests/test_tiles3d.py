@@ -40,7 +40,7 @@ def chain(tmp_path_factory, qgis_processing):
     run = processing.run
     geo = run("wit:georeferencemapsheets", {"INPUT": [str(sample.ortho_tiles[0].parent)], "OUTPUT": str(out / "geo"),
                                             "OUTPUT_INDEX": str(out / "sheets.gpkg")})
-    mosaic = run("wit:mergetiles", {"INPUT": geo["OUTPUT_LAYERS"], "OVERLAP": 1, "OUTPUT": str(out / "mosaic.tif")})
+    mosaic = run("wit:mergerasters", {"INPUT": geo["OUTPUT_LAYERS"], "OVERLAP": 1, "OUTPUT": str(out / "mosaic.tif")})
     prepared = run("wit:preparevectors", {"BUILDINGS": str(sample.buildings), "ROADS": str(sample.roads),
                                           "DISTRICTS": str(sample.districts), "RADIUS": 200.0,
                                           "OUTPUT": str(out / "prepared.gpkg")})

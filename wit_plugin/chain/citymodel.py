@@ -59,7 +59,7 @@ from ..terrain import triangulators
 from ..terrain.build import TerrainConfig, TileContext, covering_area, triangulate_terrain
 from ..terrain.constraints import Seam
 from ..terrain.mesh import TinStats
-from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
+from ..texture import BEYOND_ORTHO, TextureConfig, texture_model
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
 from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
@@ -345,7 +345,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         metrics=str(output / "metrics.csv") if metrics_csv else None, valid=all(r.valid for r in validation),
         errors=errors, buildings=written.buildings,
         default_heights=lod1_stats.height_sources.get("default", 0) if lod1_stats else 0,
-        untextured_outside=texture_report.untextured.get(OUTSIDE_ORTHO, 0), triangles=tin_stats.triangles,
+        untextured_outside=texture_report.untextured.get(BEYOND_ORTHO, 0), triangles=tin_stats.triangles,
         seconds={}, work=str(output / "work") if options.keep_work else None,
         lod1=str(output / Path(lod1).name) if lod1 else None, tin=str(output / Path(tin).name),
         tileset=str(output / TILESET_DIR / Path(tileset).name) if tileset else None,

@@ -105,7 +105,7 @@ def seam_metrics(mosaic: str, footprints: str | Sequence[str], feedback: Feedbac
     ds = open_raster(mosaic, "mosaic")
     gt = ds.GetGeoTransform()
     if gt[2] or gt[4] or gt[5] >= 0:
-        raise InputError(f"{mosaic} is not a north-up raster; give the output of wit:mergetiles.")
+        raise InputError(f"{mosaic} is not a north-up raster; give the output of wit:mergerasters.")
     boxes, srs = tile_footprints(footprints)
     mosaic_srs = ds.GetSpatialRef()
     if srs is not None and mosaic_srs is not None and not srs.IsSame(mosaic_srs):

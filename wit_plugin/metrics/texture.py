@@ -300,7 +300,7 @@ def _ortho_stats(ortho: str, area: tuple[float, float, float, float] | shapely.G
     ds = open_raster(ortho, "orthoimage")
     gt = ds.GetGeoTransform()
     if gt[2] or gt[4]:
-        raise InputError(f"{ortho} is rotated; give a north-up orthoimage (wit:mergetiles writes one).")
+        raise InputError(f"{ortho} is rotated; give a north-up orthoimage (wit:mergerasters writes one).")
     burner = None
     if isinstance(area, shapely.Geometry):  # one pixel of margin: border pixels see their real neighbours
         burner = _Burner(shapely.get_parts(area))

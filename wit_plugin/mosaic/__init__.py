@@ -1,4 +1,4 @@
-"""Mosaic georeferenced tiles into one raster, block by block (``wit:mergetiles``).
+"""Mosaic georeferenced tiles into one raster, block by block (``wit:mergerasters``).
 
 Two overlap modes:
 
@@ -63,7 +63,7 @@ MODES = ("feather", "overwrite")
 DEFAULT_MAX_EMPTY = 0.9  # refuse a mosaic whose share of pixels no tile covers is larger
 
 
-def merge_tiles(
+def merge_rasters(
     inputs: Sequence[str],
     output: str,
     mode: str = "feather",

@@ -24,7 +24,7 @@ _BLOCKS_SHARE = 85.0  # progress share of the block loop; overviews take the res
 
 @dataclass
 class MergeReport:
-    """What ``merge_tiles`` wrote: the output grid, where each input landed, the tone correction used."""
+    """What ``merge_rasters`` wrote: the output grid, where each input landed, the tone correction used."""
 
     output: str
     mode: str

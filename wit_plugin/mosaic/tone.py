@@ -1,4 +1,4 @@
-"""Tone equalisation of overlapping tiles for ``wit:mergetiles``: per tile and band, v' = gain·v + offset.
+"""Tone equalisation of overlapping tiles for ``wit:mergerasters``: per tile and band, v' = gain·v + offset.
 
 Why this model. Flight strips and scenes differ in exposure (a gain) *and* in haze, black level
 or processing (an offset); a gain alone cannot remove an offset: on real tiles 40 grey levels

@@ -18,13 +18,13 @@ What is textured, and how:
 * **Terrain and roads** (TIN triangles ``terrain`` and ``road``): a ``road`` triangle with a
   ``feature_id`` gets target ``road`` (the CityGML writer puts it in its road's traffic area),
   every other one target ``tin`` (it stays in the relief, as the writer places it). Triangles
-  are grouped by **ground tile**, a square grid anchored on the ortho's origin whose side is 7/8
-  of ``atlas_size`` texels. A triangle belongs to the tile holding its first vertex;
-  each non-empty tile becomes one image (``ground_rRRRR_cCCCC``) covering the bounding box of its
+  are grouped by **ground square**, a grid anchored on the ortho's origin whose side is 7/8
+  of ``atlas_size`` texels. A triangle belongs to the square holding its first vertex;
+  each non-empty square becomes one image (``ground_rRRRR_cCCCC``) covering the bounding box of its
   triangles plus ``gutter`` texels of real ortho context. Per-triangle islands would cost an
-  island (and a gutter) per 5 m triangle; a ground tile needs no packing and keeps neighbouring
+  island (and a gutter) per 5 m triangle; a ground square needs no packing and keeps neighbouring
   triangles continuous.
-* A surface (or ground tile) whose texture exceeds ``atlas_size`` (minus the gutters) is
+* A surface (or ground square) whose texture exceeds ``atlas_size`` (minus the gutters) is
   downscaled to fit, keeping its extent; the report counts such images (``downscaled``).
 * **Not textured**: LoD1 ``wall`` faces (an orthoimage shows no facades: the CityGML writer gives
   walls no texture or a plain material), ``ground`` faces (never visible) and TIN ``footprint``
@@ -41,14 +41,14 @@ maps onto its texel rectangle and U, V are taken over the atlas.
 Scale S: a texel is about 1/S ortho pixels; windows are snapped to multiples of round(1/S)
 pixels, so S = 1/n averages exact n × n pixel blocks (GDAL average resampling). Every texture
 window is read with a windowed ``ReadAsArray``; the ortho is never loaded whole, and GDAL's block
-cache is capped during the run as in wit:mergetiles. Features are read in bulk (``bulk_read``): a
-first pass places each in its ground tile (4 bytes a feature kept), then runs of tiles whose
+cache is capped during the run as in wit:mergerasters. Features are read in bulk (``bulk_read``): a
+first pass places each in its ground square (4 bytes a feature kept), then runs of squares whose
 points fit in ``_POINTS_IN_MEMORY`` are read together (one run for the 1 km demo's 592,000
-triangles). Memory is bounded by the cache cap, one atlas and one run of tiles, whatever the
+triangles). Memory is bounded by the cache cap, one atlas and one run of squares, whatever the
 size of the ortho. Images are encoded and table rows inserted in a worker thread.
 
 Coverage: if a textured layer's extent is not inside the ortho's, the run stops before writing
-anything (``InputError``): merge the tiles that cover the study area or clip the study area.
+anything (``InputError``): merge the orthoimage sheets that cover the study area or clip the study area.
 NoData pixels inside the ortho are textured as they are.
 
 Mipmaps (paper Table 10): ``mip_chain`` gives the box-filtered chain to 1 × 1 for any image;
@@ -80,10 +80,10 @@ from ..infra.io.gpkg_bulk import BulkTable
 from ..infra.io.vector_io import FieldDef
 from ..infra.numtext import ring_texts
 from .config import (
+    BEYOND_ORTHO,
     FACADE_CHOICES,
     FACADES_GENERATED,
     FORMATS,
-    OUTSIDE_ORTHO,
     ROAD_TARGET,
     ROOF_TARGET,
     TEXCOORDS_FILE,
@@ -168,10 +168,10 @@ def texture_model(
             finally:
                 out.close()
             report.bytes_written = sum(p.stat().st_size for p in tmp.iterdir())
-    if untextured.get(OUTSIDE_ORTHO):
-        feedback.warning(f"{untextured[OUTSIDE_ORTHO]} surface(s) lie outside the orthoimage and are left untextured.")
+    if untextured.get(BEYOND_ORTHO):
+        feedback.warning(f"{untextured[BEYOND_ORTHO]} surface(s) lie outside the orthoimage and are left untextured.")
     feedback.info(f"Wrote {len(report.images)} image(s) ({report.atlases} roof atlas(es), {report.ground_images} "
-                  f"ground tile(s)), {report.mip_files} mip file(s), {report.bytes_written / 1e6:.1f} MB.")
+                  f"ground square(s)), {report.mip_files} mip file(s), {report.bytes_written / 1e6:.1f} MB.")
     feedback.progress(100.0)
     return report
 
@@ -244,13 +244,13 @@ class _Inside:
         if self.coverage is None or not len(rings):
             return rings
         keep = shapely.covers(self.coverage, shapely.box(*rings.bboxes().T))
-        self.untextured[OUTSIDE_ORTHO] = self.untextured.get(OUTSIDE_ORTHO, 0) + int((~keep).sum())
+        self.untextured[BEYOND_ORTHO] = self.untextured.get(BEYOND_ORTHO, 0) + int((~keep).sum())
         return rings.take(np.flatnonzero(keep))
 
 
 def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
                    inside: _Inside, feedback: Feedback) -> None:
-    """Roof islands tile by tile (spatial order), tallest first within a tile for tighter shelves."""
+    """Roof islands square by square (spatial order), tallest first within a square for tighter shelves."""
     def roof(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         wit_id, face_no = columns
         faces = np.ma.filled(face_no, 0).astype(object)  # as OGR's GetFieldAsInteger: NULL is 0
@@ -259,7 +259,7 @@ def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, conf
     packer = _AtlasPacker(config, out)
     limit = config.atlas_size - 2 * config.gutter
     count = len(grid.keys(layer.extent))
-    for n, (_, rings) in enumerate(layer.tiles(grid, (step_layers.WIT_ID, step_layers.FACE_NUMBER), roof)):
+    for n, (_, rings) in enumerate(layer.squares(grid, (step_layers.WIT_ID, step_layers.FACE_NUMBER), roof)):
         feedback.check_canceled()
         rings = inside(rings)
         patches = [ortho.patch(rings.bbox(i), limit) for i in range(len(rings))]
@@ -272,7 +272,7 @@ def _texture_roofs(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, conf
 
 def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, config: TextureConfig,
                     inside: _Inside, feedback: Feedback) -> None:
-    """One image per non-empty ground tile, covering its triangles' bounding box plus the gutter."""
+    """One image per non-empty ground square, covering its triangles' bounding box plus the gutter."""
     def triangle(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         tri_id, surface, feature_id = columns
         on_road = (np.ma.filled(surface, b"") == b"road") & bulk_read.valid(feature_id)
@@ -281,9 +281,9 @@ def _texture_ground(layer: _Layer, ortho: _Ortho, grid: _Grid, out: _Output, con
                 np.full(len(on_road), None, dtype=object))
 
     count = len(grid.keys(layer.extent))
-    tiles = layer.tiles(grid, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID),
-                        triangle)
-    for n, ((r, c), batch) in enumerate(tiles):
+    squares = layer.squares(grid, (step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE,
+                                   step_layers.TIN_FEATURE_ID), triangle)
+    for n, ((r, c), batch) in enumerate(squares):
         feedback.check_canceled()
         batch = inside(batch)
         if len(batch):

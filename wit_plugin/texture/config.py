@@ -20,7 +20,7 @@ ROOF_TARGET, WALL_TARGET, TIN_TARGET, ROAD_TARGET = step_layers.TEX_TARGETS
 FACADES_NONE, FACADES_GENERATED, FACADE_CHOICES = (step_layers.FACADES_NONE, step_layers.FACADES_GENERATED,
                                                    step_layers.FACADE_CHOICES)  # TextureConfig.facades
 
-OUTSIDE_ORTHO = "outside_ortho"  # TextureReport.untextured key: surfaces beyond the ortho's coverage
+BEYOND_ORTHO = "outside_ortho"  # TextureReport.untextured key: surfaces beyond the ortho's coverage
 
 
 @dataclass(frozen=True)
@@ -35,7 +35,7 @@ class TextureConfig:
     atlas_size: int = 2048
     """Maximum side of any image, a power of two."""
     gutter: int = 4
-    """Texels of padding around each roof island (and of context around ground tiles)."""
+    """Texels of padding around each roof island (and of context around ground squares)."""
     write_mipmaps: bool = False
     """Write each image's mip chain to 1 × 1 as files (otherwise it is derivable by the viewer)."""
     facades: str = step_layers.DEFAULT_FACADES

@@ -1,4 +1,4 @@
-"""What the texture step reads: the textured layers in bulk, tile by tile, and the orthoimage window by window."""
+"""What the texture step reads: the textured layers in bulk, square by square, and the orthoimage window by window."""
 from __future__ import annotations
 
 import math
@@ -21,10 +21,10 @@ from ..infra.io.vector_io import open_layer, open_step_layer, split_source
 from ..infra.raster_crs import aligned, cell_size, crs_name, foreign_crs, transform_geometry, warp
 from .config import TextureConfig
 
-_POINTS_IN_MEMORY = 4_000_000  # ring points read at a time (~100 MB with their rings' data): a run of tiles
+_POINTS_IN_MEMORY = 4_000_000  # ring points read at a time (~100 MB with their rings' data): a run of squares
 
 
-_TILE_FILL = 0.875  # share of the image side given to a ground tile; the rest takes triangle overhang
+_SQUARE_FILL = 0.875  # share of the image side given to a ground square; the rest takes triangle overhang
 
 
 @dataclass(frozen=True)
@@ -68,7 +68,7 @@ class _Rings:
 
 
 class _Layer:
-    """A textured layer: the faces of the given kinds, read in bulk tile by tile (``tiles``)."""
+    """A textured layer: the faces of the given kinds, read in bulk square by square (``squares``)."""
 
     def __init__(self, path: str, name: str, kind_field: str, fields: tuple[str, ...], kinds: tuple[str, ...],
                  role: str):
@@ -92,40 +92,41 @@ class _Layer:
         self.layer.SetAttributeFilter(self._where(kinds))
         return self.layer.GetFeatureCount()
 
-    def tiles(self, grid: _Grid, columns: tuple[str, ...],
+    def squares(self, grid: _Grid, columns: tuple[str, ...],
               describe: Callable[[list[np.ndarray]], tuple[np.ndarray, ...]]
               ) -> Iterator[tuple[tuple[int, int], _Rings]]:
-        """Each ground tile over the layer's extent (row by row from the north-west) with the rings whose
+        """Each ground square over the layer's extent (row by row from the north-west) with the rings whose
         first point lies in it, in the layer's order: every ring comes exactly once.
 
-        Read in bulk (``bulk_read``): once to place every ring in its tile (an int per feature
-        kept), then once per run of tiles whose points fit in memory together (one run for the 1
-        km demo); OGR spatial filters would read the whole layer per tile when it has no
+        Read in bulk (``bulk_read``): once to place every ring in its square (an int per feature
+        kept), then once per run of squares whose points fit in memory together (one run for the 1
+        km demo); OGR spatial filters would read the whole layer per square when it has no
         spatial index (the chain's intermediate files have none). ``describe`` turns a batch's
         ``columns`` into the rings' targets, features and faces.
         """
         keys = grid.keys(self.extent)
         (r0, c0), (_, c1) = keys[0], keys[-1]
 
-        def tile_of(xy: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        def square_of(xy: np.ndarray, counts: np.ndarray) -> np.ndarray:
             row, col = grid.key_arrays(*xy[np.cumsum(counts) - counts].T)
             return (row - r0) * (c1 - c0 + 1) + (col - c0)
 
-        placed = [(tile_of(xy, counts), counts) for xy, counts, _ in self._read(columns[:1])]
-        tile = np.concatenate([t for t, _ in placed] or [np.empty(0, dtype=np.int64)]).astype(np.int32)
-        points = np.bincount(tile, weights=np.concatenate([c for _, c in placed] or [np.empty(0)]), minlength=len(keys))
+        placed = [(square_of(xy, counts), counts) for xy, counts, _ in self._read(columns[:1])]
+        square = np.concatenate([s for s, _ in placed] or [np.empty(0, dtype=np.int64)]).astype(np.int32)
+        points = np.bincount(square, weights=np.concatenate([c for _, c in placed] or [np.empty(0)]),
+                             minlength=len(keys))
         del placed
         first = 0
         while first < len(keys):
             last = first + max(1, int(np.searchsorted(np.cumsum(points[first:]), _POINTS_IN_MEMORY, side="right")))
-            wanted = (tile >= first) & (tile < last)
+            wanted = (square >= first) & (square < last)
             parts = []
             for xy, counts, batch in self._read(columns, wanted):
                 starts = np.concatenate([[0], np.cumsum(counts)])
                 parts.append(_Rings(*describe([batch[c] for c in columns]), xy, starts))
             rings = _Rings.concat(parts)
             del parts
-            mine = tile[wanted]
+            mine = square[wanted]
             order = np.argsort(mine, kind="stable")
             bounds = np.searchsorted(mine[order], np.arange(first, last + 1))
             for n in range(first, last):
@@ -182,11 +183,11 @@ class _Ortho:
         ds = self.ds
         if ds.RasterCount < 3 or any(ds.GetRasterBand(b).DataType != gdal.GDT_Byte for b in (1, 2, 3)):
             raise InputError(f"The orthoimage {path} must be RGB with 8-bit bands (it has {ds.RasterCount} band(s)): "
-                             "use the output of wit:mergetiles.")
+                             "use the output of wit:mergerasters.")
         gt = ds.GetGeoTransform(can_return_null=True)
         if gt is None or gt[2] or gt[4] or gt[5] >= 0:
             raise InputError(f"The orthoimage {path} is not georeferenced north-up: georeference it "
-                             "(wit:georeferencemapsheets) and merge it (wit:mergetiles) first.")
+                             "(wit:georeferencemapsheets) and merge it (wit:mergerasters) first.")
         self._grid(ds)
         wkt = ds.GetProjection()
         self.srs = osr.SpatialReference(wkt) if wkt else None
@@ -237,8 +238,8 @@ class _Ortho:
             raise InputError(
                 f"Layer {layer.name!r} in {layer.path} reaches beyond the orthoimage, whose pixels are needed for "
                 f"every textured surface: layer x {lx0:.2f}–{lx1:.2f}, y {ly0:.2f}–{ly1:.2f}; ortho x "
-                f"{ox0:.2f}–{ox1:.2f}, y {oy0:.2f}–{oy1:.2f}. Merge the ortho tiles that cover the whole study "
-                "area (wit:mergetiles) or make the study area smaller.")
+                f"{ox0:.2f}–{ox1:.2f}, y {oy0:.2f}–{oy1:.2f}. Merge the orthoimage sheets that cover the whole study "
+                "area (wit:mergerasters) or make the study area smaller.")
 
     def patch(self, bbox: tuple[float, float, float, float], limit: int, margin: int = 0) -> _Patch:
         """The texels over ``bbox`` (+ ``margin`` texels, within the ortho), at most ``limit`` a side."""
@@ -264,11 +265,12 @@ class _Ortho:
 
 
 class _Grid:
-    """Square ground tiles anchored on the ortho's top-left corner, rows going south."""
+    """The ground squares (each one image of terrain and roads; the roofs are read square by square too),
+    anchored on the ortho's top-left corner, rows going south."""
 
     def __init__(self, ortho: _Ortho, config: TextureConfig):
         self.x0, self.y0 = ortho.x0, ortho.y0
-        self.side = math.floor(config.atlas_size * _TILE_FILL) * ortho.texel_size
+        self.side = math.floor(config.atlas_size * _SQUARE_FILL) * ortho.texel_size
         self._eps = 1e-6 * self.side
 
     def key(self, x: float, y: float) -> tuple[int, int]:
@@ -280,13 +282,13 @@ class _Grid:
                 np.floor((x - self.x0) / self.side).astype(np.int64))
 
     def rect(self, key: tuple[int, int]) -> tuple[float, float, float, float]:
-        """The tile's xmin, ymin, xmax, ymax, widened by a hair so rounding cannot drop a boundary vertex."""
+        """The square's xmin, ymin, xmax, ymax, widened by a hair so rounding cannot drop a boundary vertex."""
         r, c = key
         e = self._eps
         return (self.x0 + c * self.side - e, self.y0 - (r + 1) * self.side - e,
                 self.x0 + (c + 1) * self.side + e, self.y0 - r * self.side + e)
 
     def keys(self, extent: tuple[float, float, float, float]) -> list[tuple[int, int]]:
-        """The tiles over ``extent``, row by row from the north-west."""
+        """The squares over ``extent``, row by row from the north-west."""
         (r0, c0), (r1, c1) = self.key(extent[0], extent[3]), self.key(extent[2], extent[1])
         return [(r, c) for r in range(r0, r1 + 1) for c in range(c0, c1 + 1)]
