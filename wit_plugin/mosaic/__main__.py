@@ -11,7 +11,7 @@ from ..infra.errors import WitError
 from ..infra.feedback import step_process_feedback
 from ..infra.gdal_env import no_sidecars
 from ..infra.io import jsontext
-from . import MODES, merge_tiles
+from . import MODES, merge_rasters
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,7 +25,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         with no_sidecars():
-            report = merge_tiles(args.inputs, args.output, mode=args.mode, gain=args.gain,
+            report = merge_rasters(args.inputs, args.output, mode=args.mode, gain=args.gain,
                                  feedback=step_process_feedback(), extent=tuple(args.extent) if args.extent else None)
     except WitError as exc:
         print(str(exc), file=sys.stderr)
