@@ -21,7 +21,6 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-import tempfile
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
@@ -44,7 +43,7 @@ from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.interpreter import core_env, core_python
 from ..infra.io import jsontext
-from ..infra.io.fileio import ensure_writable_dir
+from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
 from ..infra.io.vector_io import read_prepared
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
@@ -230,12 +229,9 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     started = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     clock = _Clock(feedback)
-    staging = Path(tempfile.mkdtemp(prefix=".wit-run-", dir=output))
-    try:
+    with staging_folder(output, ".wit-run-") as staging:
         report = _run(inputs, options, output, staging, clock)
-        report.files = _publish(staging, output) + [STEPS_FILE]
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        report.files = publish(staging, output) + [STEPS_FILE]
     report.seconds = {label: clock.seconds[label] for label, _ in STEPS if label in clock.seconds}
     report.wall_seconds = round(time.perf_counter() - started, 3)
     (output / STEPS_FILE).write_text(jsontext.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
@@ -244,20 +240,6 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
                   + f"; {report.wall_seconds:.1f} s in all (3D Tiles beside validation and metrics)")
     feedback.progress(100.0)
     return report
-
-
-def _publish(staging: Path, output: Path) -> list[str]:
-    """Move every result from the staging folder into the output folder, replacing older results; their names."""
-    names = []
-    for item in sorted(staging.iterdir()):
-        target = output / item.name
-        if target.is_dir() and not target.is_symlink():
-            shutil.rmtree(target)
-        elif target.exists() or target.is_symlink():
-            target.unlink()
-        os.replace(item, target)
-        names.append(item.name)
-    return names
 
 
 def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock) -> ChainReport:

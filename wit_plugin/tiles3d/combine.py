@@ -20,7 +20,6 @@ import json
 import math
 import os
 import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +32,7 @@ from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.io import jsontext
 from ..infra.io.digests import digest
-from ..infra.io.fileio import atomic_file, restore_folder, swap_folder
+from ..infra.io.fileio import aside_of, publish, restore_folder, staging_folder
 from ..mosaic.georef import OK, georeference_sheets
 from .geo import Georeference, column_major, union_region
 from .group_buildings import GROUP_BUILDINGS, Candidates, read_tile_buildings
@@ -56,7 +55,6 @@ TILE_TILESET = f"3dtiles/{TILESET_FILE}"
 TILE_LOD1 = "lod1.gpkg"
 EARTH_RADIUS = 6_371_000.0  # m
 GENERATOR = "WIT City Model (wit:citymodeltiles)"
-OLD_GROUPS = f".wit-old-{GROUP_DIR}"  # the groups a refresh replaces, until the new ones are in place
 
 
 def region_diagonal(region: list[float]) -> float:
@@ -117,7 +115,7 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
     taking the unchanged children's parts from their summaries. Nothing changed: nothing is written.
     ``force``: every group built again."""
     out = Path(output)
-    restore_folder(out / GROUP_DIR, out / OLD_GROUPS)  # a refresh killed between its two renames
+    restore_folder(out / GROUP_DIR, aside_of(out / GROUP_DIR))  # a refresh killed between its two renames
     roots = {}
     for sheet, folder in tiles.items():
         path = out / folder / TILE_TILESET
@@ -146,15 +144,14 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
             feedback.info("3D Tiles: no group changed; the groups and the run's tileset are kept as they are.")
             return result
     georef = Georeference(target_crs)
-    staging = Path(tempfile.mkdtemp(prefix=".wit-groups-", dir=out))
-    try:
+    with staging_folder(out, ".wit-groups-") as staging, staging_folder(out, ".wit-ortho-") as scratch:
         rasters: list = []  # the orthoimage sheets as VRTs and their extents, made when a lowest group needs them
 
         def near_ortho(area: BaseGeometry) -> list[str]:
             if not (dem and ortho):
                 return []
             if not rasters:
-                sheets = georeference_sheets(ortho, staging / "ortho", target_crs, sheet_crs, margin, fmt="VRT")
+                sheets = georeference_sheets(ortho, scratch, target_crs, sheet_crs, margin, fmt="VRT")
                 vrts = [r.output for r in sheets if r.status == OK]
                 rasters.extend([vrts, shapely.box(*np.array([raster_extent(v) for v in vrts]).T) if vrts else
                                 np.empty(0, dtype=object)])
@@ -227,21 +224,18 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
             _count(result, name, metas[name])
         result.levels = max(n.depth for n in nodes)
         document = _root_document([_reference(n, n.uri, None) for n in nodes])
-        swap_folder(folder, out / GROUP_DIR, out / OLD_GROUPS)
         if _json_bytes(document) != _read_bytes(out / TILESET_FILE):
-            with atomic_file(out / TILESET_FILE) as tmp:
-                tmp.write_bytes(_json_bytes(document))
+            _write_json(staging / TILESET_FILE, document)
+        publish(staging, out)  # the groups, then the run's tileset.json
         result.root_bytes = (out / TILESET_FILE).stat().st_size
         result.largest_file_bytes = max(result.largest_file_bytes, result.root_bytes)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
     return result
 
 
 def remove_run_tileset(output: str | Path) -> None:
     """The run's tileset and groups an earlier run wrote, for a run without 3D Tiles (its tiles have none)."""
     out = Path(output)
-    restore_folder(out / GROUP_DIR, out / OLD_GROUPS)
+    restore_folder(out / GROUP_DIR, aside_of(out / GROUP_DIR))
     shutil.rmtree(out / GROUP_DIR, ignore_errors=True)
     (out / TILESET_FILE).unlink(missing_ok=True)
 
