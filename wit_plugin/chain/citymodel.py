@@ -55,7 +55,7 @@ from ..terrain.constraints import Seam
 from ..texture import OUTSIDE_ORTHO, TextureConfig, texture_model
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
-from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
+from .coverage import OrthoCoverage, ortho_coverage, require_dem, require_ortho, require_sheet_names
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
 DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
@@ -127,7 +127,7 @@ class ChainOptions:
     heights: HeightOptions = field(default_factory=HeightOptions)
     outside_ortho: str = "fail"  # or "untextured"
     schema_dir: str | None = None  # override of the shipped schemas
-    schema_cache: str | None = None
+    schema_cache: str | None = None  # None: DEFAULT_SCHEMA_CACHE (see ``schema_cache_folder``)
     keep_work: bool = False  # keep the intermediate files as <output>/work
     metrics: bool = True
     tiles3d: bool = True  # write the 3D Tiles 1.1 tileset (<output>/3dtiles) for viewers
@@ -219,13 +219,38 @@ class _Clock:
                 process.wait()
 
 
-def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
-                   feedback: Feedback = SILENT) -> ChainReport:
-    """Run the whole chain into ``output_dir`` (model.gml + textures, validation.html, metrics, steps.json)."""
+def schema_cache_folder(options: ChainOptions) -> str:
+    """The folder a run caches downloaded CityGML schemas in (tiles of a run all get their runner's)."""
+    return str(options.schema_cache or DEFAULT_SCHEMA_CACHE)
+
+
+def check_inputs(inputs: ChainInputs, options: ChainOptions) -> list[str]:
+    """What a run checks before it reads any data — the options' choices, the library of the 3D Tiles web
+    profile, the orthoimage files' sheet numbers —; those files. The map-sheet runner checks the same before
+    any tile starts."""
     if options.outside_ortho not in OUTSIDE_ORTHO_CHOICES:
         raise InputError(f"Surfaces outside the orthoimage: choose one of {', '.join(OUTSIDE_ORTHO_CHOICES)}.")
     if options.tiles3d and options.tiles3d_web:
         require_web_profile()
+    tifs = list_tifs(inputs.ortho)
+    require_sheet_names(tifs)
+    return tifs
+
+
+def check_coverage(inputs: ChainInputs, tifs: list[str], area: BaseGeometry, options: ChainOptions,
+                   feedback: Feedback = SILENT) -> OrthoCoverage:
+    """Whether the DEM and the orthoimage files ``tifs`` cover ``area`` (answered in seconds, before anything
+    heavy): which sheets it needs; an ``InputError`` naming what is missing (see ``coverage``)."""
+    require_dem(inputs.dem, area, options.target_crs, feedback)
+    coverage = ortho_coverage(tifs, area, options.target_crs, options.sheet_crs, options.margin)
+    require_ortho(coverage, options.outside_ortho == "untextured", feedback)
+    return coverage
+
+
+def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
+                   feedback: Feedback = SILENT) -> ChainReport:
+    """Run the whole chain into ``output_dir`` (model.gml + textures, validation.html, metrics, steps.json)."""
+    check_inputs(inputs, options)
     started = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     clock = _Clock(feedback)
@@ -245,8 +270,7 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
 def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock) -> ChainReport:
     work = staging / "work"
     work.mkdir()
-    tifs = list_tifs(inputs.ortho)
-    require_sheet_names(tifs)
+    tifs = list_tifs(inputs.ortho)  # (their names checked by check_inputs)
 
     with clock.step("prepare") as fb:
         layers = _prepare(inputs, options, work, fb)
@@ -255,9 +279,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
             if layers.buildings else layers.study
 
     with clock.step("coverage") as fb:
-        require_dem(inputs.dem, area, options.target_crs, fb)
-        coverage = ortho_coverage(tifs, area, options.target_crs, options.sheet_crs, options.margin)
-        require_ortho(coverage, options.outside_ortho == "untextured", fb)
+        coverage = check_coverage(inputs, tifs, area, options, fb)
 
     with clock.step("georeference") as fb:
         sheets = georeference_sheets([s.path for s in coverage.used], work / "georeferenced", options.target_crs,
@@ -312,7 +334,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     with beside as tileset_done:  # the tileset is written beside validation and metrics
         with clock.step("validate") as fb:
             schema_dir, source = schemas.find_schema_dir(options.schema_dir,
-                                                         str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
+                                                         schema_cache_folder(options),
                                                          allow_download=True, feedback=fb)
             fb.info(f"Schemas: {source} ({schema_dir})")
             validation = validate_files([str(gml)], schema_dir, feedback=fb)
