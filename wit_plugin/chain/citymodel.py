@@ -44,6 +44,7 @@ from ..infra.feedback import SILENT, Feedback
 from ..infra.interpreter import core_env, core_python
 from ..infra.io import jsontext
 from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
+from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import read_prepared
 from ..metrics import quality_report
 from ..mosaic import merge_tiles
@@ -72,7 +73,8 @@ CITYJSON_FILE = "model.city.json"
 
 @dataclass
 class PreparedLayers:
-    """The prepared sources the later steps read (``file|layername=…``), and the study area itself."""
+    """The prepared sources the later steps read (``str(LayerSource)``, as the steps take them), and the study
+    area itself."""
 
     buildings: str | None  # None: a part of a larger run that owns no building
     study: BaseGeometry
@@ -87,9 +89,9 @@ class PreparedLayers:
         """The layers ``names`` of ``prepared`` (buildings, study area, foreign buildings) and
         ``context_names`` of ``context`` (roads, dongs)."""
         def source(file: str, present: list[str], name: str) -> str | None:
-            return f"{file}|layername={name}" if name in present else None
+            return str(LayerSource(file, name)) if name in present else None
 
-        study = read_prepared(f"{prepared}|layername={step_layers.STUDY_AREA}", step_layers.STUDY_AREA).geoms[0]
+        study = read_prepared(LayerSource(prepared, step_layers.STUDY_AREA), step_layers.STUDY_AREA).geoms[0]
         return cls(source(prepared, names, step_layers.PREPARED_BUILDINGS), study,
                    source(context, context_names, step_layers.PREPARED_ROADS),
                    source(context, context_names, step_layers.PREPARED_DISTRICTS),
@@ -319,8 +321,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     with clock.step("citygml") as fb:
         gml = staging / "model.gml"
         written_inputs = CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
-                                       roads=layers.roads and layers.roads.split("|")[0],
-                                       districts=layers.districts and layers.districts.split("|")[0])
+                                       roads=layers.roads and LayerSource.parse(layers.roads).path,
+                                       districts=layers.districts and LayerSource.parse(layers.districts).path)
         written = write_citygml(written_inputs, str(gml), srs_name=options.target_crs, feedback=fb)
 
     cityjson = _write_cityjson(written_inputs, gml, options, clock) if options.cityjson else None

@@ -22,6 +22,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from ..errors import InputError
+from .layersource import LayerSource
 
 #: files that travel with a main file (same stem): what replacing the main file also replaces
 SIDECARS = {
@@ -36,9 +37,9 @@ SIDECARS[".vrt"] = (".vrt.aux.xml", ".vrt.ovr")
 _PROTECTED: contextvars.ContextVar[tuple[Path, ...]] = contextvars.ContextVar("wit_protected_inputs", default=())
 
 
-def source_file(source: str | os.PathLike) -> Path:
+def source_file(source: str | os.PathLike | LayerSource) -> Path:
     """The file of a data source: ``file.gpkg|layername=x`` → ``file.gpkg``."""
-    return Path(str(source).split("|")[0])
+    return LayerSource.parse(source).file
 
 
 def file_family(path: str | os.PathLike) -> list[Path]:
@@ -59,13 +60,13 @@ def sidecar(path: str | os.PathLike, suffix: str) -> Path | None:
     return next((p for p in (path.with_suffix(suffix), path.with_suffix(suffix.upper())) if p.exists()), None)
 
 
-def vector_file_problem(source: str | os.PathLike) -> str | None:
+def vector_file_problem(source: str | os.PathLike | LayerSource) -> str | None:
     """What is wrong with a vector source file that GDAL would only call unreadable; None if nothing is seen.
 
     ``source`` may be ``file|layername=x``; sources that are not files (databases, memory) pass.
     """
-    text = str(source)
-    path = Path(text.split("|")[0])
+    text, layer_source = str(source), LayerSource.parse(source)
+    path = layer_source.file
     if not path.suffix or "://" in text or text.startswith(("memory", "dbname=", "PG:")):
         return None
     if not path.exists():
@@ -90,7 +91,7 @@ def vector_file_problem(source: str | os.PathLike) -> str | None:
         with open(path, "rb") as fh:
             if fh.read(16) != b"SQLite format 3\x00":
                 return f"{path} is not a GeoPackage (no SQLite header): the file is damaged or misnamed."
-        layer = next((o[len("layername="):] for o in text.split("|")[1:] if o.startswith("layername=")), None)
+        layer = layer_source.layer
         names = _gpkg_layers(path) if layer and suffix == ".gpkg" else None
         if names is not None and layer not in names:
             return f"{path} has no layer '{layer}'; it has: {', '.join(names) or 'none'}."
