@@ -223,7 +223,7 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                               (str(output / CONTEXT_FILE) if context else None, context), fingerprints[sheet],
                               reason) for sheet, reason in plan.build.items()}
         backend = triangulators.backend(options.triangulator)
-        feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")
+        triangulators.announce(backend, feedback)
         python = worker_python(python, backend.module)
         workers = workers or os.cpu_count() or 1
         feedback.info(f"Dask: {'scheduler ' + scheduler if scheduler else f'LocalCluster of {workers} worker(s)'}"
