@@ -26,6 +26,7 @@ from ..wit_plugin.infra.errors import CanceledError, WitError
 from ..wit_plugin.infra.feedback import Feedback
 from ..wit_plugin.infra.gdal_env import no_sidecars
 from ..wit_plugin.infra.io import fileio
+from ..wit_plugin.infra.io.layersource import LayerSource
 from . import safeguards
 from .dependency_notice import NOTICE
 from .help_links import help_url
@@ -137,7 +138,7 @@ class WitAlgorithm(QgsProcessingAlgorithm):
             return None
         if Path(path) == fileio.source_file(layer.source()):
             return layer.source()  # the layer's own file: its |layername= or |layerid= as QGIS opened it
-        return f"{path}|layername={layer_name}" if layer_name else path
+        return str(LayerSource(path, layer_name or None))
 
     def extra_outputs(self, parameters, context) -> list:
         """Files or folders written beside the destination parameters' (``safeguards.Endpoint``s)."""

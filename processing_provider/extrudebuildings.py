@@ -61,6 +61,7 @@ class ExtrudeBuildings(WitAlgorithm):
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.buildings.extrude import extrude_buildings
         from ..wit_plugin.infra import step_layers
+        from ..wit_plugin.infra.io.layersource import LayerSource
 
         buildings = self.parameterAsVectorLayer(parameters, self.BUILDINGS, context)
         heights, expression = height_options(self, parameters, context, buildings)
@@ -72,5 +73,5 @@ class ExtrudeBuildings(WitAlgorithm):
             self.parameterAsBoolean(parameters, self.SPATIAL_INDEX, context), feedback)
         if expression is not None and expression.failure_warning():
             feedback.warning(expression.failure_warning())
-        return {self.OUTPUT: output, "LOD1": f"{output}|layername={step_layers.LOD1_LAYER}", "SOLIDS": stats.solids,
+        return {self.OUTPUT: output, "LOD1": str(LayerSource(output, step_layers.LOD1_LAYER)), "SOLIDS": stats.solids,
                 "DEFAULT_HEIGHTS": stats.height_sources.get("default", 0)}

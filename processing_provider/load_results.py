@@ -20,6 +20,7 @@ from qgis.core import (
 from qgis.PyQt.QtGui import QColor
 
 from ..wit_plugin.infra import step_layers
+from ..wit_plugin.infra.io.layersource import LayerSource
 from .translation import tr, translatable
 
 GROUP_NAME = translatable("WIT city model")
@@ -64,11 +65,11 @@ def load_results(context: QgsProcessingContext, lod1: str | None = None, tin: st
     group_name = group_name or tr(GROUP_NAME)
     layers: list[tuple[QgsMapLayer, object]] = []
     if lod1:
-        buildings = QgsVectorLayer(f"{lod1}|layername={step_layers.LOD1_LAYER}", tr("LoD1 buildings"), "ogr")
+        buildings = QgsVectorLayer(str(LayerSource(lod1, step_layers.LOD1_LAYER)), tr("LoD1 buildings"), "ogr")
         buildings.setSubsetString(f"\"{step_layers.FACE_TYPE}\" = 'ground'")  # footprints, extruded by their height
         layers.append((buildings, _building_renderer))
     if tin:
-        layers.append((QgsVectorLayer(f"{tin}|layername={step_layers.TIN_LAYER}", tr("Terrain (TIN)"), "ogr"),
+        layers.append((QgsVectorLayer(str(LayerSource(tin, step_layers.TIN_LAYER)), tr("Terrain (TIN)"), "ogr"),
                        _terrain_renderer))
     if tileset and Qgis.QGIS_VERSION_INT >= TILED_SCENE_VERSION:
         from qgis.core import QgsTiledSceneLayer  # QGIS ≥ 3.34 only
@@ -144,5 +145,5 @@ def _tileset_renderer(layer) -> None:
 
 def load_index(context: QgsProcessingContext, index: str, group_name: str | None = None) -> None:
     """Queue a tiled run's index (its tiles coloured by status) for loading into the results group."""
-    layer = QgsVectorLayer(f"{index}|layername=tiles", tr("Tiles of the run"), "ogr")
+    layer = QgsVectorLayer(str(LayerSource(index, "tiles")), tr("Tiles of the run"), "ogr")
     _queue(context, [(layer, None)], group_name or tr(GROUP_NAME))

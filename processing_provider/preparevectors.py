@@ -87,6 +87,7 @@ class PrepareVectors(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.infra import step_layers
+        from ..wit_plugin.infra.io.layersource import LayerSource
         from ..wit_plugin.prepare.vectors import PrepareConfig, prepare_vectors
 
         buildings, roads, districts = (self.vector_source(parameters, name, context, feedback)
@@ -110,7 +111,7 @@ class PrepareVectors(WitAlgorithm):
                           f"vertices {stats.vertices_in} → {stats.vertices_out}, repaired {stats.repaired}, "
                           f"dropped {stats.dropped}")
         written = set(report.layers)
-        layer_uri = {name: f"{output}|layername={name}" if name in written else None
+        layer_uri = {name: str(LayerSource(output, name)) if name in written else None
                      for name in (step_layers.PREPARED_BUILDINGS, step_layers.PREPARED_ROADS,
                                   step_layers.PREPARED_DISTRICTS)}
         kept = {s.layer: s.features_out for s in report.stats}
@@ -119,7 +120,7 @@ class PrepareVectors(WitAlgorithm):
             "BUILDINGS_OUT": layer_uri[step_layers.PREPARED_BUILDINGS],
             "ROADS_OUT": layer_uri[step_layers.PREPARED_ROADS],
             "DISTRICTS_OUT": layer_uri[step_layers.PREPARED_DISTRICTS],
-            "AREA_OUT": f"{output}|layername={step_layers.STUDY_AREA}",
+            "AREA_OUT": str(LayerSource(output, step_layers.STUDY_AREA)),
             "STATS": report.stats_csv,
             "BUILDING_COUNT": kept.get(step_layers.PREPARED_BUILDINGS, 0),
         }

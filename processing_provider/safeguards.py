@@ -27,6 +27,7 @@ from qgis.core import (
 )
 
 from ..wit_plugin.infra.io import fileio
+from ..wit_plugin.infra.io.layersource import LayerSource
 from ..wit_plugin.infra.io.raster_io import raster_file_problem
 from .qgis_compat import GeometryType, SourceType, code
 from .translation import tr, translatable
@@ -148,7 +149,7 @@ def _raster_files(definition: QgsProcessingParameterDefinition, value) -> list[s
     is_raster = definition.type() == "raster" or (
         definition.type() == "multilayer" and code(definition.layerType()) == code(SourceType.Raster))
     values = value if isinstance(value, (list, tuple)) else [value]
-    paths = [v.split("|")[0] for v in values if is_raster and isinstance(v, str)]
+    paths = [LayerSource.parse(v).path for v in values if is_raster and isinstance(v, str)]
     return [p for p in paths if Path(p).suffix and "://" not in p and not p.startswith("/vsi")]
 
 

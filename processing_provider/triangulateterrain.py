@@ -67,6 +67,7 @@ class TriangulateTerrain(WitAlgorithm):
 
     def execute(self, parameters, context, feedback):
         from ..wit_plugin.infra import step_layers
+        from ..wit_plugin.infra.io.layersource import LayerSource
         from ..wit_plugin.terrain.build import TerrainConfig, triangulate_terrain
 
         def source(name):
@@ -84,6 +85,6 @@ class TriangulateTerrain(WitAlgorithm):
                 triangulator=triangulator(self, parameters, context, feedback)),
             feedback,
         )
-        return {self.OUTPUT: output, "TIN": f"{output}|layername={step_layers.TIN_LAYER}",
+        return {self.OUTPUT: output, "TIN": str(LayerSource(output, step_layers.TIN_LAYER)),
                 "TRIANGLES": stats.triangles, "MAX_VERTICAL_ERROR": stats.max_vertical_error,
                 "MAX_EDGE_MEASURED": stats.max_edge}

@@ -96,6 +96,10 @@ def test_triangulateterrain_with_a_dem_in_5186_and_layers_in_5187(sample, prepar
     assert pyproj.CRS(ogr.Open(str(tmp_path / "tin.gpkg")).GetLayer(0).GetSpatialRef().ExportToWkt()).to_epsg() == 5187
     _on_the_dem(xyz, dem)
     assert not any("CRS mismatch" in m for m in messages)
+    # alone, the step tells what the chain tells (infra.dem.reprojection), once
+    assert [m for m in messages if "reprojected on the fly" in m] == [
+        f"The DEM {os.path.basename(dem)} is in Korea 2000 / Central Belt 2010 (EPSG:5186): it is reprojected on "
+        "the fly to Korea 2000 / East Belt 2010 (EPSG:5187) (bilinear, cells of 5 m)."], messages
 
 
 def test_extrudebuildings_with_a_geographic_dem(sample, prepared, tmp_path, wit_provider):
@@ -118,6 +122,8 @@ def test_extrudebuildings_with_a_geographic_dem(sample, prepared, tmp_path, wit_
         assert base <= reprojected.sample(ring[:, 0], ring[:, 1]).min() + 1e-3
         assert base >= reprojected.values.min() - 1e-3
     assert not any("mismatch" in m for m in messages), messages
+    assert sum(m.startswith("The DEM dem_4326.tif is in WGS 84 (EPSG:4326): it is reprojected on the fly to Korea "
+                            "2000 / East Belt 2010 (EPSG:5187)") for m in messages) == 1, messages
 
 
 @pytest.mark.parametrize("algorithm", ["wit:extrudebuildings", "wit:triangulateterrain"])

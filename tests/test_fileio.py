@@ -4,7 +4,15 @@ from __future__ import annotations
 import pytest
 
 from wit_plugin.infra.errors import InputError
-from wit_plugin.infra.io.fileio import atomic_file, atomic_files, ensure_writable_dir
+from wit_plugin.infra.io.fileio import (
+    aside_of,
+    atomic_file,
+    atomic_files,
+    ensure_writable_dir,
+    protect,
+    publish,
+    staging_folder,
+)
 
 
 def test_atomic_file_appears_only_on_success(tmp_path):
@@ -46,6 +54,69 @@ def test_atomic_files_leave_nothing_on_failure(tmp_path):
             (tmp / "a.shp").write_text("half")
             raise RuntimeError("boom")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_publish_replaces_older_results_whole_and_names_what_it_moved(tmp_path):
+    """Files replace files, folders replace folders whole, either replaces the other; a link is replaced, not
+    followed; results not published again stay."""
+    elsewhere = tmp_path / "elsewhere.txt"
+    elsewhere.write_text("kept")
+    output = tmp_path / "out"
+    (output / "textures").mkdir(parents=True)
+    (output / "textures" / "old.jpg").write_text("old")
+    (output / "model.gml").write_text("old")
+    (output / "was_a_file").write_text("old")
+    (output / "was_a_folder").mkdir()
+    (output / "link.txt").symlink_to(elsewhere)
+    (output / "other.csv").write_text("not published again")
+    with staging_folder(output, ".wit-run-") as staging:
+        (staging / "textures").mkdir()
+        (staging / "textures" / "new.jpg").write_text("new")
+        (staging / "model.gml").write_text("new")
+        (staging / "was_a_file").mkdir()
+        (staging / "was_a_folder").write_text("new")
+        (staging / "link.txt").write_text("new")
+        names = publish(staging, output)
+    assert names == ["link.txt", "model.gml", "textures", "was_a_file", "was_a_folder"]
+    assert sorted(p.name for p in output.iterdir()) == sorted([*names, "other.csv"])  # no staging, nothing aside
+    assert [p.name for p in (output / "textures").iterdir()] == ["new.jpg"]
+    assert (output / "model.gml").read_text() == "new" and (output / "was_a_folder").read_text() == "new"
+    assert (output / "was_a_file").is_dir() and not (output / "link.txt").is_symlink()
+    assert elsewhere.read_text() == "kept"
+
+
+def test_a_staging_folder_leaves_nothing_on_failure(tmp_path):
+    (tmp_path / "model.gml").write_text("old")
+    with pytest.raises(KeyboardInterrupt), staging_folder(tmp_path) as staging:
+        (staging / "model.gml").write_text("half")
+        raise KeyboardInterrupt
+    assert [p.name for p in tmp_path.iterdir()] == ["model.gml"] and (tmp_path / "model.gml").read_text() == "old"
+
+
+def test_publish_refuses_to_replace_an_input_before_moving_anything(tmp_path):
+    (tmp_path / "buildings.shp").write_text("input")
+    with protect([tmp_path / "buildings.shp"]), staging_folder(tmp_path) as staging:
+        (staging / "a.gml").write_text("new")
+        (staging / "buildings.dbf").write_text("new")
+        with pytest.raises(InputError, match=r"would overwrite the input .*buildings\.shp"):
+            publish(staging, tmp_path)
+    assert [p.name for p in tmp_path.iterdir()] == ["buildings.shp"]
+
+
+def test_publish_clears_what_a_killed_publish_left_aside(tmp_path):
+    """Killed before it deleted the folder it replaced, a publish leaves that folder aside: the next publish
+    of the name gets rid of it first (a folder cannot be renamed onto it) and leaves nothing of it."""
+    aside = aside_of(tmp_path / "textures")
+    aside.mkdir()
+    (aside / "older.jpg").write_text("older")
+    (tmp_path / "textures").mkdir()
+    (tmp_path / "textures" / "old.jpg").write_text("old")
+    with staging_folder(tmp_path) as staging:
+        (staging / "textures").mkdir()
+        (staging / "textures" / "new.jpg").write_text("new")
+        publish(staging, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["textures"]
+    assert [p.name for p in (tmp_path / "textures").iterdir()] == ["new.jpg"]
 
 
 def test_unwritable_output_folder_is_a_clear_error(tmp_path):

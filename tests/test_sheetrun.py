@@ -149,6 +149,18 @@ def single(sample, tmp_path_factory):
     return run_city_model(_inputs(sample), ChainOptions(area=AREA, max_edge=15.0, metrics=False, tiles3d=False), out)
 
 
+@pytest.mark.parametrize("run", [run_city_model, lambda i, o, out: run_tiles(i, o, out, None)],
+                         ids=["chain", "map-sheet runner"])
+def test_the_chain_and_the_map_sheet_runner_check_their_inputs_alike_before_reading_any(run, tmp_path):
+    """One check (``chain.check_inputs``): a wrong choice fails the run at once, not each tile on its worker."""
+    from wit_plugin.infra.errors import InputError
+
+    inputs = ChainInputs(ortho=[], dem=str(tmp_path / "none.tif"), buildings=str(tmp_path / "none.shp"))
+    with pytest.raises(InputError, match="Surfaces outside the orthoimage: choose one of fail, untextured"):
+        run(inputs, ChainOptions(area=AREA, outside_ortho="grey"), tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
 def _building_ids(gml: Path) -> list[str]:
     return [b.get(GID) for b in etree.parse(str(gml)).iterfind(".//bldg:Building", NS)]
 

@@ -248,4 +248,4 @@ def test_a_run_across_two_1_50000_sheets_gets_bounded_files_that_our_checker_pas
     frame = np.array(block["transform"]).reshape(4, 4).T
     for child in block["children"]:
         np.testing.assert_allclose(frame @ np.array(child["transform"]).reshape(4, 4).T, np.eye(4), atol=1e-9)
-    assert list(tmp_path.glob(".wit-groups-*")) == []  # the staging folder is gone
+    assert list(tmp_path.glob(".wit-*")) == []  # the staging and scratch folders are gone

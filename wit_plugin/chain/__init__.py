@@ -1,4 +1,4 @@
-"""The whole chain as one core call (``run_city_model``), and its coverage checks."""
+"""The whole chain as one core call (``run_city_model``), and its input checks (also the map-sheet runner's)."""
 from .citymodel import (
     OUTSIDE_ORTHO_CHOICES,
     ChainInputs,
@@ -6,8 +6,11 @@ from .citymodel import (
     ChainReport,
     PreparedLayers,
     PrepareLayers,
+    check_coverage,
+    check_inputs,
     run_city_model,
+    schema_cache_folder,
 )
 
 __all__ = ["OUTSIDE_ORTHO_CHOICES", "ChainInputs", "ChainOptions", "ChainReport", "PrepareLayers", "PreparedLayers",
-           "run_city_model"]
+           "check_coverage", "check_inputs", "run_city_model", "schema_cache_folder"]

@@ -25,7 +25,6 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -50,7 +49,8 @@ from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback, read_step_line
 from ..infra.interpreter import core_env, core_python
 from ..infra.io import jsontext
-from ..infra.io.fileio import ensure_writable_dir
+from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
+from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import read_prepared
 from ..mosaic.georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..prepare.area import StudyArea
@@ -62,7 +62,7 @@ from ..terrain.mesh import TinStats
 from ..texture import BEYOND_ORTHO, TextureConfig, texture_model
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
-from .coverage import ortho_coverage, require_dem, require_ortho, require_sheet_names
+from .coverage import OrthoCoverage, ortho_coverage, require_dem, require_ortho, require_sheet_names
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
 DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
@@ -81,7 +81,8 @@ CITYJSON_FILE = "model.city.json"
 
 @dataclass
 class PreparedLayers:
-    """The prepared sources the later steps read (``file|layername=…``), and the study area itself."""
+    """The prepared sources the later steps read (``str(LayerSource)``, as the steps take them), and the study
+    area itself."""
 
     buildings: str | None  # None: a part of a larger run that owns no building
     study: BaseGeometry
@@ -96,9 +97,9 @@ class PreparedLayers:
         """The layers ``names`` of ``prepared`` (buildings, study area, foreign buildings) and
         ``context_names`` of ``context`` (roads, dongs)."""
         def source(file: str, present: list[str], name: str) -> str | None:
-            return f"{file}|layername={name}" if name in present else None
+            return str(LayerSource(file, name)) if name in present else None
 
-        study = read_prepared(f"{prepared}|layername={step_layers.STUDY_AREA}", step_layers.STUDY_AREA).geoms[0]
+        study = read_prepared(LayerSource(prepared, step_layers.STUDY_AREA), step_layers.STUDY_AREA).geoms[0]
         return cls(source(prepared, names, step_layers.PREPARED_BUILDINGS), study,
                    source(context, context_names, step_layers.PREPARED_ROADS),
                    source(context, context_names, step_layers.PREPARED_DISTRICTS),
@@ -136,7 +137,7 @@ class ChainOptions:
     heights: HeightOptions = field(default_factory=HeightOptions)
     outside_ortho: str = "fail"  # or "untextured"
     schema_dir: str | None = None  # override of the shipped schemas
-    schema_cache: str | None = None
+    schema_cache: str | None = None  # None: DEFAULT_SCHEMA_CACHE (see ``schema_cache_folder``)
     keep_work: bool = False  # keep the intermediate files as <output>/work
     metrics: bool = True
     tiles3d: bool = True  # write the 3D Tiles 1.1 tileset (<output>/3dtiles) for viewers
@@ -236,22 +237,44 @@ class _Clock:
             reader.join()
 
 
-def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
-                   feedback: Feedback = SILENT) -> ChainReport:
-    """Run the whole chain into ``output_dir`` (model.gml + textures, validation.html, metrics, steps.json)."""
+def schema_cache_folder(options: ChainOptions) -> str:
+    """The folder a run caches downloaded CityGML schemas in (tiles of a run all get their runner's)."""
+    return schema_cache_folder(options)
+
+
+def check_inputs(inputs: ChainInputs, options: ChainOptions) -> list[str]:
+    """What a run checks before it reads any data — the options' choices, the library of the 3D Tiles web
+    profile, the orthoimage files' sheet numbers —; those files. The map-sheet runner checks the same before
+    any tile starts."""
     if options.outside_ortho not in OUTSIDE_ORTHO_CHOICES:
         raise InputError(f"Surfaces outside the orthoimage: choose one of {', '.join(OUTSIDE_ORTHO_CHOICES)}.")
     if options.tiles3d and options.tiles3d_web:
         require_web_profile()
+    tifs = list_tifs(inputs.ortho)
+    require_sheet_names(tifs)
+    return tifs
+
+
+def check_coverage(inputs: ChainInputs, tifs: list[str], area: BaseGeometry, options: ChainOptions,
+                   feedback: Feedback = SILENT) -> OrthoCoverage:
+    """Whether the DEM and the orthoimage files ``tifs`` cover ``area`` (answered in seconds, before anything
+    heavy): which sheets it needs; an ``InputError`` naming what is missing (see ``coverage``)."""
+    require_dem(inputs.dem, area, options.target_crs, feedback)
+    coverage = ortho_coverage(tifs, area, options.target_crs, options.sheet_crs, options.margin)
+    require_ortho(coverage, options.outside_ortho == "untextured", feedback)
+    return coverage
+
+
+def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
+                   feedback: Feedback = SILENT) -> ChainReport:
+    """Run the whole chain into ``output_dir`` (model.gml + textures, validation.html, metrics, steps.json)."""
+    check_inputs(inputs, options)
     started = time.perf_counter()
     output = ensure_writable_dir(output_dir)
     clock = _Clock(feedback)
-    staging = Path(tempfile.mkdtemp(prefix=".wit-run-", dir=output))
-    try:
+    with staging_folder(output, ".wit-run-") as staging:
         report = _run(inputs, options, output, staging, clock)
-        report.files = _publish(staging, output) + [STEPS_FILE]
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        report.files = publish(staging, output) + [STEPS_FILE]
     report.seconds = {label: clock.seconds[label] for label, _ in STEPS if label in clock.seconds}
     report.wall_seconds = round(time.perf_counter() - started, 3)
     (output / STEPS_FILE).write_text(jsontext.dumps({"seconds": report.seconds, "wall": report.wall_seconds}, indent=1),
@@ -262,36 +285,18 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     return report
 
 
-def _publish(staging: Path, output: Path) -> list[str]:
-    """Move every result from the staging folder into the output folder, replacing older results; their names."""
-    names = []
-    for item in sorted(staging.iterdir()):
-        target = output / item.name
-        if target.is_dir() and not target.is_symlink():
-            shutil.rmtree(target)
-        elif target.exists() or target.is_symlink():
-            target.unlink()
-        os.replace(item, target)
-        names.append(item.name)
-    return names
-
-
 def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock) -> ChainReport:
     work = staging / "work"
     work.mkdir()
-    tifs = list_tifs(inputs.ortho)
-    require_sheet_names(tifs)
+    tifs = list_tifs(inputs.ortho)  # (their names checked by check_inputs)
 
     with clock.step("prepare") as fb:
         layers = _prepare(inputs, options, work, fb)
-        area = covering_area(layers.study,
-                                     read_prepared(layers.buildings, step_layers.PREPARED_BUILDINGS).geoms) \
+        area = covering_area(layers.study, read_prepared(layers.buildings, step_layers.PREPARED_BUILDINGS).geoms) \
             if layers.buildings else layers.study
 
     with clock.step("coverage") as fb:
-        require_dem(inputs.dem, area, options.target_crs, fb)
-        coverage = ortho_coverage(tifs, area, options.target_crs, options.sheet_crs, options.margin)
-        require_ortho(coverage, options.outside_ortho == "untextured", fb)
+        coverage = check_coverage(inputs, tifs, area, options, fb)
 
     with clock.step("georeference") as fb:
         sheets = georeference_sheets([s.path for s in coverage.used], work / "georeferenced", options.target_crs,
@@ -325,8 +330,8 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         with clock.step("citygml") as fb:
             gml = staging / "model.gml"
             written_inputs = CityGMLInputs(lod1=lod1, tin=tin, textures=textures,
-                                           roads=layers.roads and layers.roads.split("|")[0],
-                                           districts=layers.districts and layers.districts.split("|")[0])
+                                           roads=layers.roads and LayerSource.parse(layers.roads).path,
+                                           districts=layers.districts and LayerSource.parse(layers.districts).path)
             written = write_citygml(written_inputs, str(gml), srs_name=options.target_crs, feedback=fb)
         cityjson = _write_cityjson(written_inputs, gml, options, clock) if options.cityjson else None
         validation = _validate(gml, cityjson, options, output, staging, clock)
@@ -406,7 +411,7 @@ def _validate(gml: Path, cityjson: Path | None, options: ChainOptions, output: P
     """Step 9: the model (and its CityJSON) validated offline, ``validation.html`` written; the reports."""
     with clock.step("validate") as fb:
         schema_dir, source = schemas.find_schema_dir(options.schema_dir,
-                                                     str(options.schema_cache or DEFAULT_SCHEMA_CACHE),
+                                                     schema_cache_folder(options),
                                                      allow_download=True, feedback=fb)
         fb.info(f"Schemas: {source} ({schema_dir})")
         validation = validate_files([str(gml)], schema_dir, feedback=fb)

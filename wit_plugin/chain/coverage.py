@@ -23,7 +23,7 @@ from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.io.raster_io import open_raster, read_window
 from ..infra.mapsheet import MapSheet, find_sheet_in_name, projected_envelope, sheets_covering
-from ..infra.raster_crs import cell_size, crs_code, crs_name, raster_extent, transform_geometry
+from ..infra.raster_crs import crs_code, raster_extent, transform_geometry
 from ..mosaic.georef import sheet_footprint
 
 #: NoData under more than this share of the area is an error (filling it would invent the terrain)
@@ -173,10 +173,6 @@ def require_dem(dem_path: str, area: BaseGeometry, target_crs: str, feedback: Fe
         raise InputError(f"The DEM {name} (x {extent[0]:.{d}f}–{extent[2]:.{d}f}, y {extent[1]:.{d}f}–{extent[3]:.{d}f}"
                          f"{where}) does not cover the area (x {xmin:.{d}f}–{xmax:.{d}f}, y {ymin:.{d}f}–{ymax:.{d}f}"
                          f"{also}): it stops short by {sides}. Use a DEM that covers the area, or a smaller area.")
-    if source is not None:
-        feedback.info(f"The DEM {name} is in {crs_name(source)}: it is reprojected on the fly to "
-                      f"{crs_name(pyproj.CRS(target_crs))} "
-                      f"(bilinear, cells of {cell_size(ds, source, target_crs):g} m).")
     band = ds.GetRasterBand(1)
     c0, c1 = (int(np.floor((x - gt[0]) / gt[1])) for x in (xmin, xmax))
     r0, r1 = (int(np.floor((y - gt[3]) / gt[5])) for y in (ymax, ymin))

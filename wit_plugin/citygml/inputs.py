@@ -26,7 +26,8 @@ from ..infra import step_layers
 from ..infra.errors import InputError
 from ..infra.io import bulk_read
 from ..infra.io.gpkg_bulk import sql_name
-from ..infra.io.vector_io import open_step_layer, split_source
+from ..infra.io.layersource import LayerSource
+from ..infra.io.vector_io import open_step_layer
 from ..infra.numtext import ring_texts
 
 BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
@@ -57,7 +58,7 @@ class InputLayer:
     def open(cls, path: str, name: str, role: str, fields: Iterable[str],
              geometry_z: bool = False) -> Iterator[InputLayer]:
         ds, layer, _ = open_step_layer(path, name, role, fields)
-        path, name = split_source(path)[0], layer.GetName()
+        path, name = LayerSource.parse(path).path, layer.GetName()
         if geometry_z and not ogr.GT_HasZ(layer.GetGeomType()):
             raise InputError(f"Layer '{name}' in {path} has no Z coordinates: give the output of the {role}.")
         yield cls(ds, layer, path, name)

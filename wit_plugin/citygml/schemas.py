@@ -10,10 +10,7 @@ import to a relative path, so the cached copy validates offline exactly like the
 from __future__ import annotations
 
 import functools
-import os
 import posixpath
-import shutil
-import tempfile
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -23,6 +20,7 @@ from lxml import etree
 
 from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
+from ..infra.io.fileio import publish, staging_folder
 
 ENTRY_POINT = "citygml3-all.xsd"
 EMBEDDED_DIR = Path(__file__).resolve().parent / "xsd"
@@ -108,12 +106,12 @@ def download_schemas(target: Path, base_url: str = DEFAULT_BASE_URL, feedback: F
 
     Imports and includes are followed (imports by namespace when known), written under the
     shared layout with relative ``schemaLocation``s, and the entry point is generated. The
-    folder appears only when complete (download into a temporary sibling, then rename).
+    folder appears only when complete (downloaded into a staging folder beside it, then published).
     """
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=target.parent, prefix=".wit-schemas-"))
-    try:
+    with staging_folder(target.parent, ".wit-schemas-") as staging:
+        tmp = staging / target.name
         queue = list(CITYGML_MODULES.values())
         done: set[str] = set()
         while queue:
@@ -140,11 +138,7 @@ def download_schemas(target: Path, base_url: str = DEFAULT_BASE_URL, feedback: F
             out.write_bytes(etree.tostring(doc.getroot(), xml_declaration=True, encoding="UTF-8"))
             feedback.progress(min(95.0, len(done)))
         (tmp / ENTRY_POINT).write_text(_entry_point_xsd(), encoding="utf-8")
-        if target.exists():
-            shutil.rmtree(target)
-        os.replace(tmp, target)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        publish(staging, target.parent)
     feedback.info(f"CityGML 3.0 schemas ({len(done)} files) saved in {target}")
 
 

@@ -340,9 +340,10 @@ class Dem:
 
 def reprojection(path: str | Path, ds: gdal.Dataset, crs: str | pyproj.CRS | None,
                  feedback: Feedback = SILENT) -> pyproj.CRS | None:
-    """The DEM's own CRS when it is another than the layers' ``crs`` and must be reprojected on the fly;
-    None when it is in ``crs`` (or there is no ``crs`` to compare with). A DEM without a CRS is taken to
-    be in ``crs``, with a warning that says so."""
+    """The DEM's own CRS when it is another than the layers' ``crs`` and must be reprojected on the fly (said
+    so, with the cell size it gets); None when it is in ``crs`` (or there is no ``crs`` to compare with). A DEM
+    without a CRS is taken to be in ``crs``, with a warning that says so. Every reader of a DEM asks here, so
+    a step run alone tells what the chain tells."""
     if not crs:
         return None  # the layers have no CRS: nothing to compare with
     if raster_crs(ds) is None:
@@ -350,7 +351,12 @@ def reprojection(path: str | Path, ds: gdal.Dataset, crs: str | pyproj.CRS | Non
                          f"layers' CRS, {crs_name(pyproj.CRS.from_user_input(crs))}. If it is not, assign its CRS "
                          "first (Raster ▸ Projections ▸ Assign Projection).")
         return None
-    return foreign_crs(ds, crs)
+    source = foreign_crs(ds, crs)
+    if source is not None:
+        target = pyproj.CRS.from_user_input(crs)
+        feedback.info(f"The DEM {Path(path).name} is in {crs_name(source)}: it is reprojected on the fly to "
+                      f"{crs_name(target)} (bilinear, cells of {cell_size(ds, source, target):g} m).")
+    return source
 
 
 def _short_of(extent: Bounds, needed: Bounds) -> dict[str, float]:

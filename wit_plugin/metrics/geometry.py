@@ -43,7 +43,8 @@ from ..citygml.validation.crs import frame_of
 from ..infra import step_layers
 from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
-from ..infra.io.vector_io import open_step_layer, split_source
+from ..infra.io.layersource import LayerSource
+from ..infra.io.vector_io import open_step_layer
 
 MATCHED, MODEL_ONLY, SOURCE_ONLY = "matched", "model_only", "source_only"
 _PART = re.compile(r"^(.*)_part\d+$")
@@ -320,7 +321,7 @@ def geometry_metrics(model_source: str, source_buildings: str, feedback: Feedbac
     """
     if not Path(model_source).is_file():
         raise InputError(f"The model {model_source} does not exist.")
-    if not Path(split_source(source_buildings)[0]).is_file():
+    if not LayerSource.parse(source_buildings).file.is_file():
         raise InputError(f"The source buildings {source_buildings} do not exist.")
     ids, sources, source_srs = _read_sources(str(source_buildings))
     if not ids:

@@ -14,15 +14,14 @@ import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from osgeo import gdal, osr
 
 from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
+from ..infra.io.layersource import LayerSource
 from ..infra.io.raster_io import open_raster, read_window
-from ..infra.io.vector_io import split_source
 from .texture import open_vector
 
 
@@ -68,8 +67,8 @@ def tile_footprints(footprints: str | Sequence[str]) -> tuple[list[tuple[float, 
     ``footprints`` is a vector file, a folder of georeferenced tiles, or a list of tile rasters.
     """
     if isinstance(footprints, (str, os.PathLike)):
-        path_text, name, _ = split_source(footprints)
-        path = Path(path_text)
+        source = LayerSource.parse(footprints)
+        path = source.file
         if path.is_dir():
             rasters = sorted(str(p) for p in path.iterdir() if p.suffix.lower() in (".tif", ".tiff", ".vrt"))
             if not rasters:
@@ -78,7 +77,7 @@ def tile_footprints(footprints: str | Sequence[str]) -> tuple[list[tuple[float, 
         vector = open_vector(path)
         if vector is None or vector.GetLayerCount() == 0:
             return tile_footprints([str(path)])
-        layer = vector.GetLayerByName(name or "footprints") or vector.GetLayer(0)
+        layer = vector.GetLayerByName(source.layer or "footprints") or vector.GetLayer(0)
         has_status = layer.GetLayerDefn().GetFieldIndex("status") >= 0
         boxes = []
         for feature in layer:

@@ -45,6 +45,7 @@ from ..chain.fingerprint import (
 from ..cityjson.sequence import run_translate
 from ..infra import step_layers
 from ..infra.io.digests import digest
+from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import VectorLayer, non_finite
 from ..infra.polygons import repair_polygons, transform
 from ..prepare.vectors import BUILDING_KEYS, BUILDING_PREFIX, PrepareConfig, building_reach
@@ -73,7 +74,7 @@ class RunInputs:
         layer = LayerDigests.layer(inputs.buildings, options.encoding, reach, self.crs)
         self.buildings = LayerDigests(layer, BUILDING_PREFIX, BUILDING_KEYS)
         self.owners = _owners(layer, self.crs, scale, options.sheet_crs)
-        self.context = {CONTEXT_INPUTS[name]: LayerDigests.read(f"{context}|layername={name}", None, None, self.crs)
+        self.context = {CONTEXT_INPUTS[name]: LayerDigests.read(str(LayerSource(context, name)), None, None, self.crs)
                         for name in context_layers}
         self.dem = DemDigests(inputs.dem, self.crs)
         self.ortho = OrthoDigests(coverage)

@@ -11,6 +11,7 @@ from shapely.geometry.base import BaseGeometry
 from ..chain import ChainInputs, ChainOptions, PreparedLayers
 from ..infra import step_layers
 from ..infra.feedback import Feedback
+from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import read_prepared
 from ..terrain.constraints import Seam
 from .plan import TileOwner, tile_of
@@ -27,13 +28,13 @@ class TileJob:
     context: str | None = None
     context_layers: tuple[str, ...] = ()
 
-    def seam(self, target_crs: str, footprints: list[str]) -> Seam:
+    def seam(self, target_crs: str, footprints: list[LayerSource]) -> Seam:
         """The tile's border and its canonical points, from the run's area, its roads and ``footprints``."""
         crossing = [shapely.from_wkt(self.owner.area_wkt)] if self.owner.area_wkt else []
         for name in (n for n in self.context_layers if n == step_layers.PREPARED_ROADS):
-            crossing += list(read_prepared(f"{self.context}|layername={name}", name).geoms)
+            crossing += list(read_prepared(LayerSource(self.context, name), name).geoms)
         for source in footprints:
-            crossing += list(read_prepared(source, source.rsplit("=", 1)[-1]).geoms)
+            crossing += list(read_prepared(source, source.layer).geoms)
         return tile_seam(tile_of(self.owner.sheet, target_crs, self.owner.sheet_crs).polygon, crossing)
 
     def area(self, target_crs: str) -> BaseGeometry:
@@ -52,6 +53,6 @@ class TileJob:
         names = prepare_tile_buildings(inputs.buildings, tile_area, self.owner, prepared, options.encoding, feedback)
         context = str(work / "context.gpkg")
         context_names = clip_context(self.context, self.context_layers, tile_area, context) if self.context else []
-        seam = self.seam(options.target_crs, [f"{prepared}|layername={n}" for n in names
+        seam = self.seam(options.target_crs, [LayerSource(prepared, n) for n in names
                                               if n in (step_layers.PREPARED_BUILDINGS, step_layers.FOREIGN_BUILDINGS)])
         return PreparedLayers.read(prepared, names, context, context_names, seam)

@@ -20,6 +20,7 @@ from shapely.geometry.base import BaseGeometry
 from ..infra import step_layers
 from ..infra.feedback import SILENT, Feedback
 from ..infra.io.fileio import atomic_file
+from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import OutputLayer, open_layer, read_prepared, write_gpkg
 from ..prepare.area import StudyArea
 from ..prepare.vectors import PrepareConfig, prepare_vectors
@@ -53,7 +54,7 @@ def clip_context(context: str, layers: list[str], area: BaseGeometry, output: st
     crs = None
     shapely.prepare(area)
     for name in layers:
-        source = read_prepared(f"{context}|layername={name}", name)
+        source = read_prepared(LayerSource(context, name), name)
         crs = source.crs
         near = np.flatnonzero(shapely.intersects(area, source.geoms))
         if not len(near):

@@ -29,9 +29,8 @@ from pathlib import Path
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from ..chain import ChainInputs, ChainOptions
-from ..chain.citymodel import DEFAULT_SCHEMA_CACHE
-from ..chain.coverage import OrthoCoverage, ortho_coverage, require_dem, require_ortho, require_sheet_names
+from ..chain import ChainInputs, ChainOptions, check_coverage, check_inputs, schema_cache_folder
+from ..chain.coverage import OrthoCoverage
 from ..chain.fingerprint import Fingerprint
 from ..chain.rerun import study_polygon
 from ..cityjson.sequence import PART_FILE, remove_run_index, run_translate, write_run_index
@@ -39,12 +38,10 @@ from ..infra.deps import require
 from ..infra.errors import CanceledError, InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.interpreter import core_env, core_python
-from ..infra.io.fileio import ensure_writable_dir
-from ..mosaic.georef import list_tifs
+from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
 from ..prepare.area import StudyArea
 from ..terrain import triangulators
 from ..tiles3d.combine import remove_run_tileset, tile_areas, write_run_tileset
-from ..tiles3d.web import require_web_profile
 from .fingerprint import RunInputs
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, write_index
 from .plan import Tile, plan_tiles
@@ -119,7 +116,7 @@ def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, 
                          "of the buildings first and give HeightOptions.expression_column (wit:citymodeltiles does).")
     plain = {f.name: getattr(options, f.name) for f in dataclasses.fields(options) if f.name not in TILE_OWN_OPTIONS}
     plain.update(triangulator=triangulators.backend(options.triangulator).key,  # one for all tiles: the seams match
-                 schema_cache=str(options.schema_cache or DEFAULT_SCHEMA_CACHE))
+                 schema_cache=schema_cache_folder(options))
     return {
         "sheet": sheet, "scale": scale, "output": str(output), "area_wkt": shapely.to_wkt(area), "options": plain,
         "heights": dataclasses.asdict(heights),  # plain values: the expression is None (above)
@@ -209,15 +206,10 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
     """Build every tile of ``area`` (None: all the buildings) into ``output_dir``, or update the tiles an earlier
     run left there (``rebuild``: build them all again); see the module docstring."""
     start = time.perf_counter()
+    tifs = check_inputs(inputs, options)
     output = ensure_writable_dir(output_dir)
-    tifs = list_tifs(inputs.ortho)
-    require_sheet_names(tifs)
-    if options.tiles3d and options.tiles3d_web:
-        require_web_profile()
     polygon = area_polygon(area, inputs, options.target_crs, options.encoding)
-    require_dem(inputs.dem, polygon, options.target_crs, feedback)  # in seconds, before any worker starts
-    coverage = ortho_coverage(tifs, polygon, options.target_crs, options.sheet_crs, options.margin)
-    require_ortho(coverage, options.outside_ortho == "untextured", feedback)
+    coverage = check_coverage(inputs, tifs, polygon, options, feedback)  # in seconds, before any worker starts
     tiles = plan_tiles(polygon, options.target_crs, scale, options.sheet_crs)
     feedback.info(f"{len(tiles)} tile(s) of 1:{scale:,} over {polygon.area / 1e6:.2f} km².")
     run, fingerprints, plan, context = _compare(inputs, options, output, tiles, scale, polygon, coverage, rebuild,
@@ -231,7 +223,7 @@ def run_tiles(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.P
                               (str(output / CONTEXT_FILE) if context else None, context), fingerprints[sheet],
                               reason) for sheet, reason in plan.build.items()}
         backend = triangulators.backend(options.triangulator)
-        feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")
+        triangulators.announce(backend, feedback)
         python = worker_python(python, backend.module)
         workers = workers or os.cpu_count() or 1
         feedback.info(f"Dask: {'scheduler ' + scheduler if scheduler else f'LocalCluster of {workers} worker(s)'}"
@@ -299,8 +291,7 @@ def _compare(inputs: ChainInputs, options: ChainOptions, output: Path, tiles: li
     output's only when a tile is to be built (the kept ones do not read it)."""
     staging = output / STAGING_DIR
     staging.mkdir(exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix="context-", dir=staging))
-    try:
+    with staging_folder(staging, "context-") as scratch:
         context = prepare_context(inputs.roads, inputs.districts, polygon, options.target_crs,
                                   str(scratch / CONTEXT_FILE), options.encoding, feedback.scaled(0, 2))
         started = time.perf_counter()
@@ -310,10 +301,7 @@ def _compare(inputs: ChainInputs, options: ChainOptions, output: Path, tiles: li
         feedback.info(f"Fingerprints of the {len(tiles)} tile(s): {time.perf_counter() - started:.1f} s.")
         plan = plan_update(output, tiles, fingerprints, read_index(output), rebuild)
         if plan.build:
-            for item in scratch.iterdir():
-                os.replace(item, output / item.name)
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
+            publish(scratch, output)
     return run, fingerprints, plan, context
 
 

@@ -219,7 +219,7 @@ def triangulate(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequenc
     if not max_edge > 0 or not tolerance > 0:
         raise InputError("Max edge length and vertical tolerance must be positive.")
     require([backend.module])
-    feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")
+    triangulators.announce(backend, feedback)
     feedback.progress(0)
     cons = clean_constraints(area, buildings, roads, footprints_as_holes, seam=seam)
     estimate = cons.area.area / (AREA_FACTOR * max_edge ** 2)

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..infra.arrays import edge_keys, edge_pairs, triangle_edge_keys
 from ..infra.deps import require
+from ..infra.feedback import Feedback
 from . import steiner
 
 #: Triangle's minimum angle (degrees). Kept tiny on purpose: what matters is that with any "q"
@@ -370,3 +371,8 @@ def backend(key: int | None) -> Triangulator:
         raise ValueError(f"No triangulator {key!r}: choose one of " + ", ".join(
             f"{b.key} ({b.label})" for b in BACKENDS) + ".")
     return BACKENDS[key]
+
+
+def announce(backend: Triangulator, feedback: Feedback) -> None:
+    """Say which backend meshes the terrain and under which licence (a terrain step's log, a tiled run's)."""
+    feedback.info(f"Triangulator: {backend.label}; licence: {backend.licence}.")

@@ -16,8 +16,9 @@ from shapely.geometry.base import BaseGeometry
 from ..infra.errors import InputError
 from ..infra.feedback import Feedback
 from ..infra.io import bulk_read
+from ..infra.io.layersource import LayerSource
 from ..infra.io.raster_io import open_raster, read_window
-from ..infra.io.vector_io import open_layer, open_step_layer, split_source
+from ..infra.io.vector_io import open_layer, open_step_layer
 from ..infra.raster_crs import aligned, cell_size, crs_name, foreign_crs, transform_geometry, warp
 from .config import TextureConfig
 
@@ -73,7 +74,7 @@ class _Layer:
     def __init__(self, path: str, name: str, kind_field: str, fields: tuple[str, ...], kinds: tuple[str, ...],
                  role: str):
         self._ds, self.layer, self._fields = open_step_layer(path, name, role, fields)
-        self.path, self.name = split_source(path)[0], self.layer.GetName()
+        self.path, self.name = LayerSource.parse(path).path, self.layer.GetName()
         self.kind_field, self.kinds = kind_field, kinds
         xmin, xmax, ymin, ymax = self.layer.GetExtent()
         self.extent = (xmin, ymin, xmax, ymax)

@@ -16,16 +16,17 @@ a failed run leaves the previous tileset.
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
 import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
@@ -33,13 +34,14 @@ from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.io import jsontext
 from ..infra.io.digests import digest
-from ..infra.io.fileio import atomic_file, restore_folder, swap_folder
+from ..infra.io.fileio import aside_of, publish, restore_folder, staging_folder
 from ..mosaic.georef import OK, georeference_sheets
 from .geo import Georeference, column_major, union_region
 from .group_buildings import GROUP_BUILDINGS, Candidates, read_tile_buildings
 from .group_summary import load_meta, load_parts, save_summary, summary_path
 from .groups import (
     GROUP_DIR,
+    Group,
     GroupPlan,
     Terrain,
     join_terrain,
@@ -56,7 +58,6 @@ TILE_TILESET = f"3dtiles/{TILESET_FILE}"
 TILE_LOD1 = "lod1.gpkg"
 EARTH_RADIUS = 6_371_000.0  # m
 GENERATOR = "WIT City Model (wit:citymodeltiles)"
-OLD_GROUPS = f".wit-old-{GROUP_DIR}"  # the groups a refresh replaces, until the new ones are in place
 
 
 def region_diagonal(region: list[float]) -> float:
@@ -117,7 +118,27 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
     taking the unchanged children's parts from their summaries. Nothing changed: nothing is written.
     ``force``: every group built again."""
     out = Path(output)
-    restore_folder(out / GROUP_DIR, out / OLD_GROUPS)  # a refresh killed between its two renames
+    restore_folder(out / GROUP_DIR, aside_of(out / GROUP_DIR))  # a refresh killed between its two renames
+    roots = _tile_roots(out, tiles)
+    run = _plan_run(out, roots, areas, fingerprints, inputs_digest, force)
+    if run.unchanged(out):
+        feedback.info("3D Tiles: no group changed; the groups and the run's tileset are kept as they are.")
+        return _report(out, len(roots), run.plans, run.metas, [_from_meta(n, run.metas[n]) for n in run.top])
+    with staging_folder(out, ".wit-groups-") as staging, staging_folder(out, ".wit-ortho-") as scratch:
+        georef = Georeference(target_crs)
+        ground = _GroundSampler(dem, ortho, scratch, target_crs, georef.crs, sheet_crs, margin)
+        builder = _GroupBuilder(out, tiles, roots, run, staging / GROUP_DIR, ground, georef, web, feedback)
+        nodes = builder.write()
+        feedback.info(f"3D Tiles: {len(builder.built)} group(s) built, {len(run.current)} kept as they were.")
+        document = _run_document(nodes)
+        if _json_bytes(document) != _read_bytes(out / TILESET_FILE):
+            _write_json(staging / TILESET_FILE, document)
+        publish(staging, out)  # the groups, then the run's tileset.json
+    return _report(out, len(roots), run.plans, builder.metas, nodes)
+
+
+def _tile_roots(out: Path, tiles: dict[str, str]) -> dict[str, _Node]:
+    """The root of each tile's tileset (sheet → its node), for the tiles that have one; none is an error."""
     roots = {}
     for sheet, folder in tiles.items():
         path = out / folder / TILE_TILESET
@@ -127,6 +148,33 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
                                  float(root["geometricError"]), 0)
     if not roots:
         raise InputError(f"No tile of {out} has a 3D Tiles tileset to combine.")
+    return roots
+
+
+@dataclass
+class _RunPlan:
+    """The groups over a run's tiles, and which of them an earlier run left as they should be."""
+
+    plans: dict[str, GroupPlan]
+    top: list[str]
+    areas: dict[str, BaseGeometry]
+    prints: dict[str, str | None]
+    metas: dict[str, dict | None]  # each group's summary in the output (None: it has none)
+    current: set[str]  # the groups kept as they are
+
+    def unchanged(self, out: Path) -> bool:
+        """Whether every group is current, no other is in the output, and the run's tileset is the one written."""
+        previous = out / GROUP_DIR
+        if self.current != set(self.plans) or \
+                sorted(previous.glob("*.json")) != sorted(previous / f"{n}.json" for n in self.plans):
+            return False
+        document = _run_document([_from_meta(n, self.metas[n]) for n in self.top])
+        return _json_bytes(document) == _read_bytes(out / TILESET_FILE)
+
+
+def _plan_run(out: Path, roots: dict[str, _Node], areas: dict[str, BaseGeometry], fingerprints: dict[str, str] | None,
+              inputs_digest: Callable[[BaseGeometry], str] | None, force: bool) -> _RunPlan:
+    """Plan the groups over the tiles ``roots`` and compare each one's fingerprint with its summary's."""
     plans, top = plan_groups(list(roots))
     group_areas = {name: shapely.union_all([areas[t] for t in plan.tiles]) for name, plan in plans.items()}
     prints = _fingerprints(plans, group_areas, fingerprints, inputs_digest)
@@ -134,114 +182,128 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
     metas = {name: load_meta(summary_path(previous, name)) for name in plans}
     current = {name for name, meta in metas.items() if not force and meta and prints[name] is not None
                and meta["fingerprint"] == prints[name] and all((previous / f).is_file() for f in meta["files"])}
-    result = RunTileset(str(out / TILESET_FILE), tiles=len(roots), groups=len(plans))
-    if current == set(plans) and sorted(previous.glob("*.json")) == sorted(previous / f"{n}.json" for n in plans):
-        document = _root_document([_reference(_from_meta(n, metas[n]), f"{GROUP_DIR}/{n}.json", None) for n in top])
-        if _json_bytes(document) == _read_bytes(out / TILESET_FILE):
-            for name in plans:
-                _count(result, name, metas[name])
-            result.levels = max(metas[n]["depth"] for n in top)
-            result.root_bytes = (out / TILESET_FILE).stat().st_size
-            result.largest_file_bytes = max(result.largest_file_bytes, result.root_bytes)
-            feedback.info("3D Tiles: no group changed; the groups and the run's tileset are kept as they are.")
-            return result
-    georef = Georeference(target_crs)
-    staging = Path(tempfile.mkdtemp(prefix=".wit-groups-", dir=out))
-    try:
-        rasters: list = []  # the orthoimage sheets as VRTs and their extents, made when a lowest group needs them
+    return _RunPlan(plans, top, group_areas, prints, metas, current)
 
-        def near_ortho(area: BaseGeometry) -> list[str]:
-            if not (dem and ortho):
-                return []
-            if not rasters:
-                sheets = georeference_sheets(ortho, staging / "ortho", target_crs, sheet_crs, margin, fmt="VRT")
-                vrts = [r.output for r in sheets if r.status == OK]
-                rasters.extend([vrts, shapely.box(*np.array([raster_extent(v) for v in vrts]).T) if vrts else
-                                np.empty(0, dtype=object)])
-            vrts, extents = rasters
-            return [vrts[k] for k in np.flatnonzero(shapely.intersects(extents, area))] if vrts else []
 
-        folder = staging / GROUP_DIR
-        folder.mkdir()
-        for name in current:
-            for file in metas[name]["files"]:
-                _link(previous / file, folder / file)
-        built = []
+class _GroundSampler:
+    """A lowest group's coarse terrain from the DEM and the orthoimage sheets near it; the sheets are
+    georeferenced (as VRTs in ``scratch``) the first time a group needs them."""
 
-        def node(name: str, parts: bool) -> _Node:
-            """The child ``name`` as its parent refers to it; with its terrain and buildings when ``parts``."""
-            if name in roots:
-                node = roots[name]
-                lod1 = out / tiles[name] / TILE_LOD1
-                node.buildings = read_tile_buildings(str(lod1)) if lod1.is_file() else Candidates([])
-                return node
-            if name in current:
-                child = _from_meta(name, metas[name])
-                if parts:
-                    child.terrain, child.buildings = load_parts(summary_path(previous, name))
-                return child
-            return build(name)
+    def __init__(self, dem: str | None, ortho: list[str], scratch: Path, target_crs: str, crs: pyproj.CRS,
+                 sheet_crs: str, margin: float):
+        self.dem, self.ortho, self.scratch = dem, ortho, scratch
+        self.target_crs, self.crs, self.sheet_crs, self.margin = target_crs, crs, sheet_crs, margin
 
-        def build(name: str) -> _Node:
-            plan = plans[name]
-            children = [node(child, True) for child in plan.children]
-            feedback.check_canceled()
-            area = group_areas[name]
-            if plan.over_tiles:
-                near = near_ortho(area)
-                terrain = sample_terrain(area, georef.crs, dem, near) if near else None
-            else:
-                terrain = join_terrain([c.terrain for c in children if c.terrain is not None], area)
-            buildings = Candidates.join([c.buildings for c in children]).largest(GROUP_BUILDINGS)
-            content = write_group(name, area, terrain, buildings, georef, folder)
-            if content and web:
-                glb = folder / content.uri
-                glb.write_bytes(compress_glb(glb.read_bytes()))
-            error = max([c.error for c in children] + ([content.error] if content else []))
-            region = union_region([c.region for c in children] + ([content.region] if content else []))
-            inverse = column_major(np.linalg.inv(content.frame)) if content else None
-            refs = [_reference(c, Path(os.path.relpath(out / c.uri, out / GROUP_DIR)).as_posix(), inverse)
-                    for c in children]
-            root = {"boundingVolume": {"region": region}, "geometricError": error, "refine": "REPLACE"}
-            if content:
-                root.update(transform=column_major(content.frame), content={"uri": content.uri})
-            root["children"] = refs
-            file = folder / f"{name}.json"
-            _write_json(file, {"asset": {"version": "1.1", "generator": GENERATOR}, "geometricError": error,
-                               "root": root})
-            depth = 1 + max(c.depth for c in children)
-            meta = {"fingerprint": prints[name], "region": region, "error": error, "depth": depth,
-                    "buildings": len(buildings.ids), "terrain": terrain is not None, "json_bytes": file.stat().st_size,
-                    "files": [file.name, summary_path(folder, name).name] + ([content.uri] if content else []),
-                    "bytes": file.stat().st_size + ((folder / content.uri).stat().st_size if content else 0)}
-            save_summary(summary_path(folder, name), meta, terrain, buildings)
-            metas[name] = meta
-            built.append(name)
-            for child in children:  # what the parent needs of them is in `terrain` and `buildings`
-                child.terrain = child.buildings = None
-            return _Node(f"{GROUP_DIR}/{name}.json", region, error, depth, terrain, buildings)
+    @functools.cached_property
+    def _sheets(self) -> tuple[list[str], np.ndarray]:
+        """The georeferenced sheets and their extents."""
+        sheets = georeference_sheets(self.ortho, self.scratch, self.target_crs, self.sheet_crs, self.margin, fmt="VRT")
+        vrts = [r.output for r in sheets if r.status == OK]
+        extents = shapely.box(*np.array([raster_extent(v) for v in vrts]).T) if vrts else np.empty(0, dtype=object)
+        return vrts, extents
 
-        nodes = [node(name, False) for name in top]
-        feedback.info(f"3D Tiles: {len(built)} group(s) built, {len(current)} kept as they were.")
-        for name in plans:
-            _count(result, name, metas[name])
-        result.levels = max(n.depth for n in nodes)
-        document = _root_document([_reference(n, n.uri, None) for n in nodes])
-        swap_folder(folder, out / GROUP_DIR, out / OLD_GROUPS)
-        if _json_bytes(document) != _read_bytes(out / TILESET_FILE):
-            with atomic_file(out / TILESET_FILE) as tmp:
-                tmp.write_bytes(_json_bytes(document))
-        result.root_bytes = (out / TILESET_FILE).stat().st_size
-        result.largest_file_bytes = max(result.largest_file_bytes, result.root_bytes)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+    def terrain(self, area: BaseGeometry) -> Terrain | None:
+        """The terrain over ``area``; None without a DEM, or where no orthoimage sheet lies."""
+        if not (self.dem and self.ortho):
+            return None
+        vrts, extents = self._sheets
+        near = [vrts[k] for k in np.flatnonzero(shapely.intersects(extents, area))] if vrts else []
+        return sample_terrain(area, self.crs, self.dem, near) if near else None
+
+
+class _GroupBuilder:
+    """Writes a run's groups into ``folder``: the current ones linked from the output's, the others built
+    again, each after its children (so that it is made of their terrain and buildings, let go once it is
+    written). ``metas``: every group's summary, ``built``: the groups built again."""
+
+    def __init__(self, out: Path, tiles: dict[str, str], roots: dict[str, _Node], run: _RunPlan, folder: Path,
+                 ground: _GroundSampler, georef: Georeference, web: bool, feedback: Feedback):
+        self.out, self.tiles, self.roots, self.run, self.folder = out, tiles, roots, run, folder
+        self.ground, self.georef, self.web, self.feedback = ground, georef, web, feedback
+        self.previous = out / GROUP_DIR
+        self.metas = dict(run.metas)
+        self.built: list[str] = []
+
+    def write(self) -> list[_Node]:
+        """Write every group; the top ones, as the run's tileset refers to them."""
+        self.folder.mkdir()
+        for name in self.run.current:
+            for file in self.metas[name]["files"]:
+                _link(self.previous / file, self.folder / file)
+        return [self.node(name, False) for name in self.run.top]
+
+    def node(self, name: str, parts: bool) -> _Node:
+        """The child ``name`` as its parent refers to it; with its terrain and buildings when ``parts``."""
+        if name in self.roots:
+            node = self.roots[name]
+            lod1 = self.out / self.tiles[name] / TILE_LOD1
+            node.buildings = read_tile_buildings(str(lod1)) if lod1.is_file() else Candidates([])
+            return node
+        if name in self.run.current:
+            child = _from_meta(name, self.metas[name])
+            if parts:
+                child.terrain, child.buildings = load_parts(summary_path(self.previous, name))
+            return child
+        return self.build(name)
+
+    def build(self, name: str) -> _Node:
+        """Write the group ``name`` (its content, its tileset file, its summary) after its children."""
+        plan = self.run.plans[name]
+        children = [self.node(child, True) for child in plan.children]
+        self.feedback.check_canceled()
+        area = self.run.areas[name]
+        terrain = self.ground.terrain(area) if plan.over_tiles else \
+            join_terrain([c.terrain for c in children if c.terrain is not None], area)
+        buildings = Candidates.join([c.buildings for c in children]).largest(GROUP_BUILDINGS)
+        content = write_group(name, area, terrain, buildings, self.georef, self.folder)
+        if content and self.web:
+            glb = self.folder / content.uri
+            glb.write_bytes(compress_glb(glb.read_bytes()))
+        error = max([c.error for c in children] + ([content.error] if content else []))
+        region = union_region([c.region for c in children] + ([content.region] if content else []))
+        file = self.folder / f"{name}.json"
+        _write_json(file, _group_document(self.out, children, content, region, error))
+        depth = 1 + max(c.depth for c in children)
+        meta = {"fingerprint": self.run.prints[name], "region": region, "error": error, "depth": depth,
+                "buildings": len(buildings.ids), "terrain": terrain is not None, "json_bytes": file.stat().st_size,
+                "files": [file.name, summary_path(self.folder, name).name] + ([content.uri] if content else []),
+                "bytes": file.stat().st_size + ((self.folder / content.uri).stat().st_size if content else 0)}
+        save_summary(summary_path(self.folder, name), meta, terrain, buildings)
+        self.metas[name] = meta
+        self.built.append(name)
+        for child in children:  # what the parent needs of them is in `terrain` and `buildings`
+            child.terrain = child.buildings = None
+        return _Node(f"{GROUP_DIR}/{name}.json", region, error, depth, terrain, buildings)
+
+
+def _group_document(out: Path, children: list[_Node], content: Group | None, region: list[float],
+                    error: float) -> dict:
+    """A group's tileset file: its content in its own frame, then its children as external tilesets, each
+    with the inverse frame (so that a child's own root places it in ECEF as before)."""
+    inverse = column_major(np.linalg.inv(content.frame)) if content else None
+    refs = [_reference(c, Path(os.path.relpath(out / c.uri, out / GROUP_DIR)).as_posix(), inverse) for c in children]
+    root = {"boundingVolume": {"region": region}, "geometricError": error, "refine": "REPLACE"}
+    if content:
+        root.update(transform=column_major(content.frame), content={"uri": content.uri})
+    root["children"] = refs
+    return {"asset": {"version": "1.1", "generator": GENERATOR}, "geometricError": error, "root": root}
+
+
+def _report(out: Path, tiles: int, plans: dict[str, GroupPlan], metas: dict[str, dict], top: list[_Node]) -> RunTileset:
+    """What the run's tileset holds: the groups' summaries (``metas``), the top groups, the written files."""
+    result = RunTileset(str(out / TILESET_FILE), tiles=tiles, groups=len(plans))
+    for name in plans:
+        _count(result, name, metas[name])
+    result.levels = max(n.depth for n in top)
+    result.root_bytes = (out / TILESET_FILE).stat().st_size
+    result.largest_file_bytes = max(result.largest_file_bytes, result.root_bytes)
     return result
 
 
 def remove_run_tileset(output: str | Path) -> None:
     """The run's tileset and groups an earlier run wrote, for a run without 3D Tiles (its tiles have none)."""
     out = Path(output)
-    restore_folder(out / GROUP_DIR, out / OLD_GROUPS)
+    restore_folder(out / GROUP_DIR, aside_of(out / GROUP_DIR))
     shutil.rmtree(out / GROUP_DIR, ignore_errors=True)
     (out / TILESET_FILE).unlink(missing_ok=True)
 
@@ -296,6 +358,11 @@ def _reference(node: _Node, uri: str, transform: list[float] | None) -> dict:
     if transform is not None:
         ref["transform"] = transform
     return ref
+
+
+def _run_document(top: list[_Node]) -> dict:
+    """The run's tileset over its top groups."""
+    return _root_document([_reference(n, n.uri, None) for n in top])
 
 
 def _root_document(children: list[dict]) -> dict:

@@ -1,6 +1,9 @@
 """Atomic output: write under a temporary name beside the target, rename when complete.
 
-A failed or cancelled run therefore never leaves a half-written file under the final name.
+A failed or cancelled run therefore never leaves a half-written file under the final name. A file is
+written by ``atomic_file``; results of several files and folders are written into a ``staging_folder``
+inside the output folder and moved into place by ``publish`` (``atomic_files`` does both for a caller
+that knows its targets' names).
 
 Nothing lost: ``refuse_overlap`` tells, before anything is written, whether an output would
 replace or share a file with an input (symbolic and hard links, ``file|layername=`` sources and
@@ -19,6 +22,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 from ..errors import InputError
+from .layersource import LayerSource
 
 #: files that travel with a main file (same stem): what replacing the main file also replaces
 SIDECARS = {
@@ -33,9 +37,9 @@ SIDECARS[".vrt"] = (".vrt.aux.xml", ".vrt.ovr")
 _PROTECTED: contextvars.ContextVar[tuple[Path, ...]] = contextvars.ContextVar("wit_protected_inputs", default=())
 
 
-def source_file(source: str | os.PathLike) -> Path:
+def source_file(source: str | os.PathLike | LayerSource) -> Path:
     """The file of a data source: ``file.gpkg|layername=x`` → ``file.gpkg``."""
-    return Path(str(source).split("|")[0])
+    return LayerSource.parse(source).file
 
 
 def file_family(path: str | os.PathLike) -> list[Path]:
@@ -56,13 +60,13 @@ def sidecar(path: str | os.PathLike, suffix: str) -> Path | None:
     return next((p for p in (path.with_suffix(suffix), path.with_suffix(suffix.upper())) if p.exists()), None)
 
 
-def vector_file_problem(source: str | os.PathLike) -> str | None:
+def vector_file_problem(source: str | os.PathLike | LayerSource) -> str | None:
     """What is wrong with a vector source file that GDAL would only call unreadable; None if nothing is seen.
 
     ``source`` may be ``file|layername=x``; sources that are not files (databases, memory) pass.
     """
-    text = str(source)
-    path = Path(text.split("|")[0])
+    text, layer_source = str(source), LayerSource.parse(source)
+    path = layer_source.file
     if not path.suffix or "://" in text or text.startswith(("memory", "dbname=", "PG:")):
         return None
     if not path.exists():
@@ -87,7 +91,7 @@ def vector_file_problem(source: str | os.PathLike) -> str | None:
         with open(path, "rb") as fh:
             if fh.read(16) != b"SQLite format 3\x00":
                 return f"{path} is not a GeoPackage (no SQLite header): the file is damaged or misnamed."
-        layer = next((o[len("layername="):] for o in text.split("|")[1:] if o.startswith("layername=")), None)
+        layer = layer_source.layer
         names = _gpkg_layers(path) if layer and suffix == ".gpkg" else None
         if names is not None and layer not in names:
             return f"{path} has no layer '{layer}'; it has: {', '.join(names) or 'none'}."
@@ -212,8 +216,46 @@ def atomic_file(target: str | os.PathLike) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
+def staging_folder(output: str | os.PathLike, prefix: str = ".wit-tmp-") -> Iterator[Path]:
+    """A new empty folder inside ``output`` (which must exist), removed with what is left in it when the block
+    ends however it ends: results written there reach ``output`` only through ``publish``. Inside ``output`` so
+    that publishing is a rename on the same file system."""
+    folder = Path(tempfile.mkdtemp(prefix=prefix, dir=output))
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def aside_of(target: Path) -> Path:
+    """Where ``publish`` keeps the folder ``target`` it replaces until the new one is in place."""
+    return target.parent / f".wit-old-{target.name}"
+
+
+def publish(staging: Path, output: Path) -> list[str]:
+    """Move every result in ``staging`` (a ``staging_folder`` of ``output``) into ``output``, replacing older
+    results of the same names whole; their names, sorted.
+
+    Every result is checked against the run's protected inputs (``protect``) before the first one moves. A
+    file replaces its namesake in one rename; a folder (or a file replacing a folder) by ``swap_folder``, its
+    predecessor waiting in ``aside_of(target)`` until then, so a reader finds the old folder or the new one,
+    and one killed midway is put back by the next ``publish`` of that name."""
+    items = sorted(staging.iterdir())
+    for item in items:
+        _check_protected(output / item.name, folder=item.is_dir())
+    for item in items:
+        target = output / item.name
+        restore_folder(target, aside_of(target))
+        if item.is_dir() or (target.is_dir() and not target.is_symlink()):
+            swap_folder(item, target, aside_of(target))
+        else:
+            os.replace(item, target)
+    return [item.name for item in items]
+
+
+@contextlib.contextmanager
 def atomic_files(targets: Sequence[str | os.PathLike]) -> Iterator[Path]:
-    """Yield a temporary folder; on success move every file in it into the targets' folder.
+    """Yield a temporary folder; on success move every file in it into the targets' folder (``publish``).
 
     For multi-file outputs (a shapefile and its sidecars, an image set): the caller writes
     into the folder under the final file names; nothing appears in the destination on failure.
@@ -225,25 +267,15 @@ def atomic_files(targets: Sequence[str | os.PathLike]) -> Iterator[Path]:
         _check_protected(Path(target))
     created = not dest.exists()
     dest = ensure_writable_dir(dest)
-    tmp_dir = Path(tempfile.mkdtemp(dir=dest, prefix=".wit-tmp-"))
     try:
-        yield tmp_dir
-        items = list(tmp_dir.iterdir())
-        for item in items:
-            _check_protected(dest / item.name, folder=item.is_dir())
-        for item in items:
-            target = dest / item.name
-            if item.is_dir() and target.is_dir():
-                os.replace(target, tmp_dir / f".old-{item.name}")  # removed with tmp_dir below
-            os.replace(item, target)
+        with staging_folder(dest) as tmp_dir:
+            yield tmp_dir
+            publish(tmp_dir, dest)
     except BaseException:
-        shutil.rmtree(tmp_dir, ignore_errors=True)
         if created:  # a folder made for this run only would be a partial output
             with contextlib.suppress(OSError):
                 dest.rmdir()
         raise
-    finally:
-        shutil.rmtree(tmp_dir, ignore_errors=True)
 
 
 def swap_folder(new: Path | None, target: Path, old: Path) -> None:
@@ -251,7 +283,7 @@ def swap_folder(new: Path | None, target: Path, old: Path) -> None:
     first and is deleted last, so a reader finds the whole old folder or the whole new one. A failed second
     rename puts the old folder back; killed between the two, ``old`` stays and ``target`` is missing:
     ``restore_folder`` (run first by whoever swaps there next) puts it back."""
-    if target.exists():
+    if target.exists() or target.is_symlink():
         old.parent.mkdir(parents=True, exist_ok=True)
         os.replace(target, old)
     try:
@@ -261,14 +293,22 @@ def swap_folder(new: Path | None, target: Path, old: Path) -> None:
     except BaseException:
         restore_folder(target, old)
         raise
-    shutil.rmtree(old, ignore_errors=True)
+    _remove(old)
 
 
 def restore_folder(target: Path, old: Path) -> None:
     """After a ``swap_folder`` that was killed: ``old`` back in ``target``'s place if that is empty, else deleted."""
-    if not old.exists():
+    if not (old.exists() or old.is_symlink()):
         return
-    if target.exists():
-        shutil.rmtree(old, ignore_errors=True)
+    if target.exists() or target.is_symlink():
+        _remove(old)
     else:
         os.replace(old, target)
+
+
+def _remove(path: Path) -> None:
+    """Delete ``path`` whatever it is (a folder with its contents, a file, a link); nothing if it is gone."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        path.unlink(missing_ok=True)

@@ -22,6 +22,7 @@ from ..gdal_env import quiet_gdal
 from . import bulk_read
 from .encoding import decode_text, gdal_encoding, python_codec, shapefile_encoding
 from .fileio import vector_file_problem
+from .layersource import LayerSource
 
 # Expected fields of the road-name-address layers (paper Tables 2–4, with the names the real
 # files use where they differ: BUL_ENG_NM, EQB_MAN_SN, NTFC_DE, EMD_CD). Missing ones are reported.
@@ -137,20 +138,7 @@ def _crs_of(lyr: ogr.Layer, path: str, crs: str | None) -> pyproj.CRS:
         raise InputError(f"Unknown source CRS {crs!r}: {exc}") from exc
 
 
-def split_source(source: str | os.PathLike) -> tuple[str, str | None, int | None]:
-    """``file.gpkg|layername=x`` (or ``|layerid=n``, as QGIS writes sources) → (file, layer name, layer index)."""
-    path, _, options_text = str(source).partition("|")
-    name, index = None, None
-    for option in options_text.split("|"):
-        key, _, value = option.partition("=")
-        if key == "layername" and value:
-            name = value
-        elif key == "layerid" and value.strip().isdigit():
-            index = int(value)
-    return path, name, index
-
-
-def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
+def open_layer(path: str | os.PathLike | LayerSource, layer: str | None = None, encoding: str | None = None,
                feedback: Feedback = SILENT, preferred: str | None = None) -> tuple[gdal.Dataset, ogr.Layer, str | None]:
     """Open a vector source with the right text encoding; return the dataset (keep it alive), layer, encoding.
 
@@ -160,7 +148,8 @@ def open_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
     name is preferred. Shapefiles with non-ASCII text are always opened with an explicit encoding
     (``shapefile_encoding``).
     """
-    path, named, index = split_source(path)
+    source = LayerSource.parse(path)
+    path, named, index = source.path, source.layer, source.index
     layer = layer or named
     if not Path(path).exists():
         raise InputError(f"Input file {path} does not exist.")
@@ -213,7 +202,7 @@ def field_names(layer: ogr.Layer) -> list[str]:
     return [defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())]
 
 
-def open_step_layer(source: str, name: str, role: str, fields: Sequence[str] = ()
+def open_step_layer(source: str | LayerSource, name: str, role: str, fields: Sequence[str] = ()
                     ) -> tuple[gdal.Dataset, ogr.Layer, list[str]]:
     """A step's input: the layer of ``source`` (``file|layername=x``, a file's only layer, or its layer
     ``name`` — the one the step that makes such layers writes), checked for ``fields``.
@@ -221,7 +210,7 @@ def open_step_layer(source: str, name: str, role: str, fields: Sequence[str] = (
     Returns the dataset (keep it alive while using the layer), the layer and its field names;
     every problem is an ``InputError`` that names the step (``role``) that makes such layers.
     """
-    path = split_source(source)[0]
+    path = LayerSource.parse(source).path
     if not Path(path).is_file():
         raise InputError(f"The {role} file {path} does not exist.")
     ds, layer, _ = open_layer(source, preferred=name)
@@ -257,7 +246,7 @@ def layer_extent(path: str | os.PathLike, target: pyproj.CRS, layer: str | None 
     return bounds
 
 
-def read_prepared(source: str | os.PathLike, default_layer: str, feedback: Feedback = SILENT,
+def read_prepared(source: str | os.PathLike | LayerSource, default_layer: str, feedback: Feedback = SILENT,
                   **options) -> VectorLayer:
     """A step's input layer: ``file.gpkg|layername=x`` as given, a file's only layer, or the model's layer
     name in a file of several (see ``open_layer``).
@@ -284,7 +273,7 @@ def source_bbox(bbox: tuple[float, float, float, float],
     return bbox if to_source is None else to_source.transform_bounds(*bbox, densify_pts=21)
 
 
-def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str | None = None,
+def read_layer(path: str | os.PathLike | LayerSource, layer: str | None = None, encoding: str | None = None,
                crs: str | None = None, bbox: tuple[float, float, float, float] | None = None,
                bbox_crs: pyproj.CRS | None = None, feedback: Feedback = SILENT,
                preferred: str | None = None) -> VectorLayer:
@@ -307,7 +296,7 @@ def read_layer(path: str | os.PathLike, layer: str | None = None, encoding: str 
               for name, fd in zip(raw_names, (defn.GetFieldDefn(i) for i in range(defn.GetFieldCount())))]
     undecoded = [name for name in raw_names if not bulk_read.is_utf8(name)]
     if undecoded:
-        feedback.warning(f"{Path(split_source(path)[0]).name}: {len(undecoded)} field name(s) are not UTF-8 "
+        feedback.warning(f"{LayerSource.parse(path).file.name}: {len(undecoded)} field name(s) are not UTF-8 "
                          f"(read as {', '.join(f.name for f in fields if f.name not in raw_names)}); the layer is read "
                          "feature by feature.")
     if bbox is not None:

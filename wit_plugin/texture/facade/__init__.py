@@ -24,7 +24,8 @@ from ...infra import step_layers
 from ...infra.errors import InputError
 from ...infra.io import bulk_read
 from ...infra.io.gpkg_bulk import sql_name
-from ...infra.io.vector_io import open_step_layer, split_source
+from ...infra.io.layersource import LayerSource
+from ...infra.io.vector_io import open_step_layer
 from .modules import facade_image
 from .uses import Facade, UseRule
 from .walls import QUAD_POINTS, wall_texcoords
@@ -103,7 +104,7 @@ class FacadeSource:
             sql += f' ORDER BY "{step_layers.WIT_ID}", "{step_layers.FACE_NUMBER}"'
         result = self._ds.ExecuteSQL(sql)
         if result is None:
-            raise InputError(f"Cannot read the {kind} faces of {split_source(self.path)[0]}.")
+            raise InputError(f"Cannot read the {kind} faces of {LayerSource.parse(self.path).path}.")
         try:
             yield from bulk_read.batches(result, _BATCH)
         finally:
