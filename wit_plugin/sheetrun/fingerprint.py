@@ -75,7 +75,7 @@ class RunInputs:
         self.buildings = LayerDigests(layer, BUILDING_PREFIX, BUILDING_KEYS)
         self.owners = _owners(layer, self.crs, scale, options.sheet_crs)
         self.context = {CONTEXT_INPUTS[name]: LayerDigests.read(str(LayerSource(context, name)), None, None, self.crs)
-                        for name in (context_layers if context else [])}
+                        for name in context_layers} if context else {}
         self.dem = DemDigests(inputs.dem, self.crs)
         self.ortho = OrthoDigests(coverage)
 
