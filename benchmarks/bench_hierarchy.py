@@ -206,8 +206,8 @@ def main() -> int:
     import shapely
 
     from wit_plugin.sheetrun.index import read_index
+    from wit_plugin.sheetrun.layers import area_of_layer
     from wit_plugin.sheetrun.plan import tile_of
-    from wit_plugin.sheetrun.prepare import area_of_layer
     from wit_plugin.tiles3d.check import check_tileset
     from wit_plugin.tiles3d.combine import tile_areas
 

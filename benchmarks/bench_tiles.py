@@ -179,8 +179,8 @@ def edit_sheet(buildings: str, scale: int, folder: Path, footprints: bool, skip:
 
     from wit_plugin.infra.io.vector_io import read_layer
     from wit_plugin.infra.polygons import repair_polygons, transform
+    from wit_plugin.sheetrun.layers import area_of_layer
     from wit_plugin.sheetrun.plan import owners, plan_tiles
-    from wit_plugin.sheetrun.prepare import area_of_layer
 
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)

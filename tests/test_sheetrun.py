@@ -364,7 +364,7 @@ def test_a_tile_whose_buildings_are_all_its_neighbours_or_too_small_is_empty_wit
 def _one_tile_spec(sample, tmp_path: Path, sheet: str, **inputs) -> dict:
     """What the runner gives a worker for ``sheet`` of the run over AREA (its roads and dongs prepared)."""
     from wit_plugin.sheetrun import runner
-    from wit_plugin.sheetrun.prepare import prepare_context
+    from wit_plugin.sheetrun.layers import prepare_context
 
     polygon = AREA.geometry(pyproj.CRS("EPSG:5186"))
     context = prepare_context(str(sample.roads), str(sample.districts), polygon, "EPSG:5186",
@@ -954,5 +954,5 @@ def test_every_setting_of_the_run_reaches_its_tiles(sample, tmp_path):
     received = worker.tile_options(spec)
     assert {name: getattr(received, name) for name in plain} == changed
     assert received.heights.storey_height == 3.5 and received.metrics is False and received.keep_work is False
-    assert received.area.crs == "EPSG:5179" and received.prepare is not None
+    assert received.area.crs == "EPSG:5179" and received.part_layers is not None
     assert received.cityjson_part.suffix == f"_{sheet}" and received.cityjson_part.folder == f"tiles/{sheet}"

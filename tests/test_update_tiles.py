@@ -25,7 +25,7 @@ from wit_plugin.prepare.area import StudyArea
 from wit_plugin.prepare.vectors import building_reach
 from wit_plugin.sheetrun import plan
 from wit_plugin.sheetrun.index import read_index
-from wit_plugin.sheetrun.prepare import CONTEXT_MARGIN
+from wit_plugin.sheetrun.layers import CONTEXT_MARGIN
 from wit_plugin.sheetrun.runner import run_tiles
 
 sample = test_sheetrun.sample  # the tiled runs' sample (a fixture: this module's own copy)

@@ -4,13 +4,13 @@ from .citymodel import (
     ChainInputs,
     ChainOptions,
     ChainReport,
+    PartLayers,
     PreparedLayers,
-    PrepareLayers,
     check_coverage,
     check_inputs,
     run_city_model,
     schema_cache_folder,
 )
 
-__all__ = ["OUTSIDE_ORTHO_CHOICES", "ChainInputs", "ChainOptions", "ChainReport", "PrepareLayers", "PreparedLayers",
+__all__ = ["OUTSIDE_ORTHO_CHOICES", "ChainInputs", "ChainOptions", "ChainReport", "PartLayers", "PreparedLayers",
            "check_coverage", "check_inputs", "run_city_model", "schema_cache_folder"]

@@ -2,7 +2,7 @@
 
 ``wit:citymodel`` is a thin adapter over :func:`run_city_model`, and the tiled run
 (``wit_plugin.sheetrun``) calls it once per tile on Dask workers, without QGIS, passing the tile's own
-step 1 (``ChainOptions.prepare``): the chain knows nothing of tiles. Order of the steps:
+step 1 (``ChainOptions.part_layers``): the chain knows nothing of tiles. Order of the steps:
 
 1. prepare the vectors (fast) — the study area, grown to hold the buildings that cross its edge,
    is then known exactly;
@@ -118,7 +118,7 @@ class ChainInputs:
 
 
 #: step 1 of a part of a larger run: (inputs, options, work folder, feedback) → its prepared layers
-PrepareLayers = Callable[[ChainInputs, "ChainOptions", Path, Feedback], PreparedLayers]
+PartLayers = Callable[[ChainInputs, "ChainOptions", Path, Feedback], PreparedLayers]
 
 
 @dataclass
@@ -146,7 +146,7 @@ class ChainOptions:
     cityjson: bool = False  # write the model as CityJSON 2.0 too (model.city.json)
     cityjson_part: SequencePart | None = None  # a tile of a run: its CityJSONSeq (model.city.jsonl) instead
     #: step 1 of one part of a larger run (a tile of wit_plugin.sheetrun); None: the study area's layers
-    prepare: PrepareLayers | None = None
+    part_layers: PartLayers | None = None
 
 
 @dataclass
@@ -437,9 +437,9 @@ def _write_cityjson(inputs: CityGMLInputs, gml: Path, options: ChainOptions, clo
 
 
 def _prepare(inputs: ChainInputs, options: ChainOptions, work: Path, feedback: Feedback) -> PreparedLayers:
-    """Step 1: the study area's layers, or those of a part of a larger run (``options.prepare``)."""
-    if options.prepare is not None:
-        return options.prepare(inputs, options, work, feedback)
+    """Step 1: the study area's layers, or those of a part of a larger run (``options.part_layers``)."""
+    if options.part_layers is not None:
+        return options.part_layers(inputs, options, work, feedback)
     prepared = str(work / "prepared.gpkg")
     config = PrepareConfig(target_crs=options.target_crs, encoding=options.encoding,
                            stats_csv=str(work / "prepared_stats.csv"))

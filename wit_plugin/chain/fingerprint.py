@@ -82,7 +82,7 @@ def chain_settings(options) -> dict:
     """Every setting of ``ChainOptions`` that shapes the result, with the plugin's version and the triangulator
     the run uses (the default resolved); the area is an input, the schema cache only a place."""
     backend = triangulators.backend(options.triangulator)
-    skip = {"area", "prepare", "schema_cache", "triangulator", "heights", "cityjson_part"}
+    skip = {"area", "part_layers", "schema_cache", "triangulator", "heights", "cityjson_part"}
     settings = {f.name: getattr(options, f.name) for f in dataclasses.fields(options) if f.name not in skip}
     heights = dataclasses.asdict(dataclasses.replace(options.heights, expression=None))
     settings.update({f"heights.{k}": v for k, v in heights.items() if k != "expression"})

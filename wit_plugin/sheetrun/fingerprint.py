@@ -50,8 +50,8 @@ from ..infra.io.vector_io import VectorLayer, non_finite
 from ..infra.polygons import repair_polygons, transform
 from ..prepare.vectors import BUILDING_KEYS, BUILDING_PREFIX, PrepareConfig, building_reach
 from ..tiles3d.groups import square
+from .layers import CONTEXT_MARGIN
 from .plan import Tile, owners
-from .prepare import CONTEXT_MARGIN
 
 CONTEXT_INPUTS = {step_layers.PREPARED_ROADS: "roads", step_layers.PREPARED_DISTRICTS: "districts"}
 OWNER_SLACK = 0.01

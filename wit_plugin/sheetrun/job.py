@@ -1,5 +1,5 @@
 """One tile's share of a run: what a worker needs besides the run's inputs and options, and the
-tile's own step 1 of the chain (``TileJob.prepare_layers``)."""
+tile's own step 1 of the chain (``TileJob.tile_layers``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,8 +14,8 @@ from ..infra.feedback import Feedback
 from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import read_prepared
 from ..terrain.constraints import Seam
+from .layers import clip_context, prepare_tile_buildings
 from .plan import TileOwner, tile_of
-from .prepare import clip_context, prepare_tile_buildings
 from .seams import tile_seam
 
 
@@ -44,9 +44,9 @@ class TileJob:
             return polygon
         return shapely.intersection(polygon, shapely.from_wkt(self.owner.area_wkt))
 
-    def prepare_layers(self, inputs: ChainInputs, options: ChainOptions, work: Path,
+    def tile_layers(self, inputs: ChainInputs, options: ChainOptions, work: Path,
                        feedback: Feedback) -> PreparedLayers:
-        """Step 1 for the tile (``ChainOptions.prepare``): its own buildings, its neighbours' crossing in,
+        """Step 1 for the tile (``ChainOptions.part_layers``): its own buildings, its neighbours' crossing in,
         the run's roads and dongs cut at its border, and its seam."""
         prepared = str(work / "prepared.gpkg")
         tile_area = self.area(options.target_crs)

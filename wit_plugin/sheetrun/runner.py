@@ -44,8 +44,8 @@ from ..terrain import triangulators
 from ..tiles3d.combine import remove_run_tileset, tile_areas, write_run_tileset
 from .fingerprint import RunInputs
 from .index import DONE, EMPTY, FAILED, INDEX_FILE, PENDING, read_index, write_index
+from .layers import area_of_layer, prepare_context
 from .plan import Tile, plan_tiles
-from .prepare import area_of_layer, prepare_context
 from .update import UpdatePlan, commit_tile, plan_update, remove_tiles
 from .worker import STAGING_DIR, TASK, TILES_DIR
 
@@ -104,7 +104,7 @@ def area_polygon(area: StudyArea | None, inputs: ChainInputs, target_crs: str,
 
 
 #: ChainOptions a tile sets itself (its area, its prepared layers, no metrics, no work kept) or sends apart
-TILE_OWN_OPTIONS = frozenset({"area", "heights", "prepare", "metrics", "keep_work", "cityjson_part"})
+TILE_OWN_OPTIONS = frozenset({"area", "heights", "part_layers", "metrics", "keep_work", "cityjson_part"})
 
 
 def _spec(inputs: ChainInputs, options: ChainOptions, output: Path, sheet: str, scale: int, area: BaseGeometry,

@@ -55,7 +55,7 @@ def tile_options(spec: dict) -> ChainOptions:
     owner = TileOwner(sheet, spec["scale"], target_crs, spec["options"]["sheet_crs"], spec["area_wkt"])
     job = TileJob(owner, spec["context"], tuple(spec["context_layers"]))
     return ChainOptions(**spec["options"], area=StudyArea.polygon(job.area(target_crs), target_crs),
-                        heights=HeightOptions(**spec["heights"]), metrics=False, prepare=job.prepare_layers,
+                        heights=HeightOptions(**spec["heights"]), metrics=False, part_layers=job.tile_layers,
                         cityjson_part=tile_part(sheet, spec["cityjson_translate"], f"{TILES_DIR}/{sheet}"))
 
 
