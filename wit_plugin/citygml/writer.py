@@ -1,6 +1,6 @@
 """Streaming CityGML 3.0 writer: the core of ``wit:writecitygml``.
 
-Reads the step outputs named in ``model`` (LoD1 faces, TIN, prepared roads and districts, the
+Reads the step outputs named in ``infra.step_layers`` (LoD1 faces, TIN, prepared roads and districts, the
 texture table) and writes one ``core:CityModel``, element by element, with constant memory in
 the number of buildings:
 
