@@ -46,7 +46,7 @@ from ..cityjson.validate import validate_cityjson_files
 from ..cityjson.writer import SequencePart, texture_folder_of, write_cityjson
 from ..infra import step_layers
 from ..infra.errors import InputError
-from ..infra.feedback import SILENT, Feedback, read_step_line
+from ..infra.feedback import SILENT, Feedback, SaidOnce, read_step_line
 from ..infra.interpreter import core_env, core_python
 from ..infra.io import jsontext
 from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
@@ -180,7 +180,7 @@ class _Clock:
     """Runs the steps in order with their share of the progress bar, cancel checks and timing."""
 
     def __init__(self, feedback: Feedback):
-        self.feedback, self.seconds = feedback, {}
+        self.feedback, self.seconds = SaidOnce(feedback), {}
         total = sum(share for _, share in STEPS)
         starts = [sum(share for _, share in STEPS[:k]) for k in range(len(STEPS))]
         self.spans = {label: (100.0 * a / total, 100.0 * (a + share) / total)

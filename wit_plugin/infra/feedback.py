@@ -53,6 +53,31 @@ class _ScaledFeedback(Feedback):
         self._parent.warning(message)
 
 
+class SaidOnce(Feedback):
+    """Passes each distinct message on once: several steps of one run read the same input and each says what it
+    finds (the DEM reprojected on the fly, a CRS assumed), which the run's log needs to show only once."""
+
+    def __init__(self, parent: Feedback):
+        self._parent = parent
+        self._said: set[tuple[str, str]] = set()
+
+    def progress(self, percent: float) -> None:
+        self._parent.progress(percent)
+
+    def is_canceled(self) -> bool:
+        return self._parent.is_canceled()
+
+    def info(self, message: str) -> None:
+        if ("info", message) not in self._said:
+            self._said.add(("info", message))
+            self._parent.info(message)
+
+    def warning(self, message: str) -> None:
+        if ("warning", message) not in self._said:
+            self._said.add(("warning", message))
+            self._parent.warning(message)
+
+
 class LoggingFeedback(Feedback):
     """Feedback for scripts: messages go to the ``logging`` module."""
 
