@@ -8,6 +8,7 @@ from wit_plugin.infra.io.fileio import (
     aside_of,
     atomic_file,
     atomic_files,
+    copy_images,
     ensure_writable_dir,
     protect,
     publish,
@@ -145,3 +146,40 @@ def test_core_steps_refuse_an_output_over_their_input(tmp_path):
         triangulate(str(tmp_path / "dem.tif"), None, None, tmp_path / "dem.tif", str(source))
     assert source.read_bytes() == b"not read" and sorted(p.name for p in tmp_path.iterdir()) == [
         "buildings.dbf", "buildings.shp"]
+
+
+def test_copy_images_replaces_the_folder_whole_or_not_at_all(tmp_path, monkeypatch):
+    """A model's texture folder (the CityGML and CityJSON writers copy into it): its own images only, and a copy
+    that fails halfway leaves the earlier folder as it was, with nothing of the new one beside it."""
+    import shutil
+
+    from wit_plugin.infra.io import fileio
+
+    sources = tmp_path / "textures"
+    (sources / "atlas").mkdir(parents=True)
+    for name, data in (("ground.png", b"g2"), ("atlas/roofs.jpg", b"r2"), ("facade.png", b"f2")):
+        (sources / name).write_bytes(data)
+    folder = tmp_path / "out" / "model_textures"
+    (folder / "atlas").mkdir(parents=True)
+    (folder / "ground.png").write_bytes(b"g1")
+    (folder / "stale.png").write_bytes(b"s1")  # an image of the earlier model only
+    images = {name: sources / name for name in ("ground.png", "atlas/roofs.jpg", "facade.png")}
+    copied = []
+
+    def copy_then_fail(source, target):
+        if len(copied) == 2:
+            raise OSError("No space left on device")
+        copied.append(target)
+        return shutil.copyfile(source, target)
+
+    monkeypatch.setattr(fileio.shutil, "copyfile", copy_then_fail)
+    with pytest.raises(OSError, match="No space"):
+        copy_images(images, folder)
+    assert sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*")) == ["atlas", "ground.png", "stale.png"]
+    assert (folder / "ground.png").read_bytes() == b"g1" and len(copied) == 2
+    assert sorted(p.name for p in folder.parent.iterdir()) == ["model_textures"]  # no staging left
+    monkeypatch.undo()
+    copy_images(images, folder)
+    assert {p.relative_to(folder).as_posix(): p.read_bytes() for p in folder.rglob("*") if p.is_file()} == {
+        "ground.png": b"g2", "atlas/roofs.jpg": b"r2", "facade.png": b"f2"}
+    assert sorted(p.name for p in folder.parent.iterdir()) == ["model_textures"]

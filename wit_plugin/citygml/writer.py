@@ -31,7 +31,6 @@ import math
 import mimetypes
 import os
 import re
-import shutil
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from itertools import chain, groupby, islice
@@ -48,7 +47,7 @@ from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.gc_pause import collector_paused
 from ..infra.io import bulk_read
-from ..infra.io.fileio import atomic_file
+from ..infra.io.fileio import atomic_file, copy_images
 from ..infra.numtext import ring_texts
 from .inputs import (
     BULK,
@@ -130,10 +129,7 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
             if texcoords:
                 writer.appearance(texcoords, uris)
         if copy_textures and images:
-            for image, src in images.items():
-                dest = tex_dir / image
-                dest.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(src, dest)
+            copy_images(images, tex_dir)
             report.texture_folder = str(tex_dir)
     feedback.progress(100.0)
     feedback.info(f"CityGML: {report.buildings} buildings ({report.faces} faces), {report.roads} roads, "

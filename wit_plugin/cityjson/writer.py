@@ -35,7 +35,7 @@ from ..infra import step_layers
 from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.gc_pause import collector_paused
-from ..infra.io.fileio import atomic_file
+from ..infra.io.fileio import atomic_file, copy_images
 from .encoding import Transform, encode, geometry_text, json_text, uv_text, vertices_text
 from .objects import THEMES, CityObject, ModelObjects
 
@@ -161,10 +161,7 @@ def write_cityjson(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:518
         report.vertices, report.features = sink.vertex_count, sink.features
         report.textures = len(textures)
         if folder is not None and not images_in:
-            for name in names:
-                target = folder / name
-                target.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(layers.images[name], target)
+            copy_images({name: layers.images[name] for name in names}, folder)
     feedback.progress(100.0)
     feedback.info(f"CityJSON: {report.buildings} buildings, {report.roads} roads, {report.triangles} TIN triangles, "
                   f"{report.groups} districts, {report.vertices} vertices, {report.textures} texture images"

@@ -18,7 +18,7 @@ import os
 import shutil
 import sqlite3
 import tempfile
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 from ..errors import InputError
@@ -276,6 +276,17 @@ def atomic_files(targets: Sequence[str | os.PathLike]) -> Iterator[Path]:
             with contextlib.suppress(OSError):
                 dest.rmdir()
         raise
+
+
+def copy_images(images: Mapping[str, str | os.PathLike], folder: Path) -> None:
+    """Copy each image (name relative to ``folder`` → its source) into ``folder``, which they replace whole: a
+    model's texture folder holds its own images only, and a copy that fails or is cancelled halfway leaves the
+    folder as it was (``atomic_files``)."""
+    with atomic_files([folder]) as staged:
+        for name, source in images.items():
+            target = staged / folder.name / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(source, target)
 
 
 def swap_folder(new: Path | None, target: Path, old: Path) -> None:
