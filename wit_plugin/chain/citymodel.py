@@ -239,7 +239,7 @@ class _Clock:
 
 def schema_cache_folder(options: ChainOptions) -> str:
     """The folder a run caches downloaded CityGML schemas in (tiles of a run all get their runner's)."""
-    return schema_cache_folder(options)
+    return str(options.schema_cache or DEFAULT_SCHEMA_CACHE)
 
 
 def check_inputs(inputs: ChainInputs, options: ChainOptions) -> list[str]:
