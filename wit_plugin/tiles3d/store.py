@@ -487,6 +487,9 @@ def _texcoords(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return parse_texcoords(_texts(values))
     chars = np.full((len(values), values.dtype.itemsize + 1), 32, dtype=np.uint8)  # a blank after each row
     chars[:, :-1] = np.frombuffer(values.tobytes(), dtype=np.uint8).reshape(len(values), -1)
+    numbers = aligned_decimals(chars)
+    if numbers is not None:
+        return numbers.reshape(-1, 2), np.full(len(values), numbers.size // len(values) // 2, dtype=np.int64)
     blank = chars <= 32  # spaces and the NULs that pad a row to the column's width
     chars[blank] = 32
     starts = ~blank & np.concatenate([np.ones((len(chars), 1), dtype=bool), blank[:, :-1]], axis=1)
@@ -495,6 +498,35 @@ def _texcoords(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if len(flat) != counts.sum() or np.any(counts % 2):
         raise ValueError("malformed texture coordinates")
     return flat.reshape(-1, 2), counts // 2
+
+
+def aligned_decimals(chars: np.ndarray) -> np.ndarray | None:
+    """The numbers written in the rows of ``chars`` (bytes, rows × columns, blanks ≤ 32), row after row, when
+    every row writes as many in the same columns, all as ``digits.digits`` with the same count of decimals
+    and at most 15 digits (the texture table's ``"%.12f"`` of TIN triangles' uv); else None.
+
+    The values are those of ``float`` of the texts (correctly rounded): the digits make an integer below
+    10^15, exact in float64, and one IEEE division by an exact power of ten rounds correctly. Column by
+    column, with no search for where each number starts (C's parser took most of the texture table's staging).
+    """
+    blank = chars[0] <= 32
+    if not len(chars) or ((chars <= 32) != blank).any():
+        return None
+    edges = np.flatnonzero(np.diff(~blank, prepend=False, append=False))
+    starts, lengths = edges[0::2], edges[1::2] - edges[0::2]
+    size = int(lengths[0]) if len(lengths) else 0
+    if not 2 <= size <= 16 or (lengths != size).any() or (starts != np.arange(len(starts)) * (size + 1)).any():
+        return None
+    digits = chars[:, :len(starts) * (size + 1)].reshape(-1, size + 1)[:, :size] - np.uint8(48)  # '.' → 254
+    point = int(np.argmax(digits[0] == 254))
+    if not (digits[:, point] == 254).all():
+        return None
+    digits[:, point] = 0
+    if not (digits <= 9).all():
+        return None
+    column = np.arange(size)
+    weights = np.array([0.0 if c == point else float(10 ** int(size - 1 - c - (c < point))) for c in column])
+    return (digits.astype(np.float64) @ weights) / float(10 ** (size - 1 - point))
 
 
 def _texts(column: np.ndarray) -> list[str]:
