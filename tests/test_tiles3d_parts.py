@@ -3,8 +3,9 @@ the plain ways they replace."""
 from __future__ import annotations
 
 import numpy as np
+from osgeo import ogr
 
-from wit_plugin.tiles3d.store import _texcoords, aligned_decimals
+from wit_plugin.tiles3d.store import _ground_faces, _texcoords, aligned_decimals
 
 
 def _chars(rows: list[str]) -> np.ndarray:
@@ -47,3 +48,40 @@ def test_texcoords_of_any_rows_are_those_of_the_plain_parse():
         pass
     else:
         raise AssertionError("an odd count of numbers was taken")
+
+
+def _faces_layer(path, date: bool):
+    """A GeoPackage layer of faces: 3D, 2D, with a hole, empty and without geometry; NULLs and Korean text."""
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    layer = ds.CreateLayer("faces", geom_type=ogr.wkbUnknown)
+    for name, kind in (("name", ogr.OFTString), ("floors", ogr.OFTInteger), ("serial", ogr.OFTInteger64),
+                       ("height", ogr.OFTReal)) + ((("built", ogr.OFTDate),) if date else ()):
+        layer.CreateField(ogr.FieldDefn(name, kind))
+    rows = [("POLYGON Z ((0 0 5,4 0 6,4 3 7,0 0 5))", ("자곡 아파트", 3, 2 ** 40, 9.5)),
+            ("POLYGON ((10 10,12 10,12 11,10 10))", (None, None, None, None)),
+            ("POLYGON Z ((0 0 9,8 0 9,8 8 9,0 8 9,0 0 9),(2 2 1,3 2 1,3 3 1,2 2 1))", ("", 0, -1, 0.1)),
+            ("POLYGON EMPTY", ("empty", 1, 1, 1.0)), (None, ("none", 1, 1, 1.0))]
+    for wkt, values in rows:
+        feature = ogr.Feature(layer.GetLayerDefn())
+        if wkt:
+            feature.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
+        for k, value in enumerate(values):
+            if value is not None:
+                feature.SetField(k, value)
+        if date:
+            feature.SetField(4, 2024, 5, 17, 0, 0, 0, 0)
+        layer.CreateFeature(feature)
+    return ds, layer
+
+
+def test_ground_faces_read_in_columns_give_what_ogr_gives(tmp_path):
+    """Plain fields: column batches; with a date field: the feature loop. Both give OGR's envelopes and values."""
+    for date in (False, True):
+        ds, layer = _faces_layer(tmp_path / f"faces{date}.gpkg", date)
+        faces = list(_ground_faces(layer, list(range(layer.GetLayerDefn().GetFieldCount()))))
+        expected = [((0.0, 4.0, 0.0, 3.0, 5.0), ["자곡 아파트", 3, 2 ** 40, 9.5]),
+                    ((10.0, 12.0, 10.0, 11.0, 0.0), [None, None, None, None]),
+                    ((0.0, 8.0, 0.0, 8.0, 1.0), ["", 0, -1, 0.1])]
+        assert [(tuple(box), values) for box, values in faces] == [
+            (box, values + (["2024/05/17"] if date else [])) for box, values in expected]
+        del layer, ds

@@ -46,6 +46,7 @@ FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not e
 SURFACES = {name: number for number, name in enumerate(step_layers.TIN_SURFACES)}
 PER_FACE_FIELDS = (step_layers.FACE_TYPE, step_layers.FACE_NUMBER)
 BATCH = 20_000
+_PLAIN_FIELDS = (ogr.OFTInteger, ogr.OFTInteger64, ogr.OFTReal, ogr.OFTString)
 
 
 @dataclass(frozen=True)
@@ -230,14 +231,9 @@ class Store:
         wit_id, height = defn.GetFieldIndex(step_layers.WIT_ID), defn.GetFieldIndex(step_layers.HEIGHT)
         layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground'")
         rows: list[tuple] = []
-        for feature in layer:
-            geometry = feature.GetGeometryRef()
-            if geometry is None or geometry.IsEmpty():
-                continue
-            xmin, xmax, ymin, ymax, base, _ = geometry.GetEnvelope3D()
-            attrs = [None if feature.IsFieldNull(i) else feature.GetField(i) for i in kept]
-            rows.append((feature.GetField(wit_id), (xmin + xmax) / 2, (ymin + ymax) / 2,
-                         max(math.hypot(xmax - xmin, ymax - ymin), feature.GetField(height) or 0.0), base,
+        for (xmin, xmax, ymin, ymax, base), attrs in _ground_faces(layer, kept):
+            rows.append((attrs[kept.index(wit_id)], (xmin + xmax) / 2, (ymin + ymax) / 2,
+                         max(math.hypot(xmax - xmin, ymax - ymin), attrs[kept.index(height)] or 0.0), base,
                          jsontext.dumps(attrs, ensure_ascii=False)))
             if len(rows) == BATCH:
                 self._insert_buildings(rows, grid)
@@ -417,6 +413,35 @@ class Store:
             b"".join(r[0] for r in spill), dtype=np.int64)])[order]
         return TriangleRows(column(2, np.float64, (3, 3)), column(1, np.int8), column(3, np.int64),
                             column(4, np.float32, (3, 2)), leaves)
+
+
+def _ground_faces(layer: ogr.Layer, kept: list[int]) -> Iterator[tuple[tuple[float, ...], list]]:
+    """Each face of ``layer`` with a geometry: its envelope (xmin, xmax, ymin, ymax, lowest z; as OGR's
+    ``GetEnvelope3D``) and the values of the fields ``kept`` as ``GetField`` gives them (None for NULL).
+
+    Read in column batches (``bulk_read``) when every kept field is a plain number or text, else feature by
+    feature (a date, a boolean: their Python values are OGR's); the feature loop took most of the buildings'
+    staging."""
+    defn = layer.GetLayerDefn()
+    fields = [defn.GetFieldDefn(i) for i in kept]
+    if not all(f.GetType() in _PLAIN_FIELDS and f.GetSubType() == ogr.OFSTNone for f in fields):
+        for feature in layer:
+            geometry = feature.GetGeometryRef()
+            if geometry is not None and not geometry.IsEmpty():
+                yield geometry.GetEnvelope3D()[:5], [None if feature.IsFieldNull(i) else feature.GetField(i)
+                                                     for i in kept]
+        return
+    for batch in bulk_read.batches(layer):
+        geometries = shapely.from_wkb(np.array(batch["geometry"].tolist(), dtype=object))
+        present = np.flatnonzero(~shapely.is_missing(geometries) & ~shapely.is_empty(geometries))
+        xyz, owner = shapely.get_coordinates(geometries[present], include_z=True, return_index=True)
+        xyz[~shapely.has_z(geometries[present])[owner], 2] = 0.0  # a 2D face: z 0, as OGR's envelope
+        starts = np.searchsorted(owner, np.arange(len(present)))
+        low, high = np.minimum.reduceat(xyz, starts), np.maximum.reduceat(xyz, starts)
+        boxes = np.column_stack([low[:, 0], high[:, 0], low[:, 1], high[:, 1], low[:, 2]]).tolist()
+        columns = [[v.decode("utf-8") if isinstance(v, bytes) else v for v in batch[f.GetName()][present].tolist()]
+                   for f in fields]
+        yield from zip(boxes, (list(values) for values in zip(*columns)))
 
 
 def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = False) -> Iterator[dict]:
