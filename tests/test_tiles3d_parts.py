@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from osgeo import ogr
 
-from wit_plugin.tiles3d.store import _ground_faces, _texcoords, aligned_decimals
+from wit_plugin.tiles3d.store import _ground_faces, _texcoords, _unique_texts, aligned_decimals
 
 
 def _chars(rows: list[str]) -> np.ndarray:
@@ -85,3 +85,12 @@ def test_ground_faces_read_in_columns_give_what_ogr_gives(tmp_path):
         assert [(tuple(box), values) for box, values in faces] == [
             (box, values + (["2024/05/17"] if date else [])) for box, values in expected]
         del layer, ds
+
+
+def test_unique_texts_are_sorted_with_each_rows_index():
+    names, index = _unique_texts(np.array([b"tin", b"tin", b"road", b"tin", b"road", b"road", b"\xea\xb8\xb8"]))
+    assert names == ["road", "tin", "길"] and index.tolist() == [1, 1, 0, 1, 0, 0, 2]
+    names, index = _unique_texts(np.array(["b", None, "a", "b"], dtype=object))
+    assert names == ["", "a", "b"] and index.tolist() == [2, 0, 1, 2]
+    names, index = _unique_texts(np.array([], dtype="S4"))
+    assert names == [] and index.tolist() == []
