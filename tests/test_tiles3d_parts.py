@@ -6,6 +6,7 @@ import numpy as np
 from osgeo import ogr
 
 from wit_plugin.tiles3d.store import _ground_faces, _texcoords, _unique_texts, aligned_decimals
+from wit_plugin.tiles3d.tileset import _ring_uv
 
 
 def _chars(rows: list[str]) -> np.ndarray:
@@ -94,3 +95,11 @@ def test_unique_texts_are_sorted_with_each_rows_index():
     assert names == ["", "a", "b"] and index.tolist() == [2, 0, 1, 2]
     names, index = _unique_texts(np.array([], dtype="S4"))
     assert names == [] and index.tolist() == []
+
+
+def test_ring_uv_takes_the_rows_that_fit_their_rings():
+    rows = [np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 0.0]], dtype=np.float32), None,
+            np.array([[0.5, 0.5], [0.25, 0.5]], dtype=np.float32), np.array([[2.0, 3.0]] * 3, dtype=np.float32)]
+    textured, uv = _ring_uv(rows, np.array([4, 3, 3, 3]))  # the third row has 2 pairs for 3 ring points
+    assert textured.tolist() == [True, False, False, True]
+    assert uv.tolist() == [[0, 0], [1, 0], [1, 1], [0, 0]] + [[0, 0]] * 6 + [[2, 3]] * 3

@@ -231,10 +231,15 @@ def _distinct_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return points[first], inverse
 
 
-def _fits(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> np.ndarray:
-    """Which faces have a texture row (``uvs``) with one (u, v) per point of their ring."""
-    return np.array([uv is not None and len(uv) == n for uv, n in zip(uvs, np.asarray(ring_counts).tolist())],
-                    dtype=bool)
+def _ring_uv(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which faces have a texture row (``uvs``) with one (u, v) per point of their ring (of ``ring_counts``
+    points), and the (u, v) of every ring point, rings after one another: their rows', else 0."""
+    textured = np.array([uv is not None and len(uv) == n for uv, n in zip(uvs, np.asarray(ring_counts).tolist())],
+                        dtype=bool)
+    uv = np.zeros((int(np.sum(ring_counts)), 2))
+    if textured.any():
+        uv[np.repeat(textured, ring_counts)] = np.concatenate([uvs[k] for k in np.flatnonzero(textured).tolist()])
+    return textured, uv
 
 
 def _roof_triangles(polygons: np.ndarray, uvs: list[np.ndarray | None], images: np.ndarray
@@ -243,11 +248,8 @@ def _roof_triangles(polygons: np.ndarray, uvs: list[np.ndarray | None], images: 
     face's row does not fit its ring) and face (t,) of each."""
     ring_xyz, ring_face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True,
                                                   return_index=True)
-    textured = _fits(uvs, np.bincount(ring_face, minlength=len(polygons)))
-    values = np.column_stack([ring_xyz[:, 2], np.zeros((len(ring_xyz), 2))])
-    for k in np.flatnonzero(textured).tolist():
-        values[ring_face == k, 1:] = uvs[k]
-    xy, fitted, face = planar_triangles(polygons, values)
+    textured, uv = _ring_uv(uvs, np.bincount(ring_face, minlength=len(polygons)))
+    xy, fitted, face = planar_triangles(polygons, np.column_stack([ring_xyz[:, 2], uv]))
     xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
     return xyz, fitted[:, :, 1:].copy(), np.where(textured[face], images[face], -1), face
 
@@ -395,13 +397,9 @@ class _Writer:
     def _walls(self, glb: GlbBuilder, frame: np.ndarray, rows, walls: np.ndarray, mip: int) -> np.ndarray:
         """Walls with their generated facade (where the texture row fits the ring), else plain; their corners."""
         polygons = rows.polygons[walls]
-        ring_xyz = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True)
-        counts = shapely.get_num_coordinates(shapely.get_exterior_ring(polygons))
-        textured = _fits([rows.face_uv[i] for i in walls.tolist()], counts)
-        uv = np.zeros((len(ring_xyz), 2))
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        for k in np.flatnonzero(textured).tolist():
-            uv[starts[k]:starts[k] + counts[k]] = rows.face_uv[walls[k]]
+        rings = shapely.get_exterior_ring(polygons)
+        ring_xyz = shapely.get_coordinates(rings, include_z=True)
+        textured, uv = _ring_uv([rows.face_uv[i] for i in walls.tolist()], shapely.get_num_coordinates(rings))
         index, owner = fan_corners(polygons)
         xyz = ring_xyz[index]
         local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
