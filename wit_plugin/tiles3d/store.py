@@ -555,9 +555,11 @@ def aligned_decimals(chars: np.ndarray) -> np.ndarray | None:
     digits[:, point] = 0
     if not (digits <= 9).all():
         return None
-    column = np.arange(size)
-    weights = np.array([0.0 if c == point else float(10 ** int(size - 1 - c - (c < point))) for c in column])
-    return (digits.astype(np.float64) @ weights) / float(10 ** (size - 1 - point))
+    mantissa = np.zeros(len(digits), dtype=np.int64)
+    for column in range(size):
+        if column != point:
+            mantissa = mantissa * 10 + digits[:, column]  # (integer arithmetic: no BLAS threads to wait for)
+    return mantissa / float(10 ** (size - 1 - point))
 
 
 def _texts(column: np.ndarray) -> list[str]:
