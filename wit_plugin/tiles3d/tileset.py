@@ -59,6 +59,7 @@ WALL_RGB = (222, 213, 196)
 ROOF_RGB = (176, 120, 100)
 GROUND_RGB = (150, 150, 140)
 _MAX_MIP = 4
+_HASH_FACTOR = np.uint64(0x9E3779B97F4A7C15)  # odd, bits well mixed (2^64 / golden ratio)
 
 
 @dataclass(frozen=True)
@@ -221,14 +222,30 @@ def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, flo
 
 
 def _distinct_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct rows of ``points`` (n, 3) and each row's index into them (each point is then
-    transformed once: transforms are per point, so the results are the same)."""
+    """The distinct rows of ``points`` (n, 3), in no particular order, and each row's index into them (each
+    point is then transformed once: transforms are per point, so the results are the same).
+
+    Rows are grouped by a hash of their bytes (a sort of integers, three times faster than one of 24-byte
+    rows) and checked against their group's first row; should two different rows share a hash, the rows are
+    sorted instead."""
     points = np.ascontiguousarray(points)
     if not len(points):
         return points, np.zeros(0, dtype=np.int64)
-    _, first, inverse = np.unique(points.view(np.dtype((np.void, points.itemsize * 3))).ravel(),
-                                  return_index=True, return_inverse=True)
-    return points[first], inverse
+    words = points.view(np.uint64)
+    key = np.zeros(len(points), dtype=np.uint64)
+    for column in words.T:
+        key = (key ^ column) * _HASH_FACTOR
+        key ^= key >> np.uint64(29)
+    order = np.argsort(key)
+    ordered = key[order]
+    starts = np.flatnonzero(np.append(True, ordered[1:] != ordered[:-1]))
+    group = np.empty(len(points), dtype=np.int64)
+    group[order] = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(points))))
+    first = order[starts]
+    if not np.array_equal(words[first][group], words):
+        _, first, group = np.unique(points.view(np.dtype((np.void, points.itemsize * 3))).ravel(),
+                                    return_index=True, return_inverse=True)
+    return points[first], group
 
 
 def _ring_uv(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
