@@ -116,3 +116,17 @@ def test_distinct_points_group_equal_bytes_even_when_hashes_collide(monkeypatch)
         assert len(distinct) == 4  # -0.0 is another point than 0.0 by its bytes, as the transforms may tell
         assert distinct[index].tobytes() == points.tobytes()
         assert index[0] == index[2] and index[1] == index[5] and len(set(index[[0, 1, 3, 4]].tolist())) == 4
+
+
+def test_distinct_rows_are_those_of_np_unique_on_the_rows_bytes():
+    from wit_plugin.tiles3d.glb import distinct_rows
+
+    rng = np.random.default_rng(3)
+    vertices = rng.integers(0, 5, (40, 5)).astype(np.float32) / 4 - 0.5  # few values: -0.0 and 0.0 too
+    vertices[:, 0] = np.arange(40) - 20.0  # x, y of each vertex its own
+    for clashes in (2, 30):  # rows alike in x, y but not after: a few (sorted apart) or many (np.unique)
+        rows = vertices[rng.integers(0, len(vertices), 400)]
+        rows[rng.choice(400, clashes, replace=False), 2] = 7.0
+        first, index = distinct_rows(rows)
+        expected = np.unique(rows.view(np.dtype((np.void, 20))).ravel(), return_index=True, return_inverse=True)
+        assert first.tolist() == expected[1].tolist() and index.tolist() == expected[2].ravel().tolist()
