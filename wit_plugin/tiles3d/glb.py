@@ -46,12 +46,14 @@ def unit_normals(corners: np.ndarray) -> np.ndarray:
 
 def distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """What ``np.unique`` gives for the rows' bytes (``return_index``, ``return_inverse``): the first of each
-    distinct row, ordered as their bytes compare, and each row's number among them.
+    distinct row, ordered as their bytes compare, and each row's number among them (rows of 8 bytes or more).
 
     Sorted by their first 8 bytes as one integer (the bytes compared in the same order), which tells apart
     most vertices (x, y); only the rows sharing those bytes are sorted by all of theirs (a sort of 20-byte
     rows took a tenth of the export)."""
     n = len(rows)
+    if not n:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     raw = np.ascontiguousarray(rows).view(np.uint8).reshape(n, -1)
     key = raw[:, :8].copy().view(">u8").ravel().astype(np.uint64)
     order = np.argsort(key, kind="stable")  # stable: the first of equal rows stays first

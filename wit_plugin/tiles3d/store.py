@@ -228,12 +228,12 @@ class Store:
         kept = [i for i in range(defn.GetFieldCount()) if defn.GetFieldDefn(i).GetName() not in PER_FACE_FIELDS]
         self.fields = [(defn.GetFieldDefn(i).GetName(), defn.GetFieldDefn(i).GetType()) for i in kept] \
             + self.facade_fields
-        wit_id, height = defn.GetFieldIndex(step_layers.WIT_ID), defn.GetFieldIndex(step_layers.HEIGHT)
+        wit_id, height = (kept.index(defn.GetFieldIndex(name)) for name in (step_layers.WIT_ID, step_layers.HEIGHT))
         layer.SetAttributeFilter(f"{step_layers.FACE_TYPE} = 'ground'")
         rows: list[tuple] = []
         for (xmin, xmax, ymin, ymax, base), attrs in _ground_faces(layer, kept):
-            rows.append((attrs[kept.index(wit_id)], (xmin + xmax) / 2, (ymin + ymax) / 2,
-                         max(math.hypot(xmax - xmin, ymax - ymin), attrs[kept.index(height)] or 0.0), base,
+            rows.append((attrs[wit_id], (xmin + xmax) / 2, (ymin + ymax) / 2,
+                         max(math.hypot(xmax - xmin, ymax - ymin), attrs[height] or 0.0), base,
                          jsontext.dumps(attrs, ensure_ascii=False)))
             if len(rows) == BATCH:
                 self._insert_buildings(rows, grid)
@@ -437,6 +437,8 @@ def _ground_faces(layer: ogr.Layer, kept: list[int]) -> Iterator[tuple[tuple[flo
     for batch in bulk_read.batches(layer):
         geometries = shapely.from_wkb(np.array(batch["geometry"].tolist(), dtype=object))
         present = np.flatnonzero(~shapely.is_missing(geometries) & ~shapely.is_empty(geometries))
+        if not len(present):
+            continue
         xyz, owner = shapely.get_coordinates(geometries[present], include_z=True, return_index=True)
         xyz[~shapely.has_z(geometries[present])[owner], 2] = 0.0  # a 2D face: z 0, as OGR's envelope
         starts = np.searchsorted(owner, np.arange(len(present)))
@@ -540,8 +542,10 @@ def aligned_decimals(chars: np.ndarray) -> np.ndarray | None:
     10^15, exact in float64, and one IEEE division by an exact power of ten rounds correctly. Column by
     column, with no search for where each number starts (C's parser took most of the texture table's staging).
     """
+    if not len(chars):
+        return None
     blank = chars[0] <= 32
-    if not len(chars) or ((chars <= 32) != blank).any():
+    if ((chars <= 32) != blank).any():
         return None
     edges = np.flatnonzero(np.diff(~blank, prepend=False, append=False))
     starts, lengths = edges[0::2], edges[1::2] - edges[0::2]
