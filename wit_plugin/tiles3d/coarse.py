@@ -53,8 +53,12 @@ def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols
     c1 = np.clip(np.floor((hi[:, 0] - x0) / step + 1e-9), -1, cols - 1).astype(np.int64)
     r0 = np.clip(np.ceil((y_top - hi[:, 1]) / step - 1e-9), 0, rows).astype(np.int64)
     r1 = np.clip(np.floor((y_top - lo[:, 1]) / step + 1e-9), -1, rows - 1).astype(np.int64)
+    # per triangle once, gathered per candidate point: its first corner, edges from it and determinant
+    ax, ay = xy[:, 0, 0].copy(), xy[:, 0, 1].copy()
+    bax, bay, cax, cay = xy[:, 1, 0] - ax, xy[:, 1, 1] - ay, xy[:, 2, 0] - ax, xy[:, 2, 1] - ay
+    det = bax * cay - cax * bay
     ncol, nrow = np.maximum(c1 - c0 + 1, 0), np.maximum(r1 - r0 + 1, 0)
-    count = ncol * nrow
+    count = np.where(det != 0, ncol * nrow, 0)  # a degenerate triangle holds no point
     width = np.maximum(ncol, 1)
     ends = np.cumsum(count)
     start = 0
@@ -66,17 +70,15 @@ def locate(xy: np.ndarray, x0: float, y_top: float, step: float, rows: int, cols
         k = np.arange(len(tri)) - np.repeat(np.cumsum(count[chunk]) - count[chunk], count[chunk])
         row_in, col_in = np.divmod(k, width[tri])
         col, row = c0[tri] + col_in, r0[tri] + row_in
-        px, py = x0 + col * step, y_top - row * step
-        a, b, c = xy[tri, 0], xy[tri, 1], xy[tri, 2]
-        det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
-        safe = np.where(det == 0, 1.0, det)
-        w1 = ((px - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (py - a[:, 1])) / safe
-        w2 = ((b[:, 0] - a[:, 0]) * (py - a[:, 1]) - (px - a[:, 0]) * (b[:, 1] - a[:, 1])) / safe
+        dx, dy = x0 + col * step - ax[tri], y_top - row * step - ay[tri]
+        d = det[tri]
+        w1 = (dx * cay[tri] - cax[tri] * dy) / d
+        w2 = (bax[tri] * dy - dx * bay[tri]) / d
         w0 = 1.0 - w1 - w2
-        inside = (det != 0) & (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
+        inside = np.flatnonzero((w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9))
         cell = row[inside] * cols + col[inside]
         found[cell] = tri[inside]
-        weights[cell] = np.column_stack([w0[inside], w1[inside], w2[inside]])
+        weights[cell, 0], weights[cell, 1], weights[cell, 2] = w0[inside], w1[inside], w2[inside]
         start = stop
     return found, weights
 
@@ -123,12 +125,13 @@ def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: floa
         return rgb, hit
     for number in np.unique(image[image >= 0]).tolist():
         texels = np.flatnonzero(image == number)
-        corners = tri[texels]
-        uv = (triangles.uv[corners] * w[texels, :, None]).sum(axis=1)
+        corner_uv, weight = triangles.uv[tri[texels]], w[texels]
+        u, v = ((corner_uv[:, 0, k] * weight[:, 0] + corner_uv[:, 1, k] * weight[:, 1]
+                 + corner_uv[:, 2, k] * weight[:, 2]) for k in (0, 1))  # (a sum over the axis of 3, unrolled)
         pixels = textures.level(number, _mip_level(triangles, number, textures.shape(number), step))
         h, wd = pixels.shape[:2]
-        col = np.clip((uv[:, 0] * wd).astype(np.int64), 0, wd - 1)
-        row = np.clip(((1.0 - uv[:, 1]) * h).astype(np.int64), 0, h - 1)  # texture-table v grows upwards
+        col = np.clip((u * wd).astype(np.int64), 0, wd - 1)
+        row = np.clip(((1.0 - v) * h).astype(np.int64), 0, h - 1)  # texture-table v grows upwards
         rgb[texels] = pixels[row, col]
     return rgb, hit
 

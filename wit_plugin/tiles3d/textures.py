@@ -66,6 +66,7 @@ class TextureSet:
         self.written: dict[str, int] = {}  # file name → bytes
         self._mips: OrderedDict[int, list[np.ndarray]] = OrderedDict()  # levels 1… of each image, by use
         self._full: OrderedDict[int, np.ndarray] = OrderedDict()  # levels 0 asked for, by use
+        self._shapes: dict[int, tuple[int, int]] = {}
 
     def uri(self, number: int, level: int = 0) -> str:
         """Relative URI (from the tileset's root) of image ``number`` at mip ``level``, written on first use."""
@@ -87,12 +88,14 @@ class TextureSet:
         return f"{TEXTURE_DIR}/{file}"
 
     def shape(self, number: int) -> tuple[int, int]:
-        """Rows and columns of image ``number`` (read from its header, not decoded)."""
-        path = self.folder / self.names[number]
-        ds = gdal.Open(str(path))
-        if ds is None:
-            raise InputError(f"Cannot read the texture image {path}: re-run wit:wittexture.")
-        return ds.RasterYSize, ds.RasterXSize
+        """Rows and columns of image ``number`` (read once from its header, not decoded)."""
+        if number not in self._shapes:
+            path = self.folder / self.names[number]
+            ds = gdal.Open(str(path))
+            if ds is None:
+                raise InputError(f"Cannot read the texture image {path}: re-run wit:wittexture.")
+            self._shapes[number] = ds.RasterYSize, ds.RasterXSize
+        return self._shapes[number]
 
     def level(self, number: int, level: int) -> np.ndarray:
         """Mip ``level`` of image ``number`` (the last level when the chain is shorter), decoded.

@@ -59,6 +59,7 @@ WALL_RGB = (222, 213, 196)
 ROOF_RGB = (176, 120, 100)
 GROUND_RGB = (150, 150, 140)
 _MAX_MIP = 4
+_HASH_FACTOR = np.uint64(0x9E3779B97F4A7C15)  # odd, bits well mixed (2^64 / golden ratio)
 
 
 @dataclass(frozen=True)
@@ -221,20 +222,41 @@ def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, flo
 
 
 def _distinct_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct rows of ``points`` (n, 3) and each row's index into them (each point is then
-    transformed once: transforms are per point, so the results are the same)."""
+    """The distinct rows of ``points`` (n, 3), in no particular order, and each row's index into them (each
+    point is then transformed once: transforms are per point, so the results are the same).
+
+    Rows are grouped by a hash of their bytes (a sort of integers, three times faster than one of 24-byte
+    rows) and checked against their group's first row; should two different rows share a hash, the rows are
+    sorted instead."""
     points = np.ascontiguousarray(points)
     if not len(points):
         return points, np.zeros(0, dtype=np.int64)
-    _, first, inverse = np.unique(points.view(np.dtype((np.void, points.itemsize * 3))).ravel(),
-                                  return_index=True, return_inverse=True)
-    return points[first], inverse
+    words = points.view(np.uint64)
+    key = np.zeros(len(points), dtype=np.uint64)
+    for column in words.T:
+        key = (key ^ column) * _HASH_FACTOR
+        key ^= key >> np.uint64(29)
+    order = np.argsort(key)
+    ordered = key[order]
+    starts = np.flatnonzero(np.append(True, ordered[1:] != ordered[:-1]))
+    group = np.empty(len(points), dtype=np.int64)
+    group[order] = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(points))))
+    first = order[starts]
+    if not np.array_equal(words[first][group], words):
+        _, first, group = np.unique(points.view(np.dtype((np.void, points.itemsize * 3))).ravel(),
+                                    return_index=True, return_inverse=True)
+    return points[first], group
 
 
-def _fits(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> np.ndarray:
-    """Which faces have a texture row (``uvs``) with one (u, v) per point of their ring."""
-    return np.array([uv is not None and len(uv) == n for uv, n in zip(uvs, np.asarray(ring_counts).tolist())],
-                    dtype=bool)
+def _ring_uv(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which faces have a texture row (``uvs``) with one (u, v) per point of their ring (of ``ring_counts``
+    points), and the (u, v) of every ring point, rings after one another: their rows', else 0."""
+    textured = np.array([uv is not None and len(uv) == n for uv, n in zip(uvs, np.asarray(ring_counts).tolist())],
+                        dtype=bool)
+    uv = np.zeros((int(np.sum(ring_counts)), 2))
+    if textured.any():
+        uv[np.repeat(textured, ring_counts)] = np.concatenate([uvs[k] for k in np.flatnonzero(textured).tolist()])
+    return textured, uv
 
 
 def _roof_triangles(polygons: np.ndarray, uvs: list[np.ndarray | None], images: np.ndarray
@@ -243,11 +265,8 @@ def _roof_triangles(polygons: np.ndarray, uvs: list[np.ndarray | None], images: 
     face's row does not fit its ring) and face (t,) of each."""
     ring_xyz, ring_face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True,
                                                   return_index=True)
-    textured = _fits(uvs, np.bincount(ring_face, minlength=len(polygons)))
-    values = np.column_stack([ring_xyz[:, 2], np.zeros((len(ring_xyz), 2))])
-    for k in np.flatnonzero(textured).tolist():
-        values[ring_face == k, 1:] = uvs[k]
-    xy, fitted, face = planar_triangles(polygons, values)
+    textured, uv = _ring_uv(uvs, np.bincount(ring_face, minlength=len(polygons)))
+    xy, fitted, face = planar_triangles(polygons, np.column_stack([ring_xyz[:, 2], uv]))
     xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
     return xyz, fitted[:, :, 1:].copy(), np.where(textured[face], images[face], -1), face
 
@@ -395,13 +414,9 @@ class _Writer:
     def _walls(self, glb: GlbBuilder, frame: np.ndarray, rows, walls: np.ndarray, mip: int) -> np.ndarray:
         """Walls with their generated facade (where the texture row fits the ring), else plain; their corners."""
         polygons = rows.polygons[walls]
-        ring_xyz = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True)
-        counts = shapely.get_num_coordinates(shapely.get_exterior_ring(polygons))
-        textured = _fits([rows.face_uv[i] for i in walls.tolist()], counts)
-        uv = np.zeros((len(ring_xyz), 2))
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        for k in np.flatnonzero(textured).tolist():
-            uv[starts[k]:starts[k] + counts[k]] = rows.face_uv[walls[k]]
+        rings = shapely.get_exterior_ring(polygons)
+        ring_xyz = shapely.get_coordinates(rings, include_z=True)
+        textured, uv = _ring_uv([rows.face_uv[i] for i in walls.tolist()], shapely.get_num_coordinates(rings))
         index, owner = fan_corners(polygons)
         xyz = ring_xyz[index]
         local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
