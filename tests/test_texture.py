@@ -474,3 +474,17 @@ def test_no_garbage_collection_during_the_step(scene: dict, tmp_path: Path) -> N
     texture_model(scene["ortho"], scene["lod1"], scene["tin"], str(tmp_path / "tex"), TextureConfig(atlas_size=64),
                   feedback=Spy())
     assert Spy.seen == {False} and gc.isenabled()
+
+
+@pytest.mark.parametrize("dtype, work", [(np.uint8, np.float32), (np.float32, np.float32), (np.uint8, np.float64)])
+def test_halving_an_even_side_is_the_mean_of_each_pair_bit_for_bit(dtype, work):
+    """The mip chains' box filter on an even side: the mean of each texel pair, as numpy's mean gives it."""
+    from wit_plugin.texture.images import _halve
+
+    rng = np.random.default_rng(3)
+    image = (rng.random((64, 48, 3)) * 255).astype(dtype)
+    for axis in (0, 1):
+        pairs = image.reshape(image.shape[:axis] + (image.shape[axis] // 2, 2) + image.shape[axis + 1:])
+        halved = _halve(image, axis, np.dtype(work))
+        assert halved.dtype == np.dtype(work)
+        np.testing.assert_array_equal(halved, pairs.mean(axis=axis + 1, dtype=work))
