@@ -132,7 +132,7 @@ def test_missing_sheet_is_named_before_any_heavy_step_and_nothing_is_written(sam
         raise AssertionError("a heavy step ran before the coverage check")
 
     monkeypatch.setattr(citymodel, "georeference_sheets", heavy)
-    monkeypatch.setattr(citymodel.terrain, "triangulate_terrain", heavy)
+    monkeypatch.setattr(citymodel, "triangulate_terrain", heavy)
     ortho = tmp_path / "ortho"
     ortho.mkdir()
     for tile in sample.ortho_tiles:
