@@ -97,7 +97,7 @@ def _storeys(value: Any, minimum: int) -> int | None:
     return round(number) if math.isfinite(number) and number >= minimum else None
 
 
-def base_heights(dem: Dem, polygons: Sequence[BaseGeometry], mode: str = "min") -> np.ndarray:
+def base_heights(dem: Dem, polygons: Sequence[BaseGeometry] | np.ndarray, mode: str = "min") -> np.ndarray:
     """One base height per polygon from the DEM: exact minimum of the surface, or median of samples.
 
     Samples are the ring vertices and the DEM cell centres inside; the minimum also covers the
@@ -182,10 +182,10 @@ def extrude(buildings: Sequence[tuple[str | None, BaseGeometry | None, dict]], d
         feedback.check_canceled()
         attrs = buildings[k][2]
         height, source = building_height(attrs, rule)
-        storeys = [_storeys(attrs.get(column), least) if column else None
-                   for column, least in ((rule.floors_field, 1), (rule.basement_field, 0))]
+        above, below = [_storeys(attrs.get(column), least) if column else None
+                        for column, least in ((rule.floors_field, 1), (rule.basement_field, 0))]
         solids.append(Solid(name, float(base_z), height, source.kind if source else DEFAULT, rule.label(source),
-                            *storeys, solid_faces(poly, float(base_z), height), attrs))
+                            above, below, solid_faces(poly, float(base_z), height), attrs))
     sources = Counter(s.height_source for s in solids)
     feedback.info("Heights: " + ", ".join(f"{count} from {label}" for label, count in
                                          Counter(s.height_rule for s in solids).most_common()))
@@ -219,7 +219,7 @@ def write_solids(path: str | Path, solids: Sequence[Solid], crs: pyproj.CRS,
         for number, (kind, rings) in enumerate(s.faces):
             geoms.append(shapely.Polygon(rings[0], rings[1:]))
             rows.append((values[0], kind, number, *values[1:]))
-    columns = list(zip(*rows)) if rows else [[] for _ in own + extra]
+    columns: list[Sequence[Any]] = list(zip(*rows)) if rows else [[] for _ in own + extra]
     return write_layer(path, LOD1_LAYER, crs, own + extra, np.array(geoms, dtype=object), columns,
                        spatial_index=spatial_index, feedback=feedback)
 

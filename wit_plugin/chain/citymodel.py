@@ -179,6 +179,8 @@ class ChainReport:
 class _Clock:
     """Runs the steps in order with their share of the progress bar, cancel checks and timing."""
 
+    seconds: dict[str, float]  # by step label
+
     def __init__(self, feedback: Feedback):
         self.feedback, self.seconds = SaidOnce(feedback), {}
         total = sum(share for _, share in STEPS)
@@ -302,7 +304,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
         sheets = georeference_sheets([s.path for s in coverage.used], work / "georeferenced", options.target_crs,
                                      options.sheet_crs, options.margin, fmt="VRT", feedback=fb)
         write_footprint_index(sheets, work / "sheets.gpkg", options.target_crs)
-        rasters = [r.output for r in sheets if r.status == OK]
+        rasters = [r.output for r in sheets if r.status == OK and r.output is not None]  # (OK: it has one)
         if not rasters:
             raise InputError("No orthoimage sheet could be read: " + "; ".join(
                 f"{Path(r.source).name}: {r.reason}" for r in sheets))
@@ -370,14 +372,15 @@ def _terrain_and_solids(inputs: ChainInputs, options: ChainOptions, layers: Prep
     with clock.step("extrude") as fb:
         lod1 = str(work / "lod1.gpkg") if layers.buildings else None
         lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
-                                               spatial_index=options.keep_work, feedback=fb) if lod1 else None
+                                               spatial_index=options.keep_work,
+                                               feedback=fb) if lod1 and layers.buildings else None
     return tin, tin_stats, lod1, lod1_stats
 
 
 def _step_python(options: ChainOptions) -> str:
     """The Python that runs the steps the chain starts in another process: one that imports all of them, found
     (and checked) once."""
-    modules = STEP_PROCESS_MODULES + ("wit_plugin.mosaic",)
+    modules: tuple[str, ...] = STEP_PROCESS_MODULES + ("wit_plugin.mosaic",)
     modules += ("pygltflib", "wit_plugin.tiles3d") if options.tiles3d else ()
     modules += ("meshoptimizer",) if options.tiles3d and options.tiles3d_web else ()
     return core_python(None, modules, "wit_plugin.metrics" if options.metrics else "wit_plugin.mosaic")

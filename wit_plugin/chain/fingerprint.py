@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -112,7 +113,7 @@ class LayerDigests:
     (its footprint, simplified with its own, a hole in its terrain; ids numbered in the order read).
     """
 
-    def __init__(self, layer: VectorLayer, id_prefix: str | None = None, id_keys: list | None = None):
+    def __init__(self, layer: VectorLayer, id_prefix: str = "", id_keys: Sequence[Sequence[str]] | None = None):
         self.crs = layer.crs
         self.header = digest(layer.crs.to_wkt(), repr([dataclasses.astuple(f) for f in layer.fields]),
                              layer.encoding or "")

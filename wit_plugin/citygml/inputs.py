@@ -12,7 +12,7 @@ import math
 import re
 import sqlite3
 import tempfile
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from itertools import groupby
 from pathlib import Path
@@ -55,7 +55,7 @@ class InputLayer:
 
     @classmethod
     @contextlib.contextmanager
-    def open(cls, path: str, name: str, role: str, fields: Iterable[str],
+    def open(cls, path: str, name: str, role: str, fields: Sequence[str],
              geometry_z: bool = False) -> Iterator[InputLayer]:
         ds, layer, _ = open_step_layer(path, name, role, fields)
         path, name = LayerSource.parse(path).path, layer.GetName()
@@ -139,7 +139,7 @@ class ModelLayers:
         for source in (lod1, tin):
             if source:
                 source.check_crs(srs_name)
-        images = texture_images(texcoords, Path(inputs.textures)) if texcoords else {}
+        images = texture_images(texcoords, Path(inputs.textures)) if texcoords and inputs.textures else {}
         envelope = envelope_of([source for source in (lod1, tin) if source])
         if envelope is None:
             raise InputError(f"{inputs.lod1 or inputs.tin} has no geometries: re-run the step that wrote it.")
@@ -157,7 +157,7 @@ def columns_of(layer: ogr.Layer) -> dict[str, int]:
     return {name: index for index, name, _ in fields_of(layer)}
 
 
-def envelope_of(layers: list[InputLayer]) -> tuple[float, ...] | None:
+def envelope_of(layers: list[InputLayer]) -> tuple[float, float, float, float, float, float] | None:
     """3D bounding box of all geometries, read geometry-only through OGR's Arrow stream."""
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for source in layers:
@@ -175,7 +175,9 @@ def envelope_of(layers: list[InputLayer]) -> tuple[float, ...] | None:
         finally:
             layer.SetIgnoredFields([])
             layer.ResetReading()
-    return None if not np.all(np.isfinite(lo)) else tuple(map(float, (*lo, *hi)))
+    if not np.all(np.isfinite(lo)):
+        return None
+    return float(lo[0]), float(lo[1]), float(lo[2]), float(hi[0]), float(hi[1]), float(hi[2])
 
 
 def texture_images(texcoords: InputLayer, folder: Path) -> dict[str, Path]:
@@ -219,9 +221,10 @@ def typed_attributes(feature: ogr.Feature, fields: list[tuple[int, str, int]], s
         if kind == "int":
             value: int | float | str = feature.GetFieldAsInteger64(index)
         elif kind == "double":
-            value = feature.GetFieldAsDouble(index)
-            if not math.isfinite(value):
+            number = feature.GetFieldAsDouble(index)
+            if not math.isfinite(number):
                 continue
+            value = number
         elif kind == "date":
             year, month, day = feature.GetFieldAsDateTime(index)[:3]
             value = f"{year:04d}-{month:02d}-{day:02d}"

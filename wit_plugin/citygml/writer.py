@@ -114,7 +114,8 @@ def write_citygml(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:5186
         uris = {image: image_uri(src, image, out.parent, tex_dir if copy_textures else None)
                 for image, src in images.items()}
         members = stack.enter_context(Membership(layers.districts)) if layers.districts else None
-        facades = stack.enter_context(FacadeRows.open(Path(inputs.textures))) if texcoords else None
+        facades = (stack.enter_context(FacadeRows.open(Path(inputs.textures)))
+                   if texcoords and inputs.textures else None)  # (texcoords: read from inputs.textures)
         total = sum(source.count() for source in (lod1, tin, texcoords) if source) or 1
         tmp = stack.enter_context(atomic_file(out))
         with open(tmp, "wb") as fh, _Writer.document(fh, srs_uri, report, _Progress(feedback, total)) as writer:
@@ -248,6 +249,8 @@ class _Writer:
         locations = " ".join(f"{NS[p]} {CITYGML_MODULES[NS[p]]}"
                              for p in ("core", "bldg", "con", "tran", "dem", "app", "gen", "grp"))
         env = report.envelope
+        if env is None:  # (set from the model's layers before the document is written)
+            raise ValueError("The model's envelope is not known.")
         with etree.xmlfile(fh, encoding="utf-8") as xf:
             xf.write_declaration()
             with xf.element(CORE + "CityModel", {XSI + "schemaLocation": locations}, nsmap=NS):
@@ -301,7 +304,7 @@ class _Writer:
         facade = facades.of(wit_id) if facades else None
         with self.member(BLDG + "Building", wit_id):
             self.attributes(first, fields, SKIP_BUILDING_FIELDS)
-            if facade is not None:  # how the wall texture was made
+            if facade is not None and facades is not None:  # how the wall texture was made
                 self.attributes(facade, facades.fields, {step_layers.WIT_ID, step_layers.FACADE_IMAGE})
             with self.el(CORE + "lod1Solid"), self.el(GML + "Solid", {GML_ID: f"{wit_id}_lod1"}), \
                     self.el(GML + "exterior"), self.el(GML + "Shell"):
@@ -459,15 +462,19 @@ class _Writer:
             for batch in _batches(rows, self.RAW_BATCH):
                 if target in ("roof", step_layers.TEX_WALL):
                     surfaces = [f"{row[2]}_f{row[3]}" for row in batch]
-                    coords = _uv([row[4] for row in batch],
-                                 lambda i, names=surfaces: f"{target} {names[i]} in {path}", False)
+                    def face_of(i: int, names: list[str] = surfaces) -> str:
+                        return f"{target} {names[i]} in {path}"
+
+                    coords = _uv([row[4] for row in batch], face_of, False)
                     self.raw("".join(_ASSOCIATION.format(surface=xml_text(surface), uv=uv)
                                      for surface, uv in zip(surfaces, coords)))
                 else:
                     features = [escape(row[2]) for row in batch]
                     label = "TIN triangle {} in {}" if target == "tin" else "road tri_{} in {}"
-                    coords = _uv([row[4] for row in batch],
-                                 lambda i, rows=batch, label=label: label.format(rows[i][2], path), True)
+                    def triangle_of(i: int, rows: list = batch, label: str = label) -> str:
+                        return label.format(rows[i][2], path)
+
+                    coords = _uv([row[4] for row in batch], triangle_of, True)
                     if target == "tin":
                         self.raw("".join(f"<app:textureCoordinates>{uv}</app:textureCoordinates>" for uv in coords))
                         refs.extend(f"<app:ring>#tri_{feature}_r</app:ring>" for feature in features)
@@ -506,12 +513,12 @@ def join_sorted(left: Iterator[tuple[str, Any]], right: Iterator[tuple[str, Any]
     """Full outer merge of two key-sorted streams with unique keys: (key, left or None, right or None)."""
     a, b = next(left, None), next(right, None)
     while a is not None or b is not None:
-        if b is None or (a is not None and a[0] < b[0]):
+        if a is not None and (b is None or a[0] < b[0]):  # (b None: a is not)
             yield a[0], a[1], None
             a = next(left, None)
-        elif a is None or b[0] < a[0]:
+        elif b is not None and (a is None or b[0] < a[0]):  # (a None: b is not)
             yield b[0], None, b[1]
             b = next(right, None)
-        else:
+        elif a is not None and b is not None:  # (always, here: the same key on both sides)
             yield a[0], a[1], b[1]
             a, b = next(left, None), next(right, None)

@@ -20,7 +20,8 @@ from . import schema
 
 _REMOTE = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]+://")
 _EPSG_URL = re.compile(r"(?i)^https?://www\.opengis\.net/def/crs/EPSG/[\d.]+/(\d+)$")
-_SURFACE_DEPTH = {"MultiSurface": 0, "CompositeSurface": 0, "Solid": 1, "MultiSolid": 2, "CompositeSolid": 2}
+_SURFACE_DEPTH: dict[object, int] = {"MultiSurface": 0, "CompositeSurface": 0, "Solid": 1, "MultiSolid": 2,
+                                     "CompositeSolid": 2}  # (looked up with any JSON value)
 _SOLID_BATCH = 2_000  # solids checked together
 
 
@@ -39,7 +40,7 @@ class ModelCheck:
         self.ids: set[str] = set()
         self.links: list[tuple[str, str, str, int | None]] = []  # (object, "parents"/"children", other, line)
         self.images: dict[str, bool] = {}  # image path → exists
-        self.solids: list[tuple[Where, list[np.ndarray], list[Where]]] = []
+        self.solids: list[tuple[Where, list[list[np.ndarray]], list[Where]]] = []  # faces: their rings
 
     # documents and features ----------------------------------------------------------------------
     def document(self, document: dict, line: int | None) -> None:
@@ -97,8 +98,12 @@ class ModelCheck:
 
     def _objects(self, container: dict, line: int | None) -> None:
         vertices = self._vertices(container.get("vertices"), line)
-        appearance = container.get("appearance") if isinstance(container.get("appearance"), dict) else {}
-        textures = appearance.get("textures") if isinstance(appearance.get("textures"), list) else []
+        appearance = container.get("appearance")
+        if not isinstance(appearance, dict):
+            appearance = {}
+        textures = appearance.get("textures")
+        if not isinstance(textures, list):
+            textures = []
         uv_count = len(appearance.get("vertices-texture") or [])
         for texture in textures:
             self._image(texture.get("image") if isinstance(texture, dict) else None, line)
@@ -225,7 +230,10 @@ class ModelCheck:
         """The solids gathered so far, checked together by the CityGML validator's ``SolidCheck``."""
         if not self.solids:
             return
-        rings, ring_face, face_solid, wheres = [], [], [], []
+        rings: list[np.ndarray] = []
+        ring_face: list[int] = []
+        face_solid: list[int] = []
+        wheres: list[Where] = []
         for s, (_, faces, face_wheres) in enumerate(self.solids):
             for face, ring_list in enumerate(faces):
                 for ring in ring_list:

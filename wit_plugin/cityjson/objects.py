@@ -119,6 +119,8 @@ class ModelObjects:
     def buildings(self) -> Iterator[CityObject]:
         """One building a time, with its texture rows and its district read beside it (all in wit_id order)."""
         lod1 = self.lod1
+        if lod1 is None:  # (``all`` asks only with the layer)
+            return
         if self.members:  # the districts first: a building names its group (``parents``)
             with lod1.select(where=f"\"{step_layers.FACE_TYPE}\" = 'ground'", order=(step_layers.WIT_ID,)) as result:
                 key = columns_of(result)[step_layers.WIT_ID]
@@ -147,16 +149,17 @@ class ModelObjects:
         result = stack.enter_context(self.texcoords.select(f"\"{step_layers.TEX_TARGET}\" IN ({targets})", order))
         names = (step_layers.TEX_FEATURE, step_layers.TEX_FACE, step_layers.TEX_TARGET, step_layers.TEX_IMAGE,
                  step_layers.TEX_COORDS)
-        rows = chain.from_iterable(self._texture_rows(batch, names) for batch in bulk_read.batches(result, BULK))
+        path = self.texcoords.path
+        rows = chain.from_iterable(self._texture_rows(batch, names, path) for batch in bulk_read.batches(result, BULK))
         for wit_id, group in groupby(rows, key=itemgetter(0)):
             yield wit_id, {int(face): (self.images[image], int(target == step_layers.TEX_WALL), uv)
                            for _, face, target, image, uv in group}
 
-    def _texture_rows(self, batch: dict[str, np.ndarray], names: tuple[str, ...]) -> Iterator[tuple]:
-        """(feature, face, target, image, (u, v) pairs) of each row of a batch, its coordinates parsed in one go."""
+    def _texture_rows(self, batch: dict[str, np.ndarray], names: tuple[str, ...], path: str) -> Iterator[tuple]:
+        """(feature, face, target, image, (u, v) pairs) of each row of a batch (of the texture table ``path``), its
+        coordinates parsed in one go."""
         features, faces, targets, images, texts = (bulk_read.texts(batch[name]) for name in names)
-        uv, counts = uv_values(texts, lambda i: f"{targets[i]} {features[i]}_f{faces[i]} in {self.texcoords.path}",
-                               False)
+        uv, counts = uv_values(texts, lambda i: f"{targets[i]} {features[i]}_f{faces[i]} in {path}", False)
         ends = np.cumsum(counts).tolist()
         return zip(features, faces, targets, images, (uv[end - n:end] for end, n in zip(ends, counts.tolist())))
 
@@ -165,7 +168,7 @@ class ModelObjects:
         first = faces[0]
         attributes = attributes_of(first, fields, SKIP_BUILDING_FIELDS)
         facade = self.facades.of(wit_id) if self.facades else None
-        if facade is not None:  # how the wall texture was made
+        if facade is not None and self.facades is not None:  # how the wall texture was made
             attributes.update(attributes_of(facade, self.facades.fields, {step_layers.WIT_ID,
                                                                           step_layers.FACADE_IMAGE}))
         attributes.update(_height(first, col))
@@ -227,17 +230,21 @@ class ModelObjects:
 
     def _road_triangles(self, stack: contextlib.ExitStack) -> Iterator[tuple[str, tuple[np.ndarray, np.ndarray]]]:
         """(road wit_id, (tri ids, corners)) per road, in wit_id order."""
+        if self.tin is None:  # (asked only with the TIN)
+            return
         result = stack.enter_context(self.tin.select(ROAD_TRIANGLES, (step_layers.TIN_FEATURE_ID,
                                                                          step_layers.TIN_TRIANGLE_ID)))
         rows = chain.from_iterable(zip(bulk_read.texts(batch[step_layers.TIN_FEATURE_ID]), *_tin_batch(batch))
                                    for batch in bulk_read.batches(result, BULK))
         for wit_id, group in groupby(rows, key=itemgetter(0)):
-            group = list(group)
-            yield wit_id, (np.array([row[1] for row in group]), np.array([row[2] for row in group]))
+            road = list(group)
+            yield wit_id, (np.array([row[1] for row in road]), np.array([row[2] for row in road]))
 
     def relief(self) -> CityObject | None:
         """Every TIN triangle not written as a road surface, as one ``TINRelief``: a ``CompositeSurface`` per part
         that hangs together (by edges), as a composite surface must; the roads cut the ground into such parts."""
+        if self.tin is None:  # (``all`` asks only with the TIN)
+            return None
         ids, corners = [], []
         with self.tin.select(f"NOT ({ROAD_TRIANGLES})", (step_layers.TIN_TRIANGLE_ID,)) as result:
             for batch in bulk_read.batches(result, BULK):
@@ -268,8 +275,11 @@ class ModelObjects:
 
     def groups(self) -> Iterator[CityObject]:
         """One ``CityObjectGroup`` per legal dong with buildings: its fields, its name, its buildings."""
-        for wit_id, district, buildings in self.members.groups():
-            attributes = attributes_of(district, self.members.fields, {step_layers.WIT_ID})
+        members = self.members
+        if members is None:  # (``all`` asks only with the districts)
+            return
+        for wit_id, district, buildings in members.groups():
+            attributes = attributes_of(district, members.fields, {step_layers.WIT_ID})
             index = district.GetFieldIndex(DISTRICT_NAME_FIELD)
             if index >= 0 and district.IsFieldSetAndNotNull(index):
                 attributes = {"name": clean_text(district.GetFieldAsString(index)), **attributes}
@@ -309,12 +319,12 @@ def surface_parts(corners: np.ndarray, max_passes: int = 8) -> np.ndarray:
     first, second = order[same], order[same + 1]  # the two uses (triangle * 3 + edge) of each inner edge
     t1, t2 = first // 3, second // 3
     # the corners an inner edge links: the same vertex in both triangles, at both ends of the edge
-    links = []
+    ends = []
     for end in (0, 1):
         k1 = (first % 3 + end) % 3
         v = vertex[t1, k1]
-        links.append(np.column_stack([3 * t1 + k1, 3 * t2 + np.argmax(vertex[t2] == v[:, None], axis=1)]))
-    links = np.vstack(links)
+        ends.append(np.column_stack([3 * t1 + k1, 3 * t2 + np.argmax(vertex[t2] == v[:, None], axis=1)]))
+    links = np.vstack(ends)
     part = components(np.column_stack([t1, t2]), len(vertex))
     for _ in range(max_passes):
         pinched = _pinched(part, vertex, links)
@@ -392,7 +402,10 @@ class _TinTextures:
                 except ValueError:
                     raise InputError(f"Texture table {texcoords.path} has a TIN row whose feature is not a triangle "
                                      "id: re-run wit:wittexture.") from None
-                uv, _ = uv_values(texts, lambda i, f=features: f"TIN triangle {f[i]} in {texcoords.path}", True)
+                def triangle_of(i: int, f: list[str] = features) -> str:
+                    return f"TIN triangle {f[i]} in {texcoords.path}"
+
+                uv, _ = uv_values(texts, triangle_of, True)
                 inside = (ids >= 0) & (ids < size)
                 self.image[ids[inside]] = [images[name] for name, ok in zip(image_names, inside) if ok]
                 self.uv[ids[inside]] = uv.reshape(-1, 4, 2)[inside, :3]

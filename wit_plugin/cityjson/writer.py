@@ -139,7 +139,8 @@ def write_cityjson(inputs: CityGMLInputs, output: str, srs_name: str = "EPSG:518
             uris = [f"{part.folder.rstrip('/')}/{uri}" for uri in uris]
         textures = [_texture(name, uri) for name, uri in zip(names, uris)]
         members = stack.enter_context(Membership(layers.districts)) if layers.districts else None
-        facades = stack.enter_context(FacadeRows.open(Path(inputs.textures))) if layers.texcoords else None
+        facades = (stack.enter_context(FacadeRows.open(Path(inputs.textures)))
+                   if layers.texcoords and inputs.textures else None)  # (texcoords: read from inputs.textures)
         objects = ModelObjects(layers.lod1, layers.tin, layers.roads, members, layers.texcoords, facades,
                                {name: i for i, name in enumerate(names)}, part.suffix if part else "")
         total = sum(source.count() for source in (layers.lod1, layers.tin) if source) or 1
@@ -193,7 +194,7 @@ def _count(report: CityJSONReport, city_object: CityObject) -> None:
 
 def object_text(city_object: CityObject, geometries: list[Iterator[str]]) -> Iterator[str]:
     """``"id":{…}`` of a city object, each of its geometries given as text pieces."""
-    members = {"type": city_object.type}
+    members: dict[str, object] = {"type": city_object.type}
     if city_object.attributes:
         members["attributes"] = city_object.attributes
     if city_object.parents:

@@ -106,7 +106,7 @@ def build_color_store(
         gt = ds.GetGeoTransform()
         width, height = ds.RasterXSize, ds.RasterYSize
         report = BuildReport(
-            output=str(output) if output is not None else _redact(postgis_dsn), table=table,
+            output=_redact(postgis_dsn) if postgis_dsn is not None else str(output), table=table,
             backend="gpkg" if output is not None else "postgis", width=width, height=height,
             pixel_size=(gt[1], -gt[5]), tolerance=float(tolerance), metric=metric, max_depth=max_depth,
             block_size=block_size, image_bytes=width * height * 3,
@@ -120,20 +120,20 @@ def build_color_store(
                       f"blocks of {block_size} px, max depth {max_depth}.")
         if output is not None:
             with atomic_file(output) as tmp:
-                writer = _GpkgWriter(tmp, table, srs)
+                gpkg = _GpkgWriter(tmp, table, srs)
                 try:
-                    _build(ds, writer, report, feedback)
-                    writer.finish(_meta_with(meta, report))
+                    _build(ds, gpkg, report, feedback)
+                    gpkg.finish(_meta_with(meta, report))
                 finally:
-                    writer.close()
+                    gpkg.close()
             report.store_bytes = os.path.getsize(output)
-        else:
-            writer = _PostgisWriter(postgis_dsn, table, srs, feedback)
+        elif postgis_dsn is not None:  # (exactly one of the two: checked above)
+            postgis = _PostgisWriter(postgis_dsn, table, srs, feedback)
             try:
-                _build(ds, writer, report, feedback)
-                report.store_bytes = writer.finish(_meta_with(meta, report))
+                _build(ds, postgis, report, feedback)
+                report.store_bytes = postgis.finish(_meta_with(meta, report))
             finally:
-                writer.close()
+                postgis.close()
     feedback.info(f"{report.cells} cells in {len(report.levels)} levels, max error {report.max_error:.1f}, "
                   f"mean error {report.mean_error:.2f}; store {report.store_bytes / 1e6:.1f} MB for "
                   f"{report.image_bytes / 1e6:.1f} MB of RGB pixels.")

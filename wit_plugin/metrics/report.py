@@ -163,7 +163,8 @@ def _write_gpkg(path: Path, rows: list[MetricRow], geometry: GeometryMetrics | N
     crs = pyproj.CRS.from_wkt(geometry.crs_wkt) if geometry and geometry.crs_wkt else pyproj.CRS("EPSG:5186")
     if geometry:
         kept = [b for b in geometry.buildings if b.geometry is not None]
-        columns = list(zip(*[_building_values(b) for b in kept])) or [[]] * len(_BUILDING_FIELDS)
+        columns: list[Sequence[object]] = (list(zip(*[_building_values(b) for b in kept]))
+                                           or [[]] * len(_BUILDING_FIELDS))
         types = (text, text, integer) + (real,) * 7
         layers.append(OutputLayer(BUILDINGS_LAYER, [FieldDef(n, t) for n, t in zip(_BUILDING_FIELDS, types)],
                                   {n: [_cell(v) for v in col] for n, col in zip(_BUILDING_FIELDS, columns)},
@@ -266,7 +267,8 @@ def quality_report(output_csv: str, model_source: str | None = None, source_buil
         done += span
         return feedback.scaled(done - span, done)
 
-    geometry = geometry_metrics(model_source, source_buildings, next_feedback()) if model_source else None
+    geometry = (geometry_metrics(model_source, source_buildings, next_feedback())
+                if model_source and source_buildings else None)  # (both or neither: checked above)
     area = footprints_2d = None
     if geometry is not None:
         sources = [b.geometry for b in geometry.buildings if b.status != MODEL_ONLY and b.geometry is not None]
@@ -275,7 +277,7 @@ def quality_report(output_csv: str, model_source: str | None = None, source_buil
                                           geometry.crs_wkt, ortho, feedback)
             area = tuple(footprints_2d.bounds)
     texture = texture_metrics(textures, ortho, area, footprints_2d, next_feedback()) if textures or ortho else None
-    seam = seam_metrics(mosaic, footprints, next_feedback()) if mosaic else None
+    seam = seam_metrics(mosaic, footprints, next_feedback()) if mosaic and footprints else None  # (both or neither)
     report = QualityReport(metric_rows(geometry, texture, seam), geometry, texture, seam)
     if not any(math.isfinite(r.value) for r in report.rows if r.value is not None and r.unit != "count"):
         reason = (f": no building of the model ({geometry.model_count}) matches one of the {geometry.source_count} "

@@ -360,7 +360,7 @@ def texture_metrics(images: Sequence[str] | str | None, ortho: str | None = None
         feedback.check_canceled()
         ds = open_raster(str(path), "texture image")
         gray, valid = _read_gray(ds, 0, 0, ds.RasterXSize, ds.RasterYSize)
-        if rings is not None:
+        if rings is not None and folder is not None:  # rings come from the folder's texcoords file only
             valid &= _uv_mask(rings.get(path.relative_to(folder).as_posix()), ds.RasterXSize, ds.RasterYSize)
         stats = _image_stats(gray, valid)
         pooled.merge(stats)

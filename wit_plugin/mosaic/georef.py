@@ -134,8 +134,10 @@ def _creation_options(ds: gdal.Dataset) -> list[str]:
     return options
 
 
-def _write_geotiff(src: gdal.Dataset, target: Path, ullr: list[float], crs: str, feedback: Feedback) -> str:
-    """Copy the pixels into a georeferenced GeoTIFF; returns an error message or ''."""
+def _write_geotiff(src: gdal.Dataset, target: Path, ullr: list[float] | None, crs: str | None,
+                   feedback: Feedback) -> str:
+    """Copy the pixels into a georeferenced GeoTIFF (``ullr`` and ``crs`` None: the source's georeference);
+    returns an error message or ''."""
     def callback(complete: float, _message: str, _data: object) -> int:
         feedback.progress(100.0 * complete)
         return 0 if feedback.is_canceled() else 1
@@ -210,7 +212,7 @@ def georeference_sheets(inputs: Sequence[str], output_dir: str | os.PathLike, ta
         if not result.output:
             feedback.warning(f"{result.status.capitalize()} {result.source}: {result.reason}")
     if planned:
-        with atomic_files([r.output for r in planned]) as staging:
+        with atomic_files([r.output for r in planned if r.output]) as staging:  # (all: planned have one)
             for i, result in enumerate(planned):
                 feedback.check_canceled()
                 step = feedback.scaled(100.0 * i / len(planned), 100.0 * (i + 1) / len(planned))
@@ -230,6 +232,8 @@ def georeference_sheets(inputs: Sequence[str], output_dir: str | os.PathLike, ta
 def _process(result: SheetResult, staging: Path, out_dir: Path, target_crs: str, fmt: str,
              feedback: Feedback) -> None:
     """Georeference one planned input into the staging folder; record failure instead of raising."""
+    if result.output is None or result.bounds is None:  # (``_plan`` sets both of a planned input)
+        raise ValueError(f"{result.source} is not planned: it has no output or no bounds.")
     target = staging / Path(result.output).name
     src, message = _open(result.source)
     if src is None:
@@ -237,7 +241,7 @@ def _process(result: SheetResult, staging: Path, out_dir: Path, target_crs: str,
         return
     own = _own_crs(src, target_crs)
     if own is not None:
-        _reprojected(result, src, own, staging, out_dir, target_crs, fmt, feedback)
+        _reprojected(result, src, own, staging, target, out_dir, target_crs, fmt, feedback)
         return
     xmin, ymin, xmax, ymax = result.bounds
     ullr = [xmin, ymax, xmax, ymin]
@@ -269,19 +273,19 @@ def sheet_footprint(path: str, sheet_bounds: tuple[float, float, float, float], 
     another CRS, else ``sheet_bounds`` (its sheet's envelope + margin)."""
     src, _ = _open(path)
     own = _own_crs(src, target_crs) if src is not None else None
-    if own is None:
+    if own is None or src is None:  # (no dataset: no CRS of its own either)
         return shapely.box(*sheet_bounds)
     return transform_geometry(shapely.box(*raster_extent(src.GetGeoTransform(), src.RasterXSize, src.RasterYSize)),
                               own, target_crs)
 
 
-def _reprojected(result: SheetResult, src: gdal.Dataset, own: pyproj.CRS, staging: Path, out_dir: Path,
+def _reprojected(result: SheetResult, src: gdal.Dataset, own: pyproj.CRS, staging: Path, target: Path, out_dir: Path,
                  target_crs: str, fmt: str, feedback: Feedback) -> None:
     """A TIF georeferenced in another CRS, reprojected from its own georeference (bilinear, its pixel size in
     metres, on a grid aligned to multiples of it): a warped VRT of the untouched pixels whose coverage is
-    the mask of a 3-band VRT beside it (``<sheet>.vrt``), or a GeoTIFF with that mask."""
-    target = staging / Path(result.output).name
-    warped_file = staging / f"{Path(result.output).stem}{WARPED_SUFFIX}"
+    the mask of a 3-band VRT beside it (``<sheet>.vrt``), or a GeoTIFF with that mask. ``target``: the
+    output's path in ``staging``."""
+    warped_file = staging / f"{target.stem}{WARPED_SUFFIX}"
     size = cell_size(src, own, target_crs)
     footprint = transform_geometry(shapely.box(*raster_extent(src.GetGeoTransform(), src.RasterXSize,
                                                               src.RasterYSize)), own, target_crs)

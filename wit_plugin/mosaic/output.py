@@ -69,6 +69,8 @@ def _estimate_tone(index: _BlockIndex, bands: int, np_dtype: np.dtype,
     for i, j in pairs:
         feedback.check_canceled()
         win = _intersect(tiles[i].window, tiles[j].window)
+        if win is None:  # (never: the pair overlaps)
+            continue
         step = max(1, math.ceil(math.sqrt(win[2] * win[3] / _TONE_SAMPLES)))
         da, va = _read(tiles[i], win, bands, np_dtype, step)
         db, vb = _read(tiles[j], win, bands, np_dtype, step)
@@ -155,8 +157,10 @@ def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, report: MergeReport, np_
         for bx in range(x0 - x0 % block_size, x0 + width, block_size):
             feedback.check_canceled()
             block = _intersect((bx, by, block_size, block_size), report.window)
+            if block is None:  # (never: the blocks are those the window meets)
+                continue
             out = np.full((report.bands, block[3], block[2]), fill, np_dtype)
-            covered = np.zeros((block[3], block[2]), bool)
+            covered = np.zeros((block[3], block[2]), np.bool_)
             pieces = []
             for k in index.at(bx, by):
                 tile = index.tiles[k]
@@ -166,8 +170,9 @@ def _write_blocks(ds: gdal.Dataset, index: _BlockIndex, report: MergeReport, np_
                 data, valid = _read(tile, win, report.bands, np_dtype)
                 here = (slice(win[1] - block[1], win[1] - block[1] + win[3]),
                         slice(win[0] - block[0], win[0] - block[0] + win[2]))
-                if appliers[k]:
-                    data = appliers[k](data)
+                applier = appliers[k]
+                if applier:
+                    data = applier(data)
                 if valid is None:
                     out[(slice(None),) + here] = data
                     covered[here] = True

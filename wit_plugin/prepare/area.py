@@ -82,6 +82,8 @@ class StudyArea:
                                      f"of {self.crs}; check the coordinate order (x/lon first).")
                 area = shapely.Point(x, y).buffer(self.radius, quad_segs=CIRCLE_QUAD_SEGS)
         elif self.kind == "layer":
+            if self.path is None:  # (from_layer always sets it)
+                raise InputError("A study-area layer needs the path of its file.")
             src = read_layer(self.path, self.layer, crs=self.crs, feedback=feedback)
             geoms = transform(src.geoms, src.crs, target)
             polys = geoms[np.isin(shapely.get_type_id(geoms), (3, 6))]
@@ -106,6 +108,8 @@ class StudyArea:
         """The dong whose code, or else whose (Korean or English) name, is ``self.code``."""
         if districts is None:
             raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
+        if self.code is None:  # (from_district_code always sets it)
+            raise InputError("A district study area needs the district's code or name.")
         layer = Path(districts.path).name
         code_fields = [self.code_field] if self.code_field else ["EMD_CD"]
         name_fields = [self.name_field] if self.name_field else ["EMD_KOR_NM", "EMD_ENG_NM"]

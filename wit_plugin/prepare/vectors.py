@@ -162,9 +162,10 @@ class PrepareReport:
 
 # -- ids ----------------------------------------------------------------------------------------
 
-def _id_part(value: object) -> str | None:
+def _id_part(value: object) -> str:
+    """The value as a part of an id ("" when not filled)."""
     text = field_text(value)
-    return re.sub(r"[^\w.\-]", "_", text) if text else None  # an id part stays part of an XML name (gml:id)
+    return re.sub(r"[^\w.\-]", "_", text) if text else ""  # an id part stays part of an XML name (gml:id)
 
 
 def source_ids(layer: VectorLayer, prefix: str, keys: Sequence[Sequence[str]]) -> list[str]:
@@ -510,6 +511,8 @@ def prepare_vectors(buildings: str | os.PathLike | None, roads: str | os.PathLik
         district_layer = _read(str(districts), "districts", DISTRICT_FIELDS, target, config, polygon,
                                feedback.scaled(5, 10))
     if polygon is None:
+        if district_layer is None:  # (a district area without the layer is refused above)
+            raise InputError("A district code needs the district (legal-dong, TL_SCCO_EMD) layer as input.")
         polygon = area.geometry(target, replace(district_layer, geoms=repair_polygons(district_layer.geoms).geoms))
     feedback.info(f"Study area: {polygon.area / 1e6:.3f} km², bounds {tuple(round(v, 1) for v in polygon.bounds)}")
     shapely.prepare(polygon)

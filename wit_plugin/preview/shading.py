@@ -71,6 +71,8 @@ class _ImageCache:
         return levels[min(level, len(levels) - 1)]
 
     def _read(self, index: int) -> np.ndarray:
+        if self.folder is None:  # (a mesh without a texture folder has no textured triangle)
+            raise ValueError("No texture folder to read a texture image from.")
         path = self.folder / self.names[index]
         ds = open_raster(path, "texture image")
         bands = [1, 2, 3] if ds.RasterCount >= 3 else [1, 1, 1]

@@ -31,8 +31,9 @@ class TileJob:
     def seam(self, target_crs: str, footprints: list[LayerSource]) -> Seam:
         """The tile's border and its canonical points, from the run's area, its roads and ``footprints``."""
         crossing = [shapely.from_wkt(self.owner.area_wkt)] if self.owner.area_wkt else []
-        for name in (n for n in self.context_layers if n == step_layers.PREPARED_ROADS):
-            crossing += list(read_prepared(LayerSource(self.context, name), name).geoms)
+        if self.context is not None:  # (context layers come with their file)
+            for name in (n for n in self.context_layers if n == step_layers.PREPARED_ROADS):
+                crossing += list(read_prepared(LayerSource(self.context, name), name).geoms)
         for source in footprints:
             crossing += list(read_prepared(source, source.layer).geoms)
         return tile_seam(tile_of(self.owner.sheet, target_crs, self.owner.sheet_crs).polygon, crossing)

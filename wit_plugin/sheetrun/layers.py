@@ -10,6 +10,7 @@
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +43,7 @@ def prepare_context(roads: str | None, districts: str | None, area: BaseGeometry
     return [name for name in report.layers if name in CONTEXT_LAYERS]
 
 
-def clip_context(context: str, layers: list[str], area: BaseGeometry, output: str) -> list[str]:
+def clip_context(context: str, layers: Sequence[str], area: BaseGeometry, output: str) -> list[str]:
     """The run's road and dong polygons that meet the tile's ``area``, into ``output``; the layers written.
 
     They are not cut here: the terrain cuts them at the tile's border on the 1 mm grid as it cuts the
@@ -62,7 +63,7 @@ def clip_context(context: str, layers: list[str], area: BaseGeometry, output: st
         piece = source.take(near)
         out_layers.append(OutputLayer(name, piece.fields, piece.columns, piece.geoms))
         written.append(name)
-    if out_layers:
+    if out_layers and crs is not None:  # (a layer was written: crs is set)
         with atomic_file(output) as tmp:
             write_gpkg(tmp, out_layers, crs)
     return written

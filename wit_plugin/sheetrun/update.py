@@ -62,7 +62,7 @@ def plan_update(output: Path, tiles: list[Tile], fingerprints: dict[str, Fingerp
         record = read_record(folder)
         row = previous.get(sheet) or {}
         reason = rebuild_reason(fingerprints[sheet], record, folder, force) if record else _first_reason(row, folder)
-        if not reason:
+        if record and not reason:  # (no record: there is always a reason)
             plan.kept.append(sheet)
             plan.rows[sheet] = record["row"]
             continue

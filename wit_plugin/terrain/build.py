@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
@@ -58,7 +59,7 @@ def features(layer: VectorLayer) -> list[Feature]:
     return list(zip(ids, layer.geoms))
 
 
-def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None],
+def covering_area(area: BaseGeometry, footprints: Sequence[BaseGeometry | None] | np.ndarray,
                   feedback: Feedback = SILENT) -> BaseGeometry:
     """The area grown to hold every footprint that reaches into it, so no building overhangs the rim.
 
@@ -98,6 +99,7 @@ def triangulate_terrain(dem_path: str | Path, buildings: str | Path | None, road
     layers = {kind: read_prepared(source, name, feedback) for kind, source, name in
               (("buildings", buildings, PREPARED_BUILDINGS), ("roads", roads, PREPARED_ROADS),
                ("foreign", foreign, FOREIGN_BUILDINGS)) if source}
+    crs: pyproj.CRS | None
     if not isinstance(area, BaseGeometry):
         area_layer = read_layer(area)
         polygons = [g for g in area_layer.geoms if g is not None]

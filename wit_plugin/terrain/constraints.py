@@ -13,8 +13,9 @@ share (``Seam``).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -180,28 +181,29 @@ def _split_border(seam: Seam, vertices: np.ndarray, segments: np.ndarray,
     return vertices, np.vstack([segments[~split], np.array(chains, dtype=segments.dtype)])
 
 
-def clean_polygons(geoms: Sequence[BaseGeometry | None], area: BaseGeometry | None = None,
+def clean_polygons(geoms: Sequence[BaseGeometry | None] | np.ndarray, area: BaseGeometry | None = None,
                    grid: float = GRID) -> np.ndarray:
     """Valid, snapped to ``grid`` and clipped to ``area``; None for what does not survive.
 
     Repair uses GEOS's "structure" method, which rebuilds areas from the rings (a bow-tie gives
     both lobes) rather than keeping collapsed lines and points.
     """
-    geoms = np.array([g if g is not None else shapely.Polygon() for g in geoms], dtype=object)
-    steps = [(shapely.make_valid, (), {"method": "structure"}), (shapely.set_precision, (grid,), {})]
+    polys = np.array([g if g is not None else shapely.Polygon() for g in geoms], dtype=object)
+    steps: list[tuple[Callable[..., np.ndarray], tuple, dict[str, Any]]] = [
+        (shapely.make_valid, (), {"method": "structure"}), (shapely.set_precision, (grid,), {})]
     if area is not None:
         steps.append((shapely.intersection, (area,), {"grid_size": grid}))
         shapely.prepare(area)
     for func, args, kwargs in steps:
-        alive = np.array([g is not None for g in geoms], dtype=bool)
+        alive = np.array([g is not None for g in polys], dtype=bool)
         if func is shapely.make_valid:  # most are valid already
-            alive[alive] = ~shapely.is_valid(geoms[alive])
+            alive[alive] = ~shapely.is_valid(polys[alive])
         if func is shapely.intersection:  # most lie well inside: already clipped (and on the grid)
-            alive[alive] = ~shapely.contains_properly(area, geoms[alive])
+            alive[alive] = ~shapely.contains_properly(area, polys[alive])
         if not alive.any():
             continue
-        geoms[alive] = _polygonal(_each(func, geoms[alive], *args, **kwargs))
-    return geoms
+        polys[alive] = _polygonal(_each(func, polys[alive], *args, **kwargs))
+    return polys
 
 
 def clean_constraints(area: BaseGeometry, buildings: Sequence[Feature], roads: Sequence[Feature] = (),

@@ -135,7 +135,10 @@ class TriangleBackend(Triangulator):
 
     @staticmethod
     def _mesh(out: dict, kept: np.ndarray | None = None) -> Mesh:
-        constrained = np.unique(edge_keys(out["edges"][out["edge_markers"].ravel() == 1])) if "edges" in out else None
+        # every call asks for the edges ("e"): Triangle leaves them out only when it made no triangle, and then
+        # out["triangles"] below fails as before whatever this is
+        constrained = (np.unique(edge_keys(out["edges"][out["edge_markers"].ravel() == 1])) if "edges" in out
+                       else np.empty(0, dtype=np.int64))
         return Mesh(out["vertices"], out["triangles"], np.rint(out["triangle_attributes"][:, 0]).astype(np.int64) - 1,
                     constrained, out.get("neighbors"), kept)
 

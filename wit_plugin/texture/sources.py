@@ -64,8 +64,9 @@ class _Rings:
         if not parts:
             return _Rings(*(np.empty(0, dtype=object),) * 3, np.empty((0, 2)), np.zeros(1, dtype=np.int64))
         counts = np.concatenate([np.diff(part.starts) for part in parts])
-        return _Rings(*(np.concatenate([getattr(part, name) for part in parts])
-                        for name in ("targets", "features", "faces", "xy")), np.concatenate([[0], np.cumsum(counts)]))
+        targets, features, faces, xy = (np.concatenate([getattr(part, name) for part in parts])
+                                        for name in ("targets", "features", "faces", "xy"))
+        return _Rings(targets, features, faces, xy, np.concatenate([[0], np.cumsum(counts)]))
 
 
 class _Layer:
@@ -94,7 +95,7 @@ class _Layer:
         return self.layer.GetFeatureCount()
 
     def squares(self, grid: _Grid, columns: tuple[str, ...],
-              describe: Callable[[list[np.ndarray]], tuple[np.ndarray, ...]]
+              describe: Callable[[list[np.ndarray]], tuple[np.ndarray, np.ndarray, np.ndarray]]
               ) -> Iterator[tuple[tuple[int, int], _Rings]]:
         """Each ground square over the layer's extent (row by row from the north-west) with the rings whose
         first point lies in it, in the layer's order: every ring comes exactly once.
@@ -206,7 +207,7 @@ class _Ortho:
         bilinear, its pixel size in metres) over the layers' extent, so only the pixels needed are warped."""
         wkt = next((layer.srs.ExportToWkt() for layer in layers if layer.srs is not None), None)
         source = foreign_crs(self.ds, wkt) if wkt else None
-        if source is None:
+        if source is None or wkt is None:  # (no WKT: no source either)
             return
         target = pyproj.CRS.from_wkt(wkt)
         size = cell_size(self.ds, source, target)

@@ -83,7 +83,7 @@ class BulkChecks:
             self.enabled = False
         self.tail = chunk[-_MARK:]
         if self.head is not None:
-            self._model_crs(chunk)
+            self._model_crs(self.head, chunk)
         self.first = False
         shells = (chunk.count(b"<gml:Shell"), chunk.count(b"</gml:Shell>")) if b"Shell" in chunk else (0, 0)
         open_shells, self.in_shell = self.in_shell, max(0, self.in_shell + shells[0] - shells[1])
@@ -107,11 +107,12 @@ class BulkChecks:
         seen = self.tail + chunk
         return not (b"xmlns:gml=" in seen or b"xmlns:app=" in seen)
 
-    def _model_crs(self, chunk: bytes) -> None:
-        """The model's CRS from the start of the file, before the parser hands out the root's first part."""
-        self.head += chunk
-        found = _MODEL_CRS.search(self.head)
-        if found or b"</gml:Envelope>" in self.head or b"Member>" in self.head or len(self.head) > _HEAD:
+    def _model_crs(self, head: bytes, chunk: bytes) -> None:
+        """The model's CRS from the start of the file (``head``: read so far), before the parser hands out the
+        root's first part."""
+        self.head = head = head + chunk
+        found = _MODEL_CRS.search(head)
+        if found or b"</gml:Envelope>" in head or b"Member>" in head or len(head) > _HEAD:
             if found and self.ctx.model_crs is None:
                 self.ctx.model_crs = found.group(1).decode()
             self.head = None

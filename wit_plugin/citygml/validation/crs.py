@@ -120,8 +120,8 @@ def _frame_of_name(srs_name: str) -> Frame:
     north_first = axes[0].direction == "north"  # EPSG's order
     # "EPSG:n" is longitude / easting first by GIS custom (GDAL's GML reader); URNs and URLs follow EPSG's order
     lat_axis = 0 if north_first and not _SHORT_FORM.match(srs_name) else 1
-    if horizontal.is_geographic:
-        ellipsoid = horizontal.ellipsoid
+    ellipsoid = horizontal.ellipsoid
+    if horizontal.is_geographic and ellipsoid is not None:  # (a geographic CRS always has its ellipsoid)
         height = axes[2].unit_conversion_factor if len(axes) > 2 else 1.0
         return Frame(srs_name, True, (1.0, 1.0, height), lat_axis, ellipsoid.semi_major_metre,
                      1 / ellipsoid.inverse_flattening if ellipsoid.inverse_flattening else 0.0, disputed=north_first)

@@ -41,6 +41,7 @@ class SolidChecks:
         shells = _SHELLS(part)
         members = [len(shell) for shell in shells]
         texts = _FACE_TEXTS(part)
+        general: list[etree._Element]
         if len(shells) == len(solids) and sum(members) == len(texts) and not _HOLES(part):
             bulk, bulk_faces, general = solids, members, []
         else:
@@ -72,7 +73,7 @@ class SolidChecks:
         batch = SolidBatch(
             solids=[Where(solid.sourceline, solid.get(GML_ID), label(solid)) for solid in solids],
             frames=frames,
-            points=np.concatenate(([values.reshape(-1, 3)] if bulk else []) + rings),
+            points=np.concatenate(([values.reshape(-1, 3)] if bulk and values is not None else []) + rings),
             ring_len=np.r_[counts // 3, [len(r) for r in rings]].astype(np.int64),
             ring_face=np.repeat(np.arange(len(rings_per_face)), rings_per_face),
             face_solid=np.repeat(np.arange(len(solids)), bulk_faces + [len(f) for _, f in faced]),

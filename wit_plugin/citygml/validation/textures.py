@@ -78,10 +78,11 @@ class TextureChecks:
                             f"Texture coordinates for ring #{ring_ids[k]} have an odd number of values ({counts[k]}); "
                             "they are (s t) pairs.")
         even = counts % 2 == 0
-        pairs = counts // 2
-        for k in np.flatnonzero(even & found & (points > 0) & (pairs != points)):
-            self._wrong_pairs(ring_ids[k], int(pairs[k]), int(points[k]), coords[k].sourceline, owner_id(coords[k]))
-        self.forward_tex_rings += [(ring_ids[k], int(pairs[k]), coords[k].sourceline, owner_id(coords[k]))
+        pair_counts = counts // 2
+        for k in np.flatnonzero(even & found & (points > 0) & (pair_counts != points)):
+            self._wrong_pairs(ring_ids[k], int(pair_counts[k]), int(points[k]), coords[k].sourceline,
+                              owner_id(coords[k]))
+        self.forward_tex_rings += [(ring_ids[k], int(pair_counts[k]), coords[k].sourceline, owner_id(coords[k]))
                                    for k in np.flatnonzero(even & ~found)]
 
     def compare(self, ring_ids: list[str], pairs: list[int], lines: list[int], texture_ids: list[str | None]) -> None:
@@ -140,10 +141,10 @@ class _TexCoordPairs:
         issues = self.fc.issues
         for k, ring_id in zip(range(first, first + len(ring_ids)), ring_ids):
             pairs, line = self.pairs[k], self.lines[k] or None
-            bad = self.faults.pop(k, None) if self.faults else None
-            if bad:
+            faults = self.faults.pop(k, None) if self.faults else None
+            if faults:
                 issues.add("texture-coordinates", line, self.tex_id, f"Texture coordinates for ring #{ring_id} "
-                           f"contain {', '.join(repr(b) for b in bad)}: each must be a finite number.")
+                           f"contain {', '.join(repr(b) for b in faults)}: each must be a finite number.")
             if pairs < 0:
                 issues.add("texture-coordinates", line, self.tex_id, f"Texture coordinates for ring #{ring_id} have "
                            f"an odd number of values ({-pairs}); they are (s t) pairs.")

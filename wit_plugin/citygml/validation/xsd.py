@@ -156,6 +156,8 @@ class StreamingValidation:
 
     def _run(self) -> None:
         lib = _libxml2()
+        if lib is None:  # (never: the schema was compiled by it)
+            return
         lib.xmlSetStructuredErrorFunc(None, _QUIET)  # this thread's parser errors: the checks report them
         lib.xmlSetGenericErrorFunc(None, _QUIET_GENERIC)
         ctxt = lib.xmlSchemaNewValidCtxt(self.schema)
@@ -270,9 +272,9 @@ class _Context:
 
     def __init__(self, wanted: list[tuple[SchemaError, str]]):
         self.by_tag: dict[str, _Candidates] = {}
-        for err, tag in sorted(wanted, key=lambda w: w[0].line):
+        for err, tag in sorted(wanted, key=lambda w: w[0].line or 0):  # (all have a line)
             self.by_tag.setdefault(tag, _Candidates()).errors.append(err)
-        self.found: dict[int, tuple] = {}
+        self.found: dict[int, tuple | None] = {}
         self.seen_tags: dict[etree._Element, set[str]] = {}  # children of big elements handed out earlier
 
     def part(self, parent: etree._Element, n: int, root: etree._Element) -> None:
@@ -285,7 +287,7 @@ class _Context:
                     cands.meet(node, self)
             cands.settle(self)
 
-    def finish(self) -> dict[int, tuple]:
+    def finish(self) -> dict[int, tuple | None]:
         for cands in self.by_tag.values():
             cands.settle(self)
             for err in cands.errors[cands.next:]:
@@ -311,7 +313,7 @@ class _Candidates:
 
     def meet(self, node: etree._Element, context: _Context) -> None:
         line = node.sourceline or 0
-        while self.next < len(self.errors) and self.errors[self.next].line < line:
+        while self.next < len(self.errors) and (self.errors[self.next].line or 0) < line:  # (all have a line)
             self.settle(context)
             context.found[id(self.errors[self.next])] = self.described
             self.next += 1

@@ -144,13 +144,15 @@ def overlap(output: str | os.PathLike, source: str | os.PathLike, folder: bool =
     return None
 
 
-def refuse_overlap(outputs: Iterable[tuple[str | os.PathLike, bool]], inputs: Iterable[str | os.PathLike]) -> None:
-    """Raise ``InputError`` when an output (path, is a folder) would replace or share a file with an input."""
-    inputs = [i for i in inputs if i]
+def refuse_overlap(outputs: Iterable[tuple[str | os.PathLike, bool]],
+                   inputs: Iterable[str | os.PathLike | None]) -> None:
+    """Raise ``InputError`` when an output (path, is a folder) would replace or share a file with an input
+    (inputs not given, None or "", are left out)."""
+    given = [i for i in inputs if i]
     for output, folder in outputs:
         if not output:
             continue
-        for source in inputs:
+        for source in given:
             clash = overlap(output, source, folder)
             if clash is not None:
                 raise InputError(overlap_message(str(output), str(source_file(source)), str(clash), folder))

@@ -237,8 +237,8 @@ def _create_layer(path: Path, layer: str, fields: Sequence[FieldDef], crs: pypro
 
 
 def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[FieldDef], geoms: np.ndarray,
-                columns: Sequence[Sequence], geometry_type: int = ogr.wkbPolygon25D, spatial_index: bool = True,
-                feedback: Feedback = SILENT) -> int:
+                columns: Sequence[Sequence | np.ndarray], geometry_type: int = ogr.wkbPolygon25D,
+                spatial_index: bool = True, feedback: Feedback = SILENT) -> int:
     """Write one GeoPackage layer atomically: ``geoms`` and one column per field.
 
     ``geoms``: 3D shapely geometries, or an (m, 3, 3) float array of triangle corners (PolygonZ).

@@ -246,7 +246,7 @@ def layer_extent(path: str | os.PathLike, target: pyproj.CRS, layer: str | None 
     return bounds
 
 
-def read_prepared(source: str | os.PathLike | LayerSource, default_layer: str, feedback: Feedback = SILENT,
+def read_prepared(source: str | os.PathLike | LayerSource, default_layer: str | None, feedback: Feedback = SILENT,
                   **options) -> VectorLayer:
     """A step's input layer: ``file.gpkg|layername=x`` as given, a file's only layer, or the model's layer
     name in a file of several (see ``open_layer``).
