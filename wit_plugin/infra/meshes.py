@@ -10,6 +10,8 @@
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import shapely
 
@@ -94,7 +96,7 @@ def fan_corners(polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([first[owner], first[owner] + step, first[owner] + step + 1], axis=1), owner
 
 
-def parse_texcoords(texts: list[str | None]) -> tuple[np.ndarray, np.ndarray]:
+def parse_texcoords(texts: Sequence[str | None]) -> tuple[np.ndarray, np.ndarray]:
     """Texture-table ``uv`` texts ("u1 v1 u2 v2 …") → all pairs (k, 2) and the pair count of each text.
 
     One C parse for the whole batch; raises ``ValueError`` on a malformed text.

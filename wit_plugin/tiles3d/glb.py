@@ -19,6 +19,8 @@ view of 0 bytes, which glTF forbids) and reads as the class's ``default``, the e
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 import pygltflib as gl
@@ -116,7 +118,12 @@ class GlbBuilder:
                 self._samplers[wrap_s, CLAMP] = len(self.gltf.samplers)
                 self.gltf.samplers.append(gl.Sampler(magFilter=LINEAR, minFilter=LINEAR_MIPMAP_LINEAR,
                                                      wrapS=wrap_s, wrapT=CLAMP))
-            image = gl.Image(uri=uri) if uri else gl.Image(bufferView=self._view(data), mimeType=mime)
+            if uri:
+                image = gl.Image(uri=uri)
+            elif data is not None:
+                image = gl.Image(bufferView=self._view(data), mimeType=mime)
+            else:
+                raise ValueError(f"The texture {key} has neither a URI nor its bytes.")
             self.gltf.images.append(image)
             self.gltf.textures.append(gl.Texture(sampler=self._samplers[wrap_s, CLAMP],
                                                  source=len(self.gltf.images) - 1))
@@ -252,6 +259,7 @@ def _plain(value: object) -> object:
     accessors' and buffer views' defaults dropped."""
     if isinstance(value, (list, tuple)):
         return [_plain(v) for v in value]
+    items: Iterable[tuple[str, Any]]
     if isinstance(value, dict):
         items = value.items()
     elif hasattr(value, "__dict__"):

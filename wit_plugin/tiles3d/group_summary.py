@@ -60,8 +60,10 @@ def load_parts(path: Path) -> tuple[Terrain | None, Candidates]:
         buildings = Candidates([tuple(f) for f in json.loads(str(data["fields"]))], json.loads(str(data["ids"])),
                                footprints, data["base"], data["top"], data["size"],
                                json.loads(str(data["attributes"]), object_hook=_untagged), float(data["dropped"]))
-        terrain = Terrain(tuple(float(v) for v in data["rect"]), data["heights"], data["image"],
-                          float(data["terrain_error"])) if "rect" in data else None
+        terrain = None
+        if "rect" in data:
+            x0, y0, x1, y1 = (float(v) for v in data["rect"])
+            terrain = Terrain((x0, y0, x1, y1), data["heights"], data["image"], float(data["terrain_error"]))
     return terrain, buildings
 
 

@@ -78,7 +78,9 @@ def plan_groups(sheets: list[str]) -> tuple[dict[str, GroupPlan], list[str]]:
     while level and parent_sheet(level[0]) is not None:
         parents: dict[str, list[str]] = {}
         for item in level:
-            parents.setdefault(parent_sheet(item), []).append(item)
+            parent = parent_sheet(item)
+            if parent is not None:  # (always: the level's sheets share a scale, and the first has a parent)
+                parents.setdefault(parent, []).append(item)
         for name, children in parents.items():
             groups[name] = GroupPlan(name, sorted(children), over_tiles,
                                      sorted(t for c in children for t in tiles_below[c]))

@@ -30,6 +30,7 @@ import sqlite3
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapely
@@ -198,7 +199,7 @@ class Store:
                     int(ids[order[0]]), int(ids[order[-1]]), ids[order].tobytes(), image[tri[order]].tobytes(),
                     np.ascontiguousarray(corners, dtype=np.float32).tobytes()))
         del layer, ds
-        self.images = sorted(numbers, key=numbers.get)
+        self.images = sorted(numbers, key=numbers.__getitem__)
         self.db.executemany("INSERT INTO image VALUES (?, ?)", [(n, name) for name, n in numbers.items()])
         if (Path(folder) / step_layers.FACADE_FILE).is_file():
             self._add_facades(Path(folder) / step_layers.FACADE_FILE)
@@ -302,7 +303,7 @@ class Store:
                 for leaf, part in zip(leaves.tolist(), np.split(order, first[1:]))])
             lo = np.minimum(np.minimum(xyz[:, 0], xyz[:, 1]), xyz[:, 2])
             hi = np.maximum(np.maximum(xyz[:, 0], xyz[:, 1]), xyz[:, 2])
-            spills = set()
+            spills: set[tuple[int, int]] = set()  # (leaf code, triangle row)
             for x, y in ((lo[:, 0], lo[:, 1]), (hi[:, 0], lo[:, 1]), (lo[:, 0], hi[:, 1]), (hi[:, 0], hi[:, 1])):
                 other = grid.leaf_codes(x, y)
                 crossing = np.flatnonzero(other != own)
@@ -457,7 +458,7 @@ def _column_batches(layer: ogr.Layer, fields: tuple[str, ...], geometry: bool = 
         geom_name = layer.GetGeometryColumn() or "geom"
         options = ["USE_MASKED_ARRAYS=NO", f"MAX_FEATURES_IN_BATCH={BATCH}", "INCLUDE_FID=NO"]
         for batch in layer.GetArrowStreamAsNumPy(options=options):
-            columns = {f: batch[f] for f in fields}
+            columns: dict[str | None, Any] = {f: batch[f] for f in fields}
             if geometry:
                 columns[None] = batch[geom_name]
             yield columns

@@ -87,10 +87,16 @@ class TextureSet:
             self.written[file] = target.stat().st_size
         return f"{TEXTURE_DIR}/{file}"
 
+    def _path(self, number: int) -> Path:
+        """Where image ``number`` is read from (decoding and headers need the texture folder)."""
+        if self.folder is None:
+            raise InputError(f"No texture folder was given: the image {self.names[number]} cannot be read.")
+        return self.folder / self.names[number]
+
     def shape(self, number: int) -> tuple[int, int]:
         """Rows and columns of image ``number`` (read once from its header, not decoded)."""
         if number not in self._shapes:
-            path = self.folder / self.names[number]
+            path = self._path(number)
             ds = gdal.Open(str(path))
             if ds is None:
                 raise InputError(f"Cannot read the texture image {path}: re-run wit:wittexture.")
@@ -107,14 +113,14 @@ class TextureSet:
             if number in self._full:
                 self._full.move_to_end(number)
             else:
-                self._full[number] = read_rgb(self.folder / self.names[number])
+                self._full[number] = read_rgb(self._path(number))
                 _bound(self._full)
             return self._full[number]
         if number in self._mips:
             self._mips.move_to_end(number)
         else:
             chain = mip_chain(self._full[number] if number in self._full
-                              else read_rgb(self.folder / self.names[number]))
+                              else read_rgb(self._path(number)))
             self._mips[number] = chain[1:]
             _bound(self._mips)
         mips = self._mips[number]

@@ -463,8 +463,9 @@ class _Writer:
             inverse = np.linalg.inv(frame)
             tile["children"] = []
             for child in children:
-                child.json["transform"] = column_major(inverse @ child.frame)
-                tile["children"].append(child.json)
+                if child.json is not None:  # (always: _upper passes the children that have a tile)
+                    child.json["transform"] = column_major(inverse @ child.frame)
+                    tile["children"].append(child.json)
         tile["boundingVolume"]["region"] = union_region(regions)
         return _Tile(tile, frame, tile["boundingVolume"]["region"], error, patch)
 

@@ -71,9 +71,9 @@ def compress_glb(data: bytes) -> bytes:
     geometry_views = {gltf.accessors[a].bufferView for a in geometry}
     writer = _Buffers()
     kept = {}
-    for number, view in enumerate(gltf.bufferViews):  # images and metadata: as they are
-        if number not in geometry_views:
-            kept[number] = writer.plain(blob[view.byteOffset or 0:(view.byteOffset or 0) + view.byteLength])
+    for view_number, view in enumerate(gltf.bufferViews):  # images and metadata: as they are
+        if view_number not in geometry_views:
+            kept[view_number] = writer.plain(blob[view.byteOffset or 0:(view.byteOffset or 0) + view.byteLength])
     _renumber_views(gltf, kept)
 
     positions = [_read(gltf, blob, p.attributes.POSITION) for p in primitives]
@@ -100,7 +100,7 @@ def compress_glb(data: bytes) -> bytes:
         primitive.indices = writer.indices(accessors, meshoptimizer, indices, len(keep))
     gltf.accessors = accessors
     gltf.bufferViews = [view for _, view in sorted(writer.views.items())]
-    if step is not None:
+    if origin is not None and step is not None:
         gltf.nodes[0].translation, gltf.nodes[0].scale = [float(v) for v in origin], [float(step)] * 3
     gltf.extensionsUsed = sorted(set(gltf.extensionsUsed or []) | extensions)
     gltf.extensionsRequired = sorted(set(gltf.extensionsRequired or []) | extensions)
