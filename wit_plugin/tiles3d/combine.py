@@ -123,7 +123,7 @@ def write_run_tileset(output: str | Path, tiles: dict[str, str], areas: dict[str
     run = _plan_run(out, roots, areas, fingerprints, inputs_digest, force)
     if run.unchanged(out):
         feedback.info("3D Tiles: no group changed; the groups and the run's tileset are kept as they are.")
-        return _report(out, len(roots), run.plans, run.metas, [_from_meta(n, run.metas[n]) for n in run.top])
+        return _report(out, len(roots), run.plans, run.metas, [_from_meta(n, _summary(run.metas, n)) for n in run.top])
     with staging_folder(out, ".wit-groups-") as staging, staging_folder(out, ".wit-ortho-") as scratch:
         georef = Georeference(target_crs)
         ground = _GroundSampler(dem, ortho, scratch, target_crs, georef.crs, sheet_crs, margin)
@@ -168,7 +168,7 @@ class _RunPlan:
         if self.current != set(self.plans) or \
                 sorted(previous.glob("*.json")) != sorted(previous / f"{n}.json" for n in self.plans):
             return False
-        document = _run_document([_from_meta(n, self.metas[n]) for n in self.top])
+        document = _run_document([_from_meta(n, _summary(self.metas, n)) for n in self.top])
         return _json_bytes(document) == _read_bytes(out / TILESET_FILE)
 
 
@@ -198,7 +198,7 @@ class _GroundSampler:
     def _sheets(self) -> tuple[list[str], np.ndarray]:
         """The georeferenced sheets and their extents."""
         sheets = georeference_sheets(self.ortho, self.scratch, self.target_crs, self.sheet_crs, self.margin, fmt="VRT")
-        vrts = [r.output for r in sheets if r.status == OK]
+        vrts = [r.output for r in sheets if r.status == OK and r.output is not None]
         extents = shapely.box(*np.array([raster_extent(v) for v in vrts]).T) if vrts else np.empty(0, dtype=object)
         return vrts, extents
 
@@ -228,7 +228,7 @@ class _GroupBuilder:
         """Write every group; the top ones, as the run's tileset refers to them."""
         self.folder.mkdir()
         for name in self.run.current:
-            for file in self.metas[name]["files"]:
+            for file in _summary(self.metas, name)["files"]:
                 _link(self.previous / file, self.folder / file)
         return [self.node(name, False) for name in self.run.top]
 
@@ -240,7 +240,7 @@ class _GroupBuilder:
             node.buildings = read_tile_buildings(str(lod1)) if lod1.is_file() else Candidates([])
             return node
         if name in self.run.current:
-            child = _from_meta(name, self.metas[name])
+            child = _from_meta(name, _summary(self.metas, name))
             if parts:
                 child.terrain, child.buildings = load_parts(summary_path(self.previous, name))
             return child
@@ -254,7 +254,8 @@ class _GroupBuilder:
         area = self.run.areas[name]
         terrain = self.ground.terrain(area) if plan.over_tiles else \
             join_terrain([c.terrain for c in children if c.terrain is not None], area)
-        buildings = Candidates.join([c.buildings for c in children]).largest(GROUP_BUILDINGS)
+        buildings = Candidates.join([c.buildings for c in children if c.buildings is not None]).largest(
+            GROUP_BUILDINGS)  # (every child has its buildings: node() gives them)
         content = write_group(name, area, terrain, buildings, self.georef, self.folder)
         if content and self.web:
             glb = self.folder / content.uri
@@ -289,11 +290,12 @@ def _group_document(out: Path, children: list[_Node], content: Group | None, reg
     return {"asset": {"version": "1.1", "generator": GENERATOR}, "geometricError": error, "root": root}
 
 
-def _report(out: Path, tiles: int, plans: dict[str, GroupPlan], metas: dict[str, dict], top: list[_Node]) -> RunTileset:
+def _report(out: Path, tiles: int, plans: dict[str, GroupPlan], metas: dict[str, dict | None],
+            top: list[_Node]) -> RunTileset:
     """What the run's tileset holds: the groups' summaries (``metas``), the top groups, the written files."""
     result = RunTileset(str(out / TILESET_FILE), tiles=tiles, groups=len(plans))
     for name in plans:
-        _count(result, name, metas[name])
+        _count(result, name, _summary(metas, name))
     result.levels = max(n.depth for n in top)
     result.root_bytes = (out / TILESET_FILE).stat().st_size
     result.largest_file_bytes = max(result.largest_file_bytes, result.root_bytes)
@@ -321,10 +323,19 @@ def _fingerprints(plans: dict[str, GroupPlan], areas: dict[str, BaseGeometry], t
             plan = plans[name]
             children = [of(c) for c in plan.children]
             own = inputs_digest(areas[name]) if plan.over_tiles and inputs_digest else ""
-            prints[name] = None if tiles is None or None in children else digest(name, own, *children)
+            known = [c for c in children if c is not None]
+            prints[name] = digest(name, own, *known) if tiles is not None and len(known) == len(children) else None
         return prints[name]
 
     return {name: of(name) for name in plans}
+
+
+def _summary(metas: dict[str, dict | None], name: str) -> dict:
+    """The summary of group ``name``, which it has: a current group's (its files are kept), or a built one's."""
+    meta = metas[name]
+    if meta is None:
+        raise InputError(f"The 3D Tiles group {name} has no summary in {GROUP_DIR}/.")
+    return meta
 
 
 def _from_meta(name: str, meta: dict) -> _Node:
