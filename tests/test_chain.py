@@ -285,7 +285,7 @@ def test_a_step_beside_passes_its_messages_on_and_is_timed_by_its_own_end():
     its time is its own (0.3 s), not the 2 s the block took before waiting for it."""
     log = _Log()
     clock = _Clock(log)
-    code = ("import sys, time\nfrom wit_plugin.infra.feedback import step_process_feedback\n"
+    code = ("import sys, time\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
             "f = step_process_feedback()\nf.info('read 3 sheets')\nf.warning('sheet 4 is empty')\n"
             "sys.stderr.write('x' * 200_000 + '\\n')\ntime.sleep(0.3)\n")
     with clock.beside("merge", _child(code)) as done:

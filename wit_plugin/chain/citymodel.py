@@ -46,12 +46,13 @@ from ..cityjson.validate import validate_cityjson_files
 from ..cityjson.writer import SequencePart, texture_folder_of, write_cityjson
 from ..infra import step_layers
 from ..infra.errors import InputError
-from ..infra.feedback import SILENT, Feedback, SaidOnce, read_step_line
+from ..infra.feedback import SILENT, Feedback, SaidOnce
 from ..infra.interpreter import core_env, core_python
 from ..infra.io import jsontext
 from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
 from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import read_prepared
+from ..infra.step_process import read_step_line
 from ..mosaic.georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..prepare.area import StudyArea
 from ..prepare.vectors import PrepareConfig, prepare_vectors

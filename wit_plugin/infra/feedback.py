@@ -91,29 +91,4 @@ class LoggingFeedback(Feedback):
         self._log.warning(message)
 
 
-#: how a step run in its own process (``python -m wit_plugin.<step>``) writes its messages on stderr, one per
-#: line, so that the process that started it can tell the information from the warnings (``read_step_line``)
-STEP_INFO, STEP_WARNING = "INFO: ", "WARNING: "
-
-
-def step_process_feedback() -> Feedback:
-    """The feedback of a step's ``__main__``: its messages on stderr as ``INFO: …`` / ``WARNING: …``."""
-    logger = logging.getLogger("wit_plugin.step")
-    handler = logging.StreamHandler()
-    handler.setFormatter(logging.Formatter("%(levelname)s: %(message)s"))
-    logger.addHandler(handler)
-    logger.setLevel(logging.INFO)
-    logger.propagate = False
-    return LoggingFeedback(logger)
-
-
-def read_step_line(line: str, feedback: Feedback, label: str) -> None:
-    """Pass one stderr line of a step's process on to ``feedback``, labelled: an information as information,
-    anything else (a warning, or Python's own last words) as a warning."""
-    if line.startswith(STEP_INFO):
-        feedback.info(f"{label}: {line[len(STEP_INFO):]}")
-    else:
-        feedback.warning(f"{label}: {line.removeprefix(STEP_WARNING)}")
-
-
 SILENT = Feedback()

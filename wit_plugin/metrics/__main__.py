@@ -6,9 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..infra.errors import WitError
-from ..infra.feedback import step_process_feedback
-from ..infra.io import jsontext
+from ..infra.step_process import run_step
 from .report import quality_report
 
 
@@ -23,15 +21,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--footprints", help="the sheets' footprints, for the seam step")
     parser.add_argument("--html", help="the HTML report")
     args = parser.parse_args(argv)
-    try:
-        report = quality_report(args.output_csv, model_source=args.model, source_buildings=args.buildings,
-                                textures=args.textures, ortho=args.ortho, mosaic=args.mosaic,
-                                footprints=args.footprints, output_html=args.html, feedback=step_process_feedback())
-    except WitError as exc:
-        print(str(exc), file=sys.stderr)
-        return 2
-    print(jsontext.dumps(report.outputs))
-    return 0
+    return run_step(lambda feedback: quality_report(
+        args.output_csv, model_source=args.model, source_buildings=args.buildings, textures=args.textures,
+        ortho=args.ortho, mosaic=args.mosaic, footprints=args.footprints, output_html=args.html,
+        feedback=feedback).outputs)
 
 
 if __name__ == "__main__":

@@ -7,10 +7,9 @@ import argparse
 import sys
 from dataclasses import asdict
 
-from ..infra.errors import WitError
-from ..infra.feedback import step_process_feedback
+from ..infra.feedback import Feedback
 from ..infra.gdal_env import no_sidecars
-from ..infra.io import jsontext
+from ..infra.step_process import run_step
 from . import MODES, merge_rasters
 
 
@@ -23,15 +22,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="tone correction (default: with feather only)")
     parser.add_argument("--extent", nargs=4, type=float, metavar=("XMIN", "YMIN", "XMAX", "YMAX"))
     args = parser.parse_args(argv)
-    try:
+    extent = tuple(args.extent) if args.extent else None
+
+    def merge(feedback: Feedback) -> dict:
         with no_sidecars():
-            report = merge_rasters(args.inputs, args.output, mode=args.mode, gain=args.gain,
-                                 feedback=step_process_feedback(), extent=tuple(args.extent) if args.extent else None)
-    except WitError as exc:
-        print(str(exc), file=sys.stderr)
-        return 2
-    print(jsontext.dumps(asdict(report)))
-    return 0
+            return asdict(merge_rasters(args.inputs, args.output, mode=args.mode, gain=args.gain, feedback=feedback,
+                                        extent=extent))
+
+    return run_step(merge)
 
 
 if __name__ == "__main__":

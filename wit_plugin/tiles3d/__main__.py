@@ -6,9 +6,7 @@ import argparse
 import sys
 from dataclasses import asdict
 
-from ..infra.errors import WitError
-from ..infra.feedback import step_process_feedback
-from ..infra.io import jsontext
+from ..infra.step_process import run_step
 from .tileset import TilesetConfig, export_tileset
 
 
@@ -21,14 +19,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--crs", default="EPSG:5186")
     parser.add_argument("--web", action="store_true", help="the web profile (quantized, meshopt-compressed)")
     args = parser.parse_args(argv)
-    try:
-        report = export_tileset(args.lod1 or None, args.tin or None, args.textures or None, args.output, args.crs,
-                                step_process_feedback(), TilesetConfig(web=args.web))
-    except WitError as exc:
-        print(str(exc), file=sys.stderr)
-        return 2
-    print(jsontext.dumps(asdict(report)))
-    return 0
+    return run_step(lambda feedback: asdict(export_tileset(
+        args.lod1 or None, args.tin or None, args.textures or None, args.output, args.crs, feedback,
+        TilesetConfig(web=args.web))))
 
 
 if __name__ == "__main__":
