@@ -154,6 +154,18 @@ def test_texture_folder_masks_islands_with_texcoords(tmp_path):
     assert whole.contrast == pytest.approx(metrics.contrast(gray))
 
 
+@pytest.mark.parametrize("uv", ["0 0 1 0 1 1 0", "0 0 1 x 1 1 0 1"])
+def test_texture_coordinates_that_are_not_pairs_of_numbers_are_refused_naming_the_file(tmp_path, uv):
+    atlas = np.full((3, 8, 8), 128, np.uint8)
+    folder = tmp_path / "tex"
+    folder.mkdir()
+    _write_raster(folder / "roof_atlas_0000.png", atlas, "PNG")
+    _write_texcoords(folder, [("roof_atlas_0000.png", "0 0 1 0 1 1 0 0"), ("roof_atlas_0000.png", uv)])
+    with pytest.raises(InputError, match=r"texcoords\.gpkg: texture coordinates that are not pairs of numbers u v: "
+                                         r"re-run wit:wittexture"):
+        metrics.texture_metrics(str(folder))
+
+
 def test_ortho_is_streamed_like_in_memory(tmp_path, monkeypatch):
     monkeypatch.setattr(metrics.texture, "_BLOCK_PIXELS", 300 * 97)  # blocks of 97 rows: block joins are exercised
     rng = np.random.default_rng(7)

@@ -10,6 +10,7 @@
 """
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -103,7 +104,12 @@ def parse_texcoords(texts: Sequence[str | None]) -> tuple[np.ndarray, np.ndarray
     """
     clean = [" ".join(t.split()) if t else "" for t in texts]
     counts = np.array([t.count(" ") + 1 if t else 0 for t in clean], dtype=np.int64)
-    flat = np.fromstring(" ".join(clean), sep=" ") if any(clean) else np.zeros(0)
+    with warnings.catch_warnings():  # numpy's "could not be read to its end" (a word): a ValueError, as it soon is
+        warnings.simplefilter("error", DeprecationWarning)
+        try:
+            flat = np.fromstring(" ".join(clean), sep=" ") if any(clean) else np.zeros(0)
+        except DeprecationWarning as exc:
+            raise ValueError("malformed texture coordinates") from exc
     if len(flat) != counts.sum() or np.any(counts % 2):
         raise ValueError("malformed texture coordinates")
     return flat.reshape(-1, 2), counts // 2

@@ -43,6 +43,7 @@ from ..infra.feedback import SILENT, Feedback
 from ..infra.gdal_env import quiet_gdal
 from ..infra.io import bulk_read
 from ..infra.io.raster_io import open_raster, read_window
+from ..infra.meshes import parse_texcoords
 
 BORDERS = ("reflect101", "valid")
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
@@ -233,14 +234,11 @@ def _texcoord_rings(texcoords: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]
         uvs += bulk_read.texts(batch[step_layers.TEX_COORDS])
     if not uvs:
         return {}
-    counts = np.fromiter((text.count(" ") + 1 for text in uvs), dtype=np.int64, count=len(uvs)) // 2
     try:
-        points = np.array(" ".join(uvs).split(), dtype=np.float64).reshape(-1, 2)
+        points, counts = parse_texcoords(uvs)  # the same parse as the 3D Tiles export's
     except ValueError as exc:
-        raise InputError(f"{texcoords}: texture coordinates that are not numbers ({exc}): "
+        raise InputError(f"{texcoords}: texture coordinates that are not pairs of numbers u v: "
                          "re-run wit:wittexture.") from exc
-    if len(points) != counts.sum():
-        raise InputError(f"{texcoords}: texture coordinates that are not u v pairs: re-run wit:wittexture.")
     names, image_of = np.unique(np.array(images, dtype=object), return_inverse=True)
     order = np.argsort(image_of, kind="stable")  # rings grouped by image, in table order within each
     ring, within = ragged_indices(counts[order])
