@@ -94,6 +94,7 @@ def _write(path: Path, content: bytes) -> Path:
 INPUTS = {
     "wit:georeferencemapsheets": lambda d: {"INPUT": [str(Path(d["sheet"]).parent)]},
     "wit:mergerasters": lambda d: {"INPUT": [d["rgb"], d["sheet"]]},
+    "wit:mergetiles": lambda d: {"INPUT": [d["rgb"], d["sheet"]]},  # its first id, deprecated: the same guards
     "wit:preparevectors": lambda d: {"BUILDINGS": d["buildings_shp"], "ROADS": d["roads_shp"],
                                      "DISTRICTS": d["area"], "AREA_LAYER": d["area"]},
     "wit:triangulateterrain": lambda d: {"DEM": d["dem"], "AREA": d["area"], "BUILDINGS": d["buildings"]},
@@ -119,6 +120,7 @@ INPUTS = {
 DESTINATIONS = {
     "wit:georeferencemapsheets": {"OUTPUT": "folder", "OUTPUT_INDEX": "file"},
     "wit:mergerasters": {"OUTPUT": "file"},
+    "wit:mergetiles": {"OUTPUT": "file"},
     "wit:preparevectors": {"OUTPUT": "file"},
     "wit:triangulateterrain": {"OUTPUT": "file"},
     "wit:extrudebuildings": {"OUTPUT": "file"},
