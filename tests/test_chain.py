@@ -3,6 +3,7 @@ before the heavy steps (naming the missing sheets), surfaces outside the ortho l
 request, and nothing left behind when a run fails."""
 from __future__ import annotations
 
+import os
 import shutil
 import sys
 import time
@@ -16,7 +17,7 @@ from osgeo import gdal, ogr, osr
 
 from wit_plugin.buildings.heights import HeightOptions
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
-from wit_plugin.chain.citymodel import _Clock
+from wit_plugin.chain.citymodel import BESIDE_NICENESS, _Clock
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.errors import CanceledError, InputError
 from wit_plugin.infra.feedback import Feedback
@@ -177,8 +178,8 @@ def test_district_by_name_and_the_whole_chain_result(sample, tmp_path):
     report = run_city_model(_inputs(sample), _options(area=StudyArea.from_district_code(suseo), metrics=True),
                             tmp_path / "city")
     assert report.valid and report.buildings > 0 and report.metrics
-    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude", "texture",
-                                    "3dtiles", "metrics", "citygml", "validate"]
+    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude", "metrics",
+                                    "texture", "3dtiles", "citygml", "validate"]
 
 
 def test_the_chain_writes_the_3d_tiles_web_profile_on_request(sample, tmp_path):
@@ -288,9 +289,9 @@ def test_a_step_beside_passes_its_messages_on_and_is_timed_by_its_own_end():
     code = ("import sys, time\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
             "f = step_process_feedback()\nf.info('read 3 sheets')\nf.warning('sheet 4 is empty')\n"
             "sys.stderr.write('x' * 200_000 + '\\n')\ntime.sleep(0.3)\n")
-    with clock.beside("merge", _child(code)) as done:
+    with clock.beside("merge", _child(code)) as merging:
         time.sleep(2.0)
-        done()
+        merging.wait()
     assert "merge: read 3 sheets" in log.infos
     assert log.warnings[0] == "merge: sheet 4 is empty" and log.warnings[1] == "merge: " + "x" * 200_000
     assert 0.3 <= clock.seconds["merge"] < 1.5
@@ -299,11 +300,40 @@ def test_a_step_beside_passes_its_messages_on_and_is_timed_by_its_own_end():
 def test_a_step_beside_that_fails_or_is_cancelled_stops_the_run():
     clock = _Clock(_Log())
     with pytest.raises(InputError, match=r"^The metrics step failed: .*ValueError: no footprints"):
-        with clock.beside("metrics", _child("raise ValueError('no footprints')")) as done:
-            done()
+        with clock.beside("metrics", _child("raise ValueError('no footprints')")) as measuring:
+            measuring.tell()  # (it ended already: telling it is no error, waiting says how it ended)
+            measuring.wait()
     clock = _Clock(_Log(cancel_after=0.5))
     started = time.perf_counter()
     with pytest.raises(CanceledError):
-        with clock.beside("3dtiles", _child("import time; time.sleep(60)")) as done:
-            done()
+        with clock.beside("3dtiles", _child("import time; time.sleep(60)")) as exporting:
+            exporting.wait()
     assert time.perf_counter() - started < 5
+
+
+def test_a_step_beside_waits_until_told_and_is_stopped_with_the_block(tmp_path):
+    """The metrics start beside the texture step and read the images once told (a line on their standard input);
+    a block that fails stops a step that still waits (it is never told, never left running). A step beside runs
+    at a lower priority than the chain (the chain's steps are the path the others wait for)."""
+    log = _Log()
+    clock = _Clock(log)
+    code = ("import os, sys, time\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
+            "f = step_process_feedback()\nstarted = time.perf_counter()\nline = sys.stdin.readline()\n"
+            "f.info(f'told {line.strip()!r} after {time.perf_counter() - started:.1f} s')\n"
+            "f.info(f'niceness {os.getpriority(os.PRIO_PROCESS, 0)}')\n")
+    with clock.beside("metrics", _child(code)) as measuring:
+        time.sleep(1.0)
+        measuring.tell()
+        measuring.wait()
+    told = [m for m in log.infos if m.startswith("metrics: told")]
+    assert told and told[0].startswith("metrics: told 'go' after ") and float(told[0].split()[-2]) >= 0.9
+    ours = os.getpriority(os.PRIO_PROCESS, 0)
+    assert f"metrics: niceness {min(ours + BESIDE_NICENESS, 19)}" in log.infos
+    waiting = _child("import pathlib, sys\nsys.stdin.readline()\npathlib.Path(sys.argv[1]).write_text('read')")
+    marker = tmp_path / "read.txt"
+    started = time.perf_counter()
+    with pytest.raises(RuntimeError, match="texture step failed"):
+        with clock.beside("metrics", [*waiting, str(marker)]):
+            raise RuntimeError("texture step failed")
+    time.sleep(0.5)
+    assert time.perf_counter() - started < 5 and not marker.exists()  # killed, not told

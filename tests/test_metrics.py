@@ -2,7 +2,12 @@
 from __future__ import annotations
 
 import csv
+import json
 import math
+import shutil
+import subprocess
+import sys
+import time
 from itertools import pairwise
 from pathlib import Path
 
@@ -17,6 +22,7 @@ from wit_plugin.citygml import reader
 from wit_plugin.citygml import writer as citygml
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.interpreter import core_env
 from wit_plugin.mosaic import georef, merge_rasters
 from wit_plugin.prepare.area import StudyArea
 from wit_plugin.prepare.vectors import prepare_vectors
@@ -346,6 +352,39 @@ def test_geometry_input_errors(shifted, tmp_path):
     with pytest.raises(InputError, match="no CityGML 3.0 bldg:Building"):
         metrics.geometry_metrics(str(empty), sources)
 
+
+
+def test_the_metrics_process_measures_the_images_once_told(tmp_path):
+    """The chain starts ``python -m wit_plugin.metrics --images-when-told`` beside the texture step: the orthoimage
+    is measured while the texture folder does not exist yet, the images once a line on standard input says they are
+    written; the same figures as measured at once. Its input's end without that line: the run stopped, one line
+    and exit status 2, nothing written."""
+    rng = np.random.default_rng(5)
+    data = rng.integers(0, 256, (3, 200, 200)).astype(np.uint8)
+    ortho = _write_raster(tmp_path / "ortho.tif", data, gt=(X0, 0.5, 0.0, Y0, 0.0, -0.5))
+    roof = shapely.box(X0 + 20.13, Y0 - 70.21, X0 + 61.37, Y0 - 22.42)
+    lod1 = tmp_path / "lod1.gpkg"
+    extrude.write_solids(lod1, [extrude.Solid("BLD_1", 10.0, 9.0, "default", "default 3 m", None, None,
+                                              extrude.solid_faces(roof, 10.0, 9.0), {})], _pyproj_5186())
+    written, later = tmp_path / "tex", tmp_path / "later"
+    texture_model(ortho, str(lod1), None, str(written), TextureConfig(image_format="PNG"))
+    at_once = metrics.quality_report(str(tmp_path / "at_once" / "m.csv"), textures=str(written), ortho=ortho)
+    command = [sys.executable, "-m", "wit_plugin.metrics", str(tmp_path / "told" / "m.csv"), "--textures", str(later),
+               "--ortho", ortho, "--images-when-told"]
+    process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, env=core_env())
+    time.sleep(1.0)  # (the texture step still writes)
+    shutil.copytree(written, later)
+    out, err = process.communicate("go\n", timeout=120)
+    assert process.returncode == 0, err
+    assert json.loads(out)["csv"] == str(tmp_path / "told" / "m.csv")
+    assert (tmp_path / "told" / "m.csv").read_bytes() == (tmp_path / "at_once" / "m.csv").read_bytes()
+    assert at_once.value("texture_pixels") > 0 and at_once.texture.masked
+    stopped = subprocess.run([*command[:3], str(tmp_path / "stopped" / "m.csv"), *command[4:]],
+                             stdin=subprocess.DEVNULL, capture_output=True, text=True, env=core_env())
+    assert stopped.returncode == 2 and stopped.stderr.strip() == (
+        "The texture images were never written (the run stopped): nothing was measured.")
+    assert not (tmp_path / "stopped").exists()
 
 def test_sample_pipeline_matches_sources(tmp_path):
     """generate_sample → preparevectors → extrudebuildings → writecitygml: the .gml sits on its sources."""

@@ -10,7 +10,7 @@ import contextlib
 import csv
 import html
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -242,12 +242,15 @@ def quality_report(output_csv: str, model_source: str | None = None, source_buil
                    textures: Sequence[str] | str | None = None, ortho: str | None = None,
                    mosaic: str | None = None, footprints: str | Sequence[str] | None = None,
                    output_html: str | None = None, output_gpkg: str | None = None,
-                   output_buildings_csv: str | None = None, feedback: Feedback = SILENT) -> QualityReport:
+                   output_buildings_csv: str | None = None, feedback: Feedback = SILENT,
+                   images_ready: Callable[[], None] | None = None) -> QualityReport:
     """wit:qualitymetrics: measure what is given and write the tables (all files appear together or none).
 
     Geometry needs ``model_source`` and ``source_buildings``; texture needs ``textures`` and/or
     ``ortho``; the seam needs ``mosaic`` and ``footprints``. Per-building rows go to
     ``output_buildings_csv`` (default ``<output_csv stem>_buildings.csv``) when geometry is measured.
+    The texture images are measured last, after ``images_ready`` returns (the chain starts the metrics while the
+    texture step still writes them: all else is measured meanwhile).
     """
     if bool(model_source) != bool(source_buildings):
         raise InputError("The geometry comparison needs both the model (CityGML or LoD1 faces) and the prepared "
@@ -276,8 +279,9 @@ def quality_report(output_csv: str, model_source: str | None = None, source_buil
             footprints_2d = _in_ortho_crs(shapely.multipolygons(shapely.get_parts(np.array(sources, dtype=object))),
                                           geometry.crs_wkt, ortho, feedback)
             area = tuple(footprints_2d.bounds)
-    texture = texture_metrics(textures, ortho, area, footprints_2d, next_feedback()) if textures or ortho else None
     seam = seam_metrics(mosaic, footprints, next_feedback()) if mosaic and footprints else None  # (both or neither)
+    texture = (texture_metrics(textures, ortho, area, footprints_2d, next_feedback(), images_ready)
+               if textures or ortho else None)
     report = QualityReport(metric_rows(geometry, texture, seam), geometry, texture, seam)
     if not any(math.isfinite(r.value) for r in report.rows if r.value is not None and r.unit != "count"):
         reason = (f": no building of the model ({geometry.model_count}) matches one of the {geometry.source_count} "

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -289,69 +289,123 @@ def _uv_mask(rings: tuple[np.ndarray, np.ndarray] | None, width: int, height: in
     return burner.mask(width, height, (0.0, 1.0, 0.0, float(height), 0.0, -1.0))  # ground = (u·W, v·H)
 
 
-def _ortho_stats(ortho: str, area: tuple[float, float, float, float] | shapely.Geometry | None,
-                 feedback: Feedback) -> tuple[_Stats, tuple[float, float, float, float]]:
-    """Streamed measures of the ortho over ``area`` (the window it covers, reflect-101 at its border).
+@dataclass
+class _Window:
+    """Ortho pixels measured together: columns x0..x1 and rows y0..y1 of the raster and, with a burner, only those
+    whose centres lie inside its polygons. Its Laplacian reflects at the window's own border."""
 
-    A polygonal ``area`` also limits the pixels to those whose centres lie inside it.
-    """
-    ds = open_raster(ortho, "orthoimage")
+    x0: int
+    y0: int
+    x1: int
+    y1: int
+    burner: _Burner | None = None
+    stats: _Stats = field(default_factory=_Stats)
+
+    def add(self, gray: np.ndarray, valid: np.ndarray, first: int, rows: tuple[int, int], left: int,
+            gt: tuple[float, ...]) -> None:
+        """Measure the window's share of the block ``rows`` (raster rows r0..r1); ``gray`` and ``valid`` hold
+        raster rows ``first``.. and columns ``left``.. and reach one row beyond the block where the raster has it."""
+        r0, r1 = max(rows[0], self.y0), min(rows[1], self.y1)
+        if r0 >= r1:
+            return
+        a, b = max(r0 - 1, self.y0), min(r1 + 1, self.y1)  # the rows the Laplacian of rows r0..r1 reads
+        cols = slice(self.x0 - left, self.x1 - left)
+        gray, valid = gray[a - first:b - first, cols], valid[a - first:b - first, cols].copy()
+        width, height = self.x1 - self.x0, self.y1 - self.y0
+        if self.burner is not None:
+            valid &= self.burner.mask(width, b - a, (gt[0] + self.x0 * gt[1], gt[1], 0.0, gt[3] + a * gt[5], 0.0,
+                                                     gt[5]))
+        core = slice(r0 - a, r1 - a)
+        self.stats.gray.add(gray[core][valid[core]])
+        if height >= 2 and width >= 2:
+            pad = ((1 if r0 == self.y0 else 0, 1 if r1 == self.y1 else 0), (1, 1))
+            g, m = np.pad(gray, pad, mode="reflect"), np.pad(valid, pad, mode="reflect")
+            self.stats.lap.add(_laplacian_valid(g)[_eroded(m)])
+
+
+def _ortho_window(ds: gdal.Dataset, ortho: str, area: tuple[float, float, float, float] | shapely.Geometry | None
+                  ) -> _Window:
+    """The window of ``area`` (the whole raster if None); a polygonal area also limits the pixels to those whose
+    centres lie inside it, with one pixel of margin, so that its border pixels see their real neighbours."""
     gt = ds.GetGeoTransform()
-    if gt[2] or gt[4]:
-        raise InputError(f"{ortho} is rotated; give a north-up orthoimage (wit:mergerasters writes one).")
     burner = None
-    if isinstance(area, shapely.Geometry):  # one pixel of margin: border pixels see their real neighbours
+    if isinstance(area, shapely.Geometry):
         burner = _Burner(shapely.get_parts(area))
         x_min, y_min, x_max, y_max = area.bounds
         area = (x_min - abs(gt[1]), y_min - abs(gt[5]), x_max + abs(gt[1]), y_max + abs(gt[5]))
     if area is None:
-        x0, y0, x1, y1 = 0, 0, ds.RasterXSize, ds.RasterYSize
-    else:
-        cols = sorted(((area[0] - gt[0]) / gt[1], (area[2] - gt[0]) / gt[1]))
-        rows = sorted(((area[1] - gt[3]) / gt[5], (area[3] - gt[3]) / gt[5]))
-        x0, x1 = max(math.floor(cols[0]), 0), min(math.ceil(cols[1]), ds.RasterXSize)
-        y0, y1 = max(math.floor(rows[0]), 0), min(math.ceil(rows[1]), ds.RasterYSize)
-        if x1 - x0 < 2 or y1 - y0 < 2:
-            raise InputError(f"The orthoimage {ortho} does not cover the model's area "
-                             f"{tuple(round(v, 1) for v in area)}"
-                             ": give the merged orthoimage of the study area.")
-    width, height = x1 - x0, y1 - y0
-    stats = _Stats()
-    block_rows = max(8, _BLOCK_PIXELS // width)
-    for r0 in range(0, height, block_rows):
+        return _Window(0, 0, ds.RasterXSize, ds.RasterYSize, burner)
+    cols = sorted(((area[0] - gt[0]) / gt[1], (area[2] - gt[0]) / gt[1]))
+    rows = sorted(((area[1] - gt[3]) / gt[5], (area[3] - gt[3]) / gt[5]))
+    x0, x1 = max(math.floor(cols[0]), 0), min(math.ceil(cols[1]), ds.RasterXSize)
+    y0, y1 = max(math.floor(rows[0]), 0), min(math.ceil(rows[1]), ds.RasterYSize)
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        raise InputError(f"The orthoimage {ortho} does not cover the model's area "
+                         f"{tuple(round(v, 1) for v in area)}: give the merged orthoimage of the study area.")
+    return _Window(x0, y0, x1, y1, burner)
+
+
+def _ortho_stats(ortho: str, areas: Sequence[tuple[float, float, float, float] | shapely.Geometry | None],
+                 feedback: Feedback) -> list[tuple[_Stats, tuple[float, float, float, float]]]:
+    """Streamed measures of the ortho over each of ``areas`` (the window each covers, reflect-101 at its border;
+    a polygonal area also limits the pixels to those whose centres lie inside it): one read of the pixels they
+    span, in row blocks, for all of them."""
+    ds = open_raster(ortho, "orthoimage")
+    gt = ds.GetGeoTransform()
+    if gt[2] or gt[4]:
+        raise InputError(f"{ortho} is rotated; give a north-up orthoimage (wit:mergerasters writes one).")
+    windows = [_ortho_window(ds, ortho, area) for area in areas]
+    x0, y0 = min(w.x0 for w in windows), min(w.y0 for w in windows)
+    x1, y1 = max(w.x1 for w in windows), max(w.y1 for w in windows)
+    block_rows = max(8, _BLOCK_PIXELS // (x1 - x0))
+    for r0 in range(y0, y1, block_rows):
         feedback.check_canceled()
-        r1 = min(r0 + block_rows, height)
-        a, b = max(r0 - 1, 0), min(r1 + 1, height)
-        gray, valid = _read_gray(ds, x0, y0 + a, width, b - a)
-        if burner is not None:
-            valid &= burner.mask(width, b - a, (gt[0] + x0 * gt[1], gt[1], 0.0, gt[3] + (y0 + a) * gt[5], 0.0, gt[5]))
-        stats.gray.add(gray[r0 - a:r0 - a + r1 - r0][valid[r0 - a:r0 - a + r1 - r0]])
-        if height >= 2 and width >= 2:
-            pad = ((1 if r0 == 0 else 0, 1 if r1 == height else 0), (1, 1))
-            g, m = np.pad(gray, pad, mode="reflect"), np.pad(valid, pad, mode="reflect")
-            stats.lap.add(_laplacian_valid(g)[_eroded(m)])
-        feedback.progress(100.0 * r1 / height)
-    bounds = (gt[0] + x0 * gt[1], gt[3] + y1 * gt[5], gt[0] + x1 * gt[1], gt[3] + y0 * gt[5])
-    return stats, bounds
+        r1 = min(r0 + block_rows, y1)
+        first = max(r0 - 1, y0)
+        gray, valid = _read_gray(ds, x0, first, x1 - x0, min(r1 + 1, y1) - first)
+        for window in windows:
+            window.add(gray, valid, first, (r0, r1), x0, gt)
+        feedback.progress(100.0 * (r1 - y0) / (y1 - y0))
+    return [(w.stats, (gt[0] + w.x0 * gt[1], gt[3] + w.y1 * gt[5], gt[0] + w.x1 * gt[1], gt[3] + w.y0 * gt[5]))
+            for w in windows]
 
 
 def texture_metrics(images: Sequence[str] | str | None, ortho: str | None = None,
                     ortho_area: tuple[float, float, float, float] | None = None,
-                    ortho_mask: shapely.Geometry | None = None, feedback: Feedback = SILENT) -> TextureMetrics:
+                    ortho_mask: shapely.Geometry | None = None, feedback: Feedback = SILENT,
+                    images_ready: Callable[[], None] | None = None) -> TextureMetrics:
     """Sharpness and contrast of the model's texture images (a folder or a list) and of the source ortho.
 
     ``ortho_area`` (xmin, ymin, xmax, ymax in the ortho's CRS) limits the ortho to the model's area;
     by default the whole ortho is measured. ``ortho_mask`` (polygons in the ortho's CRS, e.g. the
     building footprints) adds ``ortho_inside``: the ortho's pixels that roof textures show, so the
-    model's roof atlases and their source can be compared pixel set for pixel set.
+    model's roof atlases and their source can be compared pixel set for pixel set. The orthoimage is read once,
+    first; ``images_ready`` is called before the images are (the chain starts the metrics while the texture step
+    still writes them).
     """
     if not images and not ortho:
         raise InputError("Give the texture folder (wit:wittexture output), the orthoimage or both.")
     result = TextureMetrics()
-    paths, texcoords = _list_images(images) if images else ([], None)
+    share = 40.0 if images else 100.0
+    if ortho:
+        areas = [ortho_area] if ortho_mask is None else [ortho_area, ortho_mask]
+        measured = _ortho_stats(ortho, areas, feedback.scaled(0.0, share))
+        result.ortho, result.ortho_area = measured[0][0].result(str(ortho)), measured[0][1]
+        if ortho_mask is not None:
+            result.ortho_inside = measured[1][0].result(f"{ortho} (inside the footprints)")
+    if images:
+        if images_ready is not None:
+            images_ready()
+        _measure_images(images, result, feedback.scaled(share if ortho else 0.0, 100.0))
+    feedback.progress(100.0)
+    return result
+
+
+def _measure_images(images: Sequence[str] | str, result: TextureMetrics, feedback: Feedback) -> None:
+    """The model's images into ``result``: each image's measures and the pooled ones."""
+    paths, texcoords = _list_images(images)
     rings = _texcoord_rings(texcoords) if texcoords else None
     result.masked = rings is not None
-    share = 60.0 if ortho else 100.0
     pooled = _Stats()
     folder = Path(images) if isinstance(images, (str, os.PathLike)) and Path(images).is_dir() else None
     for k, path in enumerate(paths):
@@ -363,19 +417,10 @@ def texture_metrics(images: Sequence[str] | str | None, ortho: str | None = None
         stats = _image_stats(gray, valid)
         pooled.merge(stats)
         result.images.append(stats.result(str(path.relative_to(folder) if folder else path)))
-        feedback.progress(share * (k + 1) / len(paths))
+        feedback.progress(100.0 * (k + 1) / len(paths))
     if paths:
         pooled_result = pooled.result("model")
         result.laplacian_variance, result.contrast, result.pixels = (
             pooled_result.laplacian_variance, pooled_result.contrast, pooled_result.pixels)
         if result.pixels == 0:
             feedback.warning("No textured pixel found in the texture images (empty texcoords rings?).")
-    if ortho:
-        middle = (share + 100.0) / 2 if ortho_mask is not None else 100.0
-        stats, result.ortho_area = _ortho_stats(ortho, ortho_area, feedback.scaled(share, middle))
-        result.ortho = stats.result(str(ortho))
-        if ortho_mask is not None:
-            inside = _ortho_stats(ortho, ortho_mask, feedback.scaled(middle, 100.0))[0]
-            result.ortho_inside = inside.result(f"{ortho} (inside the footprints)")
-    feedback.progress(100.0)
-    return result
