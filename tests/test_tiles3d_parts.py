@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from osgeo import ogr
 
-from wit_plugin.tiles3d.store import _ground_faces, _texcoords, _unique_texts, aligned_decimals
+from wit_plugin.infra.texcoords import aligned_decimals, parse_texcoord_column, unique_texts
+from wit_plugin.tiles3d.store import _ground_faces
 from wit_plugin.tiles3d.tileset import _ring_uv
 
 
@@ -40,11 +41,11 @@ def test_texcoords_of_any_rows_are_those_of_the_plain_parse():
     aligned = ["0.250000000000 0.750000000000 0.500000000000 0.125000000000"] * 3
     mixed = ["0.1 0.2 0.3 0.4 0.1 0.2", "", "1 2", "-0.5 1e-1"]
     for rows in (aligned, mixed):
-        uv, counts = _texcoords(np.array([r.encode() for r in rows]))
+        uv, counts = parse_texcoord_column(np.array([r.encode() for r in rows]))
         numbers = [float(t) for r in rows for t in r.split()]
         assert uv.ravel().tolist() == numbers and counts.tolist() == [len(r.split()) // 2 for r in rows]
     try:
-        _texcoords(np.array([b"0.1 0.2 0.3"]))
+        parse_texcoord_column(np.array([b"0.1 0.2 0.3"]))
     except ValueError:
         pass
     else:
@@ -89,11 +90,11 @@ def test_ground_faces_read_in_columns_give_what_ogr_gives(tmp_path):
 
 
 def test_unique_texts_are_sorted_with_each_rows_index():
-    names, index = _unique_texts(np.array([b"tin", b"tin", b"road", b"tin", b"road", b"road", b"\xea\xb8\xb8"]))
+    names, index = unique_texts(np.array([b"tin", b"tin", b"road", b"tin", b"road", b"road", b"\xea\xb8\xb8"]))
     assert names == ["road", "tin", "길"] and index.tolist() == [1, 1, 0, 1, 0, 0, 2]
-    names, index = _unique_texts(np.array(["b", None, "a", "b"], dtype=object))
+    names, index = unique_texts(np.array(["b", None, "a", "b"], dtype=object))
     assert names == ["", "a", "b"] and index.tolist() == [2, 0, 1, 2]
-    names, index = _unique_texts(np.array([], dtype="S4"))
+    names, index = unique_texts(np.array([], dtype="S4"))
     assert names == [] and index.tolist() == []
 
 

@@ -10,9 +10,6 @@
 """
 from __future__ import annotations
 
-import warnings
-from collections.abc import Sequence
-
 import numpy as np
 import shapely
 
@@ -95,21 +92,3 @@ def fan_corners(polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     owner = np.repeat(np.arange(len(polygons)), fans)
     step = np.arange(len(owner)) - np.repeat(np.cumsum(fans) - fans, fans) + 1
     return np.stack([first[owner], first[owner] + step, first[owner] + step + 1], axis=1), owner
-
-
-def parse_texcoords(texts: Sequence[str | None]) -> tuple[np.ndarray, np.ndarray]:
-    """Texture-table ``uv`` texts ("u1 v1 u2 v2 …") → all pairs (k, 2) and the pair count of each text.
-
-    One C parse for the whole batch; raises ``ValueError`` on a malformed text.
-    """
-    clean = [" ".join(t.split()) if t else "" for t in texts]
-    counts = np.array([t.count(" ") + 1 if t else 0 for t in clean], dtype=np.int64)
-    with warnings.catch_warnings():  # numpy's "could not be read to its end" (a word): a ValueError, as it soon is
-        warnings.simplefilter("error", DeprecationWarning)
-        try:
-            flat = np.fromstring(" ".join(clean), sep=" ") if any(clean) else np.zeros(0)
-        except DeprecationWarning as exc:
-            raise ValueError("malformed texture coordinates") from exc
-    if len(flat) != counts.sum() or np.any(counts % 2):
-        raise ValueError("malformed texture coordinates")
-    return flat.reshape(-1, 2), counts // 2

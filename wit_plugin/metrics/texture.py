@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,7 +44,7 @@ from ..infra.feedback import SILENT, Feedback
 from ..infra.gdal_env import quiet_gdal
 from ..infra.io import bulk_read
 from ..infra.io.raster_io import open_raster, read_window
-from ..infra.meshes import parse_texcoords
+from ..infra.texcoords import parse_texcoord_column, unique_texts
 
 BORDERS = ("reflect101", "valid")
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
@@ -222,46 +223,52 @@ def _list_images(images: Sequence[str] | str) -> tuple[list[Path], Path | None]:
 
 def _texcoord_rings(texcoords: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """UV rings per image (relative path as stored) from the wit:wittexture table: (points, points per ring),
-    read in bulk (the 1 km demo has ~600,000 rings)."""
+    read in bulk and parsed as the 3D Tiles export parses them (the 1 km demo has ~600,000 rings)."""
     ds = open_vector(texcoords)
     layer = None if ds is None else ds.GetLayerByName(step_layers.TEXCOORD_TABLE)
     if layer is None:
         raise InputError(f"{texcoords} has no table '{step_layers.TEXCOORD_TABLE}': re-run wit:wittexture.")
-    images: list[str] = []
-    uvs: list[str] = []
+    defn = layer.GetLayerDefn()
+    layer.SetIgnoredFields([name for name in (defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount()))
+                            if name not in (step_layers.TEX_IMAGE, step_layers.TEX_COORDS)])
+    names: list[str] = []
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for batch in bulk_read.batches(layer):
-        images += bulk_read.texts(batch[step_layers.TEX_IMAGE])
-        uvs += bulk_read.texts(batch[step_layers.TEX_COORDS])
-    if not uvs:
+        try:
+            points, counts = parse_texcoord_column(batch[step_layers.TEX_COORDS])
+        except ValueError as exc:
+            raise InputError(f"{texcoords}: texture coordinates that are not pairs of numbers u v: "
+                             "re-run wit:wittexture.") from exc
+        batch_names, image = unique_texts(batch[step_layers.TEX_IMAGE])
+        parts.append((points, counts, image + len(names)))
+        names += batch_names
+    if not parts or not sum(len(counts) for _, counts, _ in parts):
         return {}
-    try:
-        points, counts = parse_texcoords(uvs)  # the same parse as the 3D Tiles export's
-    except ValueError as exc:
-        raise InputError(f"{texcoords}: texture coordinates that are not pairs of numbers u v: "
-                         "re-run wit:wittexture.") from exc
-    names, image_of = np.unique(np.array(images, dtype=object), return_inverse=True)
+    points, counts, image = (np.concatenate(column) for column in zip(*parts))
+    distinct, renumber = np.unique(np.array(names, dtype=object), return_inverse=True)
+    image_of = renumber[image]
     order = np.argsort(image_of, kind="stable")  # rings grouped by image, in table order within each
     ring, within = ragged_indices(counts[order])
     points = points[(np.cumsum(counts) - counts)[order][ring] + within]
-    ends = np.cumsum(np.bincount(image_of, minlength=len(names)))  # rings per image, cumulated
+    ends = np.cumsum(np.bincount(image_of, minlength=len(distinct)))  # rings per image, cumulated
     point_ends = np.concatenate([[0], np.cumsum(counts[order])])[ends]
     rings, first, first_point = {}, 0, 0
-    for name, last, last_point in zip(names, ends, point_ends):
+    for name, last, last_point in zip(distinct, ends, point_ends):
         rings[name] = (points[first_point:last_point], counts[order][first:last])
         first, first_point = last, last_point
     return rings
 
 
 class _Burner:
-    """Polygons in an in-memory OGR layer, rasterised onto any grid: pixels whose centres are inside."""
+    """Polygons (WKB) in an in-memory OGR layer, rasterised onto any grid: pixels whose centres are inside."""
 
-    def __init__(self, polygons: Sequence[shapely.Geometry]):
+    def __init__(self, wkbs: Sequence[bytes]):
         self._source = ogr.GetDriverByName("Memory").CreateDataSource("")
         self._layer = self._source.CreateLayer("polygons", None, ogr.wkbUnknown)
         defn = self._layer.GetLayerDefn()
-        for polygon in polygons:
+        for wkb in wkbs:
             feature = ogr.Feature(defn)
-            feature.SetGeometryDirectly(ogr.CreateGeometryFromWkb(shapely.to_wkb(polygon)))
+            feature.SetGeometryDirectly(ogr.CreateGeometryFromWkb(wkb))
             self._layer.CreateFeature(feature)
 
     def mask(self, width: int, height: int, gt: tuple[float, ...]) -> np.ndarray:
@@ -270,6 +277,25 @@ class _Burner:
         with quiet_gdal():  # "no spatial reference on layer": both sides share one, as intended
             gdal.RasterizeLayer(target, [1], self._layer, burn_values=[1])
         return read_window(target, 0, 0, width, height, "the rasterised polygons (in memory)").astype(bool)
+
+
+def _multipolygon_wkb(points: np.ndarray, counts: np.ndarray) -> bytes:
+    """The rings (``counts`` points each, one after another) as one MultiPolygon's WKB, a polygon per ring.
+
+    Closed rings of one length (the TIN triangles of a ground square) are packed with numpy as fixed-size
+    records; any other rings go through shapely (which also closes them).
+    """
+    size = int(counts[0])
+    starts = np.cumsum(counts) - counts
+    if (counts == size).all() and (points[starts] == points[starts + size - 1]).all():
+        record = np.dtype([("order", "u1"), ("type", "<u4"), ("rings", "<u4"), ("points", "<u4"),
+                           ("xy", "<f8", (size, 2))])
+        polygons = np.zeros(len(counts), dtype=record)
+        polygons["order"], polygons["type"], polygons["rings"], polygons["points"] = 1, 3, 1, size
+        polygons["xy"] = points.reshape(len(counts), size, 2)
+        return struct.pack("<BII", 1, 6, len(counts)) + polygons.tobytes()
+    ring_of = np.repeat(np.arange(len(counts)), counts)
+    return shapely.to_wkb(shapely.multipolygons(shapely.polygons(shapely.linearrings(points, indices=ring_of))))
 
 
 def _uv_mask(rings: tuple[np.ndarray, np.ndarray] | None, width: int, height: int) -> np.ndarray:
@@ -282,10 +308,9 @@ def _uv_mask(rings: tuple[np.ndarray, np.ndarray] | None, width: int, height: in
         return np.zeros((height, width), dtype=bool)
     points, counts = rings
     keep = counts >= 3
-    ring_of = np.repeat(np.arange(len(counts)), counts)
-    kept = np.repeat(keep, counts)
-    polygons = shapely.polygons(shapely.linearrings(points[kept] * [width, height], indices=ring_of[kept]))
-    burner = _Burner([shapely.multipolygons(polygons)])
+    if not keep.any():
+        return np.zeros((height, width), dtype=bool)
+    burner = _Burner([_multipolygon_wkb(points[np.repeat(keep, counts)] * [width, height], counts[keep])])
     return burner.mask(width, height, (0.0, 1.0, 0.0, float(height), 0.0, -1.0))  # ground = (u·W, v·H)
 
 
@@ -330,7 +355,7 @@ def _ortho_window(ds: gdal.Dataset, ortho: str, area: tuple[float, float, float,
     gt = ds.GetGeoTransform()
     burner = None
     if isinstance(area, shapely.Geometry):
-        burner = _Burner(shapely.get_parts(area))
+        burner = _Burner(shapely.to_wkb(shapely.get_parts(area)).tolist())
         x_min, y_min, x_max, y_max = area.bounds
         area = (x_min - abs(gt[1]), y_min - abs(gt[5]), x_max + abs(gt[1]), y_max + abs(gt[5]))
     if area is None:

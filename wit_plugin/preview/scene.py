@@ -14,7 +14,8 @@ from ..infra import step_layers
 from ..infra.errors import InputError
 from ..infra.io import bulk_read
 from ..infra.io.vector_io import open_step_layer
-from ..infra.meshes import fan_corners, parse_texcoords, planar_triangles, triangle_vertices
+from ..infra.meshes import fan_corners, planar_triangles, triangle_vertices
+from ..infra.texcoords import parse_texcoords
 
 _KINDS = ("roof", "wall", "terrain", "road", "footprint")
 

@@ -41,7 +41,8 @@ from ..infra.errors import InputError
 from ..infra.feedback import Feedback
 from ..infra.io import bulk_read, jsontext
 from ..infra.io.vector_io import open_step_layer
-from ..infra.meshes import parse_texcoords, triangle_vertices
+from ..infra.meshes import triangle_vertices
+from ..infra.texcoords import decoded_texts, parse_texcoord_column, unique_texts
 
 FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not exported
 SURFACES = {name: number for number, name in enumerate(step_layers.TIN_SURFACES)}
@@ -168,22 +169,22 @@ class Store:
         for batch in _column_batches(layer, fields):
             feedback.check_canceled()
             try:
-                uv, counts = _texcoords(batch[step_layers.TEX_COORDS])
+                uv, counts = parse_texcoord_column(batch[step_layers.TEX_COORDS])
             except ValueError:
                 raise InputError(f"The texture table {path} has malformed texture coordinates: "
                                  "re-run wit:wittexture.") from None
             uv = uv.astype(np.float32)
             starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            names, image = _unique_texts(batch[step_layers.TEX_IMAGE])
+            names, image = unique_texts(batch[step_layers.TEX_IMAGE])
             image = np.array([numbers.setdefault(name, len(numbers)) for name in names], dtype=np.int64)[image]
-            kinds, target = _unique_texts(batch[step_layers.TEX_TARGET])
+            kinds, target = unique_texts(batch[step_layers.TEX_TARGET])
             is_face = np.isin(target, [k for k, kind in enumerate(kinds) if kind in FACE_KINDS])
             face_rows = np.flatnonzero(is_face)
             features = np.asarray(batch[step_layers.TEX_FEATURE])
             faces = batch[step_layers.TEX_FACE][face_rows].tolist()
             self.db.executemany("INSERT OR REPLACE INTO tex_face VALUES (?, ?, ?, ?)", [
                 (feature, int(face or 0), int(image[i]), uv[starts[i]:starts[i + 1]].tobytes())
-                for feature, face, i in zip(_texts(features[face_rows]), faces, face_rows.tolist())])
+                for feature, face, i in zip(decoded_texts(features[face_rows]), faces, face_rows.tolist())])
             tri = np.flatnonzero(~is_face & (counts == 4))
             try:
                 ids = features[tri].astype(np.int64)
@@ -217,7 +218,7 @@ class Store:
                         for v in batch[f.GetName()].tolist()] for f in kept]
             self.db.executemany("INSERT OR REPLACE INTO facade VALUES (?, ?)", (
                 (wit_id, jsontext.dumps(list(values), ensure_ascii=False))
-                for wit_id, values in zip(_texts(batch[step_layers.WIT_ID]), zip(*columns))))
+                for wit_id, values in zip(decoded_texts(batch[step_layers.WIT_ID]), zip(*columns))))
         del layer, ds
 
     def add_buildings(self, path: str, grid: Grid, feedback: Feedback) -> int:
@@ -246,12 +247,12 @@ class Store:
         for batch in _column_batches(layer, (step_layers.WIT_ID, step_layers.FACE_NUMBER, step_layers.FACE_TYPE),
                                      geometry=True):
             feedback.check_canceled()
-            kinds = np.array([FACE_KINDS[k] for k in _texts(batch[step_layers.FACE_TYPE])], dtype=np.int64)
+            kinds = np.array([FACE_KINDS[k] for k in decoded_texts(batch[step_layers.FACE_TYPE])], dtype=np.int64)
             wkbs = [_blob(w) for w in batch[None]]
             present = np.flatnonzero([w is not None for w in wkbs])
             ids = face_id + np.arange(len(present))
             face_id += len(present)
-            names, numbers = _texts(batch[step_layers.WIT_ID]), batch[step_layers.FACE_NUMBER].tolist()
+            names, numbers = decoded_texts(batch[step_layers.WIT_ID]), batch[step_layers.FACE_NUMBER].tolist()
             self.db.executemany("INSERT INTO face VALUES (?, ?, ?, ?, ?)", [
                 (int(i), names[k], numbers[k], int(kinds[k]), wkbs[k]) for i, k in zip(ids.tolist(), present.tolist())])
             roofs = kinds[present] == FACE_KINDS["roof"]
@@ -286,7 +287,7 @@ class Store:
             xyz = _triangle_corners(batch[None])
             ok = np.isfinite(xyz).all(axis=(1, 2))
             ids = np.asarray(batch[step_layers.TIN_TRIANGLE_ID], dtype=np.int64)[ok]
-            names, surface = _unique_texts(batch[step_layers.TIN_SURFACE])
+            names, surface = unique_texts(batch[step_layers.TIN_SURFACE])
             surface = np.array([SURFACES.get(name, 0) for name in names], dtype=np.int8)[surface][ok]
             xyz = np.ascontiguousarray(xyz[ok])
             if not len(ids):
@@ -499,74 +500,3 @@ def _triangle_corners(wkbs: np.ndarray) -> np.ndarray:
             return points[:, :3].astype(np.float64)
     geometries = shapely.from_wkb(np.array([_blob(w) for w in wkbs], dtype=object), on_invalid="ignore")
     return triangle_vertices(geometries)
-
-
-def _unique_texts(column: np.ndarray) -> tuple[list[str], np.ndarray]:
-    """The distinct texts of a column (decoded) and each row's index into them."""
-    values = np.asarray(column)
-    if values.dtype == object:
-        values = np.array(_texts(values))
-    if not len(values):
-        return [], np.zeros(0, dtype=np.int64)
-    runs = np.flatnonzero(np.append(True, values[1:] != values[:-1]))  # (a column repeats its texts in runs)
-    names, inverse = np.unique(values[runs], return_inverse=True)
-    return _texts(names), np.repeat(inverse, np.diff(np.append(runs, len(values))))
-
-
-def _texcoords(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``parse_texcoords`` for a column; Arrow's fixed-width byte strings are parsed as one block
-    (numbers and each row's count of them found with numpy, no Python loop per row)."""
-    values = np.asarray(column)
-    if values.dtype.kind != "S" or not len(values):
-        return parse_texcoords(_texts(values))
-    chars = np.full((len(values), values.dtype.itemsize + 1), 32, dtype=np.uint8)  # a blank after each row
-    chars[:, :-1] = np.frombuffer(values.tobytes(), dtype=np.uint8).reshape(len(values), -1)
-    numbers = aligned_decimals(chars)
-    if numbers is not None:
-        return numbers.reshape(-1, 2), np.full(len(values), numbers.size // len(values) // 2, dtype=np.int64)
-    blank = chars <= 32  # spaces and the NULs that pad a row to the column's width
-    chars[blank] = 32
-    starts = ~blank & np.concatenate([np.ones((len(chars), 1), dtype=bool), blank[:, :-1]], axis=1)
-    counts = starts.sum(axis=1)
-    flat = np.fromstring(chars.tobytes(), sep=" ") if counts.any() else np.zeros(0)
-    if len(flat) != counts.sum() or np.any(counts % 2):
-        raise ValueError("malformed texture coordinates")
-    return flat.reshape(-1, 2), counts // 2
-
-
-def aligned_decimals(chars: np.ndarray) -> np.ndarray | None:
-    """The numbers written in the rows of ``chars`` (bytes, rows × columns, blanks ≤ 32), row after row, when
-    every row writes as many in the same columns, all as ``digits.digits`` with the same count of decimals
-    and at most 15 digits (the texture table's ``"%.12f"`` of TIN triangles' uv); else None.
-
-    The values are those of ``float`` of the texts (correctly rounded): the digits make an integer below
-    10^15, exact in float64, and one IEEE division by an exact power of ten rounds correctly. Column by
-    column, with no search for where each number starts (C's parser took most of the texture table's staging).
-    """
-    if not len(chars):
-        return None
-    blank = chars[0] <= 32
-    if ((chars <= 32) != blank).any():
-        return None
-    edges = np.flatnonzero(np.diff(~blank, prepend=False, append=False))
-    starts, lengths = edges[0::2], edges[1::2] - edges[0::2]
-    size = int(lengths[0]) if len(lengths) else 0
-    if not 2 <= size <= 16 or (lengths != size).any() or (starts != np.arange(len(starts)) * (size + 1)).any():
-        return None
-    digits = chars[:, :len(starts) * (size + 1)].reshape(-1, size + 1)[:, :size] - np.uint8(48)  # '.' → 254
-    point = int(np.argmax(digits[0] == 254))
-    if not (digits[:, point] == 254).all():
-        return None
-    digits[:, point] = 0
-    if not (digits <= 9).all():
-        return None
-    mantissa = np.zeros(len(digits), dtype=np.int64)
-    for column in range(size):
-        if column != point:
-            mantissa = mantissa * 10 + digits[:, column]  # (integer arithmetic: no BLAS threads to wait for)
-    return mantissa / float(10 ** (size - 1 - point))
-
-
-def _texts(column: np.ndarray) -> list[str]:
-    """A text column as str (Arrow gives UTF-8 bytes; NULL → "")."""
-    return [v.decode("utf-8") if isinstance(v, bytes) else ("" if v is None else str(v)) for v in column.tolist()]

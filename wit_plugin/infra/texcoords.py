@@ -1,0 +1,97 @@
+"""The texture table's columns (``infra.step_layers.TEX_*``) as numpy: texture coordinates and image names, read
+in bulk by the 3D Tiles export, the metrics and the preview (one parser for all)."""
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def parse_texcoords(texts: Sequence[str | None]) -> tuple[np.ndarray, np.ndarray]:
+    """Texture-table ``uv`` texts ("u1 v1 u2 v2 …") → all pairs (k, 2) and the pair count of each text.
+
+    One C parse for the whole batch; raises ``ValueError`` on a malformed text.
+    """
+    clean = [" ".join(t.split()) if t else "" for t in texts]
+    counts = np.array([t.count(" ") + 1 if t else 0 for t in clean], dtype=np.int64)
+    with warnings.catch_warnings():  # numpy's "could not be read to its end" (a word): a ValueError, as it soon is
+        warnings.simplefilter("error", DeprecationWarning)
+        try:
+            flat = np.fromstring(" ".join(clean), sep=" ") if any(clean) else np.zeros(0)
+        except DeprecationWarning as exc:
+            raise ValueError("malformed texture coordinates") from exc
+    if len(flat) != counts.sum() or np.any(counts % 2):
+        raise ValueError("malformed texture coordinates")
+    return flat.reshape(-1, 2), counts // 2
+
+
+def parse_texcoord_column(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``parse_texcoords`` for a column; Arrow's fixed-width byte strings are parsed as one block
+    (numbers and each row's count of them found with numpy, no Python loop per row)."""
+    values = np.asarray(column)
+    if values.dtype.kind != "S" or not len(values):
+        return parse_texcoords(decoded_texts(values))
+    chars = np.full((len(values), values.dtype.itemsize + 1), 32, dtype=np.uint8)  # a blank after each row
+    chars[:, :-1] = np.frombuffer(values.tobytes(), dtype=np.uint8).reshape(len(values), -1)
+    numbers = aligned_decimals(chars)
+    if numbers is not None:
+        return numbers.reshape(-1, 2), np.full(len(values), numbers.size // len(values) // 2, dtype=np.int64)
+    blank = chars <= 32  # spaces and the NULs that pad a row to the column's width
+    chars[blank] = 32
+    starts = ~blank & np.concatenate([np.ones((len(chars), 1), dtype=bool), blank[:, :-1]], axis=1)
+    counts = starts.sum(axis=1)
+    flat = np.fromstring(chars.tobytes(), sep=" ") if counts.any() else np.zeros(0)
+    if len(flat) != counts.sum() or np.any(counts % 2):
+        raise ValueError("malformed texture coordinates")
+    return flat.reshape(-1, 2), counts // 2
+
+
+def aligned_decimals(chars: np.ndarray) -> np.ndarray | None:
+    """The numbers written in the rows of ``chars`` (bytes, rows × columns, blanks ≤ 32), row after row, when
+    every row writes as many in the same columns, all as ``digits.digits`` with the same count of decimals
+    and at most 15 digits (the texture table's ``"%.12f"`` of TIN triangles' uv); else None.
+
+    The values are those of ``float`` of the texts (correctly rounded): the digits make an integer below
+    10^15, exact in float64, and one IEEE division by an exact power of ten rounds correctly. Column by
+    column, with no search for where each number starts (C's parser took most of the texture table's staging).
+    """
+    if not len(chars):
+        return None
+    blank = chars[0] <= 32
+    if ((chars <= 32) != blank).any():
+        return None
+    edges = np.flatnonzero(np.diff(~blank, prepend=False, append=False))
+    starts, lengths = edges[0::2], edges[1::2] - edges[0::2]
+    size = int(lengths[0]) if len(lengths) else 0
+    if not 2 <= size <= 16 or (lengths != size).any() or (starts != np.arange(len(starts)) * (size + 1)).any():
+        return None
+    digits = chars[:, :len(starts) * (size + 1)].reshape(-1, size + 1)[:, :size] - np.uint8(48)  # '.' → 254
+    point = int(np.argmax(digits[0] == 254))
+    if not (digits[:, point] == 254).all():
+        return None
+    digits[:, point] = 0
+    if not (digits <= 9).all():
+        return None
+    mantissa = np.zeros(len(digits), dtype=np.int64)
+    for column in range(size):
+        if column != point:
+            mantissa = mantissa * 10 + digits[:, column]  # (integer arithmetic: no BLAS threads to wait for)
+    return mantissa / float(10 ** (size - 1 - point))
+
+
+def unique_texts(column: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """The distinct texts of a column (decoded) and each row's index into them."""
+    values = np.asarray(column)
+    if values.dtype == object:
+        values = np.array(decoded_texts(values))
+    if not len(values):
+        return [], np.zeros(0, dtype=np.int64)
+    runs = np.flatnonzero(np.append(True, values[1:] != values[:-1]))  # (a column repeats its texts in runs)
+    names, inverse = np.unique(values[runs], return_inverse=True)
+    return decoded_texts(names), np.repeat(inverse, np.diff(np.append(runs, len(values))))
+
+
+def decoded_texts(column: np.ndarray) -> list[str]:
+    """A text column as str (Arrow gives UTF-8 bytes; NULL → "")."""
+    return [v.decode("utf-8") if isinstance(v, bytes) else ("" if v is None else str(v)) for v in column.tolist()]
