@@ -5,9 +5,9 @@ output file, measured in the same run so the machine's load cancels out of the r
 
     .venv/bin/python benchmarks/bench_chain.py [--radius 1000] [--max-edge 5] [--runs 1] [--no-core]
 
-Prints the seconds per step (steps.json), the whole chain, the xmllint time and the ratios (the
-project's goals: whole chain ≤ 30 s through qgis_process; validation ≤ 1.5 × xmllint; chain ≤ 3 × xmllint);
-writes out/bench/chain.json.
+Prints the seconds per step (steps.json), the whole chain (as the chain times itself, and the wall time of the
+qgis_process command), the xmllint time and the ratios (the project's goals: the chain ≤ 20 s wall through
+qgis_process; validation ≤ 1.5 × xmllint; chain ≤ 3 × xmllint); writes out/bench/chain.json.
 """
 from __future__ import annotations
 
@@ -106,7 +106,7 @@ def main() -> int:
           f"{core['xmllint'] if core else float('nan'):.2f} |")
     print(f"| validation / xmllint | {user['steps']['validate'] / user['xmllint']:.2f} (goal ≤ 1.5) | |")
     print(f"| whole chain / xmllint | {user['chain'] / user['xmllint']:.1f} (goal ≤ 3) | |")
-    print(f"| whole chain ≤ 30 s | {'met' if user['chain'] <= 30 else 'not met'} | |")
+    print(f"| qgis_process wall ≤ 20 s | {'met' if user['wall'] <= 20 else 'not met'} ({user['wall']:.1f} s) | |")
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT.parent / "chain.json").write_text(json.dumps(runs, indent=1), encoding="utf-8")
     return 0

@@ -184,7 +184,7 @@ class CityModel(WitAlgorithm):
         options.keep_work = self.parameterAsBool(parameters, self.KEEP_WORK, context)
         options.tiles3d = self.parameterAsBool(parameters, self.TILES3D, context)
         update = update_city_model(inputs, options, self.parameterAsString(parameters, self.OUTPUT, context),
-                                   self.parameterAsBool(parameters, REBUILD, context), feedback)
+                                   self.parameterAsBool(parameters, REBUILD, context), feedback, apart=True)
         report = update.report
         load_results(context, lod1=report.lod1, tin=report.tin,  # QGIS cannot read the web profile
                      tileset=None if options.tiles3d_web else report.tileset)

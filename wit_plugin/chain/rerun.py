@@ -25,6 +25,7 @@ from ..infra.io.vector_io import read_layer
 from ..infra.polygons import repair_polygons, transform
 from ..mosaic.georef import list_tifs
 from ..prepare.area import StudyArea
+from .apart import run_city_model_apart, runs_apart
 from .citymodel import ChainInputs, ChainOptions, ChainReport, run_city_model
 from .coverage import ortho_coverage
 from .fingerprint import (
@@ -107,9 +108,10 @@ def city_model_fingerprint(inputs: ChainInputs, options: ChainOptions) -> Finger
 
 
 def update_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
-                      rebuild: bool = False, feedback: Feedback = SILENT) -> UpdateReport:
+                      rebuild: bool = False, feedback: Feedback = SILENT, apart: bool = False) -> UpdateReport:
     """``run_city_model`` into ``output_dir`` unless the build recorded there has the same fingerprint and its
-    files are in place (``rebuild``: build anyway); see the module docstring."""
+    files are in place (``rebuild``: build anyway); see the module docstring. ``apart``: run it in a Python
+    program of its own where it can (``chain.apart``: QGIS's embedded Python is slower)."""
     output = ensure_writable_dir(output_dir)
     fingerprint = city_model_fingerprint(inputs, options)
     record = read_record(output)
@@ -121,7 +123,8 @@ def update_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: st
         return UpdateReport(_report_from(record["report"], output), False, "")
     feedback.info(f"Building (fingerprint {fingerprint.digest}): {reason}.")
     (output / BUILD_FILE).unlink(missing_ok=True)  # from here until the new record, the folder is not current
-    report = run_city_model(inputs, options, output, feedback)
+    run = run_city_model_apart if apart and runs_apart(options) else run_city_model
+    report = run(inputs, options, output, feedback)
     for name in set((record or {}).get("files", [])) - set(report.files) - {BUILD_FILE}:  # the old build's only
         stale = output / name
         if stale.is_dir() and not stale.is_symlink():

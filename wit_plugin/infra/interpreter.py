@@ -9,6 +9,7 @@ QGIS's own prefix, and ``python3`` / ``python`` on the PATH; the core comes from
 from __future__ import annotations
 
 import functools
+import importlib
 import os
 import shutil
 import subprocess
@@ -37,6 +38,11 @@ def core_env() -> dict:
     return {**SINGLE_THREADED, **os.environ, "PYTHONPATH": os.pathsep.join(p for p in paths if p)}
 
 
+#: True in a Python program the plugin started to run the core (the chain apart, ``chain.apart``): the program's
+#: own interpreter, given the same environment, is then checked by importing here rather than by starting it again
+THIS_PROGRAM_IS_OURS = False
+
+
 def core_python(configured: str | None, modules: tuple[str, ...], module: str) -> str:
     """An interpreter that imports ``modules`` and the core's ``module`` (see the module docstring);
     ``configured`` (else ``$WIT_WORKER_PYTHON``) wins and must work."""
@@ -50,7 +56,8 @@ def core_python(configured: str | None, modules: tuple[str, ...], module: str) -
             return candidate
     tried = []
     for candidate in _candidates():
-        problem = _cannot_run(candidate, modules, module)
+        ours = THIS_PROGRAM_IS_OURS and candidate == sys.executable
+        problem = _cannot_import(modules, module) if ours else _cannot_run(candidate, modules, module)
         if not problem:
             return candidate
         tried.append(f"{candidate}: {problem}")
@@ -116,3 +123,13 @@ def _cannot_run(python: str, modules: tuple[str, ...], module: str) -> str | Non
     except (OSError, subprocess.TimeoutExpired) as exc:
         return str(exc)
     return None if result.returncode == 0 else (result.stderr.strip().splitlines() or ["fails"])[-1]
+
+
+def _cannot_import(modules: tuple[str, ...], module: str) -> str | None:
+    """Why this very Python cannot import ``modules`` and ``module``, or None."""
+    for name in (*modules, module):
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            return f"{type(exc).__name__}: {exc}"
+    return None
