@@ -3,6 +3,7 @@ folder and report as in-process, its messages and progress relayed, Cancel and r
 from __future__ import annotations
 
 import dataclasses
+import os
 import re
 import time
 
@@ -13,7 +14,7 @@ from wit_plugin.chain import apart
 from wit_plugin.chain.citymodel import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.chain.rerun import update_city_model
 from wit_plugin.cityjson.writer import SequencePart
-from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.errors import CanceledError, InputError, MissingDependencyError
 from wit_plugin.infra.feedback import Feedback
 from wit_plugin.prepare.area import StudyArea
 from wit_plugin.sample import SampleConfig, generate_sample
@@ -82,7 +83,7 @@ def test_the_chain_apart_writes_what_the_chain_writes_here(sample, tmp_path):
     assert apart_log.percents == shown and shown[-1] == 100.0 and len(shown) >= 20
 
 
-def test_a_refusal_in_the_chain_apart_is_the_same_refusal(sample, tmp_path):
+def test_a_refusal_in_the_chain_apart_is_the_same_refusal(sample, tmp_path, monkeypatch):
     with pytest.raises(InputError) as here:
         run_city_model(_inputs(sample, dem=str(tmp_path / "missing.tif")), _options(), tmp_path / "here")
     with pytest.raises(InputError) as there:
@@ -90,6 +91,12 @@ def test_a_refusal_in_the_chain_apart_is_the_same_refusal(sample, tmp_path):
                                    _Log())
     assert str(there.value) == str(here.value) and "missing.tif" in str(there.value)
     assert list((tmp_path / "apart").iterdir()) == []
+    shadow = tmp_path / "shadow"  # a meshoptimizer that cannot be imported, in the chain's process only
+    shadow.mkdir()
+    (shadow / "meshoptimizer.py").write_text("raise ImportError('not here')\n")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, (str(shadow), os.environ.get("PYTHONPATH")))))
+    with pytest.raises(MissingDependencyError, match="meshoptimizer"):  # the kind of refusal comes back too
+        apart.run_city_model_apart(_inputs(sample), _options(tiles3d_web=True), tmp_path / "web", _Log())
 
 
 def test_cancel_reaches_the_chain_apart_and_nothing_is_left(sample, tmp_path):

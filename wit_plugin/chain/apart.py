@@ -9,8 +9,8 @@ folder and the same report as in QGIS's process, its messages and progress relay
 passed on (the run then stops at its next check and removes what it staged, as in-process).
 
 The parent sends the run as JSON on the child's standard input (a line), then ``cancel`` on a line if the
-user cancels; the child writes its messages and progress on standard error, one JSON record a line after
-``RECORD``, and its report as JSON on standard output. A height expression is QGIS's own: a run with one
+user cancels; the child writes its messages, progress and refusal on standard error, one JSON record a line
+after ``RECORD``, and its report as JSON on standard output. A height expression is QGIS's own: a run with one
 stays in QGIS's process (``runs_apart``).
 """
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import Any
 from ..buildings.heights import HeightOptions
 from ..cityjson.writer import SequencePart
 from ..infra import interpreter
-from ..infra.errors import CanceledError, InputError, WitError
+from ..infra.errors import CanceledError, InputError, MissingDependencyError, WitError
 from ..infra.feedback import Feedback
 from ..prepare.area import StudyArea
 from .citymodel import STEP_PROCESS_MODULES, ChainInputs, ChainOptions, ChainReport, run_city_model
@@ -41,6 +41,7 @@ CANCEL = b"cancel\n"
 CANCELED_STATUS = 3
 CANCEL_GRACE = 60.0  # seconds the run gets to stop at its next check and clean up before it is killed
 CHAIN_MODULES = (*STEP_PROCESS_MODULES, "lxml")
+_REFUSALS: dict[str, type[WitError]] = {kind.__name__: kind for kind in (InputError, MissingDependencyError, WitError)}
 
 
 def runs_apart(options: ChainOptions) -> bool:
@@ -59,6 +60,7 @@ def run_city_model_apart(inputs: ChainInputs, options: ChainOptions, output_dir:
                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     lines: queue.Queue[bytes | None] = queue.Queue()
     result: dict[str, bytes] = {}
+    refusals: list[WitError] = []
     readers = [threading.Thread(target=_lines, args=(process.stderr, lines), daemon=True),
                threading.Thread(target=lambda: result.update(out=process.stdout.read()), daemon=True)]  # type: ignore[union-attr]
     for reader in readers:
@@ -67,7 +69,7 @@ def run_city_model_apart(inputs: ChainInputs, options: ChainOptions, output_dir:
         with contextlib.suppress(OSError):  # (it ended already: its status says why)
             process.stdin.write(request.encode("utf-8") + b"\n")  # type: ignore[union-attr]
             process.stdin.flush()  # type: ignore[union-attr]
-        last_words = _relay(process, lines, feedback)
+        last_words = _relay(process, lines, feedback, refusals)
         for reader in readers:
             reader.join()
     finally:
@@ -76,13 +78,14 @@ def run_city_model_apart(inputs: ChainInputs, options: ChainOptions, output_dir:
             process.wait()
         with contextlib.suppress(OSError):
             process.stdin.close()  # type: ignore[union-attr]
-    return _outcome(process.returncode, result.get("out", b""), last_words)
+    return _outcome(process.returncode, result.get("out", b""), refusals, last_words)
 
 
-def _relay(process: subprocess.Popen, lines: queue.Queue, feedback: Feedback) -> list[str]:
-    """Pass the child's records on to ``feedback`` until it ends, and the user's Cancel on to it (killed if it
-    has not stopped ``CANCEL_GRACE`` seconds later); its other lines (Python's own last words, a library's
-    messages) are returned."""
+def _relay(process: subprocess.Popen, lines: queue.Queue, feedback: Feedback, refusals: list[WitError]
+           ) -> list[str]:
+    """Pass the child's records on to ``feedback`` until it ends (its refusal into ``refusals``), and the user's
+    Cancel on to it (killed if it has not stopped ``CANCEL_GRACE`` seconds later); its other lines (Python's own
+    last words, a library's messages) are returned."""
     other: list[str] = []
     canceled_at: float | None = None
     while True:
@@ -94,7 +97,7 @@ def _relay(process: subprocess.Popen, lines: queue.Queue, feedback: Feedback) ->
             break
         line = raw.decode("utf-8", "replace").rstrip("\n")
         if line.startswith(RECORD):
-            _pass_on(json.loads(line[len(RECORD):]), feedback)
+            _pass_on(json.loads(line[len(RECORD):]), feedback, refusals)
         elif line.strip():
             other.append(line)
         if canceled_at is None and feedback.is_canceled():
@@ -108,8 +111,11 @@ def _relay(process: subprocess.Popen, lines: queue.Queue, feedback: Feedback) ->
     return other
 
 
-def _pass_on(record: dict[str, Any], feedback: Feedback) -> None:
-    if "progress" in record:
+def _pass_on(record: dict[str, Any], feedback: Feedback, refusals: list[WitError]) -> None:
+    if "refused" in record:
+        kind = _REFUSALS.get(record.get("error", ""), InputError)
+        refusals.append(kind(record["refused"]))
+    elif "progress" in record:
         feedback.progress(float(record["progress"]))
     elif "warning" in record:
         feedback.warning(record["warning"])
@@ -123,13 +129,13 @@ def _lines(stream: Any, lines: queue.Queue) -> None:
     lines.put(None)
 
 
-def _outcome(status: int, out: bytes, last_words: list[str]) -> ChainReport:
+def _outcome(status: int, out: bytes, refusals: list[WitError], last_words: list[str]) -> ChainReport:
     if status == 0:
         return ChainReport(**json.loads(out.decode("utf-8")))
     if status == CANCELED_STATUS:
         raise CanceledError("Cancelled by the user.")
-    if status == 2 and last_words:
-        raise InputError(last_words[-1])
+    if refusals:
+        raise refusals[-1]
     how = f"signal {-status}" if status < 0 else f"status {status}"
     raise WitError(f"The chain's process ended with {how}: " + " | ".join(last_words[-5:] or ["no message"]))
 
@@ -173,6 +179,10 @@ class _RecordFeedback(Feedback):
     def info(self, message: str) -> None:
         self._record(info=message)
 
+    def refuse(self, error: WitError) -> None:
+        """Why the run stopped (the parent raises the same kind of error with the same message)."""
+        self._record(refused=str(error), error=type(error).__name__)
+
     def warning(self, message: str) -> None:
         self._record(warning=message)
 
@@ -209,7 +219,7 @@ def main() -> int:
     except CanceledError:
         return CANCELED_STATUS
     except WitError as exc:
-        print(str(exc), file=sys.stderr)
+        feedback.refuse(exc)
         return 2
     sys.stdout.write(json.dumps(report.as_dict()))
     return 0
