@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import re
+import sys
 import time
 
 import pytest
@@ -137,7 +138,6 @@ def test_the_chain_apart_stops_when_its_parent_is_gone(sample, tmp_path):
     """Its standard input closes with the parent: it cancels itself (no orphan keeps building)."""
     import json
     import subprocess
-    import sys
 
     from wit_plugin.infra.interpreter import core_env
 
@@ -153,3 +153,20 @@ def test_the_chain_apart_stops_when_its_parent_is_gone(sample, tmp_path):
     _, err = child.communicate(timeout=60)
     assert child.returncode == apart.CANCELED_STATUS, err[-2000:]
     assert not (tmp_path / "city").exists() or list((tmp_path / "city").iterdir()) == []
+
+
+def test_a_python_that_cannot_import_the_core_is_passed_over(sample, tmp_path, monkeypatch):
+    """The chain is started with each interpreter in turn (no check started first); one that cannot import the core
+    ends before its first record and the next is tried; when the configured one cannot, the refusal says why."""
+    fake = tmp_path / "python3"
+    fake.write_text("#!/bin/sh\necho \"ModuleNotFoundError: No module named 'numpy'\" >&2\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(apart.interpreter, "candidate_pythons", lambda: [str(fake), sys.executable])
+    report = apart.run_city_model_apart(_inputs(sample), _options(metrics=False, tiles3d=False), tmp_path / "city",
+                                        _Log())
+    assert report.valid and (tmp_path / "city" / "model.gml").is_file()
+    monkeypatch.undo()
+    monkeypatch.setenv("WIT_WORKER_PYTHON", str(fake))
+    with pytest.raises(InputError, match=r"The worker Python .*python3 cannot run the core: .*numpy"):
+        apart.run_city_model_apart(_inputs(sample), _options(), tmp_path / "none", _Log())
+    assert not (tmp_path / "none").exists() or list((tmp_path / "none").iterdir()) == []

@@ -52,63 +52,96 @@ def runs_apart(options: ChainOptions) -> bool:
 
 def run_city_model_apart(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
                          feedback: Feedback) -> ChainReport:
-    """``run_city_model`` in a Python program of its own (see the module docstring)."""
-    python = interpreter.core_python(None, CHAIN_MODULES, MODULE)
+    """``run_city_model`` in a Python program of its own (see the module docstring).
+
+    The interpreters ``interpreter.core_python`` would try are tried by starting the chain itself, not a check
+    first (that cost about half a second per run): one that cannot import the core ends before its first record,
+    and the next is tried; when none can, ``core_python`` says why for each.
+    """
     request = json.dumps({"inputs": dataclasses.asdict(inputs), "options": _options_values(options),
-                          "output": str(output_dir)})
-    process = subprocess.Popen([python, "-m", MODULE], env=interpreter.core_env(),  # nosec B603  # our module
-                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    lines: queue.Queue[bytes | None] = queue.Queue()
-    result: dict[str, bytes] = {}
-    refusals: list[WitError] = []
-    readers = [threading.Thread(target=_lines, args=(process.stderr, lines), daemon=True),
-               threading.Thread(target=lambda: result.update(out=process.stdout.read()), daemon=True)]  # type: ignore[union-attr]
-    for reader in readers:
-        reader.start()
-    try:
+                          "output": str(output_dir)}).encode("utf-8") + b"\n"
+    for python in interpreter.candidate_pythons():
+        run = _ChainProcess(python, request)
+        if run.relay(feedback):
+            return run.outcome()
+    interpreter.core_python(None, CHAIN_MODULES, MODULE)  # (raises: naming what each Python lacks)
+    raise InputError("No Python runs the chain.")  # (a Python that imports it ended early: it is not one)
+
+
+class _ChainProcess:
+    """One start of the chain's program: its records relayed, its end read."""
+
+    def __init__(self, python: str, request: bytes):
+        self.process = subprocess.Popen([python, "-m", MODULE], env=interpreter.core_env(),  # nosec B603  # ours
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        self.lines: queue.Queue[bytes | None] = queue.Queue()
+        self.out = b""
+        self.refusals: list[WitError] = []
+        self.last_words: list[str] = []
+        self.records = 0
+        self._readers = [threading.Thread(target=_lines, args=(self.process.stderr, self.lines), daemon=True),
+                         threading.Thread(target=self._read_out, daemon=True)]
+        for reader in self._readers:
+            reader.start()
         with contextlib.suppress(OSError):  # (it ended already: its status says why)
-            process.stdin.write(request.encode("utf-8") + b"\n")  # type: ignore[union-attr]
-            process.stdin.flush()  # type: ignore[union-attr]
-        last_words = _relay(process, lines, feedback, refusals)
-        for reader in readers:
-            reader.join()
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-        with contextlib.suppress(OSError):
-            process.stdin.close()  # type: ignore[union-attr]
-    return _outcome(process.returncode, result.get("out", b""), refusals, last_words)
+            self.process.stdin.write(request)  # type: ignore[union-attr]
+            self.process.stdin.flush()  # type: ignore[union-attr]
 
+    def _read_out(self) -> None:
+        self.out = self.process.stdout.read()  # type: ignore[union-attr]
 
-def _relay(process: subprocess.Popen, lines: queue.Queue, feedback: Feedback, refusals: list[WitError]
-           ) -> list[str]:
-    """Pass the child's records on to ``feedback`` until it ends (its refusal into ``refusals``), and the user's
-    Cancel on to it (killed if it has not stopped ``CANCEL_GRACE`` seconds later); its other lines (Python's own
-    last words, a library's messages) are returned."""
-    other: list[str] = []
-    canceled_at: float | None = None
-    while True:
+    def relay(self, feedback: Feedback) -> bool:
+        """Relay until it ends; False if it could not start the chain (an import failed before any record)."""
         try:
-            raw = lines.get(timeout=0.1)
-        except queue.Empty:
-            raw = b""
-        if raw is None:
-            break
-        line = raw.decode("utf-8", "replace").rstrip("\n")
-        if line.startswith(RECORD):
-            _pass_on(json.loads(line[len(RECORD):]), feedback, refusals)
-        elif line.strip():
-            other.append(line)
-        if canceled_at is None and feedback.is_canceled():
-            canceled_at = time.monotonic()
+            self._relay(feedback)
+            for reader in self._readers:
+                reader.join()
+        finally:
+            if self.process.poll() is None:
+                self.process.kill()
+                self.process.wait()
             with contextlib.suppress(OSError):
-                process.stdin.write(CANCEL)  # type: ignore[union-attr]
-                process.stdin.flush()  # type: ignore[union-attr]
-        elif canceled_at is not None and time.monotonic() - canceled_at > CANCEL_GRACE:
-            process.kill()
-    process.wait()
-    return other
+                self.process.stdin.close()  # type: ignore[union-attr]
+        return not (self.process.returncode and not self.records
+                    and any("ImportError" in line or "ModuleNotFoundError" in line for line in self.last_words))
+
+    def _relay(self, feedback: Feedback) -> None:
+        """Pass the records on to ``feedback`` until the program ends (a refusal into ``refusals``), and the user's
+        Cancel on to it (killed if it has not stopped ``CANCEL_GRACE`` seconds later); its other lines (Python's
+        own last words, a library's messages) go to ``last_words``."""
+        canceled_at: float | None = None
+        while True:
+            try:
+                raw = self.lines.get(timeout=0.1)
+            except queue.Empty:
+                raw = b""
+            if raw is None:
+                break
+            line = raw.decode("utf-8", "replace").rstrip("\n")
+            if line.startswith(RECORD):
+                self.records += 1
+                _pass_on(json.loads(line[len(RECORD):]), feedback, self.refusals)
+            elif line.strip():
+                self.last_words.append(line)
+            if canceled_at is None and feedback.is_canceled():
+                canceled_at = time.monotonic()
+                with contextlib.suppress(OSError):
+                    self.process.stdin.write(CANCEL)  # type: ignore[union-attr]
+                    self.process.stdin.flush()  # type: ignore[union-attr]
+            elif canceled_at is not None and time.monotonic() - canceled_at > CANCEL_GRACE:
+                self.process.kill()
+        self.process.wait()
+
+    def outcome(self) -> ChainReport:
+        status = self.process.returncode
+        if status == 0:
+            return ChainReport(**json.loads(self.out.decode("utf-8")))
+        if status == CANCELED_STATUS:
+            raise CanceledError("Cancelled by the user.")
+        if self.refusals:
+            raise self.refusals[-1]
+        how = f"signal {-status}" if status < 0 else f"status {status}"
+        raise WitError(f"The chain's process ended with {how}: " + " | ".join(self.last_words[-5:] or ["no message"]))
 
 
 def _pass_on(record: dict[str, Any], feedback: Feedback, refusals: list[WitError]) -> None:
@@ -127,17 +160,6 @@ def _lines(stream: Any, lines: queue.Queue) -> None:
     for raw in iter(stream.readline, b""):
         lines.put(raw)
     lines.put(None)
-
-
-def _outcome(status: int, out: bytes, refusals: list[WitError], last_words: list[str]) -> ChainReport:
-    if status == 0:
-        return ChainReport(**json.loads(out.decode("utf-8")))
-    if status == CANCELED_STATUS:
-        raise CanceledError("Cancelled by the user.")
-    if refusals:
-        raise refusals[-1]
-    how = f"signal {-status}" if status < 0 else f"status {status}"
-    raise WitError(f"The chain's process ended with {how}: " + " | ".join(last_words[-5:] or ["no message"]))
 
 
 def _options_values(options: ChainOptions) -> dict[str, Any]:

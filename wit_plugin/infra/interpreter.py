@@ -66,6 +66,12 @@ def core_python(configured: str | None, modules: tuple[str, ...], module: str) -
                      "that does, e.g. a virtual environment with the packages of requirements.txt.")
 
 
+def candidate_pythons() -> list[str]:
+    """The interpreters ``core_python`` tries, in its order: ``$WIT_WORKER_PYTHON`` alone when set."""
+    configured = os.environ.get("WIT_WORKER_PYTHON")
+    return [configured] if configured else _candidates()
+
+
 def _candidates() -> list[str]:
     """Pythons to try, in order: ``sys.executable`` when it is a Python, the one of QGIS's own prefix
     (``bin/python3``, or ``python.exe`` on Windows), then ``python3`` / ``python`` on the PATH."""
