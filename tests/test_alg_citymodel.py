@@ -164,8 +164,8 @@ def test_citymodel_in_one_call_gives_the_same_model(chain, shared_dir, tmp_path)
     produced = {p.name for p in (tmp_path / "city").iterdir()}
     assert {"model.gml", "model_textures", "validation.html", "metrics.csv", "metrics.html", "steps.json"} <= produced
     assert not any(name.startswith((".wit-run-", "work")) for name in produced), "staging or work folder left"
-    assert list(json.loads(result["STEP_TIMES"])) == ["prepare", "coverage", "georeference", "merge", "terrain",
-                                                       "extrude", "metrics", "texture", "3dtiles", "citygml",
+    assert list(json.loads(result["STEP_TIMES"])) == ["prepare", "coverage", "georeference", "merge", "extrude",
+                                                       "terrain", "metrics", "texture", "3dtiles", "citygml",
                                                        "cityjson", "validate"]
     assert result["TILESET"] == str(tmp_path / "city" / "3dtiles" / "tileset.json")
     assert Path(result["TILESET"]).is_file()

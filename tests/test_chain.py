@@ -178,7 +178,7 @@ def test_district_by_name_and_the_whole_chain_result(sample, tmp_path):
     report = run_city_model(_inputs(sample), _options(area=StudyArea.from_district_code(suseo), metrics=True),
                             tmp_path / "city")
     assert report.valid and report.buildings > 0 and report.metrics
-    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "terrain", "extrude", "metrics",
+    assert list(report.seconds) == ["prepare", "coverage", "georeference", "merge", "extrude", "terrain", "metrics",
                                     "texture", "3dtiles", "citygml", "validate"]
 
 

@@ -144,7 +144,8 @@ def _footprint(solid):
     return shapely.Polygon(rings[0][:, :2], [r[:, :2] for r in rings[1:]])
 
 
-def test_run_writes_polygonz_faces_with_fields(tmp_path):
+def _prepared_and_dem(tmp_path):
+    """Two prepared buildings (one with GRO_FLO_CO, one courtyard without) and a DEM with undeclared NoData."""
     from osgeo import gdal, osr
 
     gpkg = tmp_path / "prepared.gpkg"
@@ -173,7 +174,11 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
     data[90:92, 20:22] = -9999.0  # undeclared NoData inside the window read
     dem_ds.GetRasterBand(1).WriteArray(data)
     dem_ds = None
+    return gpkg, dem_path
 
+
+def test_run_writes_polygonz_faces_with_fields(tmp_path):
+    gpkg, dem_path = _prepared_and_dem(tmp_path)
     out = tmp_path / "lod1.gpkg"
     stats = extrude.extrude_buildings(gpkg, dem_path, out, HeightOptions(storey_height=3.5))
     assert stats.solids == 2 and stats.nodata_filled == 4
@@ -198,3 +203,33 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
     roof = shapely.from_wkb(bytes(court[1].GetGeometryRef().ExportToIsoWkb()))
     assert roof.has_z and len(roof.interiors) == 1
     assert not list(tmp_path.glob(".lod1*"))  # no temporary file left behind
+
+
+def test_the_solids_in_their_own_process_are_the_solids_made_here(tmp_path):
+    """The chain runs ``python -m wit_plugin.buildings`` beside the terrain: the same faces, fields and report as
+    in this process, for the chain's height options; a refusal is one line and exit status 2."""
+    import json
+    import subprocess
+    import sys
+
+    from wit_plugin.infra.interpreter import core_env
+
+    gpkg, dem_path = _prepared_and_dem(tmp_path)
+    here = extrude.extrude_buildings(gpkg, dem_path, tmp_path / "here.gpkg", HeightOptions(storey_height=3.5),
+                                     spatial_index=False)
+    done = subprocess.run([sys.executable, "-m", "wit_plugin.buildings", str(gpkg), str(dem_path),
+                           str(tmp_path / "there.gpkg"), "--storey-height", "3.5"],
+                          capture_output=True, text=True, env=core_env(), check=True)
+    assert json.loads(done.stdout) == here.as_dict()
+
+    def faces(path):
+        ds = ogr.Open(str(path))  # (held: its layer dies with it)
+        layer = ds.GetLayerByName(step_layers.LOD1_LAYER)
+        return [(bytes(f.GetGeometryRef().ExportToIsoWkb()), f.items()) for f in layer]
+
+    assert faces(tmp_path / "there.gpkg") == faces(tmp_path / "here.gpkg")
+    refused = subprocess.run([sys.executable, "-m", "wit_plugin.buildings", str(gpkg), str(dem_path),
+                              str(tmp_path / "none.gpkg"), "--height-field", "HGT"], capture_output=True, text=True,
+                             env=core_env())
+    assert refused.returncode == 2 and "height field 'HGT' is not in" in refused.stderr
+    assert len(refused.stderr.splitlines()) == 1 and not (tmp_path / "none.gpkg").exists()

@@ -25,6 +25,7 @@ end, so a failed or cancelled run leaves nothing behind (and never a half-update
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 import subprocess
@@ -76,9 +77,10 @@ MOSAIC_MARGIN = 10.0  # m of orthoimage kept around the area's box
 STEPS_FILE = "steps.json"
 
 #: (label, share of the progress bar) of each step, in the order they start; those run in another process
-#: (share 0: the bar follows the steps beside them) are merge, beside terrain and extrude, metrics, beside
-#: texture and the rest, and 3dtiles, beside citygml, cityjson and validate
-STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 0), ("terrain", 18), ("extrude", 4),
+#: (share 0: the bar follows the steps beside them) are merge and extrude, beside terrain, metrics, beside
+#: texture and the rest, and 3dtiles, beside citygml, cityjson and validate (extrude runs in the chain's process
+#: when a QGIS height expression needs it, before the terrain)
+STEPS = (("prepare", 3), ("coverage", 1), ("georeference", 2), ("merge", 0), ("extrude", 0), ("terrain", 22),
          ("metrics", 0), ("texture", 14), ("3dtiles", 0), ("citygml", 20), ("cityjson", 4), ("validate", 34))
 CITYJSON_FILE = "model.city.json"
 
@@ -195,10 +197,10 @@ def _yield_to_the_chain(pid: int) -> None:
 
 @dataclass(frozen=True)
 class Beside:
-    """A step running in another process: ``wait`` for its end (raises its failure), ``tell`` it that what it
-    waits for is written."""
+    """A step running in another process: ``wait`` for its end (its result; raises its failure), ``tell`` it that
+    what it waits for is written."""
 
-    wait: Callable[[], None]
+    wait: Callable[[], Any]
     tell: Callable[[], None]
 
 
@@ -251,13 +253,13 @@ class _Clock:
         ended: dict[str, Any] = {}
 
         def read() -> None:  # drains its pipes as it writes (a full pipe would stall it) and notes when it ended
-            ended["stderr"] = process.communicate()[1]
+            ended["stdout"], ended["stderr"] = process.communicate()
             ended["at"] = time.perf_counter()
 
         reader = threading.Thread(target=read, name=f"wit-{label}", daemon=True)
         reader.start()
 
-        def wait() -> None:
+        def wait() -> Any:
             while reader.is_alive():
                 reader.join(0.1)
                 if reader.is_alive() and self.feedback.is_canceled():
@@ -270,6 +272,7 @@ class _Clock:
                 raise InputError(f"The {label} step failed: " + " | ".join(lines[-5:]))
             for line in lines:
                 read_step_line(line, self.feedback, label)
+            return json.loads(ended["stdout"]) if ended["stdout"].strip() else None
 
         def tell() -> None:
             with contextlib.suppress(OSError):  # (it ended already: waiting says how)
@@ -363,7 +366,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     merge = [python, "-m", "wit_plugin.mosaic", mosaic, *rasters, "--mode", "feather", "--gain",
              "--extent", *map(repr, extent)]
     with clock.beside("merge", merge) as merging:  # beside the terrain and the solids: they do not read it
-        tin, tin_stats, lod1, lod1_stats = _terrain_and_solids(inputs, options, layers, work, clock)
+        tin, tin_stats, lod1, lod1_stats = _terrain_and_solids(inputs, options, layers, work, python, clock)
         merging.wait()
 
     textures = str(work / "textures")
@@ -416,27 +419,46 @@ def _model_files(python: str, options: ChainOptions, clock: _Clock, layers: Prep
 
 
 def _terrain_and_solids(inputs: ChainInputs, options: ChainOptions, layers: PreparedLayers, work: Path,
-                        clock: _Clock) -> tuple[str, TinStats, str | None, ExtrudeStats | None]:
-    """Steps 4 and 5: the TIN and the LoD1 solids (a tile that owns no building: terrain and roads only)."""
-    with clock.step("terrain") as fb:
-        tin = str(work / "tin.gpkg")
-        config = TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
-                                       triangulator=options.triangulator)
-        tile_context = TileContext(layers.foreign, layers.seam) if layers.seam is not None else None
-        tin_stats = triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
-                                                fb, tile_context)
-    with clock.step("extrude") as fb:
-        lod1 = str(work / "lod1.gpkg") if layers.buildings else None
-        lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
-                                               spatial_index=options.keep_work,
-                                               feedback=fb) if lod1 and layers.buildings else None
-    return tin, tin_stats, lod1, lod1_stats
+                        python: str, clock: _Clock) -> tuple[str, TinStats, str | None, ExtrudeStats | None]:
+    """Steps 4 and 5: the LoD1 solids (in a second process, beside the terrain, which they do not read; here,
+    first, when a QGIS height expression needs this process) and the TIN (a tile that owns no building: terrain
+    and roads only)."""
+    lod1 = str(work / "lod1.gpkg") if layers.buildings else None
+    lod1_stats = None
+    beside = lod1 is not None and options.heights.expression is None
+    if lod1 and layers.buildings and not beside:
+        with clock.step("extrude") as fb:
+            lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
+                                                   spatial_index=options.keep_work, feedback=fb)
+    with _extrude_beside(python, options, clock, layers.buildings, inputs.dem, lod1) if beside \
+            else nullcontext(NOT_RUN) as extruding:
+        with clock.step("terrain") as fb:
+            tin = str(work / "tin.gpkg")
+            config = TerrainConfig(options.max_edge, options.tolerance, spatial_index=options.keep_work,
+                                   triangulator=options.triangulator)
+            tile_context = TileContext(layers.foreign, layers.seam) if layers.seam is not None else None
+            tin_stats = triangulate_terrain(inputs.dem, layers.buildings, layers.roads, tin, layers.study, config,
+                                            fb, tile_context)
+        solids = extruding.wait()
+    return tin, tin_stats, lod1, ExtrudeStats(**solids) if solids is not None else lod1_stats
+
+
+def _extrude_beside(python: str, options: ChainOptions, clock: _Clock, buildings: str | None, dem: str,
+                    lod1: str | None) -> AbstractContextManager[Beside]:
+    heights = options.heights
+    command = [python, "-m", "wit_plugin.buildings", buildings or "", dem, lod1 or "",
+               "--storey-height", repr(heights.storey_height), "--default-height", repr(heights.default_height)]
+    for flag, value in (("--height-field", heights.height_field), ("--expression-column", heights.expression_column),
+                        ("--expression-text", heights.expression_text)):
+        if value:
+            command += [flag, value]
+    return clock.beside("extrude", command + (["--spatial-index"] if options.keep_work else []))
 
 
 def _step_python(options: ChainOptions) -> str:
     """The Python that runs the steps the chain starts in another process: one that imports all of them, found
     (and checked) once."""
-    modules: tuple[str, ...] = STEP_PROCESS_MODULES + ("wit_plugin.mosaic",)
+    modules: tuple[str, ...] = STEP_PROCESS_MODULES + ("wit_plugin.mosaic", "wit_plugin.buildings")
     modules += ("pygltflib", "wit_plugin.tiles3d") if options.tiles3d else ()
     modules += ("meshoptimizer",) if options.tiles3d and options.tiles3d_web else ()
     return core_python(None, modules, "wit_plugin.metrics" if options.metrics else "wit_plugin.mosaic")
