@@ -25,3 +25,19 @@ def test_said_once_passes_each_distinct_message_once_in_order():
     once.warning("2 buildings have no height.")
     assert log.lines == [("info", "The DEM is reprojected on the fly."), ("warning", "The DEM has no CRS."),
                          ("info", "The DEM has no CRS."), ("warning", "2 buildings have no height.")]
+
+
+def test_a_step_beside_says_its_messages_labelled_and_only_the_new_ones():
+    """The solids beside the terrain read the same DEM and say so: the run says it once, unlabelled as first said;
+    what only the step says comes labelled with the step."""
+    log = _Log()
+    once = SaidOnce(log)
+    once.info("The DEM is reprojected on the fly.")
+    extrude = once.labelled("extrude")
+    extrude.info("The DEM is reprojected on the fly.")
+    extrude.info("Heights: 3 from GRO_FLO_CO.")
+    extrude.warning("2 buildings have no height.")
+    once.labelled("merge").warning("2 buildings have no height.")
+    assert log.lines == [("info", "The DEM is reprojected on the fly."),
+                         ("info", "extrude: Heights: 3 from GRO_FLO_CO."),
+                         ("warning", "extrude: 2 buildings have no height.")]

@@ -214,7 +214,7 @@ class _Clock:
     seconds: dict[str, float]  # by step label
 
     def __init__(self, feedback: Feedback):
-        self.feedback, self.seconds = SaidOnce(feedback), {}
+        self.feedback, self.seconds = SaidOnce(feedback), {}  # (a SaidOnce: steps beside label theirs)
         total = sum(share for _, share in STEPS)
         starts = [sum(share for _, share in STEPS[:k]) for k in range(len(STEPS))]
         self.spans = {label: (100.0 * a / total, 100.0 * (a + share) / total)
@@ -270,8 +270,9 @@ class _Clock:
             lines = ended["stderr"].strip().splitlines()
             if process.returncode != 0:
                 raise InputError(f"The {label} step failed: " + " | ".join(lines[-5:]))
+            said = self.feedback.labelled(label)
             for line in lines:
-                read_step_line(line, self.feedback, label)
+                read_step_line(line, said)
             return json.loads(ended["stdout"]) if ended["stdout"].strip() else None
 
         def tell() -> None:

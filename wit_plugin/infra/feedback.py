@@ -67,15 +67,40 @@ class SaidOnce(Feedback):
     def is_canceled(self) -> bool:
         return self._parent.is_canceled()
 
+    def first(self, kind: str, message: str) -> bool:
+        """Whether ``message`` of ``kind`` ("info", "warning") is new (it is then noted as said)."""
+        new = (kind, message) not in self._said
+        self._said.add((kind, message))
+        return new
+
     def info(self, message: str) -> None:
-        if ("info", message) not in self._said:
-            self._said.add(("info", message))
+        if self.first("info", message):
             self._parent.info(message)
 
     def warning(self, message: str) -> None:
-        if ("warning", message) not in self._said:
-            self._said.add(("warning", message))
+        if self.first("warning", message):
             self._parent.warning(message)
+
+    def labelled(self, label: str) -> Feedback:
+        """The messages of a step run beside the others, each said as ``label: message`` unless the same message
+        was said before, by the run or by another step (a step beside reads the same DEM as the run)."""
+        return _Labelled(self, label)
+
+
+class _Labelled(Feedback):
+    def __init__(self, said: SaidOnce, label: str):
+        self._said, self._label = said, label
+
+    def is_canceled(self) -> bool:
+        return self._said.is_canceled()
+
+    def info(self, message: str) -> None:
+        if self._said.first("info", message):
+            self._said.info(f"{self._label}: {message}")
+
+    def warning(self, message: str) -> None:
+        if self._said.first("warning", message):
+            self._said.warning(f"{self._label}: {message}")
 
 
 class LoggingFeedback(Feedback):

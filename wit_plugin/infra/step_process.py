@@ -37,10 +37,10 @@ def run_step(step: Callable[[Feedback], object]) -> int:
     return 0
 
 
-def read_step_line(line: str, feedback: Feedback, label: str) -> None:
-    """Pass one stderr line of a step's process on to ``feedback``, labelled: an information as information,
-    anything else (a warning, or Python's own last words) as a warning."""
+def read_step_line(line: str, feedback: Feedback) -> None:
+    """Pass one stderr line of a step's process on to ``feedback`` (the step's, which labels it): an information as
+    information, anything else (a warning, or Python's own last words) as a warning."""
     if line.startswith(STEP_INFO):
-        feedback.info(f"{label}: {line[len(STEP_INFO):]}")
+        feedback.info(line[len(STEP_INFO):])
     else:
-        feedback.warning(f"{label}: {line.removeprefix(STEP_WARNING)}")
+        feedback.warning(line.removeprefix(STEP_WARNING))
