@@ -73,6 +73,31 @@ def test_undeclared_nodata_is_filled_from_neighbours():
     assert abs(dem.values[4, 4] - (100.0 + xs[4, 4] + ys[4, 4])) < 1.5
 
 
+def test_fills_write_no_work_files_into_the_current_folder(tmp_path, monkeypatch):
+    """GDAL's fill wrote three GeoTIFFs into the current folder (QGIS's may be read-only; a killed process left
+    them there): with GDAL's temporary folder unusable, the DEM's and the coarse terrain's fills still work."""
+    from wit_plugin.tiles3d.coarse import fill_colours
+
+    monkeypatch.chdir(tmp_path)
+    gdal.SetConfigOption("CPL_TMPDIR", str(tmp_path / "no such folder"))
+    try:
+        gt = (0.0, 1.0, 0.0, 10.0, 0.0, -1.0)
+        xs, ys = _centres((10, 10), gt)
+        values = 100.0 + xs + ys
+        values[4:6, 4:6] = -9999.0
+        dem = Dem(values, gt)
+        rgb = np.zeros((8, 8, 3), dtype=np.uint8)
+        rgb[:, :4] = (10, 20, 30)
+        hit = np.zeros((8, 8), dtype=bool)
+        hit[:, :4] = True
+        filled = fill_colours(rgb, hit)
+    finally:
+        gdal.SetConfigOption("CPL_TMPDIR", None)
+    assert dem.nodata_cells == 4 and abs(dem.values[4, 4] - (100.0 + xs[4, 4] + ys[4, 4])) < 1.5
+    assert filled[:, 4:].reshape(-1, 3).tolist() == [[10, 20, 30]] * 32
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_declared_nodata_and_nan():
     values = np.array([[5.0, 7.0, 0.0], [5.0, np.nan, 7.0]])
     dem = Dem(values, (0.0, 1.0, 0.0, 2.0, 0.0, -1.0), nodata=0.0)

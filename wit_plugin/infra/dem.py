@@ -27,7 +27,7 @@ from osgeo import gdal
 from .arrays import ragged_indices
 from .errors import InputError
 from .feedback import SILENT, Feedback
-from .io.raster_io import open_raster, read_window
+from .io.raster_io import fill_nodata, open_raster, read_window
 from .raster_crs import (
     aligned,
     cell_size,
@@ -407,5 +407,5 @@ def _fill_from_neighbours(grid: np.ndarray, missing: np.ndarray) -> np.ndarray:
     data_band, mask_band = data_ds.GetRasterBand(1), mask_ds.GetRasterBand(1)
     data_band.WriteArray(np.where(missing, 0.0, grid))
     mask_band.WriteArray((~missing).astype(np.uint8))
-    gdal.FillNodata(data_band, mask_band, max(rows, cols) + 1, 0)
+    fill_nodata(data_band, mask_band, max(rows, cols) + 1)
     return read_window(data_band, 0, 0, cols, rows, "the filled DEM (in memory)").astype(np.float64)

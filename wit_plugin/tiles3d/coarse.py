@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from osgeo import gdal
 
+from ..infra.io.raster_io import fill_nodata
 from .store import TriangleRows
 from .textures import TextureSet
 
@@ -160,7 +161,7 @@ def fill_colours(rgb: np.ndarray, hit: np.ndarray) -> np.ndarray:
     mask = mem_raster(hit.astype(np.uint8)[None])
     bands = mem_raster(np.moveaxis(rgb, -1, 0))
     for band in range(3):
-        gdal.FillNodata(bands.GetRasterBand(band + 1), mask.GetRasterBand(1), FILL_TEXELS, 0)
+        fill_nodata(bands.GetRasterBand(band + 1), mask.GetRasterBand(1), FILL_TEXELS)
     return np.ascontiguousarray(np.moveaxis(bands.ReadAsArray(), 0, -1))
 
 

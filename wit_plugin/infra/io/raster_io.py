@@ -96,3 +96,10 @@ def read_window(source: gdal.Dataset | gdal.Band, xoff: int, yoff: int, xsize: i
         raise InputError(f"Cannot read {what}{bands}, pixels x {xoff}–{xoff + xsize - 1}, y {yoff}–{yoff + ysize - 1}: "
                          f"{reason.rstrip('. ') or 'read error'}; {DAMAGED_HINT}.")
     return data
+
+
+def fill_nodata(band: gdal.Band, mask: gdal.Band, max_distance: float) -> None:
+    """GDAL's inverse-distance fill of ``band`` where ``mask`` is 0 (in place, no smoothing), its work rasters in
+    memory: by default GDAL writes three GeoTIFFs into the current folder, which inside QGIS may be one the user
+    cannot write (the fill then fails) and which a killed process leaves there."""
+    gdal.FillNodata(band, mask, max_distance, 0, options=["TEMP_FILE_DRIVER=MEM"])
