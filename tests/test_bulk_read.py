@@ -93,6 +93,23 @@ def test_ring_texts_equal_point_by_point_formatting(point_format):
     assert ring_texts(np.empty((0, 3)), np.zeros(0, dtype=int), point_format) == []
 
 
+def test_unique_rows_unordered_group_equal_bytes_even_when_hashes_collide(monkeypatch):
+    """(ring_texts and the 3D Tiles export's transforms: each distinct point once, -0.0 apart from 0.0.)"""
+    from wit_plugin.infra import arrays
+
+    points = np.array([[1.0, 2.0, 3.0], [0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [-0.0, 0.0, 0.0], [1.0, 2.0, 3.5],
+                       [0.0, 0.0, 0.0]])
+    for factor in (arrays._HASH_FACTOR, np.uint64(0)):  # 0: every row hashes alike, so rows are sorted instead
+        monkeypatch.setattr(arrays, "_HASH_FACTOR", factor)
+        distinct, index = arrays.unique_rows_unordered(points)
+        assert len(distinct) == 4  # -0.0 is another point than 0.0 by its bytes, as a transform may tell
+        assert distinct[index].tobytes() == points.tobytes()
+        assert index[0] == index[2] and index[1] == index[5] and len(set(index[[0, 1, 3, 4]].tolist())) == 4
+        uv = points[:, :2].copy()  # rows of two numbers (texture coordinates)
+        distinct, index = arrays.unique_rows_unordered(uv)
+        assert len(distinct) == 3 and distinct[index].tobytes() == uv.tobytes()
+
+
 def test_the_collector_is_paused_inside_and_restored_after():
     import gc
 

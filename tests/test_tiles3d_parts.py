@@ -106,19 +106,6 @@ def test_ring_uv_takes_the_rows_that_fit_their_rings():
     assert uv.tolist() == [[0, 0], [1, 0], [1, 1], [0, 0]] + [[0, 0]] * 6 + [[2, 3]] * 3
 
 
-def test_distinct_points_group_equal_bytes_even_when_hashes_collide(monkeypatch):
-    import wit_plugin.tiles3d.tileset as tileset
-
-    points = np.array([[1.0, 2.0, 3.0], [0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [-0.0, 0.0, 0.0], [1.0, 2.0, 3.5],
-                       [0.0, 0.0, 0.0]])
-    for factor in (tileset._HASH_FACTOR, np.uint64(0)):  # 0: every row hashes alike, so rows are sorted instead
-        monkeypatch.setattr(tileset, "_HASH_FACTOR", factor)
-        distinct, index = tileset._distinct_points(points)
-        assert len(distinct) == 4  # -0.0 is another point than 0.0 by its bytes, as the transforms may tell
-        assert distinct[index].tobytes() == points.tobytes()
-        assert index[0] == index[2] and index[1] == index[5] and len(set(index[[0, 1, 3, 4]].tolist())) == 4
-
-
 def test_distinct_rows_are_those_of_np_unique_on_the_rows_bytes():
     from wit_plugin.tiles3d.glb import distinct_rows
 

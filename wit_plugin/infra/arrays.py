@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+_HASH_FACTOR = np.uint64(0x9E3779B97F4A7C15)  # odd, bits well mixed (2^64 / golden ratio)
+
 
 def ragged_indices(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For ragged groups of ``counts`` items: each item's group index and its index within it."""
@@ -66,3 +68,29 @@ def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     inverse = np.empty(len(rows), dtype=np.int64)
     inverse[order] = np.cumsum(first) - 1
     return rows[order[first]], inverse
+
+
+def unique_rows_unordered(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of a 2-D array of 8-byte numbers, bit for bit (so -0.0 and 0.0 stay apart), in no
+    particular order, and each row's index into them: for work done once per distinct row whose order does not
+    matter (a transform, a formatting), twice as fast as ``unique_rows`` (1.8 million points: 0.43 vs 0.88 s).
+
+    Rows are grouped by a hash of their bytes (a sort of integers, not of 16- or 24-byte rows) and checked
+    against their group's first row; should two different rows share a hash, the rows are sorted instead."""
+    rows = np.ascontiguousarray(rows)
+    if not len(rows):
+        return rows, np.zeros(0, dtype=np.int64)
+    words = rows.view(np.uint64).reshape(len(rows), -1)
+    key = np.zeros(len(rows), dtype=np.uint64)
+    for column in words.T:
+        key = (key ^ column) * _HASH_FACTOR
+        key ^= key >> np.uint64(29)
+    order = np.argsort(key)
+    ordered = key[order]
+    starts = np.flatnonzero(np.append(True, ordered[1:] != ordered[:-1]))
+    group = np.empty(len(rows), dtype=np.int64)
+    group[order] = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(rows))))
+    first = order[starts]
+    if not np.array_equal(words[first][group], words):
+        return unique_rows(rows)
+    return rows[first], group

@@ -39,6 +39,7 @@ import shapely
 from osgeo import osr
 
 from ..infra import step_layers
+from ..infra.arrays import unique_rows_unordered
 from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.io import jsontext
@@ -59,7 +60,6 @@ WALL_RGB = (222, 213, 196)
 ROOF_RGB = (176, 120, 100)
 GROUND_RGB = (150, 150, 140)
 _MAX_MIP = 4
-_HASH_FACTOR = np.uint64(0x9E3779B97F4A7C15)  # odd, bits well mixed (2^64 / golden ratio)
 
 
 @dataclass(frozen=True)
@@ -221,33 +221,6 @@ def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, flo
     return float(a[:, 0].min()), float(a[:, 1].min()), float(a[:, 2].max()), float(a[:, 3].max())
 
 
-def _distinct_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct rows of ``points`` (n, 3), in no particular order, and each row's index into them (each
-    point is then transformed once: transforms are per point, so the results are the same).
-
-    Rows are grouped by a hash of their bytes (a sort of integers, three times faster than one of 24-byte
-    rows) and checked against their group's first row; should two different rows share a hash, the rows are
-    sorted instead."""
-    points = np.ascontiguousarray(points)
-    if not len(points):
-        return points, np.zeros(0, dtype=np.int64)
-    words = points.view(np.uint64)
-    key = np.zeros(len(points), dtype=np.uint64)
-    for column in words.T:
-        key = (key ^ column) * _HASH_FACTOR
-        key ^= key >> np.uint64(29)
-    order = np.argsort(key)
-    ordered = key[order]
-    starts = np.flatnonzero(np.append(True, ordered[1:] != ordered[:-1]))
-    group = np.empty(len(points), dtype=np.int64)
-    group[order] = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(points))))
-    first = order[starts]
-    if not np.array_equal(words[first][group], words):
-        _, first, group = np.unique(points.view(np.dtype((np.void, points.itemsize * 3))).ravel(),
-                                    return_index=True, return_inverse=True)
-    return points[first], group
-
-
 def _ring_uv(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Which faces have a texture row (``uvs``) with one (u, v) per point of their ring (of ``ring_counts``
     points), and the (u, v) of every ring point, rings after one another: their rows', else 0."""
@@ -327,7 +300,7 @@ class _Writer:
         xyz, uv, image = triangles.xyz[own].copy(), triangles.uv[own].astype(np.float64), triangles.image[own]
         _face_up(xyz, uv)
         uv[:, :, 1] = 1.0 - uv[:, :, 1]  # texture table: v up; glTF: v down
-        points, inverse = _distinct_points(xyz.reshape(-1, 3))  # a TIN vertex is a corner of ~6 triangles
+        points, inverse = unique_rows_unordered(xyz.reshape(-1, 3))  # a TIN vertex: corner of ~6 triangles
         local = self.georef.local(frame, points)[inverse].reshape(-1, 3, 3)
         for number in np.unique(image).tolist():
             mine = image == number
