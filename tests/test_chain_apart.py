@@ -3,10 +3,12 @@ folder and report as in-process, its messages and progress relayed, Cancel and r
 from __future__ import annotations
 
 import dataclasses
+import gc
 import os
 import re
 import sys
 import time
+import warnings
 
 import pytest
 
@@ -112,8 +114,7 @@ def test_cancel_reaches_the_chain_apart_and_nothing_is_left(sample, tmp_path):
 
 def test_update_city_model_runs_apart_unless_a_qgis_expression_needs_this_process(sample, tmp_path, monkeypatch):
     calls = []
-    monkeypatch.setattr("wit_plugin.chain.rerun.run_city_model_apart",
-                        lambda *args: calls.append("apart") or run_city_model(*args))
+    monkeypatch.setattr(apart.ChainProgram, "run", lambda self, *args: calls.append("apart") or run_city_model(*args))
     update_city_model(_inputs(sample), _options(metrics=False, tiles3d=False), tmp_path / "a", apart=True)
     assert calls == ["apart"]
     with_expression = _options(metrics=False, tiles3d=False,
@@ -121,6 +122,19 @@ def test_update_city_model_runs_apart_unless_a_qgis_expression_needs_this_proces
     assert not apart.runs_apart(with_expression)
     update_city_model(_inputs(sample), with_expression, tmp_path / "b", apart=True)
     assert calls == ["apart"]  # (here: the expression is QGIS's)
+
+
+def test_the_chain_program_started_ahead_ends_at_once_when_no_run_is_needed():
+    """update_city_model starts the program before the fingerprint (its imports meanwhile); an unchanged build
+    then needs no run: the program ends cleanly when its standard input closes, nothing left open or running."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ResourceWarning)
+        with apart.ChainProgram() as program:
+            process = program.ahead.process
+            time.sleep(0.5)  # (mid-import)
+        gc.collect()
+    assert process.returncode == 0
+    assert [str(w.message) for w in caught if issubclass(w.category, ResourceWarning)] == []
 
 
 def test_the_run_goes_to_the_chain_apart_and_back_whole():
@@ -162,8 +176,12 @@ def test_a_python_that_cannot_import_the_core_is_passed_over(sample, tmp_path, m
     fake.write_text("#!/bin/sh\necho \"ModuleNotFoundError: No module named 'numpy'\" >&2\nexit 1\n")
     fake.chmod(0o755)
     monkeypatch.setattr(apart.interpreter, "candidate_pythons", lambda: [str(fake), sys.executable])
-    report = apart.run_city_model_apart(_inputs(sample), _options(metrics=False, tiles3d=False), tmp_path / "city",
-                                        _Log())
+    with warnings.catch_warnings(record=True) as caught:  # (the passed-over start's pipes were left open: QGIS
+        warnings.simplefilter("always", ResourceWarning)  # printed a ResourceWarning for each)
+        report = apart.run_city_model_apart(_inputs(sample), _options(metrics=False, tiles3d=False),
+                                            tmp_path / "city", _Log())
+        gc.collect()
+    assert [str(w.message) for w in caught if issubclass(w.category, ResourceWarning)] == []
     assert report.valid and (tmp_path / "city" / "model.gml").is_file()
     monkeypatch.undo()
     monkeypatch.setenv("WIT_WORKER_PYTHON", str(fake))

@@ -52,26 +52,48 @@ def runs_apart(options: ChainOptions) -> bool:
 
 def run_city_model_apart(inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
                          feedback: Feedback) -> ChainReport:
-    """``run_city_model`` in a Python program of its own (see the module docstring).
+    """``run_city_model`` in a Python program of its own (see the module docstring)."""
+    with ChainProgram() as program:
+        return program.run(inputs, options, output_dir, feedback)
+
+
+class ChainProgram:
+    """The chain's program started ahead, so that its imports (about 0.4 s) overlap the caller's work before the
+    run (``rerun``: the inputs' fingerprint); ``run`` gives it the run, leaving the block without one ends it.
 
     The interpreters ``interpreter.core_python`` would try are tried by starting the chain itself, not a check
     first (that cost about half a second per run): one that cannot import the core ends before its first record,
     and the next is tried; when none can, ``core_python`` says why for each.
     """
-    request = json.dumps({"inputs": dataclasses.asdict(inputs), "options": _options_values(options),
-                          "output": str(output_dir)}).encode("utf-8") + b"\n"
-    for python in interpreter.candidate_pythons():
-        run = _ChainProcess(python, request)
-        if run.relay(feedback):
-            return run.outcome()
-    interpreter.core_python(None, CHAIN_MODULES, MODULE)  # (raises: naming what each Python lacks)
-    raise InputError("No Python runs the chain.")  # (a Python that imports it ended early: it is not one)
+
+    def __init__(self) -> None:
+        self.pythons = interpreter.candidate_pythons()
+        self.ahead = _ChainProcess(self.pythons[0]) if self.pythons else None
+
+    def __enter__(self) -> ChainProgram:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        if self.ahead is not None:  # (not given a run: its standard input closes, it ends without one)
+            self.ahead.end()
+
+    def run(self, inputs: ChainInputs, options: ChainOptions, output_dir: str | os.PathLike,
+            feedback: Feedback) -> ChainReport:
+        request = json.dumps({"inputs": dataclasses.asdict(inputs), "options": _options_values(options),
+                              "output": str(output_dir)}).encode("utf-8") + b"\n"
+        for python in self.pythons:
+            run, self.ahead = self.ahead or _ChainProcess(python), None
+            run.send(request)
+            if run.relay(feedback):
+                return run.outcome()
+        interpreter.core_python(None, CHAIN_MODULES, MODULE)  # (raises: naming what each Python lacks)
+        raise InputError("No Python runs the chain.")  # (a Python that imports it ended early: it is not one)
 
 
 class _ChainProcess:
-    """One start of the chain's program: its records relayed, its end read."""
+    """One start of the chain's program: its run sent, its records relayed, its end read."""
 
-    def __init__(self, python: str, request: bytes):
+    def __init__(self, python: str):
         self.process = subprocess.Popen([python, "-m", MODULE], env=interpreter.core_env(),  # nosec B603  # ours
                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         self.lines: queue.Queue[bytes | None] = queue.Queue()
@@ -83,9 +105,21 @@ class _ChainProcess:
                          threading.Thread(target=self._read_out, daemon=True)]
         for reader in self._readers:
             reader.start()
+
+    def send(self, request: bytes) -> None:
         with contextlib.suppress(OSError):  # (it ended already: its status says why)
             self.process.stdin.write(request)  # type: ignore[union-attr]
             self.process.stdin.flush()  # type: ignore[union-attr]
+
+    def end(self) -> None:
+        """End a start not given a run (it ends at once when its standard input closes; killed if not)."""
+        with contextlib.suppress(OSError):
+            self.process.stdin.close()  # type: ignore[union-attr]
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+        self._finish()
 
     def _read_out(self) -> None:
         self.out = self.process.stdout.read()  # type: ignore[union-attr]
@@ -94,16 +128,21 @@ class _ChainProcess:
         """Relay until it ends; False if it could not start the chain (an import failed before any record)."""
         try:
             self._relay(feedback)
-            for reader in self._readers:
-                reader.join()
         finally:
-            if self.process.poll() is None:
-                self.process.kill()
-                self.process.wait()
-            with contextlib.suppress(OSError):
-                self.process.stdin.close()  # type: ignore[union-attr]
+            self._finish()
         return not (self.process.returncode and not self.records
                     and any("ImportError" in line or "ModuleNotFoundError" in line for line in self.last_words))
+
+    def _finish(self) -> None:
+        """Killed if still running, its output read to the end, its pipes closed."""
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait()
+        for reader in self._readers:
+            reader.join()
+        for pipe in (self.process.stdin, self.process.stdout, self.process.stderr):
+            with contextlib.suppress(OSError):
+                pipe.close()  # type: ignore[union-attr]
 
     def _relay(self, feedback: Feedback) -> None:
         """Pass the records on to ``feedback`` until the program ends (a refusal into ``refusals``), and the user's
@@ -218,13 +257,14 @@ class _RecordFeedback(Feedback):
         self.canceled.set()
 
 
-def _request() -> tuple[dict[str, Any], bytes]:
-    """The run the parent sent (its first line on standard input) and what came after it."""
+def _request() -> tuple[dict[str, Any] | None, bytes]:
+    """The run the parent sent (its first line on standard input) and what came after it; None if its standard
+    input closed first (it started the program ahead, then needed no run)."""
     received = b""
     while b"\n" not in received:
         chunk = os.read(0, 1 << 16)
         if not chunk:
-            raise InputError("The chain's process was given no run to do.")
+            return None, b""
         received += chunk
     line, _, rest = received.partition(b"\n")
     return json.loads(line), rest
@@ -232,6 +272,8 @@ def _request() -> tuple[dict[str, Any], bytes]:
 
 def main() -> int:
     request, rest = _request()
+    if request is None:
+        return 0
     feedback = _RecordFeedback()
     threading.Thread(target=feedback.listen, args=(rest,), daemon=True).start()
     interpreter.THIS_PROGRAM_IS_OURS = True

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import shutil
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,7 +26,7 @@ from ..infra.io.vector_io import read_layer
 from ..infra.polygons import repair_polygons, transform
 from ..mosaic.georef import list_tifs
 from ..prepare.area import StudyArea
-from .apart import run_city_model_apart, runs_apart
+from .apart import ChainProgram, runs_apart
 from .citymodel import ChainInputs, ChainOptions, ChainReport, run_city_model
 from .coverage import ortho_coverage
 from .fingerprint import (
@@ -113,18 +114,18 @@ def update_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: st
     files are in place (``rebuild``: build anyway); see the module docstring. ``apart``: run it in a Python
     program of its own where it can (``chain.apart``: QGIS's embedded Python is slower)."""
     output = ensure_writable_dir(output_dir)
-    fingerprint = city_model_fingerprint(inputs, options)
-    record = read_record(output)
-    reason = rebuild_reason(fingerprint, record, output, rebuild)
-    if not reason and record is not None:  # (no reason: a finished build is recorded)
-        feedback.info(f"Nothing changed since the last build (fingerprint {fingerprint.digest}): {output} is kept "
-                      "as it is.")
-        feedback.progress(100.0)
-        return UpdateReport(_report_from(record["report"], output), False, "")
-    feedback.info(f"Building (fingerprint {fingerprint.digest}): {reason}.")
-    (output / BUILD_FILE).unlink(missing_ok=True)  # from here until the new record, the folder is not current
-    run = run_city_model_apart if apart and runs_apart(options) else run_city_model
-    report = run(inputs, options, output, feedback)
+    with ChainProgram() if apart and runs_apart(options) else nullcontext() as program:  # (its start-up meanwhile)
+        fingerprint = city_model_fingerprint(inputs, options)
+        record = read_record(output)
+        reason = rebuild_reason(fingerprint, record, output, rebuild)
+        if not reason and record is not None:  # (no reason: a finished build is recorded)
+            feedback.info(f"Nothing changed since the last build (fingerprint {fingerprint.digest}): {output} is "
+                          "kept as it is.")
+            feedback.progress(100.0)
+            return UpdateReport(_report_from(record["report"], output), False, "")
+        feedback.info(f"Building (fingerprint {fingerprint.digest}): {reason}.")
+        (output / BUILD_FILE).unlink(missing_ok=True)  # from here until the new record, the folder is not current
+        report = (program.run if program else run_city_model)(inputs, options, output, feedback)
     for name in set((record or {}).get("files", [])) - set(report.files) - {BUILD_FILE}:  # the old build's only
         stale = output / name
         if stale.is_dir() and not stale.is_symlink():

@@ -3,8 +3,9 @@ next steps), and which runs pip for QGIS's Python (``this_python``).
 
 Inside QGIS on Windows and macOS ``sys.executable`` is QGIS itself: starting it would open QGIS again.
 So a separate process always gets an explicit interpreter: the one configured, else the first Python
-that imports what the work needs among ``sys.executable`` (only when it is a Python), the Python of
-QGIS's own prefix, and ``python3`` / ``python`` on the PATH; the core comes from this checkout.
+that imports what the work needs among the Python of this installation (QGIS's own prefix, or the virtual
+environment running), ``sys.executable`` (only when it is a Python), and ``python3`` / ``python`` on the PATH
+(see ``_candidates``); the core comes from this checkout.
 """
 from __future__ import annotations
 
@@ -73,13 +74,27 @@ def candidate_pythons() -> list[str]:
 
 
 def _candidates() -> list[str]:
-    """Pythons to try, in order: ``sys.executable`` when it is a Python, the one of QGIS's own prefix
-    (``bin/python3``, or ``python.exe`` on Windows), then ``python3`` / ``python`` on the PATH."""
-    candidates = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
+    """Pythons to try, in order: ``sys.executable`` when it is a Python of this installation (a virtual
+    environment's own), the one of QGIS's own prefix (``bin/python3``, or ``python.exe`` on Windows), then
+    ``sys.executable`` when it is another Python, then ``python3`` / ``python`` on the PATH.
+
+    Inside qgis_process ``sys.executable`` is whatever ``python3`` the PATH finds first (a pyenv shim, say):
+    tried first, it cost a failed start of a few tenths of a second each run."""
+    executable = [sys.executable] if Path(sys.executable).name.lower().startswith("python") else []
     prefix = Path(sys.exec_prefix)
-    on_path = (shutil.which("python3"), shutil.which("python"))
-    candidates += [str(prefix / "bin" / "python3"), str(prefix / "python.exe"), *(c for c in on_path if c)]
+    own = [str(prefix / "bin" / "python3"), str(prefix / "python.exe")]
+    on_path = [c for c in (shutil.which("python3"), shutil.which("python")) if c]
+    if executable and _within(sys.executable, sys.prefix):
+        candidates = executable + own + on_path
+    else:
+        candidates = own + executable + on_path
     return list(dict.fromkeys(c for c in candidates if Path(c).is_file()))
+
+
+def _within(path: str, folder: str) -> bool:
+    """Whether ``path`` lies in ``folder`` as written (a virtual environment's ``bin/python`` is a link out of it)."""
+    path, folder = os.path.abspath(path), os.path.abspath(folder)
+    return os.path.commonpath([path, folder]) == folder
 
 
 def this_python(configured: str | None = None) -> str:
