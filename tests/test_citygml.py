@@ -417,17 +417,36 @@ def test_raw_texture_association_is_what_lxml_would_write(tmp_path, surface):
     assert lxml_part == raw_part and raw_part.startswith("\n<app:textureParameterization>")
 
 
-def test_texture_coordinates_are_checked_and_normalised_in_bulk():
-    what = "triangle {}".format
+def _uv_column(texts: list[str | None]) -> np.ma.MaskedArray:
+    """A text column as GDAL's Arrow reader gives it: fixed-width UTF-8 bytes, NULL masked."""
+    return np.ma.masked_array(np.array([(t or "").encode() for t in texts], dtype="S"), [t is None for t in texts])
+
+
+def test_texture_coordinates_are_checked_and_normalised_a_batch_at_once():
     texts = ["0.1234567891 0.5 1.0 0 -0.0 1e-05 0.1234567891 0.5", "0.25 0.75 0.5 0.5 1 1 0.25 0.75"]
     expected = [" ".join(format(float(v), ".7g") for v in t.split()) for t in texts]
-    assert citygml._uv(texts, what, True) == expected
-    assert citygml._uv(["0 0 1 0 1 1 0 1 0 0"], what, False) == ["0 0 1 0 1 1 0 1 0 0"]
-    assert citygml._uv([texts[0], "0.25\t0.75  0.5 0.5 1 1\n0.25 0.75 "], what, True) == expected  # any spacing
-    for bad, triangles in (("0 0 1 0 1 1", True), ("0 0 1 0 1 1 0 0 1", True), ("0 0 1 0 1 1 0 0 nan 0", False),
-                           ("0 0 1 x 1 1 0 0", True), ("", True), ("0 0 1 0 1 1 0 0 0 0", True)):
-        with pytest.raises(InputError, match=r"triangle 1 are not a valid list"):
-            citygml._uv([texts[1], bad], what, triangles)
+    tin = (["tin", "tin"], ["7", "8"], ["", ""])
+    assert citygml._uv_texts(_uv_column(texts), *tin, "t.gpkg") == expected
+    aligned = ["0.250000000000 0.750000000000 0.500000000000 0.500000000000 1.000000000000 1.000000000000 "
+               "0.250000000000 0.750000000000"] * 2  # the texture step's "%.12f" (parsed column by column)
+    assert citygml._uv_texts(_uv_column(aligned), *tin, "t.gpkg") == [expected[1]] * 2
+    assert citygml._uv_texts(_uv_column(["0 0 1 0 1 1 0 1 0 0"]), ["roof"], ["BLD_1"], ["2"], "t.gpkg") == [
+        "0 0 1 0 1 1 0 1 0 0"]
+    irregular = [texts[0], "0.25\t0.75  0.5 0.5 1 1\n0.25 0.75 "]  # any spacing
+    assert citygml._uv_texts(_uv_column(irregular), *tin, "t.gpkg") == expected
+    assert citygml._uv_texts(np.array(irregular, dtype=object), *tin, "t.gpkg") == expected
+    for bad, target, surface in (("0 0 1 0 1 1", "tin", "TIN triangle 8"), ("0 0 1 0 1 1 0 0 1", "road", "road tri_8"),
+                                 ("0 0 1 0 1 1 0 0 nan 0", "wall", "wall 8_f3"), ("0 0 1 x 1 1 0 0", "tin", "TIN "),
+                                 ("", "tin", "TIN "), (None, "roof", "roof 8_f3"),
+                                 ("0 0 1 0 1 1 0 0 0 0", "tin", "TIN ")):
+        with pytest.raises(InputError, match=f"Texture coordinates of {surface}.* in t.gpkg are not a valid list"):
+            citygml._uv_texts(_uv_column([texts[1], bad]), ["tin", target], ["7", "8"], ["", "3"], "t.gpkg")
+    with pytest.raises(InputError, match="t.gpkg has the unknown target 'door'"):  # the first row that is wrong
+        citygml._uv_texts(_uv_column([texts[1], "0 0 1", texts[1]]), ["tin", "door", "tin"], ["7", "8", "9"],
+                          ["", "", ""], "t.gpkg")
+    with pytest.raises(InputError, match="TIN triangle 8 in t.gpkg are not"):
+        citygml._uv_texts(_uv_column([texts[1], "0 0 1", texts[1]]), ["tin", "tin", "door"], ["7", "8", "9"],
+                          ["", "", ""], "t.gpkg")
 
 
 @pytest.mark.parametrize("text", ["", NASTY.replace("\x01", "").replace("\x1f", ""), "cr\r lf\n tab\t", "]]> 수서 😀"])

@@ -36,9 +36,10 @@ from dataclasses import dataclass
 from itertools import chain, groupby, islice
 from operator import itemgetter
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 from xml.sax.saxutils import escape  # nosec B406  # escapes what is written; nothing is parsed with it
 
+import numpy as np
 from lxml import etree
 from osgeo import ogr
 
@@ -49,6 +50,7 @@ from ..infra.gc_pause import collector_paused
 from ..infra.io import bulk_read
 from ..infra.io.fileio import atomic_file, copy_images
 from ..infra.numtext import ring_texts
+from ..infra.texcoords import parse_texcoord_column
 from .inputs import (
     BULK,
     CityGMLInputs,
@@ -192,11 +194,50 @@ def _batches(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
         yield batch
 
 
-def _uv(texts: list[str], what: Callable[[int], str], triangles: bool) -> list[str]:
-    """Validated texture coordinates (``uv_values``), normalised to 7 significant digits (each distinct pair
-    formatted once)."""
-    values, counts = uv_values(texts, what, triangles)
-    return ring_texts(values, counts, "%.7g %.7g")
+_TEXTURE_COLUMNS = (step_layers.TEX_IMAGE, step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE)
+_UV_FORMAT = "%.7g %.7g"  # texture coordinates: 7 significant digits (a texel of a 10⁶-texel side)
+_TRIANGLE_TARGETS = ("tin", "road")  # one texture row per triangle: 4 (u, v) pairs, closing pair included
+
+
+def _texture_rows(batch: dict[str, np.ndarray], path: str) -> Iterator[tuple[str, str, str, str, str]]:
+    """A batch of the texture table as (image, target, feature, face, uv) texts, uv checked and normalised to 7
+    significant digits: the batch's texts parsed at once from their bytes (``parse_texcoord_column``), each
+    distinct pair formatted once (``ring_texts``); a batch with a text to report is read text by text."""
+    images, targets, features, faces = (bulk_read.texts(batch[name]) for name in _TEXTURE_COLUMNS)
+    uv = _uv_texts(batch[step_layers.TEX_COORDS], targets, features, faces, path)
+    return zip(images, targets, features, faces, uv)
+
+
+def _uv_texts(column: np.ndarray, targets: list[str], features: list[str], faces: list[str], path: str) -> list[str]:
+    try:
+        values, counts = parse_texcoord_column(column)
+    except ValueError:
+        return _uv_texts_one_by_one(bulk_read.texts(column), targets, features, faces, path)
+    triangle = np.isin(np.array(targets, dtype=object), _TRIANGLE_TARGETS)
+    if (np.where(triangle, counts != 4, counts < 4)).any() or not np.isfinite(values).all():
+        return _uv_texts_one_by_one(bulk_read.texts(column), targets, features, faces, path)
+    return ring_texts(values, counts, _UV_FORMAT)
+
+
+def _uv_texts_one_by_one(texts: list[str], targets: list[str], features: list[str], faces: list[str],
+                         path: str) -> list[str]:
+    """``_uv_texts`` text by text: the first row in the table's order that is wrong is reported (an unknown target,
+    or texture coordinates that are not u v pairs)."""
+    pairs, counts = [], []
+    for text, target, feature, face in zip(texts, targets, features, faces):
+        if target not in step_layers.TEX_TARGETS:
+            raise unknown_target(target, path)
+        surface = (f"TIN triangle {feature}" if target == "tin" else f"road tri_{feature}" if target == "road"
+                   else f"{target} {feature}_f{face}")
+        values, count = uv_values([text], lambda _i, name=surface: f"{name} in {path}", target in _TRIANGLE_TARGETS)
+        pairs.append(values)
+        counts.append(count)
+    return ring_texts(np.concatenate(pairs) if pairs else np.zeros((0, 2)),
+                      np.concatenate(counts) if counts else np.zeros(0, dtype=np.int64), _UV_FORMAT)
+
+
+def unknown_target(target: str, path: str) -> InputError:
+    return InputError(f"Texture table {path} has the unknown target {target!r}: use roof, wall, road or tin.")
 
 
 class _Progress:
@@ -419,11 +460,9 @@ class _Writer:
 
     def appearance(self, texcoords: InputLayer, uris: dict[str, str]) -> None:
         """Per image one ``app:Appearance`` (``app_1``…) with its ``ParameterizedTexture`` (``tex_1``…)."""
-        order = (step_layers.TEX_IMAGE, step_layers.TEX_TARGET, step_layers.TEX_FEATURE, step_layers.TEX_FACE)
-        with texcoords.select(order=order) as result:
-            rows = chain.from_iterable(
-                zip(*(bulk_read.texts(batch[name]) for name in order + (step_layers.TEX_COORDS,)))
-                for batch in bulk_read.batches(result, BULK))
+        with texcoords.select(order=_TEXTURE_COLUMNS) as result:
+            batches = bulk_read.batches(result, BULK)
+            rows = chain.from_iterable(_texture_rows(batch, texcoords.path) for batch in batches)
             for number, (image, group) in enumerate(groupby(rows, key=itemgetter(0)), 1):
                 # one appearanceMember per image: a reader (or validator) streaming member by member
                 # then holds one image's associations, not the whole model's
@@ -449,38 +488,25 @@ class _Writer:
     def textured(self, target: str, rows: Iterator[tuple[str, ...]], path: str) -> None:
         """Texture associations: one per roof or wall face / road triangle, one for all TIN triangles.
 
-        ``rows``: (image, target, feature, face, uv) texts. The TIN's association lists the ring
-        ids after all coordinates, so those ids (not the coordinates) are held for one image's
-        terrain triangles. The associations' markup is ready-made (``raw``), a batch at a time.
+        ``rows``: (image, target, feature, face, uv) texts, uv checked and normalised (``_texture_rows``). The TIN's
+        association lists the ring ids after all coordinates, so those ids (not the coordinates) are held for one
+        image's terrain triangles. The associations' markup is ready-made (``raw``), a batch at a time.
         """
         if target not in step_layers.TEX_TARGETS:
-            raise InputError(f"Texture table {path} has the unknown target {target!r}: use roof, wall, road or tin.")
+            raise unknown_target(target, path)
         refs: list[str] = []
         with contextlib.ExitStack() as stack:
             if target == "tin":
                 stack.enter_context(self.association(f"#{TIN_SURFACE_ID}"))
             for batch in _batches(rows, self.RAW_BATCH):
                 if target in ("roof", step_layers.TEX_WALL):
-                    surfaces = [f"{row[2]}_f{row[3]}" for row in batch]
-                    def face_of(i: int, names: list[str] = surfaces) -> str:
-                        return f"{target} {names[i]} in {path}"
-
-                    coords = _uv([row[4] for row in batch], face_of, False)
-                    self.raw("".join(_ASSOCIATION.format(surface=xml_text(surface), uv=uv)
-                                     for surface, uv in zip(surfaces, coords)))
+                    self.raw("".join(_ASSOCIATION.format(surface=xml_text(f"{row[2]}_f{row[3]}"), uv=row[4])
+                                     for row in batch))
+                elif target == "tin":
+                    self.raw("".join(f"<app:textureCoordinates>{row[4]}</app:textureCoordinates>" for row in batch))
+                    refs.extend(f"<app:ring>#tri_{escape(row[2])}_r</app:ring>" for row in batch)
                 else:
-                    features = [escape(row[2]) for row in batch]
-                    label = "TIN triangle {} in {}" if target == "tin" else "road tri_{} in {}"
-                    def triangle_of(i: int, rows: list = batch, label: str = label) -> str:
-                        return label.format(rows[i][2], path)
-
-                    coords = _uv([row[4] for row in batch], triangle_of, True)
-                    if target == "tin":
-                        self.raw("".join(f"<app:textureCoordinates>{uv}</app:textureCoordinates>" for uv in coords))
-                        refs.extend(f"<app:ring>#tri_{feature}_r</app:ring>" for feature in features)
-                    else:
-                        self.raw("".join(_ASSOCIATION.format(surface=f"tri_{feature}", uv=uv)
-                                         for feature, uv in zip(features, coords)))
+                    self.raw("".join(_ASSOCIATION.format(surface=f"tri_{escape(row[2])}", uv=row[4]) for row in batch))
                 self.report.textured_surfaces += len(batch)
                 self.progress.tick(len(batch))
             for start in range(0, len(refs), self.RAW_BATCH):
