@@ -370,7 +370,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     extent = (xmin - MOSAIC_MARGIN, ymin - MOSAIC_MARGIN, xmax + MOSAIC_MARGIN, ymax + MOSAIC_MARGIN)
     python = _step_python(options)
     merge = [python, "-m", "wit_plugin.mosaic", mosaic, *rasters, "--mode", "feather", "--gain",
-             "--extent", *map(repr, extent)]
+             "--extent", *map(repr, extent), "--compression", "fast"]  # (read by the next steps only)
     with clock.beside("merge", merge) as merging:  # beside the terrain and the solids: they do not read it
         tin, tin_stats, lod1, lod1_stats = _terrain_and_solids(inputs, options, layers, work, python, clock)
         merging.wait()

@@ -24,7 +24,8 @@ Guarantees:
   never blended as a value. The output declares NoData if any input did.
 * Memory does not grow with the mosaic: the output is computed in ``block_size`` windows, each
   input is read only over the window it overlaps, and the GDAL block cache is capped during the
-  run. The output is a tiled, DEFLATE-compressed GeoTIFF with internal overviews (COG-style).
+  run. The output is a tiled, DEFLATE-compressed GeoTIFF with internal overviews (COG-style); a mosaic the
+  next steps read, not kept (the chain's), is compressed for speed instead (``compression="fast"``: ZSTD).
 
 Modules: ``sources`` (the inputs checked, warped if needed and placed on the output grid),
 ``output`` (tone correction, blending and writing block by block); this one runs the step.
@@ -41,7 +42,7 @@ from ..infra.errors import InputError
 from ..infra.feedback import SILENT, Feedback
 from ..infra.gdal_env import capped_block_cache
 from ..infra.io.fileio import atomic_file
-from .output import MergeReport, _estimate_tone, _write
+from .output import COMPRESSIONS, MergeReport, _estimate_tone, _write
 from .sources import (
     _BlockIndex,
     _bounds,
@@ -73,6 +74,7 @@ def merge_rasters(
     block_size: int = 1024,
     max_empty: float = DEFAULT_MAX_EMPTY,
     extent: tuple[float, float, float, float] | None = None,
+    compression: str = "deflate",
 ) -> MergeReport:
     """Mosaic ``inputs`` into the GeoTIFF ``output``; see the module docstring for the rules.
 
@@ -83,6 +85,7 @@ def merge_rasters(
     written. ``extent`` (xmin, ymin, xmax, ymax in the inputs' CRS) writes only the pixels of the
     mosaic's grid that meet it (a study area needs a few hundred metres of sheets that are
     kilometres wide): tone, feathering and every written pixel are those of the whole mosaic.
+    ``compression``: one of ``COMPRESSIONS`` (the same pixels either way).
     Raises ``InputError`` for unusable inputs, ``CanceledError`` on cancel (no output is left behind
     in either case).
     """
@@ -92,6 +95,8 @@ def merge_rasters(
         raise InputError("No input rasters given: select at least one tile to merge.")
     if not 0.0 <= max_empty <= 1.0:
         raise InputError(f"Maximum empty share {max_empty:g} is out of range: use 0–1 (0–100 %).")
+    if compression not in COMPRESSIONS:
+        raise InputError(f"Unknown compression {compression!r}: use one of {', '.join(COMPRESSIONS)}.")
     if block_size < 16:
         raise InputError(f"Block size {block_size} is too small: use at least 16 pixels.")
     use_gain = (mode == "feather") if gain is None else bool(gain)
@@ -144,6 +149,6 @@ def merge_rasters(
             gains=gains.tolist(), offsets=offsets.tolist(),
             resampled=[p for p, why in zip(inputs, warp_reasons) if why])
         with atomic_file(output) as tmp:
-            _write(tmp, first, index, report, dtype, feedback)
+            _write(tmp, first, index, report, dtype, feedback, compression)
     feedback.progress(100.0)
     return report
