@@ -313,8 +313,8 @@ def test_a_step_beside_that_fails_or_is_cancelled_stops_the_run():
 
 def test_a_step_beside_waits_until_told_and_is_stopped_with_the_block(tmp_path):
     """The metrics start beside the texture step and read the images once told (a line on their standard input);
-    a block that fails stops a step that still waits (it is never told, never left running). A step beside runs
-    at a lower priority than the chain (the chain's steps are the path the others wait for)."""
+    a block that fails stops a step that still waits (it is never told, never left running). Every step beside
+    runs at a lower priority than the chain (the chain's steps are the path the others wait for)."""
     log = _Log()
     clock = _Clock(log)
     code = ("import os, sys, time\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
@@ -329,6 +329,11 @@ def test_a_step_beside_waits_until_told_and_is_stopped_with_the_block(tmp_path):
     assert told and told[0].startswith("metrics: told 'go' after ") and float(told[0].split()[-2]) >= 0.9
     ours = os.getpriority(os.PRIO_PROCESS, 0)
     assert f"metrics: niceness {min(ours + BESIDE_NICENESS, 19)}" in log.infos
+    niceness = ("import os\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
+                "step_process_feedback().info(f'merging at niceness {os.getpriority(os.PRIO_PROCESS, 0)}')\n")
+    with clock.beside("merge", _child(niceness)) as merging:  # (the texture step waits for it: the terrain is the
+        merging.wait()  # path while it runs, and once the chain waits, idle, it gets the CPU all the same)
+    assert f"merge: merging at niceness {min(ours + BESIDE_NICENESS, 19)}" in log.infos
     waiting = _child("import pathlib, sys\nsys.stdin.readline()\npathlib.Path(sys.argv[1]).write_text('read')")
     marker = tmp_path / "read.txt"
     started = time.perf_counter()
