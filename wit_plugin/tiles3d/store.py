@@ -16,7 +16,8 @@ the model (the inputs need no spatial index of their own, and are never written 
   surfaces, corners as 9 float64, image numbers, 3 uv pairs: columns of numbers in one blob each);
   ``spill_block`` the same for the triangles whose extent reaches another leaf (a leaf's coarse
   terrain is sampled from its own triangles and those), a few per cent of them, by that leaf;
-  ``tex_block`` the texture table's triangle rows, one block per batch read, sorted by id.
+  ``tex_block`` the texture table's triangle rows, blocks of a batch read each in one bucket of ids
+  (``TEX_BUCKET``), sorted by id.
 
 Batches are read as columns (GDAL's Arrow interface where it exists); triangles are written and read
 in blocks (a row per triangle cost more, in and out, than all the rest of their staging), the
@@ -48,6 +49,10 @@ FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not e
 SURFACES = {name: number for number, name in enumerate(step_layers.TIN_SURFACES)}
 PER_FACE_FIELDS = (step_layers.FACE_TYPE, step_layers.FACE_NUMBER)
 BATCH = 20_000
+TEX_BUCKET = 20_000
+"""TIN triangle ids per texture block: a batch of the texture table (in image order) holds ids from all over the TIN,
+so it is stored as blocks of ids in one bucket each; a batch of TIN triangles (in id order) then meets a few blocks
+of each batch, not all of them whole (the blocks read for the 1 km sample's triangles: 0.38 -> 0.05 s)."""
 _PLAIN_FIELDS = (ogr.OFTInteger, ogr.OFTInteger64, ogr.OFTReal, ogr.OFTString)
 
 
@@ -195,10 +200,13 @@ class Store:
                 order = np.argsort(ids, kind="stable")
                 last = np.append(ids[order][1:] != ids[order][:-1], True)
                 order = order[last]
-                corners = uv[starts[tri[order]][:, None] + np.arange(3)]
-                self.db.execute("INSERT INTO tex_block VALUES (?, ?, ?, ?, ?)", (
-                    int(ids[order[0]]), int(ids[order[-1]]), ids[order].tobytes(), image[tri[order]].tobytes(),
-                    np.ascontiguousarray(corners, dtype=np.float32).tobytes()))
+                corners = np.ascontiguousarray(uv[starts[tri[order]][:, None] + np.arange(3)], dtype=np.float32)
+                sorted_ids, sorted_image = ids[order], image[tri[order]]
+                _, first = np.unique(sorted_ids // TEX_BUCKET, return_index=True)
+                self.db.executemany("INSERT INTO tex_block VALUES (?, ?, ?, ?, ?)", [
+                    (int(sorted_ids[a]), int(sorted_ids[b - 1]), sorted_ids[a:b].tobytes(),
+                     sorted_image[a:b].tobytes(), corners[a:b].tobytes())
+                    for a, b in zip(first.tolist(), [*first[1:].tolist(), len(order)])])
         del layer, ds
         self.images = sorted(numbers, key=numbers.__getitem__)
         self.db.executemany("INSERT INTO image VALUES (?, ?)", [(n, name) for name, n in numbers.items()])
