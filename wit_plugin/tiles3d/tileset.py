@@ -391,8 +391,7 @@ class _Writer:
         ring_xyz = shapely.get_coordinates(rings, include_z=True)
         textured, uv = _ring_uv([rows.face_uv[i] for i in walls.tolist()], shapely.get_num_coordinates(rings))
         index, owner = fan_corners(polygons)
-        xyz = ring_xyz[index]
-        local = self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3)
+        local = self.georef.local(frame, ring_xyz)[index]  # (each ring point once: it is a corner of ~3 triangles)
         feature = rows.face_building[walls][owner]
         image = np.where(textured, rows.face_image[walls], -1)[owner]
         first = np.concatenate([[True], owner[1:] != owner[:-1]])  # each face's first fan triangle
@@ -409,7 +408,7 @@ class _Writer:
             else:
                 glb.triangles(local[mine], glb.plain_material(WALL_RGB, lit=True, name="wall"), feature=feature[mine],
                               normals=normals[mine])
-        return xyz.reshape(-1, 3)
+        return ring_xyz
 
     # --- tile bookkeeping --------------------------------------------------------------------
 
