@@ -19,7 +19,7 @@ from wit_plugin.buildings.heights import HeightOptions
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
 from wit_plugin.chain.citymodel import BESIDE_NICENESS, _Clock
 from wit_plugin.infra import step_layers
-from wit_plugin.infra.errors import CanceledError, InputError
+from wit_plugin.infra.errors import CanceledError, InputError, MissingDependencyError
 from wit_plugin.infra.feedback import Feedback
 from wit_plugin.infra.io.vector_io import read_layer
 from wit_plugin.prepare.area import StudyArea
@@ -286,19 +286,27 @@ def test_a_step_beside_passes_its_messages_on_and_is_timed_by_its_own_end():
     its time is its own (0.3 s), not the 2 s the block took before waiting for it."""
     log = _Log()
     clock = _Clock(log)
-    code = ("import sys, time\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
-            "f = step_process_feedback()\nf.info('read 3 sheets')\nf.warning('sheet 4 is empty')\n"
-            "sys.stderr.write('x' * 200_000 + '\\n')\ntime.sleep(0.3)\n")
+    code = ("import sys, time\nfrom wit_plugin.infra.step_process import RecordFeedback\n"
+            "f = RecordFeedback()\nf.info('read 3 sheets')\nf.warning('sheet 4 is empty\\nsheet 5 too')\n"
+            "f.progress(50.0)\nsys.stderr.write('x' * 200_000 + '\\n')\ntime.sleep(0.3)\n")
     with clock.beside("merge", _child(code)) as merging:
         time.sleep(2.0)
         merging.wait()
     assert "merge: read 3 sheets" in log.infos
-    assert log.warnings[0] == "merge: sheet 4 is empty" and log.warnings[1] == "merge: " + "x" * 200_000
+    assert log.warnings[0] == "merge: sheet 4 is empty\nsheet 5 too"  # (a message of two lines stays one)
+    assert log.warnings[1] == "merge: " + "x" * 200_000  # (a line not a record: a library's, say)
     assert 0.3 <= clock.seconds["merge"] < 1.5
 
 
 def test_a_step_beside_that_fails_or_is_cancelled_stops_the_run():
     clock = _Clock(_Log())
+    refusal = ("import sys\nfrom wit_plugin.infra.errors import MissingDependencyError\n"
+               "from wit_plugin.infra.step_process import run_step\n"
+               "def step(feedback):\n    raise MissingDependencyError('pygltflib is not installed')\n"
+               "sys.exit(run_step(step))\n")
+    with pytest.raises(MissingDependencyError, match=r"^The 3dtiles step failed: pygltflib is not installed$"):
+        with clock.beside("3dtiles", _child(refusal)) as exporting:  # (its kind kept, as the chain apart's)
+            exporting.wait()
     with pytest.raises(InputError, match=r"^The metrics step failed: .*ValueError: no footprints"):
         with clock.beside("metrics", _child("raise ValueError('no footprints')")) as measuring:
             measuring.tell()  # (it ended already: telling it is no error, waiting says how it ended)
@@ -317,8 +325,8 @@ def test_a_step_beside_waits_until_told_and_is_stopped_with_the_block(tmp_path):
     runs at a lower priority than the chain (the chain's steps are the path the others wait for)."""
     log = _Log()
     clock = _Clock(log)
-    code = ("import os, sys, time\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
-            "f = step_process_feedback()\nstarted = time.perf_counter()\nline = sys.stdin.readline()\n"
+    code = ("import os, sys, time\nfrom wit_plugin.infra.step_process import RecordFeedback\n"
+            "f = RecordFeedback()\nstarted = time.perf_counter()\nline = sys.stdin.readline()\n"
             "f.info(f'told {line.strip()!r} after {time.perf_counter() - started:.1f} s')\n"
             "f.info(f'niceness {os.getpriority(os.PRIO_PROCESS, 0)}')\n")
     with clock.beside("metrics", _child(code)) as measuring:
@@ -329,8 +337,8 @@ def test_a_step_beside_waits_until_told_and_is_stopped_with_the_block(tmp_path):
     assert told and told[0].startswith("metrics: told 'go' after ") and float(told[0].split()[-2]) >= 0.9
     ours = os.getpriority(os.PRIO_PROCESS, 0)
     assert f"metrics: niceness {min(ours + BESIDE_NICENESS, 19)}" in log.infos
-    niceness = ("import os\nfrom wit_plugin.infra.step_process import step_process_feedback\n"
-                "step_process_feedback().info(f'merging at niceness {os.getpriority(os.PRIO_PROCESS, 0)}')\n")
+    niceness = ("import os\nfrom wit_plugin.infra.step_process import RecordFeedback\n"
+                "RecordFeedback().info(f'merging at niceness {os.getpriority(os.PRIO_PROCESS, 0)}')\n")
     with clock.beside("merge", _child(niceness)) as merging:  # (the texture step waits for it: the terrain is the
         merging.wait()  # path while it runs, and once the chain waits, idle, it gets the CPU all the same)
     assert f"merge: merging at niceness {min(ours + BESIDE_NICENESS, 19)}" in log.infos

@@ -14,6 +14,7 @@ from wit_plugin.buildings.heights import HeightOptions
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.dem import Dem
 from wit_plugin.infra.errors import InputError
+from wit_plugin.infra.step_process import RECORD
 
 
 def plane_dem(a=0.1, b=-0.05, c=50.0):
@@ -207,7 +208,7 @@ def test_run_writes_polygonz_faces_with_fields(tmp_path):
 
 def test_the_solids_in_their_own_process_are_the_solids_made_here(tmp_path):
     """The chain runs ``python -m wit_plugin.buildings`` beside the terrain: the same faces, fields and report as
-    in this process, for the chain's height options; a refusal is one line and exit status 2."""
+    in this process, for the chain's height options; a refusal is a record (``infra.step_process``) and status 2."""
     import json
     import subprocess
     import sys
@@ -231,5 +232,7 @@ def test_the_solids_in_their_own_process_are_the_solids_made_here(tmp_path):
     refused = subprocess.run([sys.executable, "-m", "wit_plugin.buildings", str(gpkg), str(dem_path),
                               str(tmp_path / "none.gpkg"), "--height-field", "HGT"], capture_output=True, text=True,
                              env=core_env())
-    assert refused.returncode == 2 and "height field 'HGT' is not in" in refused.stderr
-    assert len(refused.stderr.splitlines()) == 1 and not (tmp_path / "none.gpkg").exists()
+    last = json.loads(refused.stderr.splitlines()[-1].removeprefix(RECORD))  # (the records before: its progress)
+    assert refused.returncode == 2 and last["error"] == "InputError"
+    assert "height field 'HGT' is not in" in last["refused"]
+    assert not (tmp_path / "none.gpkg").exists()

@@ -23,6 +23,7 @@ from wit_plugin.citygml import writer as citygml
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.errors import InputError
 from wit_plugin.infra.interpreter import core_env
+from wit_plugin.infra.step_process import RECORD
 from wit_plugin.mosaic import georef, merge_rasters
 from wit_plugin.prepare.area import StudyArea
 from wit_plugin.prepare.vectors import prepare_vectors
@@ -382,8 +383,9 @@ def test_the_metrics_process_measures_the_images_once_told(tmp_path):
     assert at_once.value("texture_pixels") > 0 and at_once.texture.masked
     stopped = subprocess.run([*command[:3], str(tmp_path / "stopped" / "m.csv"), *command[4:]],
                              stdin=subprocess.DEVNULL, capture_output=True, text=True, env=core_env())
-    assert stopped.returncode == 2 and stopped.stderr.strip() == (
-        "The texture images were never written (the run stopped): nothing was measured.")
+    assert stopped.returncode == 2 and stopped.stderr.splitlines()[-1] == RECORD + json.dumps({
+        "refused": "The texture images were never written (the run stopped): nothing was measured.",
+        "error": "InputError"})  # (the records before it: its progress)
     assert not (tmp_path / "stopped").exists()
 
 def test_sample_pipeline_matches_sources(tmp_path):

@@ -16,6 +16,7 @@ from wit_plugin import metrics, mosaic
 from wit_plugin.infra.errors import CanceledError, InputError
 from wit_plugin.infra.feedback import Feedback
 from wit_plugin.infra.interpreter import core_env
+from wit_plugin.infra.step_process import RECORD
 from wit_plugin.mosaic import georef, tone
 from wit_plugin.sample import SampleConfig, generate_sample
 
@@ -491,7 +492,7 @@ def test_mostly_empty_mosaic_is_a_warning_then_refused_before_anything_is_writte
 def test_the_merge_in_its_own_process_writes_the_same_mosaic(tmp_path):
     """The chain runs ``python -m wit_plugin.mosaic`` beside the terrain: the same pixels, grid and report as in
     this process, for the chain's options (feather, tone, an extent, the fast compression of a mosaic only the
-    next steps read: ZSTD, 1.5 CPU-s less than DEFLATE on the 1 km sample); a refusal is one line and exit
+    next steps read: ZSTD, 1.5 CPU-s less than DEFLATE on the 1 km sample); a refusal is a record and exit
     status 2."""
     inputs, _ = seam_tiles(tmp_path)
     extent = (ORIGIN[0] + 101.0, ORIGIN[1] - 150.0, ORIGIN[0] + 501.0, ORIGIN[1] - 3.0)
@@ -512,5 +513,6 @@ def test_the_merge_in_its_own_process_writes_the_same_mosaic(tmp_path):
         mosaic.merge_rasters(inputs, str(tmp_path / "none.tif"), compression="lzma")
     refused = subprocess.run([sys.executable, "-m", "wit_plugin.mosaic", str(tmp_path / "none.tif"),
                               str(tmp_path / "missing.tif")], capture_output=True, text=True, env=core_env())
-    assert refused.returncode == 2 and "missing.tif" in refused.stderr and len(refused.stderr.splitlines()) == 1
+    last = json.loads(refused.stderr.splitlines()[-1].removeprefix(RECORD))  # (a record: ``infra.step_process``)
+    assert refused.returncode == 2 and last["error"] == "InputError" and "missing.tif" in last["refused"]
     assert not (tmp_path / "none.tif").exists()

@@ -9,9 +9,9 @@ folder and the same report as in QGIS's process, its messages and progress relay
 passed on (the run then stops at its next check and removes what it staged, as in-process).
 
 The parent sends the run as JSON on the child's standard input (a line), then ``cancel`` on a line if the
-user cancels; the child writes its messages, progress and refusal on standard error, one JSON record a line
-after ``RECORD``, and its report as JSON on standard output. A height expression is QGIS's own: a run with one
-stays in QGIS's process (``runs_apart``).
+user cancels; the child reports as every core step in a program of its own does (``infra.step_process``: its
+messages, progress and refusal as records on standard error, its report as JSON on standard output). A height
+expression is QGIS's own: a run with one stays in QGIS's process (``runs_apart``).
 """
 from __future__ import annotations
 
@@ -30,18 +30,16 @@ from typing import Any
 from ..buildings.heights import HeightOptions
 from ..cityjson.writer import SequencePart
 from ..infra import interpreter
-from ..infra.errors import CanceledError, InputError, MissingDependencyError, WitError
+from ..infra.errors import CanceledError, InputError, WitError
 from ..infra.feedback import Feedback
+from ..infra.step_process import CANCELED_STATUS, RecordFeedback, pass_on, run_step
 from ..prepare.area import StudyArea
 from .citymodel import STEP_PROCESS_MODULES, ChainInputs, ChainOptions, ChainReport, run_city_model
 
 MODULE = "wit_plugin.chain.apart"
-RECORD = "WIT-RECORD "
 CANCEL = b"cancel\n"
-CANCELED_STATUS = 3
 CANCEL_GRACE = 60.0  # seconds the run gets to stop at its next check and clean up before it is killed
 CHAIN_MODULES = (*STEP_PROCESS_MODULES, "lxml")
-_REFUSALS: dict[str, type[WitError]] = {kind.__name__: kind for kind in (InputError, MissingDependencyError, WitError)}
 
 
 def runs_apart(options: ChainOptions) -> bool:
@@ -157,9 +155,8 @@ class _ChainProcess:
             if raw is None:
                 break
             line = raw.decode("utf-8", "replace").rstrip("\n")
-            if line.startswith(RECORD):
+            if pass_on(line, feedback, self.refusals):
                 self.records += 1
-                _pass_on(json.loads(line[len(RECORD):]), feedback, self.refusals)
             elif line.strip():
                 self.last_words.append(line)
             if canceled_at is None and feedback.is_canceled():
@@ -181,18 +178,6 @@ class _ChainProcess:
             raise self.refusals[-1]
         how = f"signal {-status}" if status < 0 else f"status {status}"
         raise WitError(f"The chain's process ended with {how}: " + " | ".join(self.last_words[-5:] or ["no message"]))
-
-
-def _pass_on(record: dict[str, Any], feedback: Feedback, refusals: list[WitError]) -> None:
-    if "refused" in record:
-        kind = _REFUSALS.get(record.get("error", ""), InputError)
-        refusals.append(kind(record["refused"]))
-    elif "progress" in record:
-        feedback.progress(float(record["progress"]))
-    elif "warning" in record:
-        feedback.warning(record["warning"])
-    else:
-        feedback.info(record.get("info", ""))
 
 
 def _lines(stream: Any, lines: queue.Queue) -> None:
@@ -217,35 +202,8 @@ def _options_from(values: dict[str, Any]) -> ChainOptions:
                            if part else None})
 
 
-class _RecordFeedback(Feedback):
-    """The child's feedback: records on standard error; canceled once the parent says so on standard input."""
-
-    def __init__(self) -> None:
-        self.canceled = threading.Event()
-        self._shown = -1
-
-    def _record(self, **record: Any) -> None:
-        sys.stderr.write(RECORD + json.dumps(record) + "\n")
-        sys.stderr.flush()
-
-    def progress(self, percent: float) -> None:
-        tenths = int(percent * 10)
-        if tenths != self._shown:  # (a line per 0.1 %, not per call)
-            self._shown = tenths
-            self._record(progress=round(percent, 1))
-
-    def is_canceled(self) -> bool:
-        return self.canceled.is_set()
-
-    def info(self, message: str) -> None:
-        self._record(info=message)
-
-    def refuse(self, error: WitError) -> None:
-        """Why the run stopped (the parent raises the same kind of error with the same message)."""
-        self._record(refused=str(error), error=type(error).__name__)
-
-    def warning(self, message: str) -> None:
-        self._record(warning=message)
+class _ChainFeedback(RecordFeedback):
+    """The chain program's feedback: canceled once the parent says so on standard input."""
 
     def listen(self, pending: bytes) -> None:
         """Wait for the parent's Cancel (or its end: then stop too, nobody waits for the result)."""
@@ -274,19 +232,11 @@ def main() -> int:
     request, rest = _request()
     if request is None:
         return 0
-    feedback = _RecordFeedback()
+    feedback = _ChainFeedback()
     threading.Thread(target=feedback.listen, args=(rest,), daemon=True).start()
     interpreter.THIS_PROGRAM_IS_OURS = True
-    try:
-        report = run_city_model(ChainInputs(**request["inputs"]), _options_from(request["options"]),
-                                Path(request["output"]), feedback)
-    except CanceledError:
-        return CANCELED_STATUS
-    except WitError as exc:
-        feedback.refuse(exc)
-        return 2
-    sys.stdout.write(json.dumps(report.as_dict()))
-    return 0
+    return run_step(lambda fb: run_city_model(ChainInputs(**request["inputs"]), _options_from(request["options"]),
+                                              Path(request["output"]), fb).as_dict(), feedback)
 
 
 if __name__ == "__main__":

@@ -49,14 +49,14 @@ from ..cityjson.sequence import PART_FILE
 from ..cityjson.validate import validate_cityjson_files
 from ..cityjson.writer import SequencePart, texture_folder_of, write_cityjson
 from ..infra import step_layers
-from ..infra.errors import InputError
+from ..infra.errors import InputError, WitError
 from ..infra.feedback import SILENT, Feedback, SaidOnce
 from ..infra.interpreter import core_env, core_python
 from ..infra.io import jsontext
 from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
 from ..infra.io.layersource import LayerSource
 from ..infra.io.vector_io import read_prepared
-from ..infra.step_process import read_step_line
+from ..infra.step_process import pass_on
 from ..mosaic.georef import OK, georeference_sheets, list_tifs, write_footprint_index
 from ..prepare.area import StudyArea
 from ..prepare.vectors import PrepareConfig, prepare_vectors
@@ -270,12 +270,16 @@ class _Clock:
                     reader.join()
                     self.feedback.check_canceled()
             self.seconds[label] = round(ended["at"] - start, 3)  # its own time, not the time we waited
-            lines = ended["stderr"].strip().splitlines()
-            if process.returncode != 0:
-                raise InputError(f"The {label} step failed: " + " | ".join(lines[-5:]))
             said = self.feedback.labelled(label)
-            for line in lines:
-                read_step_line(line, said)
+            refusals: list[WitError] = []
+            others: list[str] = []
+            for line in ended["stderr"].splitlines():  # its records (``step_process``); Python's or a library's
+                if not pass_on(line, said, refusals, progress=False) and line.strip():  # lines: warnings
+                    said.warning(line)
+                    others.append(line)
+            if process.returncode != 0:
+                why = str(refusals[-1]) if refusals else " | ".join(others[-5:] or [f"status {process.returncode}"])
+                raise (type(refusals[-1]) if refusals else InputError)(f"The {label} step failed: {why}")
             return json.loads(ended["stdout"]) if ended["stdout"].strip() else None
 
         def tell() -> None:

@@ -229,7 +229,11 @@ def _uv_texts_one_by_one(texts: list[str], targets: list[str], features: list[st
             raise unknown_target(target, path)
         surface = (f"TIN triangle {feature}" if target == "tin" else f"road tri_{feature}" if target == "road"
                    else f"{target} {feature}_f{face}")
-        values, count = uv_values([text], lambda _i, name=surface: f"{name} in {path}", target in _TRIANGLE_TARGETS)
+
+        def named(_row: int, name: str = f"{surface} in {path}") -> str:
+            return name
+
+        values, count = uv_values([text], named, target in _TRIANGLE_TARGETS)
         pairs.append(values)
         counts.append(count)
     return ring_texts(np.concatenate(pairs) if pairs else np.zeros((0, 2)),
