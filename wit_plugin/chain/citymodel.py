@@ -243,10 +243,9 @@ class _Clock:
         start = time.perf_counter()
         told, tell_end = os.pipe()  # its standard input: the end we hold is not inherited
         try:
-            below = getattr(subprocess, "BELOW_NORMAL_PRIORITY_CLASS", 0)
             process = subprocess.Popen(command, env=core_env(), stdin=told,  # nosec B603  # our step, no shell
                                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                       creationflags=below)
+                                       creationflags=getattr(subprocess, "BELOW_NORMAL_PRIORITY_CLASS", 0))
         except BaseException:
             os.close(tell_end)
             raise
@@ -431,14 +430,15 @@ def _terrain_and_solids(inputs: ChainInputs, options: ChainOptions, layers: Prep
     """Steps 4 and 5: the LoD1 solids (in a second process, beside the terrain, which they do not read; here,
     first, when a QGIS height expression needs this process) and the TIN (a tile that owns no building: terrain
     and roads only)."""
-    lod1 = str(work / "lod1.gpkg") if layers.buildings else None
+    buildings = layers.buildings
+    lod1 = str(work / "lod1.gpkg") if buildings else None
     lod1_stats = None
-    beside = lod1 is not None and options.heights.expression is None
-    if lod1 and layers.buildings and not beside:
+    beside = buildings is not None and options.heights.expression is None
+    if buildings and lod1 and not beside:
         with clock.step("extrude") as fb:
-            lod1_stats = extrude.extrude_buildings(layers.buildings, inputs.dem, lod1, options.heights,
+            lod1_stats = extrude.extrude_buildings(buildings, inputs.dem, lod1, options.heights,
                                                    spatial_index=options.keep_work, feedback=fb)
-    with _extrude_beside(python, options, clock, layers.buildings, inputs.dem, lod1) if beside \
+    with _extrude_beside(python, options, clock, buildings, inputs.dem, lod1) if beside \
             else nullcontext(NOT_RUN) as extruding:
         with clock.step("terrain") as fb:
             tin = str(work / "tin.gpkg")

@@ -7,6 +7,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .io import bulk_read
+
 
 def parse_texcoords(texts: Sequence[str | None]) -> tuple[np.ndarray, np.ndarray]:
     """Texture-table ``uv`` texts ("u1 v1 u2 v2 …") → all pairs (k, 2) and the pair count of each text.
@@ -31,7 +33,7 @@ def parse_texcoord_column(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (numbers and each row's count of them found with numpy, no Python loop per row)."""
     values = np.asarray(column)
     if values.dtype.kind != "S" or not len(values):
-        return parse_texcoords(decoded_texts(values))
+        return parse_texcoords(bulk_read.texts(values))
     chars = np.full((len(values), values.dtype.itemsize + 1), 32, dtype=np.uint8)  # a blank after each row
     chars[:, :-1] = np.frombuffer(values.tobytes(), dtype=np.uint8).reshape(len(values), -1)
     numbers = aligned_decimals(chars)
@@ -84,14 +86,9 @@ def unique_texts(column: np.ndarray) -> tuple[list[str], np.ndarray]:
     """The distinct texts of a column (decoded) and each row's index into them."""
     values = np.asarray(column)
     if values.dtype == object:
-        values = np.array(decoded_texts(values))
+        values = np.array(bulk_read.texts(values))
     if not len(values):
         return [], np.zeros(0, dtype=np.int64)
     runs = np.flatnonzero(np.append(True, values[1:] != values[:-1]))  # (a column repeats its texts in runs)
     names, inverse = np.unique(values[runs], return_inverse=True)
-    return decoded_texts(names), np.repeat(inverse, np.diff(np.append(runs, len(values))))
-
-
-def decoded_texts(column: np.ndarray) -> list[str]:
-    """A text column as str (Arrow gives UTF-8 bytes; NULL → "")."""
-    return [v.decode("utf-8") if isinstance(v, bytes) else ("" if v is None else str(v)) for v in column.tolist()]
+    return bulk_read.texts(names), np.repeat(inverse, np.diff(np.append(runs, len(values))))

@@ -113,11 +113,12 @@ def feature_batches(layer: ogr.Layer, size: int = BATCH, fid: bool = False) -> I
 
 
 def texts(column: np.ndarray) -> list[str]:
-    """A text or integer column as Python strings, as OGR's ``GetFieldAsString`` gives them ('' for NULL)."""
+    """A text or integer column as Python strings, as OGR's ``GetFieldAsString`` gives them ('' for NULL; Arrow's
+    UTF-8 bytes decoded, in a fixed-width or an object column)."""
     values = column.tolist()  # masked entries become None
     if column.dtype.kind == "S":
         return [v.decode("utf-8", "replace") if v is not None else "" for v in values]
-    return ["" if v is None else str(v) for v in values]
+    return [v.decode("utf-8", "replace") if isinstance(v, bytes) else ("" if v is None else str(v)) for v in values]
 
 
 def valid(column: np.ndarray) -> np.ndarray:
