@@ -182,7 +182,7 @@ class WitAlgorithm(QgsProcessingAlgorithm):
     SPATIAL_INDEX = "SPATIAL_INDEX"
 
     def add_spatial_index_parameter(self) -> None:
-        """Advanced: big GeoPackage layers write several times faster without an R-tree (the chain's
+        """Advanced: big GeoPackage layers write twice as fast without an R-tree (the chain's
         intermediate files need none); on by default for layers a user opens."""
         param = QgsProcessingParameterBoolean(
             self.SPATIAL_INDEX, self.tr("Build a spatial index (slower to write, faster to display)"),

@@ -10,7 +10,7 @@ import shapely
 from osgeo import ogr
 
 from wit_plugin.infra.errors import CanceledError
-from wit_plugin.infra.io import gpkg_bulk
+from wit_plugin.infra.io import gpkg_bulk, sql
 from wit_plugin.infra.io.vector_io import FieldDef
 
 CRS = pyproj.CRS.from_epsg(5186)
@@ -110,7 +110,9 @@ def test_columns_must_match_fields_and_rows(tmp_path):
 def test_triangle_corners_give_the_same_blobs_as_shapely(tmp_path):
     corners = np.random.default_rng(2).uniform(0, 1000, (40, 3, 3)) + [200000, 540000, 0]
     polygons = shapely.polygons(corners[:, [0, 1, 2, 0]])
-    assert gpkg_bulk.geometry_blobs(corners, 7) == gpkg_bulk.geometry_blobs(polygons, 7)
+    assert gpkg_bulk.envelopes(corners).tolist() == shapely.bounds(polygons).tolist()
+    assert gpkg_bulk.geometry_blobs(corners, 7, gpkg_bulk.envelopes(corners)) == \
+        gpkg_bulk.geometry_blobs(polygons, 7, shapely.bounds(polygons))
     path = tmp_path / "faces.gpkg"
     gpkg_bulk.write_layer(path, "faces", CRS, FIELDS, corners, [range(40), [0.5] * 40, ["t"] * 40])
     ds, lyr, rows = _read(path)
@@ -257,7 +259,7 @@ def test_names_with_double_quotes_are_written_and_read_by_sql(tmp_path):
     """A user's field (or layer) name holding a quote once broke the INSERT, the index and the ordered reads."""
     from wit_plugin.citygml.inputs import InputLayer
 
-    assert gpkg_bulk.sql_name('say "hi"') == '"say ""hi"""'
+    assert sql.sql_name('say "hi"') == '"say ""hi"""'
     path = tmp_path / "quoted.gpkg"
     fields = [FieldDef('the "n"', ogr.OFTInteger)]
     geoms = _geoms(3)

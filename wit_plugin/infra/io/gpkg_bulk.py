@@ -4,12 +4,10 @@ The TIN of the 1 km demo has ~600,000 triangles. Through OGR one feature at a ti
 14 s (about 23 µs a feature: a Python call per field and per geometry). Here the GeoPackage
 geometry blobs (header + envelope + ISO WKB, as the GeoPackage standard §2.1.3 defines them)
 are built with numpy and shapely for all rows at once and inserted with ``executemany``; OGR
-creates the file and the layer first (tables, SRS, metadata) and builds the R-tree spatial index
-at the end in one go, so the result is what OGR would have written.
-
-The R-tree costs most of the time left (SQLite inserts ~10 µs a row whatever the order; GDAL
-3.6 has no bulk loader): worth it for a layer a user opens in QGIS, not for an intermediate
-file that the next step reads whole, so callers may leave it out.
+creates the file, the layer (tables, SRS, metadata) and its empty R-tree spatial index first; the
+index is loaded at the end in one go from the rows' envelopes (``gpkg_rtree``: SQLite's own inserts,
+as GDAL 3.6 makes them, cost ~10 µs a row, 6 s for the TIN), so the result is what OGR would have
+written. An intermediate file that the next step reads whole needs no index: callers may leave it out.
 
 OGR creates a new layer's table late, when the dataset is flushed or destroyed, and the destruction
 itself may come late: a profiler (Dask's, in tiled runs) keeps the frames it samples, and the
@@ -35,6 +33,8 @@ from ..errors import InputError
 from ..feedback import SILENT, Feedback
 from ..gdal_env import quiet_gdal
 from .fileio import atomic_file
+from .gpkg_rtree import bulk_load
+from .sql import sql_name, sql_text
 from .vector_io import FieldDef, create_fields
 
 #: GeoPackage geometry header: "GP", version 0, flags (little-endian, XY envelope), srs_id, envelope
@@ -51,16 +51,6 @@ _TRIANGLE = np.dtype([("header", _HEADER), ("byte_order", "u1"), ("type", "<u4")
                       ("points", "<u4"), ("xyz", "<f8", (4, 3))])
 
 
-def sql_name(name: str) -> str:
-    """``name`` (a layer's or a field's, maybe a user's) as an SQL identifier: quoted, inner quotes doubled."""
-    return '"' + name.replace('"', '""') + '"'
-
-
-def sql_text(text: str) -> str:
-    """``text`` as an SQL string literal: single-quoted, inner single quotes doubled."""
-    return "'" + text.replace("'", "''") + "'"
-
-
 def _header(count: int, srs_id: int, bounds: np.ndarray) -> np.ndarray:
     header = np.zeros(count, dtype=_HEADER)
     header["magic"] = b"GP"
@@ -70,46 +60,29 @@ def _header(count: int, srs_id: int, bounds: np.ndarray) -> np.ndarray:
     return header
 
 
-def geometry_blobs(geoms: np.ndarray, srs_id: int) -> list[bytes]:
-    """GeoPackage geometry blobs of non-empty 3D shapely geometries, or of (m, 3, 3) triangle corners.
+def envelopes(geoms: np.ndarray) -> np.ndarray:
+    """(n, 4) xmin, ymin, xmax, ymax of shapely geometries or of (n, 3, 3) triangle corners."""
+    if geoms.dtype != object:
+        return np.hstack([geoms[:, :, :2].min(axis=1), geoms[:, :, :2].max(axis=1)])
+    return shapely.bounds(geoms)
+
+
+def geometry_blobs(geoms: np.ndarray, srs_id: int, bounds: np.ndarray) -> list[bytes]:
+    """GeoPackage geometry blobs of non-empty 3D shapely geometries, or of (m, 3, 3) triangle corners, with their
+    ``envelopes``.
 
     Triangles are laid out by numpy directly: no shapely objects for the ~600,000 of a TIN.
     """
     if geoms.dtype != object:
         blobs = np.zeros(len(geoms), dtype=_TRIANGLE)
-        blobs["header"] = _header(len(geoms), srs_id, np.hstack([geoms[:, :, :2].min(axis=1),
-                                                                 geoms[:, :, :2].max(axis=1)]))
+        blobs["header"] = _header(len(geoms), srs_id, bounds)
         blobs["byte_order"], blobs["type"], blobs["rings"], blobs["points"] = 1, 1003, 1, 4
         blobs["xyz"] = geoms[:, [0, 1, 2, 0]]
         return blobs.view(np.dtype((np.void, _TRIANGLE.itemsize))).tolist()  # a bytes object per row
-    raw = _header(len(geoms), srs_id, shapely.bounds(geoms)).tobytes()
+    raw = _header(len(geoms), srs_id, bounds).tobytes()
     size = _HEADER.itemsize
     wkbs = shapely.to_wkb(geoms, output_dimension=3, flavor="iso", byte_order=1)
     return [raw[k * size:(k + 1) * size] + wkb for k, wkb in enumerate(wkbs)]
-
-
-def _spatial_index(path: Path, layer: str, column: str) -> None:
-    """OGR's R-tree of the layer, built in one go (checked like every write here)."""
-    with quiet_gdal():
-        try:
-            ds = ogr.Open(str(path), update=1)
-            if ds is not None:
-                ds.ExecuteSQL(f"SELECT CreateSpatialIndex({sql_text(layer)}, {sql_text(column)})")
-                ds.FlushCache()
-            failed = ds is None or gdal.GetLastErrorType() >= gdal.CE_Failure
-            reason = gdal.GetLastErrorMsg() or "GDAL gave no reason"
-        except RuntimeError as exc:  # with ogr.UseExceptions()
-            failed, reason = True, str(exc)
-        ds = None
-    if failed:
-        raise _write_error(layer, path, f"its spatial index: {reason}")
-
-
-def _total_bounds(geoms: np.ndarray) -> tuple[float, float, float, float]:
-    if geoms.dtype != object:
-        (x0, y0), (x1, y1) = geoms[:, :, :2].min(axis=(0, 1)), geoms[:, :, :2].max(axis=(0, 1))
-        return x0, y0, x1, y1
-    return tuple(shapely.total_bounds(geoms))
 
 
 class BulkTable:
@@ -117,15 +90,17 @@ class BulkTable:
 
     The file must be a staging file that is moved into place only when complete: it is written
     without a rollback journal and without fsync per commit (halves the insert time), and OGR's
-    feature-count trigger (an UPDATE per inserted row, a third of the insert time) is dropped
-    while rows go in and re-created, with the count, by ``close``. ``threaded`` lets another
-    thread than the creating one insert (one thread at a time).
+    triggers on the table (the feature count's, an UPDATE per inserted row, a third of the insert
+    time; the R-tree's) are dropped while rows go in and re-created by ``close``, with the count and
+    the R-tree loaded in bulk. ``threaded`` lets another thread than the creating one insert (one
+    thread at a time); ``spatial_index`` gives a layer with a CRS OGR's R-tree.
     """
 
     def __init__(self, path: str | Path, layer: str, fields: Sequence[FieldDef], crs: pyproj.CRS | None = None,
-                 geometry_type: int = ogr.wkbNone, threaded: bool = False):
+                 geometry_type: int = ogr.wkbNone, threaded: bool = False, spatial_index: bool = False):
         self.path, self.layer, self.count, self._failed = Path(path), layer, 0, False
-        self.geometry_column = _create_layer(self.path, layer, fields, crs, geometry_type)
+        self.geometry_column = _create_layer(self.path, layer, fields, crs, geometry_type, spatial_index)
+        self.rtree = f"rtree_{layer}_{self.geometry_column}" if spatial_index and crs is not None else None
         try:
             self.db = sqlite3.connect(path, check_same_thread=not threaded)
         except sqlite3.Error as exc:
@@ -135,8 +110,7 @@ class BulkTable:
                 self.db.execute("PRAGMA journal_mode = OFF")
                 self.db.execute("PRAGMA synchronous = OFF")
                 self._triggers = self.db.execute(
-                    "SELECT name, sql FROM sqlite_master WHERE type = 'trigger' AND tbl_name = ? AND name LIKE ?",
-                    (layer, "trigger_insert_feature_count_%")).fetchall()
+                    "SELECT name, sql FROM sqlite_master WHERE type = 'trigger' AND tbl_name = ?", (layer,)).fetchall()
                 for name, _ in self._triggers:
                     self.db.execute(f"DROP TRIGGER {sql_name(name)}")
                 self.srs_id = None
@@ -187,14 +161,31 @@ class BulkTable:
             self.db.commit()
         self.count += len(rows)
 
-    def close(self, bounds: tuple[float, float, float, float] | None = None) -> None:
-        """Record the feature count GDAL keeps (and trusts) and the layer extent; close."""
+    def _load_rtree(self, bounds: np.ndarray) -> None:
+        """The R-tree of the rows inserted (fids 1 … count: a new table's, in order), loaded in bulk."""
+        count = f"SELECT min(fid), max(fid), count(*) FROM {sql_name(self.layer)}"  # nosec B608  # the name quoted
+        first, last, rows = self.db.execute(count).fetchone()
+        if rows != len(bounds) or (rows and (first, last) != (1, rows)):
+            raise ValueError(f"{len(bounds)} envelopes for the {rows} rows numbered {first} to {last}")
+        bulk_load(self.db, str(self.rtree), np.arange(1, rows + 1), bounds[:, [0, 2, 1, 3]])
+
+    def discard(self) -> None:
+        """Close the unfinished file as it is (its staging copy is removed by the caller)."""
+        self._failed = True
+        self.close()
+
+    def close(self, bounds: np.ndarray | None = None) -> None:
+        """Record the feature count GDAL keeps (and trusts), the layer extent and its R-tree from ``bounds``
+        (the rows' envelopes, in their order: xmin, ymin, xmax, ymax); close."""
         try:
             if not self._failed:
                 with self._checked():
-                    if bounds is not None:
+                    if bounds is not None and len(bounds):
+                        extent = (*bounds[:, :2].min(axis=0).tolist(), *bounds[:, 2:].max(axis=0).tolist())
                         self.db.execute("UPDATE gpkg_contents SET min_x = ?, min_y = ?, max_x = ?, max_y = ? "
-                                        "WHERE table_name = ?", (*bounds, self.layer))
+                                        "WHERE table_name = ?", (*extent, self.layer))
+                    if self.rtree is not None:
+                        self._load_rtree(np.zeros((0, 4)) if bounds is None else bounds)
                     self.db.execute("UPDATE gpkg_ogr_contents SET feature_count = ? WHERE table_name = ?",
                                     (self.count, self.layer))
                     for _, sql in self._triggers:
@@ -209,8 +200,9 @@ def _write_error(layer: str, path: Path, reason: object) -> InputError:
 
 
 def _create_layer(path: Path, layer: str, fields: Sequence[FieldDef], crs: pyproj.CRS | None,
-                  geometry_type: int) -> str:
-    """OGR makes the file and the layer's table (written now, checked); the geometry column's name."""
+                  geometry_type: int, spatial_index: bool) -> str:
+    """OGR makes the file, the layer's table (written now, checked) and, with ``spatial_index`` and a CRS, its
+    R-tree (empty, so made at once); the geometry column's name."""
     srs = None
     if crs is not None:
         srs = osr.SpatialReference()
@@ -226,6 +218,8 @@ def _create_layer(path: Path, layer: str, fields: Sequence[FieldDef], crs: pypro
                 create_fields(lyr, fields)
                 column = lyr.GetGeometryColumn() if srs else ""
                 synced = lyr.SyncToDisk() == ogr.OGRERR_NONE  # the table now, not when ds is destroyed
+                if synced and spatial_index and srs:
+                    ds.ExecuteSQL(f"SELECT CreateSpatialIndex({sql_text(layer)}, {sql_text(column)})")
                 failed = not synced or gdal.GetLastErrorType() >= gdal.CE_Failure
             reason = gdal.GetLastErrorMsg() or reason
         except RuntimeError as exc:  # with ogr.UseExceptions()
@@ -249,19 +243,20 @@ def write_layer(path: str | Path, layer: str, crs: pyproj.CRS, fields: Sequence[
     if len(columns) != len(fields) or any(len(c) != len(geoms) for c in columns):
         raise ValueError("one column per field, one value per geometry")
     with atomic_file(path) as tmp:
-        table = BulkTable(tmp, layer, fields, crs, geometry_type)
+        table = BulkTable(tmp, layer, fields, crs, geometry_type, spatial_index=spatial_index)
         srs_id = cast(int, table.srs_id)  # set: the table has a CRS
+        bounds = envelopes(geoms) if len(geoms) else np.zeros((0, 4))
         try:
             for start in range(0, len(geoms), BATCH):
                 feedback.check_canceled()
                 feedback.progress(90 * start / max(len(geoms), 1))
                 stop = start + BATCH
-                blobs = geometry_blobs(geoms[start:stop], srs_id)
+                blobs = geometry_blobs(geoms[start:stop], srs_id, bounds[start:stop])
                 table.insert(list(zip(blobs, *(c[start:stop] for c in columns))))
-        finally:
-            table.close(_total_bounds(geoms) if len(geoms) else None)
-        if spatial_index:
             feedback.check_canceled()
-            _spatial_index(tmp, layer, table.geometry_column)
+        except BaseException:
+            table.discard()
+            raise
+        table.close(bounds)
     feedback.progress(100)
     return len(geoms)

@@ -23,8 +23,8 @@ from ...buildings.heights import HeightOptions
 from ...infra import step_layers
 from ...infra.errors import InputError
 from ...infra.io import bulk_read
-from ...infra.io.gpkg_bulk import sql_name
 from ...infra.io.layersource import LayerSource
+from ...infra.io.sql import sql_name
 from ...infra.io.vector_io import open_step_layer
 from .modules import facade_image
 from .uses import Facade, UseRule
