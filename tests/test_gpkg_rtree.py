@@ -14,6 +14,8 @@ from wit_plugin.infra.io import gpkg_bulk
 from wit_plugin.infra.io.gpkg_rtree import bulk_load, outward_float32
 from wit_plugin.infra.io.vector_io import FieldDef
 
+pytestmark = pytest.mark.qgis_facing  # on each QGIS's GDAL and SQLite: the index is written in SQLite's format
+
 WINDOWS = [(200300.0, 200500.0, 540200.0, 540300.0), (-10.0, 10.0, -10.0, 10.0), (200000.0, 201000.0, 540000.0,
                                                                                     541000.0)]
 
