@@ -349,8 +349,9 @@ class _Writer:
         if len(xyz):
             material = glb.photo_material(data=encode_image(patch.image, quality=self.config.jpeg_quality),
                                           name="terrain")
-            glb.triangles(self.georef.local(frame, xyz.reshape(-1, 3)).reshape(-1, 3, 3), material, uv)
-            corners.append(xyz.reshape(-1, 3))
+            points, inverse = unique_rows_unordered(xyz.reshape(-1, 3))  # a grid vertex: corner of up to 6
+            glb.triangles(self.georef.local(frame, points)[inverse].reshape(-1, 3, 3), material, uv)
+            corners.append(points)
         corners += self._buildings(glb, frame, buildings, mip=min(self.grid.depth - level, _MAX_MIP))
         error = max(cell, patch.error, dropped, *(c.error for c in children.values()))
         return self._finish(level, col, row, glb, frame, corners, list(children.values()), error, patch)
