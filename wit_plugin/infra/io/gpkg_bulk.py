@@ -6,7 +6,7 @@ geometry blobs (header + envelope + ISO WKB, as the GeoPackage standard §2.1.3 
 are built with numpy and shapely for all rows at once and inserted with ``executemany``; OGR
 creates the file, the layer (tables, SRS, metadata) and its empty R-tree spatial index first; the
 index is loaded at the end in one go from the rows' envelopes (``gpkg_rtree``: SQLite's own inserts,
-as GDAL 3.6 makes them, cost ~10 µs a row, 6 s for the TIN), so the result is what OGR would have
+as GDAL 3.6 makes them, cost ~9 µs a row, 5 s for the TIN), so the result is what OGR would have
 written. An intermediate file that the next step reads whole needs no index: callers may leave it out.
 
 OGR creates a new layer's table late, when the dataset is flushed or destroyed, and the destruction
