@@ -3,6 +3,7 @@ the plain ways they replace."""
 from __future__ import annotations
 
 import numpy as np
+import shapely
 from osgeo import ogr
 
 from wit_plugin.infra.texcoords import aligned_decimals, parse_texcoord_column, unique_texts
@@ -118,3 +119,55 @@ def test_distinct_rows_are_those_of_np_unique_on_the_rows_bytes():
         first, index = distinct_rows(rows)
         expected = np.unique(rows.view(np.dtype((np.void, 20))).ravel(), return_index=True, return_inverse=True)
         assert first.tolist() == expected[1].tolist() and index.tolist() == expected[2].ravel().tolist()
+
+
+def _store_with_buildings(tmp_path, count: int):
+    """A staging store holding ``count`` buildings (leaf k, size 10 + k), each with a roof and a wall face written
+    wall first (face ids in the LoD1 layer's order), the roofs textured."""
+    from wit_plugin.tiles3d.store import FACE_KINDS, Store
+
+    store = Store(tmp_path / "stage.sqlite")
+    roof = shapely.to_wkb(shapely.Polygon([(0, 0, 5), (4, 0, 5), (4, 3, 5)]))
+    wall = shapely.to_wkb(shapely.Polygon([(0, 0, 0), (4, 0, 0), (4, 0, 5), (0, 0, 5)]))
+    for k in range(count):
+        store.db.execute("INSERT INTO building VALUES (?, ?, ?, ?, ?)", (f"B{k}", k, 10.0 + k, 0.0, f'["b{k}"]'))
+        store.db.execute("INSERT INTO face VALUES (?, ?, ?, ?, ?)", (2 * k, f"B{k}", 1, FACE_KINDS["wall"], wall))
+        store.db.execute("INSERT INTO face VALUES (?, ?, ?, ?, ?)", (2 * k + 1, f"B{k}", 2, FACE_KINDS["roof"], roof))
+        store.db.execute("INSERT INTO tex_face VALUES (?, ?, ?, ?)",
+                         (f"B{k}", 2, k, np.arange(6, dtype=np.float32).tobytes()))
+    store.db.execute("CREATE INDEX face_building ON face (wit_id)")
+    return store
+
+
+def test_a_coarse_tile_takes_the_buildings_its_leaves_read(tmp_path):
+    """Each building is read (attributes, faces, texture rows) once: the coarse tiles above its leaf draw it again
+    from what was parsed; faces come in the LoD1 layer's order."""
+    store = _store_with_buildings(tmp_path, 6)
+    face_reads = []
+    store.db.set_trace_callback(lambda sql: face_reads.append(sql) if "FROM face" in sql else None)
+    leaves = [store.buildings(k, k + 1) for k in range(6)]
+    assert [rows.ids for rows in leaves] == [[f"B{k}"] for k in range(6)] and len(face_reads) == 6
+    coarse = store.buildings(0, 6, min_size=12.0, limit=3)
+    assert len(face_reads) == 6  # nothing read again
+    assert coarse.ids == ["B5", "B4", "B3"] and coarse.attributes == [["b5"], ["b4"], ["b3"]]
+    assert coarse.face_building.tolist() == [0, 0, 1, 1, 2, 2]
+    assert coarse.face_kind.tolist() == [1, 0] * 3  # wall, then roof: their order in the layer
+    assert coarse.face_image.tolist() == [-1, 5, -1, 4, -1, 3]
+    assert coarse.face_uv[0] is None and coarse.face_uv[1].tolist() == [[0, 1], [2, 3], [4, 5]]
+    assert [p.wkb for p in coarse.polygons] == [p.wkb for p in leaves[5].polygons] + \
+        [p.wkb for p in leaves[4].polygons] + [p.wkb for p in leaves[3].polygons]
+
+
+def test_the_parsed_buildings_kept_are_bounded(tmp_path, monkeypatch):
+    """Memory does not grow with the model: beyond PARSED_BUILDINGS the least recently drawn are dropped (and read
+    again when a tile needs them)."""
+    from wit_plugin.tiles3d import store as store_module
+
+    monkeypatch.setattr(store_module, "PARSED_BUILDINGS", 2)
+    store = _store_with_buildings(tmp_path, 5)
+    for k in range(5):
+        store.buildings(k, k + 1)
+    assert list(store._parsed) == ["B3", "B4"]
+    assert store.buildings(0, 5).ids == ["B4", "B3", "B2", "B1", "B0"] and len(store._parsed) == 5  # a tile's own
+    store.buildings(0, 1)
+    assert list(store._parsed) == ["B1", "B0"]

@@ -1,7 +1,9 @@
 """Staging store: the chain's layers copied once, in batches, into a temporary SQLite file indexed by tile.
 
 The export then reads one tile at a time, so memory holds one tile's features whatever the size of
-the model (the inputs need no spatial index of their own, and are never written to):
+the model, and at most ``PARSED_BUILDINGS`` buildings as parsed for the tiles drawn last (a coarse tile
+draws again the largest buildings of its leaves: they are not read again); the inputs need no spatial
+index of their own, and are never written to:
 
 * ``building``: one row per building, from its ``ground`` face: the leaf tile holding the centre of
   its footprint (a Morton code, so a subtree of the quadtree is one range of codes), its size (the
@@ -28,6 +30,7 @@ from __future__ import annotations
 import json
 import math
 import sqlite3
+from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,6 +52,7 @@ FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not e
 SURFACES = {name: number for number, name in enumerate(step_layers.TIN_SURFACES)}
 PER_FACE_FIELDS = (step_layers.FACE_TYPE, step_layers.FACE_NUMBER)
 BATCH = 20_000
+PARSED_BUILDINGS = 20_000  # buildings kept parsed between tiles (the coarse tiles draw again the largest)
 TEX_BUCKET = 20_000
 """TIN triangle ids per texture block: a batch of the texture table (in image order) holds ids from all over the TIN,
 so it is stored as blocks of ids in one bucket each; a batch of TIN triangles (in id order) then meets a few blocks
@@ -114,6 +118,15 @@ class BuildingRows:
 
 
 @dataclass
+class ParsedBuilding:
+    """A building's attributes and faces (kind, shapely PolygonZ, image number, uv or None), as read once: a coarse
+    tile draws again buildings its leaves drew."""
+
+    attributes: list
+    faces: list[tuple[int, Any, int, np.ndarray | None]]
+
+
+@dataclass
 class RoofRows:
     """Roof faces (shapely PolygonZ), their image numbers (-1 = untextured), uv (per ring point, or None) and
     their building's ground height."""
@@ -159,6 +172,7 @@ class Store:
         self.fields: list[tuple[str, int]] = []  # building attributes: (name, OGR field type)
         self.facade_fields: list[tuple[str, int]] = []  # of the facade table, after the LoD1 layer's
         self.orphan_faces = 0
+        self._parsed: OrderedDict[str, ParsedBuilding] = OrderedDict()  # by wit_id, least recently drawn first
 
     def close(self) -> None:
         self.db.close()
@@ -362,27 +376,43 @@ class Store:
         return {leaf for (leaf,) in rows}
 
     def buildings(self, first: int, end: int, min_size: float = 0.0, limit: int = -1) -> BuildingRows:
-        """Buildings whose leaf is in [first, end) and size ≥ ``min_size``, the largest first, at most ``limit``."""
-        chosen = self.db.execute(
-            "SELECT b.wit_id, b.attrs, f.attrs FROM building b LEFT JOIN facade f ON f.wit_id = b.wit_id "
-            "WHERE leaf >= ? AND leaf < ? AND size >= ? ORDER BY size DESC, b.wit_id LIMIT ?",
-            (first, end, min_size, limit)).fetchall()
-        ids = [wit_id for wit_id, _, _ in chosen]
-        no_facade = jsontext.dumps([None] * len(self.facade_fields))
-        number = {wit_id: i for i, wit_id in enumerate(ids)}
-        faces = []
-        for part in range(0, len(ids), 500):
-            marks = ",".join("?" * len(ids[part:part + 500]))
-            faces += self.db.execute(
-                f"SELECT f.wit_id, f.kind, f.wkb, x.image, x.uv FROM face f "  # nosec B608  # '?' marks only go in
-                f"LEFT JOIN tex_face x ON x.wit_id = f.wit_id AND x.face_no = f.face_no WHERE f.wit_id IN ({marks})",
-                ids[part:part + 500]).fetchall()
+        """Buildings whose leaf is in [first, end) and size ≥ ``min_size``, the largest first, at most ``limit``;
+        each building's faces in their order in the LoD1 layer."""
+        ids = [wit_id for (wit_id,) in self.db.execute(
+            "SELECT wit_id FROM building WHERE leaf >= ? AND leaf < ? AND size >= ? ORDER BY size DESC, wit_id LIMIT ?",
+            (first, end, min_size, limit))]
+        self._parse([wit_id for wit_id in ids if wit_id not in self._parsed])
+        parsed = [self._parsed[wit_id] for wit_id in ids]
+        for wit_id in ids:
+            self._parsed.move_to_end(wit_id)
+        while len(self._parsed) > max(PARSED_BUILDINGS, len(ids)):
+            self._parsed.popitem(last=False)
+        faces = [face for building in parsed for face in building.faces]
         return BuildingRows(
-            ids, [json.loads(attrs) + json.loads(facade or no_facade) for _, attrs, facade in chosen],
-            np.array([number[f[0]] for f in faces], dtype=np.int64), np.array([f[1] for f in faces], dtype=np.int8),
-            shapely.from_wkb(np.array([f[2] for f in faces], dtype=object), on_invalid="ignore"),
-            np.array([-1 if f[3] is None else f[3] for f in faces], dtype=np.int64),
-            [None if f[4] is None else np.frombuffer(f[4], dtype=np.float32).reshape(-1, 2) for f in faces])
+            ids, [building.attributes for building in parsed],
+            np.repeat(np.arange(len(ids)), [len(building.faces) for building in parsed]).astype(np.int64),
+            np.array([f[0] for f in faces], dtype=np.int8), np.array([f[1] for f in faces], dtype=object),
+            np.array([f[2] for f in faces], dtype=np.int64), [f[3] for f in faces])
+
+    def _parse(self, ids: list[str]) -> None:
+        """Read the attributes and faces of the buildings ``ids`` into the parsed buildings' cache."""
+        no_facade = jsontext.dumps([None] * len(self.facade_fields))
+        for part in range(0, len(ids), 500):
+            chunk = ids[part:part + 500]
+            marks = ",".join("?" * len(chunk))
+            rows = self.db.execute("SELECT b.wit_id, b.attrs, f.attrs FROM building b "  # nosec B608  # '?' marks only
+                                   f"LEFT JOIN facade f ON f.wit_id = b.wit_id WHERE b.wit_id IN ({marks})", chunk)
+            attributes = {wit_id: json.loads(attrs) + json.loads(facade or no_facade) for wit_id, attrs, facade in rows}
+            faces = self.db.execute(
+                "SELECT f.wit_id, f.kind, f.wkb, x.image, x.uv FROM face f "  # nosec B608  # '?' marks only go in
+                f"LEFT JOIN tex_face x ON x.wit_id = f.wit_id AND x.face_no = f.face_no WHERE f.wit_id IN ({marks}) "
+                "ORDER BY f.id", chunk).fetchall()
+            polygons = shapely.from_wkb(np.array([f[2] for f in faces], dtype=object), on_invalid="ignore")
+            for wit_id in chunk:
+                self._parsed[wit_id] = ParsedBuilding(attributes[wit_id], [])
+            for (wit_id, kind, _, image, uv), polygon in zip(faces, polygons.tolist()):
+                corners = None if uv is None else np.frombuffer(uv, dtype=np.float32).reshape(-1, 2)
+                self._parsed[wit_id].faces.append((kind, polygon, -1 if image is None else image, corners))
 
     def roofs(self, rect: tuple[float, float, float, float]) -> RoofRows:
         """The roofs whose extent meets ``rect`` (xmin, ymin, xmax, ymax), with their texture rows and their
