@@ -43,7 +43,8 @@ def bulk_load(db: sqlite3.Connection, rtree: str, ids: np.ndarray, bounds: np.nd
     if not len(ids):
         return
     node, rowid, parent = (sql_name(f"{rtree}_{shadow}") for shadow in ("node", "rowid", "parent"))
-    (node_size,) = db.execute(f"SELECT length(data) FROM {node} WHERE nodeno = 1").fetchone()  # nosec B608
+    size_query = f"SELECT length(data) FROM {node} WHERE nodeno = 1"  # nosec B608  # the table's name quoted
+    (node_size,) = db.execute(size_query).fetchone()
     fanout = (node_size - 4) // _CELL.itemsize
     cells = np.zeros(len(ids), dtype=_CELL)
     cells["id"], cells["box"] = ids, outward_float32(bounds)
@@ -67,12 +68,13 @@ def bulk_load(db: sqlite3.Connection, rtree: str, ids: np.ndarray, bounds: np.nd
         above["box"] = np.column_stack([np.minimum.reduceat(box[:, 0], starts), np.maximum.reduceat(box[:, 1], starts),
                                         np.minimum.reduceat(box[:, 2], starts), np.maximum.reduceat(box[:, 3], starts)])
         cells, depth = above, depth + 1
-    db.execute(f"DELETE FROM {node}")  # nosec B608  # names quoted, values bound
-    db.executemany(f"INSERT INTO {node} VALUES (?, ?)", nodes)  # nosec B608
+    insert = "INSERT INTO {} VALUES (?, ?)"  # (the tables' names quoted, values bound)
+    db.execute(f"DELETE FROM {node}")  # nosec B608  # the table's name quoted
+    db.executemany(insert.format(node), nodes)
     rows = pairs[0][np.argsort(pairs[0][:, 0], kind="stable")]  # in key order: appended to the table's B-tree
-    db.executemany(f"INSERT INTO {rowid} VALUES (?, ?)", zip(rows[:, 0].tolist(), rows[:, 1].tolist()))  # nosec B608
+    db.executemany(insert.format(rowid), zip(rows[:, 0].tolist(), rows[:, 1].tolist()))
     if len(pairs) > 1:
-        db.executemany(f"INSERT INTO {parent} VALUES (?, ?)", np.concatenate(pairs[1:]).tolist())  # nosec B608
+        db.executemany(insert.format(parent), np.concatenate(pairs[1:]).tolist())
 
 
 def _tiles(boxes: np.ndarray, fanout: int) -> tuple[np.ndarray, np.ndarray]:
