@@ -126,3 +126,19 @@ def test_a_feature_added_by_ogr_is_indexed(tmp_path):
     db = sqlite3.connect(path)
     assert db.execute("SELECT rtreecheck('rtree_tin_geom')").fetchone() == ("ok",)
     assert db.execute("SELECT count(*) FROM rtree_tin_geom").fetchone() == (301,)
+
+
+def test_nodes_take_the_size_sqlite_gave_the_tree():
+    """On small pages SQLite makes smaller nodes (1024-byte pages: 960 bytes, 39 cells): the loader packs as many."""
+    bulk, inserted = sqlite3.connect(":memory:"), sqlite3.connect(":memory:")
+    for db in (bulk, inserted):
+        db.execute("PRAGMA page_size = 1024")
+        db.execute("CREATE VIRTUAL TABLE r USING rtree(id, minx, maxx, miny, maxy)")
+    boxes = _boxes(3000)
+    bulk_load(bulk, "r", np.arange(1, 3001), boxes)
+    inserted.executemany("INSERT INTO r VALUES (?, ?, ?, ?, ?)", [(k, *b) for k, b in enumerate(boxes.tolist(), 1)])
+    assert bulk.execute("SELECT DISTINCT length(data) FROM r_node").fetchall() == [(960,)]
+    assert bulk.execute("SELECT max(substr(data, 3, 2)) FROM r_node").fetchone()[0] == (39).to_bytes(2, "big")
+    assert bulk.execute("SELECT rtreecheck('r')").fetchone() == ("ok",)
+    assert bulk.execute("SELECT * FROM r ORDER BY id").fetchall() == \
+        inserted.execute("SELECT * FROM r ORDER BY id").fetchall()
