@@ -226,7 +226,7 @@ def _uv_texts_one_by_one(texts: list[str], targets: list[str], features: list[st
     pairs, counts = [], []
     for text, target, feature, face in zip(texts, targets, features, faces):
         if target not in step_layers.TEX_TARGETS:
-            raise unknown_target(target, path)
+            raise _unknown_target(target, path)
         surface = (f"TIN triangle {feature}" if target == "tin" else f"road tri_{feature}" if target == "road"
                    else f"{target} {feature}_f{face}")
 
@@ -240,7 +240,8 @@ def _uv_texts_one_by_one(texts: list[str], targets: list[str], features: list[st
                       np.concatenate(counts) if counts else np.zeros(0, dtype=np.int64), _UV_FORMAT)
 
 
-def unknown_target(target: str, path: str) -> InputError:
+def _unknown_target(target: str, path: str) -> InputError:
+    """The refusal of a texture-table row naming no known target (both readings of the table raise it)."""
     return InputError(f"Texture table {path} has the unknown target {target!r}: use roof, wall, road or tin.")
 
 
@@ -497,7 +498,7 @@ class _Writer:
         image's terrain triangles. The associations' markup is ready-made (``raw``), a batch at a time.
         """
         if target not in step_layers.TEX_TARGETS:
-            raise unknown_target(target, path)
+            raise _unknown_target(target, path)
         refs: list[str] = []
         with contextlib.ExitStack() as stack:
             if target == "tin":
