@@ -17,7 +17,8 @@ from osgeo import gdal, ogr, osr
 
 from wit_plugin.buildings.heights import HeightOptions
 from wit_plugin.chain import ChainInputs, ChainOptions, run_city_model
-from wit_plugin.chain.citymodel import BESIDE_NICENESS, _Clock
+from wit_plugin.chain.citymodel import _Clock
+from wit_plugin.chain.programs import BESIDE_NICENESS
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.errors import CanceledError, InputError, MissingDependencyError
 from wit_plugin.infra.feedback import Feedback

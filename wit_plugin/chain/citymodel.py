@@ -17,7 +17,9 @@ also keeps the LoD1 and TIN GeoPackages (QGIS's 3D view).
 Three steps run in a second Python process, so that a second core works (threads would share the GIL): the
 merge beside the terrain and the solids (which do not read the orthoimage); the metrics from the solids on,
 measuring all but the texture images beside the texture step and those once it has written them; and the 3D Tiles
-export, which reads the step layers rather than the CityGML, beside the CityGML and its validation.
+export, which reads the step layers rather than the CityGML, beside the CityGML and its validation. Their programs
+start before step 1, whose single process leaves the second core idle: they import meanwhile and wait for their run
+(``programs``).
 
 Everything is written into a staging folder inside the output folder and moved into place at the
 end, so a failed or cancelled run leaves nothing behind (and never a half-updated output folder).
@@ -28,7 +30,6 @@ import contextlib
 import json
 import os
 import shutil
-import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -51,7 +52,7 @@ from ..cityjson.writer import SequencePart, texture_folder_of, write_cityjson
 from ..infra import step_layers
 from ..infra.errors import InputError, WitError
 from ..infra.feedback import SILENT, Feedback, SaidOnce
-from ..infra.interpreter import core_env, core_python
+from ..infra.interpreter import core_python
 from ..infra.io import jsontext
 from ..infra.io.fileio import ensure_writable_dir, publish, staging_folder
 from ..infra.io.layersource import LayerSource
@@ -68,6 +69,7 @@ from ..texture import BEYOND_ORTHO, TextureConfig, texture_model
 from ..tiles3d import TILESET_FILE
 from ..tiles3d.web import require_web_profile
 from .coverage import OrthoCoverage, ortho_coverage, require_dem, require_ortho, require_sheet_names
+from .programs import StepPrograms, start_command
 
 OUTSIDE_ORTHO_CHOICES = ("fail", "untextured")
 DEFAULT_SCHEMA_CACHE = Path.home() / ".cache" / "wit_citymodel"
@@ -182,21 +184,6 @@ class ChainReport:
         return {k: v for k, v in self.__dict__.items()}
 
 
-BESIDE_NICENESS = 10
-"""How much less CPU priority a step beside gets than the chain (Windows: below normal): the chain's own steps are
-the path every later step waits for. The metrics and the 3D Tiles export, given the core the chain leaves idle, end
-about with it (the chain's wall time fell from about 28 to 25 s on two cores); the merge and the solids end within
-the terrain step when it runs at full speed (3.5 CPU-s beside its 3.5 s on the 1 km sample; the chain 20.1 -> 19.1 s
-in three alternating runs), and when they do not, the chain waits for them idle: they get the CPU all the same."""
-
-
-def _yield_to_the_chain(pid: int) -> None:
-    """Lower the priority of the step beside ``pid`` (on Windows its start did: ``BELOW_NORMAL_PRIORITY_CLASS``)."""
-    if hasattr(os, "setpriority"):
-        with contextlib.suppress(OSError):  # (it ended already)
-            os.setpriority(os.PRIO_PROCESS, pid, os.getpriority(os.PRIO_PROCESS, 0) + BESIDE_NICENESS)
-
-
 @dataclass(frozen=True)
 class Beside:
     """A step running in another process: ``wait`` for its end (its result; raises its failure), ``tell`` it that
@@ -215,8 +202,9 @@ class _Clock:
 
     seconds: dict[str, float]  # by step label
 
-    def __init__(self, feedback: Feedback):
+    def __init__(self, feedback: Feedback, programs: StepPrograms | None = None):
         self.feedback, self.seconds = SaidOnce(feedback), {}  # (a SaidOnce: steps beside label theirs)
+        self.programs = programs  # the steps' programs started ahead, if any
         total = sum(share for _, share in STEPS)
         starts = [sum(share for _, share in STEPS[:k]) for k in range(len(STEPS))]
         self.spans = {label: (100.0 * a / total, 100.0 * (a + share) / total)
@@ -241,17 +229,7 @@ class _Clock:
         number = [name for name, _ in STEPS].index(label) + 1
         self.feedback.info(f"Step {number}/{len(STEPS)}: {label} (in a second process, beside the next steps)")
         start = time.perf_counter()
-        told, tell_end = os.pipe()  # its standard input: the end we hold is not inherited
-        try:
-            process = subprocess.Popen(command, env=core_env(), stdin=told,  # nosec B603  # our step, no shell
-                                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                       creationflags=getattr(subprocess, "BELOW_NORMAL_PRIORITY_CLASS", 0))
-        except BaseException:
-            os.close(tell_end)
-            raise
-        finally:
-            os.close(told)
-        _yield_to_the_chain(process.pid)
+        process, tell_end = self.programs.start(command) if self.programs else start_command(command)
         ended: dict[str, Any] = {}
 
         def read() -> None:  # drains its pipes as it writes (a full pipe would stall it) and notes when it ended
@@ -330,9 +308,10 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     check_inputs(inputs, options)
     started = time.perf_counter()
     output = ensure_writable_dir(output_dir)
-    clock = _Clock(feedback)
-    with staging_folder(output, ".wit-run-") as staging:
-        report = _run(inputs, options, output, staging, clock)
+    with staging_folder(output, ".wit-run-") as staging, \
+            StepPrograms(_ahead_modules(options), lambda: _step_python(options)) as programs:
+        clock = _Clock(feedback, programs)
+        report = _run(inputs, options, output, staging, clock, programs)
         report.files = publish(staging, output) + [STEPS_FILE]
     report.seconds = {label: clock.seconds[label] for label, _ in STEPS if label in clock.seconds}
     report.wall_seconds = round(time.perf_counter() - started, 3)
@@ -344,7 +323,8 @@ def run_city_model(inputs: ChainInputs, options: ChainOptions, output_dir: str |
     return report
 
 
-def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock) -> ChainReport:
+def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path, clock: _Clock,
+         programs: StepPrograms) -> ChainReport:
     work = staging / "work"
     work.mkdir()
     tifs = list_tifs(inputs.ortho)  # (their names checked by check_inputs)
@@ -369,7 +349,7 @@ def _run(inputs: ChainInputs, options: ChainOptions, output: Path, staging: Path
     mosaic = str(work / "ortho.tif")
     xmin, ymin, xmax, ymax = area.bounds  # the sheets' pixels the area needs (tone and seams: all of them)
     extent = (xmin - MOSAIC_MARGIN, ymin - MOSAIC_MARGIN, xmax + MOSAIC_MARGIN, ymax + MOSAIC_MARGIN)
-    python = _step_python(options)
+    python = programs.interpreter()
     merge = [python, "-m", "wit_plugin.mosaic", mosaic, *rasters, "--mode", "feather", "--gain",
              "--extent", *map(repr, extent), "--compression", "fast"]  # (read by the next steps only)
     with clock.beside("merge", merge) as merging:  # beside the terrain and the solids: they do not read it
@@ -463,9 +443,21 @@ def _extrude_beside(python: str, options: ChainOptions, clock: _Clock, buildings
     return clock.beside("extrude", command + (["--spatial-index"] if options.keep_work else []))
 
 
+def _ahead_modules(options: ChainOptions) -> dict[str, tuple[str, ...]]:
+    """The steps beside whose programs start ahead (``programs``), each with the other modules its step needs."""
+    modules: dict[str, tuple[str, ...]] = {"wit_plugin.mosaic": ()}
+    if options.heights.expression is None:
+        modules["wit_plugin.buildings"] = ()
+    if options.metrics:
+        modules["wit_plugin.metrics"] = ()
+    if options.tiles3d:
+        modules["wit_plugin.tiles3d"] = ("meshoptimizer",) if options.tiles3d_web else ()
+    return modules
+
+
 def _step_python(options: ChainOptions) -> str:
-    """The Python that runs the steps the chain starts in another process: one that imports all of them, found
-    (and checked) once."""
+    """The Python that runs the steps the chain starts in another process when their programs started ahead cannot:
+    one that imports all of them, found (and checked) once."""
     modules: tuple[str, ...] = STEP_PROCESS_MODULES + ("wit_plugin.mosaic", "wit_plugin.buildings")
     modules += ("pygltflib", "wit_plugin.tiles3d") if options.tiles3d else ()
     modules += ("meshoptimizer",) if options.tiles3d and options.tiles3d_web else ()
