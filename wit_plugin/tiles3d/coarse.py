@@ -193,13 +193,19 @@ def _mip_level(triangles: TriangleRows, number: int, shape: tuple[int, ...], ste
     """Mip level whose texels are nearest ``step`` metres for image ``number`` (median over its triangles)."""
     mine = triangles.image == number
     xy, uv = triangles.xyz[mine, :, :2], triangles.uv[mine].astype(np.float64) * [shape[1], shape[0]]
-    ground = np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]))
-    texels = np.abs(np.cross(uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]))
+    ground, texels = np.abs(_doubled_areas(xy)), np.abs(_doubled_areas(uv))
     ok = texels > 0
     if not ok.any():
         return 0
     texel = float(np.median(np.sqrt(ground[ok] / texels[ok])))
     return max(0, int(np.floor(np.log2(step / texel + 1e-9)))) if texel > 0 else 0
+
+
+def _doubled_areas(corners: np.ndarray) -> np.ndarray:
+    """Twice the signed areas of 2D triangles (t, 3, 2): what ``np.cross`` gives for their edges, bit for bit,
+    without its overhead per call (and its deprecation of 2D vectors in numpy 2)."""
+    ax, ay = corners[:, 0, 0], corners[:, 0, 1]
+    return (corners[:, 1, 0] - ax) * (corners[:, 2, 1] - ay) - (corners[:, 1, 1] - ay) * (corners[:, 2, 0] - ax)
 
 
 def parent_patch(children: dict[tuple[int, int], Patch], cells: int, size: int) -> Patch:
