@@ -25,6 +25,8 @@ os.environ.setdefault("PROJ_DATA", "/usr/share/proj")
 
 from osgeo import gdal  # noqa: E402 (after PROJ_DATA is set, which GDAL reads when loaded)
 
+from wit_plugin.infra.feedback import Feedback  # noqa: E402
+
 _SESSION_GDAL_EXCEPTIONS = bool(gdal.GetUseExceptions())
 
 if str(ROOT) not in sys.path:
@@ -44,6 +46,20 @@ if "wit_citymodel" not in sys.modules:
 QGIS_MODULES = ("qgis", "processing", "wit_citymodel.processing_provider", "wit_citymodel.plugin")
 #: the commands (a string constant in a test's code) that run QGIS in another process
 QGIS_COMMANDS = ("qgis-process", "qgis_process", "qgis_process.bin")
+
+
+class RecordingFeedback(Feedback):
+    """A core feedback that keeps what it is told (``infos``, ``warnings``), for the assertions."""
+
+    def __init__(self) -> None:
+        self.infos: list[str] = []
+        self.warnings: list[str] = []
+
+    def info(self, message: str) -> None:
+        self.infos.append(message)
+
+    def warning(self, message: str) -> None:
+        self.warnings.append(message)
 
 try:
     import qgis  # noqa: F401

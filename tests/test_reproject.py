@@ -12,30 +12,19 @@ import numpy as np
 import pyproj
 import pytest
 import shapely
+from conftest import RecordingFeedback
 from osgeo import gdal, ogr
 
 from wit_plugin.chain.coverage import ortho_coverage, require_dem
 from wit_plugin.infra import step_layers
 from wit_plugin.infra.dem import Dem
 from wit_plugin.infra.errors import InputError
-from wit_plugin.infra.feedback import Feedback
 from wit_plugin.infra.mapsheet import parse_sheet_number, projected_envelope
 from wit_plugin.mosaic.georef import OK, georeference_sheets, list_tifs
 
 SUSEO_5186 = (209020.9, 543132.8)
 TO_5187 = pyproj.Transformer.from_crs("EPSG:5186", "EPSG:5187", always_xy=True)
 SUSEO_5187 = TO_5187.transform(*SUSEO_5186)
-
-
-class Log(Feedback):
-    def __init__(self):
-        self.infos, self.warnings = [], []
-
-    def info(self, message: str) -> None:
-        self.infos.append(message)
-
-    def warning(self, message: str) -> None:
-        self.warnings.append(message)
 
 
 def _terrain(rows: int, cols: int, seed: int = 5) -> np.ndarray:
@@ -141,7 +130,7 @@ def _centres(dem: Dem) -> tuple[np.ndarray, np.ndarray]:
 def test_a_dem_in_5186_read_in_5187_equals_gdal_warp_and_stays_close_to_the_source(dem_5186):
     path, values, gt = dem_5186
     bounds = (SUSEO_5187[0] - 500, SUSEO_5187[1] - 400, SUSEO_5187[0] + 450, SUSEO_5187[1] + 500)
-    log = Log()
+    log = RecordingFeedback()
     dem = Dem.open(path, bounds, crs="EPSG:5187", feedback=log)
     x0, size, _, y1, _, dy = dem.geotransform
     assert size == -dy == 5.0  # the source's 5 m (5.0017 m in the East Belt's units), square
@@ -205,7 +194,7 @@ def test_nodata_is_filled_in_the_source_and_never_leaks_into_a_height(tmp_path):
     values[20, 30] = -32768.0
     gt = (SUSEO_5186[0] - 500.0, 5.0, 0.0, SUSEO_5186[1] + 500.0, 0.0, -5.0)
     path = _write_dem(tmp_path / "holes.tif", values, gt, "EPSG:5186")
-    log = Log()
+    log = RecordingFeedback()
     x, y = SUSEO_5187
     dem = Dem.open(path, (x - 300, y - 300, x + 300, y + 300), crs="EPSG:5187", feedback=log)
     valid = values[values > -1000]
@@ -248,7 +237,7 @@ def test_the_coverage_check_judges_a_dem_in_its_own_crs(dem_4326, tmp_path):
     folder = Path(path).parent
     before = sorted(p.name for p in folder.iterdir())
     inside = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:5187", always_xy=True).transform(127.1, 37.49)
-    log = Log()
+    log = RecordingFeedback()
     require_dem(path, shapely.Point(inside).buffer(300), "EPSG:5187", log)
     assert any("is in WGS 84 (EPSG:4326): it is reprojected on the fly to Korea 2000 / East Belt 2010 (EPSG:5187) "
                "(bilinear, cells of 24." in m for m in log.infos), log.infos
@@ -265,7 +254,7 @@ def test_a_dem_without_crs_is_assumed_in_the_layers_crs(tmp_path):
     values = _terrain(40, 40)
     gt = (SUSEO_5186[0] - 100.0, 5.0, 0.0, SUSEO_5186[1] + 100.0, 0.0, -5.0)
     path = _write_dem(tmp_path / "nocrs.tif", values, gt, None)
-    log = Log()
+    log = RecordingFeedback()
     dem = Dem.open(path, (SUSEO_5186[0] - 50, SUSEO_5186[1] - 50, SUSEO_5186[0] + 50, SUSEO_5186[1] + 50),
                    crs="EPSG:5187", feedback=log)
     assert dem.geotransform[1] == 5.0
@@ -298,7 +287,7 @@ def test_sheets_georeferenced_in_5186_are_reprojected_to_5187_from_their_own_geo
     inputs.mkdir()
     paths = [_sheet_tif(inputs, n) for n in ("37709004", "37709005")]  # list_tifs's order
     before = sorted(p.name for p in inputs.iterdir())
-    log = Log()
+    log = RecordingFeedback()
     results = georeference_sheets(list_tifs(str(inputs)), tmp_path / "geo", "EPSG:5187", fmt="VRT", feedback=log)
     assert [r.status for r in results] == [OK, OK]
     assert sorted(p.name for p in inputs.iterdir()) == before  # nothing beside the inputs
@@ -361,7 +350,7 @@ def east_belt_run(tmp_path_factory):
     sample = generate_sample(folder / "sample", SampleConfig(radius_m=180.0, seed=4, ortho_pixel_size=1.0))
     sheets = georeference_sheets([str(p) for p in sample.ortho_tiles], folder / "sheets_5186", "EPSG:5186")
     inputs = sorted(p.name for p in folder.rglob("*") if p.is_file() and "out" not in p.parts)
-    log = Log()
+    log = RecordingFeedback()
     report = run_city_model(
         ChainInputs(ortho=[r.output for r in sheets], dem=str(sample.dem), buildings=str(sample.buildings),
                     roads=str(sample.roads), districts=str(sample.districts)),
@@ -441,7 +430,7 @@ def test_a_mosaic_in_another_crs_is_reprojected_by_the_texture_step(east_belt_ru
     report = east_belt_run["report"]
     mosaic = tmp_path / "mosaic_5186.tif"
     merge_rasters(east_belt_run["sheets"], str(mosaic), mode="feather", gain=True)
-    log = Log()
+    log = RecordingFeedback()
     texture_model(str(mosaic), report.lod1, report.tin, str(tmp_path / "textures"), feedback=log)
     assert any("mosaic_5186.tif is in Korea 2000 / Central Belt 2010 (EPSG:5186): its pixels over the layers are "
                "reprojected as they are read to Korea 2000 / East Belt 2010 (EPSG:5187) (bilinear, 1 m pixels)" in m

@@ -8,11 +8,11 @@ import sys
 import time
 
 import pytest
+from conftest import RecordingFeedback
 
 from wit_plugin.chain.citymodel import _Clock
 from wit_plugin.chain.programs import BESIDE_NICENESS, StepPrograms
 from wit_plugin.infra.errors import InputError
-from wit_plugin.infra.feedback import Feedback
 
 STEP = '''
 import json, os, sys, time
@@ -34,17 +34,6 @@ def main(argv):
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))
 '''
-
-
-class _Log(Feedback):
-    def __init__(self):
-        self.infos, self.warnings = [], []
-
-    def info(self, message: str) -> None:
-        self.infos.append(message)
-
-    def warning(self, message: str) -> None:
-        self.warnings.append(message)
 
 
 @pytest.fixture
@@ -74,7 +63,7 @@ def test_a_step_started_ahead_is_imported_before_its_run_and_runs_as_python_dash
     with StepPrograms({"fakestep": ("colorsys",)}, _unchecked) as programs:
         time.sleep(1.5)  # (the chain's first step)
         assert (steps / "imported").is_file()
-        log = _Log()
+        log = RecordingFeedback()
         clock = _Clock(log, programs)
         handed = time.time()
         with clock.beside("merge", [programs.interpreter(), "-m", "fakestep", "a b", "--flag", ""]) as merging:
