@@ -189,6 +189,20 @@ def test_a_layer_without_floor_values_gives_complete_property_tables(chain, tmp_
                 <= set(table["properties"])
 
 
+def test_buildings_kept_or_read_again_give_the_same_tiles(chain, tmp_path, monkeypatch):
+    """Whether the coarse tiles draw their buildings from what their leaves read and made (the default) or read and
+    make them again (one kept at a time: the bound of a city's run), every file of the tileset is the same."""
+    from wit_plugin.tiles3d import store as store_module
+
+    monkeypatch.setattr(store_module, "PARSED_BUILDINGS", 1)
+    export_tileset(chain["lod1"], chain["tin"], chain["textures"], str(tmp_path / "again"),
+                   config=TilesetConfig(leaf_size=128.0))
+    ours = {p.relative_to(chain["folder"]): p.read_bytes() for p in chain["folder"].rglob("*") if p.is_file()}
+    again = {p.relative_to(tmp_path / "again"): p.read_bytes() for p in (tmp_path / "again").rglob("*") if p.is_file()}
+    assert len(ours) > 20 and sorted(ours) == sorted(again)
+    assert [name for name in ours if ours[name] != again[name]] == []
+
+
 def test_vertices_round_trip_to_the_model_within_a_centimetre(chain):
     _check_round_trip(chain, chain["folder"])
 

@@ -7,8 +7,8 @@ import shapely
 from osgeo import ogr
 
 from wit_plugin.infra.texcoords import aligned_decimals, parse_texcoord_column, unique_texts
+from wit_plugin.tiles3d.building_parts import ring_texcoords
 from wit_plugin.tiles3d.store import _ground_faces
-from wit_plugin.tiles3d.tileset import _ring_uv
 
 
 def _chars(rows: list[str]) -> np.ndarray:
@@ -102,7 +102,7 @@ def test_unique_texts_are_sorted_with_each_rows_index():
 def test_ring_uv_takes_the_rows_that_fit_their_rings():
     rows = [np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 0.0]], dtype=np.float32), None,
             np.array([[0.5, 0.5], [0.25, 0.5]], dtype=np.float32), np.array([[2.0, 3.0]] * 3, dtype=np.float32)]
-    textured, uv = _ring_uv(rows, np.array([4, 3, 3, 3]))  # the third row has 2 pairs for 3 ring points
+    textured, uv = ring_texcoords(rows, np.array([4, 3, 3, 3]))  # the third row has 2 pairs for 3 ring points
     assert textured.tolist() == [True, False, False, True]
     assert uv.tolist() == [[0, 0], [1, 0], [1, 1], [0, 0]] + [[0, 0]] * 6 + [[2, 3]] * 3
 
@@ -171,3 +171,49 @@ def test_the_parsed_buildings_kept_are_bounded(tmp_path, monkeypatch):
     assert store.buildings(0, 5).ids == ["B4", "B3", "B2", "B1", "B0"] and len(store._parsed) == 5  # a tile's own
     store.buildings(0, 1)
     assert list(store._parsed) == ["B1", "B0"]
+
+
+def _fields(parts) -> dict:
+    return {name: value.tolist() for name, value in vars(parts).items()}
+
+
+def test_a_buildings_parts_are_made_once_and_are_what_a_tile_would_make(tmp_path, monkeypatch):
+    """A coarse tile draws its buildings' roofs and walls as made for their leaves (not made again): the same
+    arrays, bit for bit, as made for that tile at once; each building's indices moved past those before it."""
+    from wit_plugin.tiles3d.building_parts import BuildingParts
+    from wit_plugin.tiles3d.geo import Georeference
+
+    store = _store_with_buildings(tmp_path, 6)
+    georef = Georeference("EPSG:5186")
+    parts = BuildingParts(georef)
+    made = []
+    original = BuildingParts._made
+    monkeypatch.setattr(BuildingParts, "_made", lambda self, rows, ks: made.append(len(ks)) or original(self, rows, ks))
+    for k in range(6):
+        parts.of(store.buildings(k, k + 1))
+    coarse = store.buildings(0, 6, min_size=12.0, limit=3)
+    kept = parts.of(coarse)
+    assert made == [1] * 6
+    fresh = BuildingParts(georef).of(coarse)
+    assert made == [1] * 6 + [3] and _fields(kept) == _fields(fresh)
+    assert kept.roof_feature.tolist() == [0, 1, 2] and kept.roof_image.tolist() == [-1] * 3  # 3 pairs, 4 points
+    assert kept.fan.tolist() == [[0, 1, 2], [0, 2, 3], [5, 6, 7], [5, 7, 8], [10, 11, 12], [10, 12, 13]]
+    assert kept.fan_feature.tolist() == [0, 0, 1, 1, 2, 2] and kept.fan_image.tolist() == [-1] * 6
+    assert len(set(kept.fan_wall.tolist())) == 3  # a wall apiece: each its own normal
+    assert np.array_equal(kept.roof_ecef.reshape(-1, 3), georef.ecef(kept.roof_xyz.reshape(-1, 3)))
+    assert kept.roof_uv[0].tolist() == [[0.0, 1.0]] * 3  # (no row that fits: 0, v turned down: 1 - v)
+
+
+def test_the_buildings_parts_kept_are_bounded(tmp_path, monkeypatch):
+    """As the parsed buildings: beyond PARSED_BUILDINGS the least recently drawn are dropped, and made again (the
+    same) when a tile needs them."""
+    from wit_plugin.tiles3d import store as store_module
+    from wit_plugin.tiles3d.building_parts import BuildingParts
+    from wit_plugin.tiles3d.geo import Georeference
+
+    monkeypatch.setattr(store_module, "PARSED_BUILDINGS", 2)
+    store = _store_with_buildings(tmp_path, 5)
+    parts = BuildingParts(Georeference("EPSG:5186"))
+    first = [_fields(parts.of(store.buildings(k, k + 1))) for k in range(5)]
+    assert list(parts._kept) == ["B3", "B4"]
+    assert _fields(parts.of(store.buildings(0, 1))) == first[0] and list(parts._kept) == ["B4", "B0"]

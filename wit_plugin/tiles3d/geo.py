@@ -63,8 +63,12 @@ class Georeference:
 
     def local(self, frame: np.ndarray, xyz: np.ndarray) -> np.ndarray:
         """(n, 3) model coordinates → glTF (y-up) positions in ``frame``, float64."""
-        enu = (self.ecef(xyz) - frame[:3, 3]) @ frame[:3, :3]
-        return enu @ ENU_TO_GLTF.T
+        return self.local_of_ecef(frame, self.ecef(xyz))
+
+    @staticmethod
+    def local_of_ecef(frame: np.ndarray, ecef: np.ndarray) -> np.ndarray:
+        """(n, 3) ECEF points → glTF (y-up) positions in ``frame``, float64 (``local`` of points already in ECEF)."""
+        return ((ecef - frame[:3, 3]) @ frame[:3, :3]) @ ENU_TO_GLTF.T
 
     def region(self, xyz: np.ndarray) -> list[float]:
         """3D Tiles region [west, south, east, north, min height, max height] (radians, metres) around points."""

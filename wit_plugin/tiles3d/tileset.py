@@ -45,12 +45,12 @@ from ..infra.feedback import SILENT, Feedback
 from ..infra.io import jsontext
 from ..infra.io.fileio import atomic_files, refuse_overlap
 from ..infra.io.vector_io import open_step_layer
-from ..infra.meshes import fan_corners, planar_triangles
+from .building_parts import BuildingParts, Parts, face_up, roof_triangles
 from .coarse import Patch, grid_triangles, leaf_patch, parent_patch
 from .geo import Georeference, column_major, union_region
 from .glb import GlbBuilder, unit_normals
 from .metadata import BUILDING_CLASS, building_schema, property_columns
-from .store import FACE_KINDS, Grid, Store, TriangleRows
+from .store import Grid, Store, TriangleRows
 from .textures import TextureSet, encode_image
 from .web import compress_tiles, require_web_profile
 
@@ -221,37 +221,6 @@ def _extent(lod1: str | None, tin: str | None) -> tuple[float, float, float, flo
     return float(a[:, 0].min()), float(a[:, 1].min()), float(a[:, 2].max()), float(a[:, 3].max())
 
 
-def _ring_uv(uvs: list[np.ndarray | None], ring_counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Which faces have a texture row (``uvs``) with one (u, v) per point of their ring (of ``ring_counts``
-    points), and the (u, v) of every ring point, rings after one another: their rows', else 0."""
-    textured = np.array([uv is not None and len(uv) == n for uv, n in zip(uvs, np.asarray(ring_counts).tolist())],
-                        dtype=bool)
-    uv = np.zeros((int(np.sum(ring_counts)), 2))
-    if textured.any():
-        uv[np.repeat(textured, ring_counts)] = np.concatenate([uvs[k] for k in np.flatnonzero(textured).tolist()])
-    return textured, uv
-
-
-def _roof_triangles(polygons: np.ndarray, uvs: list[np.ndarray | None], images: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Roof faces cut into triangles: corners (t, 3, 3), texture-table uv (t, 3, 2), image number (-1 where the
-    face's row does not fit its ring) and face (t,) of each."""
-    ring_xyz, ring_face = shapely.get_coordinates(shapely.get_exterior_ring(polygons), include_z=True,
-                                                  return_index=True)
-    textured, uv = _ring_uv(uvs, np.bincount(ring_face, minlength=len(polygons)))
-    xy, fitted, face = planar_triangles(polygons, np.column_stack([ring_xyz[:, 2], uv]))
-    xyz = np.concatenate([xy, fitted[:, :, :1]], axis=2)
-    return xyz, fitted[:, :, 1:].copy(), np.where(textured[face], images[face], -1), face
-
-
-def _face_up(xyz: np.ndarray, *others: np.ndarray) -> None:
-    """Swap two corners of the triangles wound clockwise seen from above (in place), so they face up."""
-    d1, d2 = xyz[:, 1, :2] - xyz[:, 0, :2], xyz[:, 2, :2] - xyz[:, 0, :2]
-    down = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0] < 0
-    for array in (xyz, *others):
-        array[down, 1], array[down, 2] = array[down, 2].copy(), array[down, 1].copy()
-
-
 class _Writer:
     """Writes tiles depth-first (children before their parent)."""
 
@@ -262,6 +231,7 @@ class _Writer:
         self.owned = store.leaves()
         self.occupied = sorted(self.owned | store.reached())
         self.schema = building_schema(store.fields)
+        self.parts = BuildingParts(georef)
         self.done = 0
 
     def tile(self, level: int, col: int, row: int) -> _Tile | None:
@@ -298,7 +268,7 @@ class _Writer:
         corners += self._buildings(glb, frame, buildings, mip=0)
         own = np.flatnonzero(triangles.leaf == code)
         xyz, uv, image = triangles.xyz[own].copy(), triangles.uv[own].astype(np.float64), triangles.image[own]
-        _face_up(xyz, uv)
+        face_up(xyz, uv)
         uv[:, :, 1] = 1.0 - uv[:, :, 1]  # texture table: v up; glTF: v down
         points, inverse = unique_rows_unordered(xyz.reshape(-1, 3))  # a TIN vertex: corner of ~6 triangles
         local = self.georef.local(frame, points)[inverse].reshape(-1, 3, 3)
@@ -323,7 +293,7 @@ class _Writer:
         if not len(roofs.polygons):
             return TriangleRows(np.empty((0, 3, 3)), np.empty(0, dtype=np.int8), np.empty(0, dtype=np.int64),
                                 np.empty((0, 3, 2), dtype=np.float32), np.empty(0, dtype=np.int64))
-        xyz, uv, image, face = _roof_triangles(roofs.polygons, roofs.uv, roofs.image)
+        xyz, uv, image, face = roof_triangles(roofs.polygons, roofs.uv, roofs.image)
         xyz[:, :, 2] = roofs.base[face][:, None]
         return TriangleRows(xyz, np.zeros(len(xyz), dtype=np.int8), image, uv.astype(np.float32),
                             np.zeros(len(xyz), dtype=np.int64))
@@ -360,56 +330,44 @@ class _Writer:
         """Roofs (textured where the texture row fits) and walls of ``rows`` with their feature ids."""
         if not rows.ids:
             return []
+        parts = self.parts.of(rows)
         corners = []
-        kind = rows.face_kind
-        roofs = np.flatnonzero(kind == FACE_KINDS["roof"])
-        if len(roofs):
-            xyz, uv, image, face = _roof_triangles(rows.polygons[roofs], [rows.face_uv[i] for i in roofs.tolist()],
-                                                   rows.face_image[roofs])
-            _face_up(xyz, uv)
-            uv[:, :, 1] = 1.0 - uv[:, :, 1]
-            feature = rows.face_building[roofs][face]
-            for number in np.unique(image).tolist():
-                mine = image == number
-                local = self.georef.local(frame, xyz[mine].reshape(-1, 3)).reshape(-1, 3, 3)
+        if len(parts.roof_xyz):
+            for number in np.unique(parts.roof_image).tolist():
+                mine = parts.roof_image == number
+                local = self.georef.local_of_ecef(frame, parts.roof_ecef[mine].reshape(-1, 3)).reshape(-1, 3, 3)
                 if number >= 0:
                     material = glb.photo_material(uri="../../" + self.textures.uri(number, mip),
                                                   name=self.store.images[number])
-                    glb.triangles(local, material, uv[mine], feature=feature[mine])
+                    glb.triangles(local, material, parts.roof_uv[mine], feature=parts.roof_feature[mine])
                 else:
-                    glb.triangles(local, glb.plain_material(ROOF_RGB, lit=False, name="roof"), feature=feature[mine])
-            corners.append(xyz.reshape(-1, 3))
-        walls = np.flatnonzero(kind == FACE_KINDS["wall"])
-        if len(walls):
-            corners.append(self._walls(glb, frame, rows, walls, mip))
+                    glb.triangles(local, glb.plain_material(ROOF_RGB, lit=False, name="roof"),
+                                  feature=parts.roof_feature[mine])
+            corners.append(parts.roof_xyz.reshape(-1, 3))
+        if len(parts.ring_xyz):
+            self._walls(glb, frame, parts, mip)
+            corners.append(parts.ring_xyz)
         glb.property_table(self.schema, BUILDING_CLASS, property_columns(self.schema, rows.ids, rows.attributes))
         return corners
 
-    def _walls(self, glb: GlbBuilder, frame: np.ndarray, rows, walls: np.ndarray, mip: int) -> np.ndarray:
-        """Walls with their generated facade (where the texture row fits the ring), else plain; their corners."""
-        polygons = rows.polygons[walls]
-        rings = shapely.get_exterior_ring(polygons)
-        ring_xyz = shapely.get_coordinates(rings, include_z=True)
-        textured, uv = _ring_uv([rows.face_uv[i] for i in walls.tolist()], shapely.get_num_coordinates(rings))
-        index, owner = fan_corners(polygons)
-        local = self.georef.local(frame, ring_xyz)[index]  # (each ring point once: it is a corner of ~3 triangles)
-        feature = rows.face_building[walls][owner]
-        image = np.where(textured, rows.face_image[walls], -1)[owner]
+    def _walls(self, glb: GlbBuilder, frame: np.ndarray, parts: Parts, mip: int) -> None:
+        """Walls with their generated facade (where the texture row fits the ring), else plain."""
+        local = self.georef.local_of_ecef(frame, parts.ring_ecef)[parts.fan]  # (a ring point: corner of ~3 triangles)
+        owner = parts.fan_wall
         first = np.concatenate([[True], owner[1:] != owner[:-1]])  # each face's first fan triangle
         normals = unit_normals(local[first])[np.cumsum(first) - 1]  # one per face: its corners are shared
-        for number in np.unique(image).tolist():
-            mine = image == number
+        for number in np.unique(parts.fan_image).tolist():
+            mine = parts.fan_image == number
             if number >= 0:
                 material = glb.facade_material(uri="../../" + self.textures.uri(number, mip),
                                                name=self.store.images[number])
-                corner_uv = uv[index[mine]].copy()
+                corner_uv = parts.ring_uv[parts.fan[mine]].copy()
                 corner_uv[:, :, 1] = 1.0 - corner_uv[:, :, 1]  # texture table: v up; glTF: v down
-                glb.triangles(local[mine], material, corner_uv, feature=feature[mine], normals=normals[mine],
-                              facade=True)
+                glb.triangles(local[mine], material, corner_uv, feature=parts.fan_feature[mine],
+                              normals=normals[mine], facade=True)
             else:
-                glb.triangles(local[mine], glb.plain_material(WALL_RGB, lit=True, name="wall"), feature=feature[mine],
-                              normals=normals[mine])
-        return ring_xyz
+                glb.triangles(local[mine], glb.plain_material(WALL_RGB, lit=True, name="wall"),
+                              feature=parts.fan_feature[mine], normals=normals[mine])
 
     # --- tile bookkeeping --------------------------------------------------------------------
 
