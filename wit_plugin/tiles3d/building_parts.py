@@ -28,14 +28,17 @@ class Parts:
     roof_ecef: np.ndarray  # (t, 3, 3)
     roof_uv: np.ndarray  # (t, 3, 2) glTF uv (v down)
     roof_image: np.ndarray  # (t,) image number, -1: the face's row does not fit its ring
-    roof_feature: np.ndarray  # (t,) the building (row of the tile's property table)
+    roof_feature: np.ndarray  # (t,) the building (row of the tile's property table; a building's own parts: none)
     ring_xyz: np.ndarray  # (p, 3) the walls' exterior-ring points, closing points included
     ring_ecef: np.ndarray  # (p, 3)
     ring_uv: np.ndarray  # (p, 2) texture-table uv (v up), 0 where the wall's row does not fit its ring
     fan: np.ndarray  # (f, 3) the walls' fan triangles as indices into the ring points
     fan_wall: np.ndarray  # (f,) the wall of each fan triangle (ordinal among the walls)
     fan_image: np.ndarray  # (f,) image number, -1: plain
-    fan_feature: np.ndarray  # (f,) the building
+    fan_feature: np.ndarray  # (f,) the building (a building's own parts: none)
+
+
+_OWN = np.zeros(0, dtype=np.int64)  # the feature of a building's own parts: its row is the tile's to say
 
 
 class BuildingParts:
@@ -77,27 +80,24 @@ class BuildingParts:
         ecef = self.georef.ecef(np.concatenate([roof_xyz.reshape(-1, 3), ring_xyz]))
         roof_ecef, ring_ecef = ecef[:3 * len(roof_xyz)].reshape(-1, 3, 3), ecef[3 * len(roof_xyz):]
         # each building's share: its triangles, ring points, walls and fans come one after the other
-        roof_owner = rows.face_building[roofs][roof_face]
+        ks = np.asarray(buildings)
+        roof = _bounds(rows.face_building[roofs][roof_face], ks)
         wall_owner = rows.face_building[walls]
-        point_owner = np.repeat(wall_owner, ring_counts)
-        point_first = np.concatenate([[0], np.cumsum(ring_counts)])
-        wall_first = {k: int(v) for k, v in zip(*np.unique(wall_owner, return_index=True))}
-        made = []
-        for k in buildings:
-            roof = _span(roof_owner, k)
-            points, fans, wall_span = _span(point_owner, k), _span(wall_owner[fan_wall], k), _span(wall_owner, k)
-            first_point, first_wall = int(point_first[wall_span.start]), wall_first.get(k, 0)
-            made.append(Parts(roof_xyz[roof], roof_ecef[roof], roof_uv[roof], roof_image[roof],
-                              np.zeros(roof.stop - roof.start, dtype=np.int64),
-                              ring_xyz[points], ring_ecef[points], ring_uv[points], fan[fans] - first_point,
-                              fan_wall[fans] - first_wall, fan_image[fans], np.zeros(fans.stop - fans.start,
-                                                                                     dtype=np.int64)))
-        return made
+        points = _bounds(np.repeat(wall_owner, ring_counts), ks)
+        fans = _bounds(wall_owner[fan_wall], ks)
+        first_wall = np.searchsorted(wall_owner, ks)  # (a building without walls: no fan to move)
+        first_point = np.concatenate([[0], np.cumsum(ring_counts)])[first_wall]
+        return [Parts(roof_xyz[r0:r1].copy(), roof_ecef[r0:r1].copy(), roof_uv[r0:r1].copy(), roof_image[r0:r1].copy(),
+                      _OWN, ring_xyz[p0:p1].copy(), ring_ecef[p0:p1].copy(), ring_uv[p0:p1].copy(), fan[f0:f1] - point,
+                      fan_wall[f0:f1] - wall, fan_image[f0:f1].copy(), _OWN)  # (copies: a kept building holds its own)
+                for (r0, r1), (p0, p1), (f0, f1), point, wall in zip(roof, points, fans, first_point.tolist(),
+                                                                   first_wall.tolist())]
 
 
-def _span(owner: np.ndarray, k: int) -> slice:
-    """The rows of building ``k`` in ``owner`` (sorted: each building's rows come one after the other)."""
-    return slice(int(np.searchsorted(owner, k, side="left")), int(np.searchsorted(owner, k, side="right")))
+def _bounds(owner: np.ndarray, buildings: np.ndarray) -> list[tuple[int, int]]:
+    """Where each of ``buildings`` has its rows in ``owner`` (sorted: a building's rows come one after the other)."""
+    return list(zip(np.searchsorted(owner, buildings, side="left").tolist(),
+                    np.searchsorted(owner, buildings, side="right").tolist()))
 
 
 def _joined(drawn: list[Parts]) -> Parts:
