@@ -2,6 +2,7 @@
 folder and report as in-process, its messages and progress relayed, Cancel and refusals passed back."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import gc
 import os
@@ -9,6 +10,7 @@ import re
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import pytest
 
@@ -112,6 +114,18 @@ def test_cancel_reaches_the_chain_apart_and_nothing_is_left(sample, tmp_path):
         apart.run_city_model_apart(_inputs(sample), _options(), tmp_path / "city", _Log(cancel_at_step="terrain"))
     assert time.perf_counter() - started < 30
     assert list((tmp_path / "city").iterdir()) == []
+    assert _step_programs_running() == []  # (those started ahead and those handed their run)
+
+
+def _step_programs_running() -> list[str]:
+    """The command lines of the chain's step programs (``chain.programs``) running on this machine."""
+    running = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        with contextlib.suppress(OSError):
+            text = cmdline.read_bytes().replace(b"\0", b" ").decode("utf-8", "replace")
+            if "wit_plugin.infra.step_ahead" in text:
+                running.append(text)
+    return running
 
 
 def test_update_city_model_runs_apart_unless_a_qgis_expression_needs_this_process(sample, tmp_path, monkeypatch):
