@@ -93,15 +93,17 @@ class StepPrograms:
         return self.python
 
     def start(self, command: list[str]) -> Started:
-        """``command`` (``[python, "-m", module, *arguments]``) in its program started ahead when that program is
-        ready for it, else started now (in the checked Python)."""
-        python, _, module, *arguments = command
-        ahead = self._ahead.pop(module, None) if python == self.python and command[1] == "-m" else None
+        """``command`` (``[python, "-m", module, *arguments]``, ``python`` the one ``interpreter`` named) in its
+        program started ahead when that program is ready for it, else started now (in the checked Python)."""
+        if not self.python or command[0] != self.python:
+            return start_command(command)  # (named by the check already)
+        module = command[2] if command[1:2] == ["-m"] and len(command) > 2 else None
+        ahead = self._ahead.pop(module, None) if module else None
         if ahead is not None:
             process, tell_end = ahead
             if process.stdout.readline().strip() == READY:  # type: ignore[union-attr]  # (its imports done)
                 with contextlib.suppress(OSError):  # (it ended since: waiting for it says how)
-                    os.write(tell_end, json.dumps(arguments).encode("utf-8") + b"\n")
+                    os.write(tell_end, json.dumps(command[3:]).encode("utf-8") + b"\n")
                 return process, tell_end
             os.close(tell_end)
             process.communicate()
