@@ -267,6 +267,52 @@ def test_road_and_relief(written):
     assert rings == ["tri_3_r", "tri_4_r", "tri_5_r"]
 
 
+def _tin_copy(source: str, target: Path, order, extra=()) -> str:
+    """The TIN's rows written again in ``order`` (of their tri_ids), then the ``extra`` ones (tri_id, surface, feature
+    id, z): the table's own order then differs from the tri_ids' or not."""
+    src = ogr.Open(source)
+    rows = {f.GetField(step_layers.TIN_TRIANGLE_ID): f for f in src.GetLayer()}
+    ds, layer = _layer(target, step_layers.TIN_LAYER, ogr.wkbPolygon25D, {
+        step_layers.TIN_TRIANGLE_ID: ogr.OFTInteger, step_layers.TIN_SURFACE: ogr.OFTString,
+        step_layers.TIN_FEATURE_ID: ogr.OFTString})
+    for tri_id in order:
+        row = rows[tri_id]
+        _add(layer, row.GetGeometryRef().Clone(), **{name: row.GetField(name) for name in (
+            step_layers.TIN_TRIANGLE_ID, step_layers.TIN_SURFACE, step_layers.TIN_FEATURE_ID)})
+    for tri_id, surface, feature_id, z in extra:
+        _add(layer, _polygon([[(209030, 543130, z), (209040, 543130, z), (209040, 543135, z), (209030, 543130, z)]]),
+             **{step_layers.TIN_TRIANGLE_ID: tri_id, step_layers.TIN_SURFACE: surface,
+                step_layers.TIN_FEATURE_ID: feature_id})
+    del layer, ds  # (closed: written)
+    return str(target)
+
+
+def test_the_relief_is_the_same_read_from_the_table_or_sorted_by_sqlite(written, tmp_path):
+    """The relief is read from the TIN table when its rows come in tri_id order (as the terrain step writes them),
+    else sorted by SQLite: the same bytes either way; a triangle with a road's id and no surface is in neither the
+    road nor the relief (as SQL's NULL decides), one with neither is in the relief."""
+    inputs = written[0]
+    extra = [(6, None, ROAD, 11.0), (7, None, None, 12.0)]
+    tins = {"table": _tin_copy(inputs.tin, tmp_path / "in_order.gpkg", [1, 2, 3, 4, 5], extra),
+            "sqlite": _tin_copy(inputs.tin, tmp_path / "shuffled.gpkg", [4, 1, 5, 3, 2], extra[::-1])}
+    in_order = {}
+    for kind, path in tins.items():
+        with citygml_inputs.InputLayer.open(path, step_layers.TIN_LAYER, step_layers.TIN_ROLE, ()) as tin:
+            in_order[kind] = citygml_inputs.rises_in_table_order(tin, step_layers.TIN_TRIANGLE_ID)
+    assert in_order == {"table": True, "sqlite": False}
+    written_bytes = {}
+    for kind, tin in tins.items():
+        out = tmp_path / kind / "city.gml"
+        citygml.write_citygml(citygml.CityGMLInputs(lod1=inputs.lod1, tin=tin, roads=inputs.roads,
+                                                    districts=inputs.districts, textures=inputs.textures), str(out))
+        written_bytes[kind] = out.read_bytes()
+    assert written_bytes["table"] == written_bytes["sqlite"]
+    doc = etree.fromstring(written_bytes["table"])
+    assert _all(doc, "//dem:TINRelief//gml:Triangle/gml:exterior/gml:LinearRing/@gml:id") == [
+        "tri_3_r", "tri_4_r", "tri_5_r", "tri_7_r"]
+    assert _all(doc, f"//tran:Road[@gml:id='{ROAD}']//gml:Polygon/@gml:id") == ["tri_1", "tri_2"]
+
+
 def test_groups(written):
     _, _, _, doc = written
     first, second = _all(doc, "//grp:CityObjectGroup")

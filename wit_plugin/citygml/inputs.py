@@ -283,14 +283,24 @@ def tri_ids(column: np.ndarray) -> list[str]:
     return [f"tri_{value}" for value in values]
 
 
-def tin_triangles(tin: InputLayer, where: str, order: tuple[str, ...]
-                   ) -> Iterator[tuple[list[str], list[str], dict[str, np.ndarray]]]:
+def tin_triangles(tin: InputLayer, where: str, order: tuple[str, ...],
+                  table_rows: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None
+                  ) -> Iterator[tuple[list[str], list[str], dict[str, np.ndarray]]]:
     """Batches of the TIN triangles matching ``where`` in ``order``: (ids ``tri_<n>``, posList texts, the batch).
 
-    Read in bulk (``bulk_read``); each distinct corner is formatted once (``numtext``).
+    Read in bulk (``bulk_read``); each distinct corner is formatted once (``numtext``). ``table_rows``, when the
+    table holds its rows in ``order`` already (``rises_in_table_order``): the rows of a batch that ``where``
+    selects; the rows are then read from the table, by the GeoPackage's own Arrow reader (GDAL reads the result of
+    an SQL query through its generic one, row by row: the sample's 371k relief triangles 0.31 s sorted by SQLite,
+    its 595k triangles 0.085 s from the table).
     """
-    with tin.select(where, order) as result:
+    with tin.select(where, order) if table_rows is None else contextlib.nullcontext(tin.layer) as result:
         for batch in bulk_read.batches(result, BULK):
+            if table_rows is not None:
+                keep = table_rows(batch)
+                if not keep.any():
+                    continue
+                batch = {name: column[keep] for name, column in batch.items()}
             ids = tri_ids(batch[step_layers.TIN_TRIANGLE_ID])
             points, counts, rings = bulk_read.exterior_rings(batch["geometry"])
             bad = np.flatnonzero((rings != 1) | (counts != 4))
@@ -298,6 +308,30 @@ def tin_triangles(tin: InputLayer, where: str, order: tuple[str, ...]
                 raise InputError(f"TIN feature tri_id={ids[bad[0]][4:]} is not a closed triangle: "
                                  "re-run wit:triangulateterrain.")
             yield ids, ring_texts(points, counts, "%.3f %.3f %.3f"), batch
+
+
+def rises_in_table_order(tin: InputLayer, field: str) -> bool:
+    """Whether ``field`` rises strictly from row to row in the table's own order (as the terrain step writes its
+    triangle ids): reading the table then gives its rows ORDER BY ``field``. Read alone, in bulk (0.05 s for the
+    sample's 595k triangles)."""
+    layer = tin.layer
+    defn = layer.GetLayerDefn()
+    layer.SetIgnoredFields([defn.GetFieldDefn(i).GetName() for i in range(defn.GetFieldCount())
+                            if defn.GetFieldDefn(i).GetName() != field] + ["OGR_GEOMETRY"])
+    try:
+        last = None
+        for batch in bulk_read.batches(layer, 1 << 16):
+            values = batch[field]
+            if np.ma.is_masked(values) or values.dtype.kind not in "iu":
+                return False
+            values = np.asarray(values)
+            if (last is not None and len(values) and values[0] <= last) or (np.diff(values) <= 0).any():
+                return False
+            last = values[-1] if len(values) else last
+        return True
+    finally:
+        layer.SetIgnoredFields([])
+        layer.ResetReading()
 
 
 class FacadeRows:

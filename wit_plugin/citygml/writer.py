@@ -62,6 +62,7 @@ from .inputs import (
     clean_text,
     columns_of,
     fields_of,
+    rises_in_table_order,
     tin_triangles,
     typed_attributes,
     uv_values,
@@ -440,7 +441,9 @@ class _Writer:
                 self.leaf(DEM + "lod", RELIEF_LOD)
                 with self.el(DEM + "tin"), self.el(GML + "TriangulatedSurface", {GML_ID: TIN_SURFACE_ID}), \
                         self.el(GML + "patches"):
-                    for ids, poslists, _ in tin_triangles(tin, where, (step_layers.TIN_TRIANGLE_ID,)):
+                    in_order = rises_in_table_order(tin, step_layers.TIN_TRIANGLE_ID)
+                    for ids, poslists, _ in tin_triangles(tin, where, (step_layers.TIN_TRIANGLE_ID,),
+                                                          _relief_rows if in_order else None):
                         self.raw("".join(
                             f'\n<gml:Triangle><gml:exterior><gml:LinearRing gml:id="{gml_id}_r">'
                             f'<gml:posList srsDimension="3">{poslist}'
@@ -528,6 +531,15 @@ class _Writer:
 
 
 ROAD_TRIANGLES = f"\"{step_layers.TIN_SURFACE}\" = 'road' AND \"{step_layers.TIN_FEATURE_ID}\" IS NOT NULL"
+
+
+def _relief_rows(batch: dict[str, np.ndarray]) -> np.ndarray:
+    """The rows of a TIN batch that ``NOT (ROAD_TRIANGLES)`` selects, as SQLite decides it: a triangle with a road
+    feature id and no surface is neither (NULL), so left out."""
+    surface, feature = batch[step_layers.TIN_SURFACE], batch[step_layers.TIN_FEATURE_ID]
+    known = bulk_read.valid(surface)
+    other = known & (np.asarray(np.ma.getdata(surface)) != b"road")
+    return ~bulk_read.valid(feature) | other
 """Triangles written into their road's traffic area; every other triangle goes into the relief."""
 
 
