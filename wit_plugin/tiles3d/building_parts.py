@@ -1,7 +1,7 @@
 """A building's roofs and walls as the tiles draw them, made once for every level that draws the building.
 
-A coarse tile draws again the largest buildings of its leaves (the 1 km sample's 3,850 buildings are drawn about
-10,000 times). What does not depend on the tile is made once per building and kept: the roofs cut into triangles
+A coarse tile draws again the largest buildings of its leaves (the 1 km sample's 3,850 buildings are drawn 12,077
+times). What does not depend on the tile is made once per building and kept: the roofs cut into triangles
 (facing up, their texture rows' v turned down as glTF wants it), the walls' ring points, fans and texture rows,
 and every one of those points in ECEF; a tile then only moves the ECEF points into its own frame. At most
 ``store.PARSED_BUILDINGS`` are kept (as the store keeps their faces), the least recently drawn dropped.
