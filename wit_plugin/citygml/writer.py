@@ -531,6 +531,7 @@ class _Writer:
 
 
 ROAD_TRIANGLES = f"\"{step_layers.TIN_SURFACE}\" = 'road' AND \"{step_layers.TIN_FEATURE_ID}\" IS NOT NULL"
+"""Triangles written into their road's traffic area; every other triangle goes into the relief."""
 
 
 def _relief_rows(batch: dict[str, np.ndarray]) -> np.ndarray:
@@ -540,7 +541,6 @@ def _relief_rows(batch: dict[str, np.ndarray]) -> np.ndarray:
     known = bulk_read.valid(surface)
     other = known & (np.asarray(np.ma.getdata(surface)) != b"road")
     return ~bulk_read.valid(feature) | other
-"""Triangles written into their road's traffic area; every other triangle goes into the relief."""
 
 
 _ASSOCIATION = (
