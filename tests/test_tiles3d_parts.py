@@ -217,3 +217,63 @@ def test_the_buildings_parts_kept_are_bounded(tmp_path, monkeypatch):
     first = [_fields(parts.of(store.buildings(k, k + 1))) for k in range(5)]
     assert list(parts._kept) == ["B3", "B4"]
     assert _fields(parts.of(store.buildings(0, 1))) == first[0] and list(parts._kept) == ["B4", "B0"]
+
+
+def test_the_colours_filled_within_reach_are_gdals_fill_of_the_whole_image():
+    """The coarse terrain fills only the window of the holes near a hit (plus the fill's reach): the same colours as
+    GDAL's fill of the whole image, for holes along a seam, in a corner, scattered, and a leaf mostly empty."""
+    from wit_plugin.infra.io.raster_io import fill_nodata
+    from wit_plugin.tiles3d.coarse import FILL_TEXELS, fill_colours, mem_raster
+
+    def whole(rgb: np.ndarray, hit: np.ndarray) -> np.ndarray:
+        mask, bands = mem_raster(hit.astype(np.uint8)[None]), mem_raster(np.moveaxis(rgb, -1, 0))
+        for band in range(3):
+            fill_nodata(bands.GetRasterBand(band + 1), mask.GetRasterBand(1), FILL_TEXELS)
+        return np.moveaxis(bands.ReadAsArray(), 0, -1)
+
+    rng = np.random.default_rng(7)
+    cases = []
+    for n, blocks, speckle in ((96, 1, False), (96, 3, True), (128, 6, False), (64, 2, True), (120, 1, True)):
+        hit = np.zeros((n, n), dtype=bool)
+        for _ in range(blocks):
+            r, c = rng.integers(0, n, 2)
+            h, w = rng.integers(1, n // 2 + 2, 2)
+            hit[r:r + h, c:c + w] = True
+        if speckle:
+            hit &= rng.random((n, n)) < 0.97
+        cases.append(hit)
+    seam = np.ones((96, 96), dtype=bool)
+    seam[:, 90:] = False  # a leaf inside: a strip along its edge
+    corner = np.zeros((96, 96), dtype=bool)
+    corner[:5, :7] = True  # at the model's edge: almost all holes, most beyond reach
+    cases += [seam, corner]
+    for hit in cases:
+        rgb = rng.integers(0, 256, (*hit.shape, 3), dtype=np.uint8)
+        rgb[~hit] = 128
+        filled = fill_colours(rgb.copy(), hit)
+        assert np.array_equal(filled, whole(rgb, hit))
+        assert (filled[hit] == rgb[hit]).all() and (filled != 128).any(axis=2).sum() > hit.sum()
+    assert (fill_colours(rgb, np.ones_like(hit)) == rgb).all()
+
+
+def test_each_images_mip_level_is_the_one_nearest_the_texel_size_asked_for():
+    """A 1 m triangle grid on a 256-texel image spanning 64 m (0.25 m texels) and on a 64-texel image spanning 64 m
+    (1 m texels): for 1 m texels wanted, levels 2 and 0; for 4 m, levels 4 and 2; an image whose texture rows are
+    all degenerate, level 0."""
+    from wit_plugin.tiles3d.coarse import _mip_levels
+    from wit_plugin.tiles3d.store import TriangleRows
+
+    corners = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0], [0, 1, 0]]], dtype=float)
+    xyz = np.concatenate([corners + [x, y, 0] for x in range(64) for y in range(64)])
+    uv = (xyz[:, :, :2] / 64).astype(np.float32)
+    half = len(xyz) // 2
+    image = np.repeat([3, 5], half)
+    uv[-2:] = 0.5  # two degenerate texture rows of image 5: left out of its median
+    rows = TriangleRows(xyz, np.zeros(len(xyz), dtype=np.int8), image, uv, np.zeros(len(xyz), dtype=np.int64))
+    shapes = {3: (256, 256), 5: (64, 64)}
+    assert _mip_levels(rows, shapes, 1.0) == {3: 2, 5: 0}
+    assert _mip_levels(rows, shapes, 4.0) == {3: 4, 5: 2}
+    assert _mip_levels(rows, {}, 1.0) == {}
+    flat = TriangleRows(xyz[:4], np.zeros(4, dtype=np.int8), np.full(4, 7), np.zeros((4, 3, 2), dtype=np.float32),
+                        np.zeros(4, dtype=np.int64))
+    assert _mip_levels(flat, {7: (64, 64)}, 8.0) == {7: 0}

@@ -101,7 +101,8 @@ def leaf_patch(triangles: TriangleRows, roofs: TriangleRows, rect: tuple[float, 
     for surfaces in (roofs, triangles):  # a roof seen from above where a TIN also has a (footprint) triangle
         tri, w = locate(surfaces.xyz[:, :, :2], xmin + step / 2, ymax - step / 2, step, size, size)
         colours, found = _colours(surfaces, tri, w, step, textures)
-        rgb[found], hit[found] = colours[found], True
+        np.copyto(rgb, colours, where=found[:, None])  # (a masked copy: masking rows of 3 bytes is slower)
+        hit |= found
     texel_cell = np.arange(size) * cells // size
     covered = np.zeros((cells, cells), dtype=bool)
     rows, cols = np.divmod(np.flatnonzero(hit), size)
@@ -124,16 +125,20 @@ def _colours(triangles: TriangleRows, tri: np.ndarray, w: np.ndarray, step: floa
     image[hit] = triangles.image[tri[hit]]  # (a leaf may meet no triangle at all: only its buildings)
     if textures is None:
         return rgb, hit
-    for number in np.unique(image[image >= 0]).tolist():
+    numbers = np.unique(image[image >= 0]).tolist()
+    levels = _mip_levels(triangles, {number: textures.shape(number) for number in numbers}, step)
+    corner_uvs = triangles.uv.reshape(-1, 6)  # (rows gathered with take: faster than fancy indexing)
+    for number in numbers:
         texels = np.flatnonzero(image == number)
-        corner_uv, weight = triangles.uv[tri[texels]], w[texels]
+        corner_uv = np.take(corner_uvs, tri[texels], axis=0).reshape(-1, 3, 2)
+        weight = np.take(w, texels, axis=0)
         u, v = ((corner_uv[:, 0, k] * weight[:, 0] + corner_uv[:, 1, k] * weight[:, 1]
                  + corner_uv[:, 2, k] * weight[:, 2]) for k in (0, 1))  # (a sum over the axis of 3, unrolled)
-        pixels = textures.level(number, _mip_level(triangles, number, textures.shape(number), step))
+        pixels = textures.level(number, levels[number])
         h, wd = pixels.shape[:2]
         col = np.clip((u * wd).astype(np.int64), 0, wd - 1)
         row = np.clip(((1.0 - v) * h).astype(np.int64), 0, h - 1)  # texture-table v grows upwards
-        rgb[texels] = pixels[row, col]
+        rgb[texels] = np.take(pixels.reshape(-1, pixels.shape[2]), row * wd + col, axis=0)
     return rgb, hit
 
 
@@ -155,14 +160,33 @@ def fill_heights(heights: np.ndarray, covered: np.ndarray) -> np.ndarray:
 
 def fill_colours(rgb: np.ndarray, hit: np.ndarray) -> np.ndarray:
     """The texels no surface covers take their neighbours' colours (GDAL's inverse-distance fill, within
-    ``FILL_TEXELS``), so that a drawn cell's corner beyond the ground shows ground, not grey."""
+    ``FILL_TEXELS``), so that a drawn cell's corner beyond the ground shows ground, not grey.
+
+    GDAL fills a texel from the texels within ``FILL_TEXELS`` of it alone, so only the window holding the holes
+    near a hit, widened by that distance, is filled: the same colours (a leaf at the model's edge is mostly
+    holes beyond reach, a leaf inside has a few along its seams)."""
     if hit.all() or not hit.any():
         return rgb
-    mask = mem_raster(hit.astype(np.uint8)[None])
-    bands = mem_raster(np.moveaxis(rgb, -1, 0))
+    reach = FILL_TEXELS
+    (hole_rows, hole_cols), (hit_rows, hit_cols) = _extent(~hit), _extent(hit)
+    rows = (max(hole_rows[0], hit_rows[0] - reach), min(hole_rows[1], hit_rows[1] + reach))
+    cols = (max(hole_cols[0], hit_cols[0] - reach), min(hole_cols[1], hit_cols[1] + reach))
+    if rows[0] >= rows[1] or cols[0] >= cols[1]:  # no hole within reach of a hit
+        return rgb
+    window = (slice(max(0, rows[0] - reach), rows[1] + reach), slice(max(0, cols[0] - reach), cols[1] + reach))
+    mask = mem_raster(hit[window].astype(np.uint8)[None])
+    bands = mem_raster(np.moveaxis(rgb[window], -1, 0))
     for band in range(3):
-        fill_nodata(bands.GetRasterBand(band + 1), mask.GetRasterBand(1), FILL_TEXELS)
-    return np.ascontiguousarray(np.moveaxis(bands.ReadAsArray(), 0, -1))
+        fill_nodata(bands.GetRasterBand(band + 1), mask.GetRasterBand(1), reach)
+    filled = rgb.copy()
+    filled[window] = np.moveaxis(bands.ReadAsArray(), 0, -1)
+    return filled
+
+
+def _extent(mask: np.ndarray) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The rows [first, end) and columns [first, end) holding the True values of a 2D ``mask`` (some)."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    return (int(rows[0]), int(rows[-1]) + 1), (int(cols[0]), int(cols[-1]) + 1)
 
 
 def neighbour_mean(grid: np.ndarray) -> np.ndarray:
@@ -189,16 +213,25 @@ def mem_raster(bands: np.ndarray, geotransform: tuple[float, ...] = (0.0, 1.0, 0
     return ds
 
 
-def _mip_level(triangles: TriangleRows, number: int, shape: tuple[int, ...], step: float) -> int:
-    """Mip level whose texels are nearest ``step`` metres for image ``number`` (median over its triangles)."""
-    mine = triangles.image == number
-    xy, uv = triangles.xyz[mine, :, :2], triangles.uv[mine].astype(np.float64) * [shape[1], shape[0]]
-    ground, texels = np.abs(_doubled_areas(xy)), np.abs(_doubled_areas(uv))
-    ok = texels > 0
-    if not ok.any():
-        return 0
-    texel = float(np.median(np.sqrt(ground[ok] / texels[ok])))
-    return max(0, int(np.floor(np.log2(step / texel + 1e-9)))) if texel > 0 else 0
+def _mip_levels(triangles: TriangleRows, shapes: dict[int, tuple[int, ...]], step: float) -> dict[int, int]:
+    """For each image number of ``shapes`` (its rows, columns): the mip level whose texels are nearest ``step``
+    metres, by the median texel size over its triangles. The triangles' ground areas are computed once for all
+    the images (a gather of each image's corners took a tenth of the leaves' coarse terrain)."""
+    if not shapes:
+        return {}
+    ground = np.abs(_doubled_areas(triangles.xyz[:, :, :2]))
+    levels = {}
+    for number, shape in shapes.items():
+        mine = np.flatnonzero(triangles.image == number)
+        uv = np.take(triangles.uv, mine, axis=0).astype(np.float64) * [shape[1], shape[0]]
+        texels = np.abs(_doubled_areas(uv))
+        ok = texels > 0
+        if not ok.any():
+            levels[number] = 0
+            continue
+        texel = float(np.median(np.sqrt(ground[mine][ok] / texels[ok])))
+        levels[number] = max(0, int(np.floor(np.log2(step / texel + 1e-9)))) if texel > 0 else 0
+    return levels
 
 
 def _doubled_areas(corners: np.ndarray) -> np.ndarray:
