@@ -32,6 +32,10 @@ def test_aligned_decimals_are_the_correctly_rounded_values_of_the_texts():
     assert aligned_decimals(_chars(["12.5 10.25"])) is None  # numbers of two widths
     assert aligned_decimals(_chars(["2.50 1.25", "12.5 3.75"])) is None  # another row's columns
     assert aligned_decimals(_chars(["0.5 -0.5"])) is None  # a sign
+    assert aligned_decimals(_chars(["0.25 0.75", "0.25"])) is None  # a row with fewer numbers
+    assert aligned_decimals(_chars(["0.25", "0.25 0.75"])) is None  # a row with more
+    assert aligned_decimals(_chars(["0.25 0.75", "0.25_0.75"])) is None  # no blank between two numbers
+    assert aligned_decimals(_chars(["0.25 0.75", "0.2a 0.75"])) is None  # a letter among the digits
     assert aligned_decimals(_chars(["1e-3 2e-3"])) is None  # an exponent
     assert aligned_decimals(_chars(["1234567890.1234567 0.0000000000000001"])) is None  # 17 digits
 
