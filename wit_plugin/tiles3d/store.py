@@ -364,8 +364,9 @@ class Store:
             buckets.setdefault(first // TEX_BUCKET, []).append(rowid)
         for bucket, rowids in buckets.items():
             rows = np.flatnonzero((ids >= bucket * TEX_BUCKET) & (ids < (bucket + 1) * TEX_BUCKET))
+            marks = ",".join("?" * len(rowids))
             blocks = self.db.execute("SELECT ids, image, uv FROM tex_block "  # nosec B608  # '?' marks only go in
-                                     f"WHERE rowid IN ({','.join('?' * len(rowids))}) ORDER BY rowid", rowids).fetchall()
+                                     f"WHERE rowid IN ({marks}) ORDER BY rowid", rowids).fetchall()
             known = np.frombuffer(b"".join(b[0] for b in blocks), dtype=np.int64)
             order = np.argsort(known, kind="stable")  # (stable: of a repeated id, the later block's row comes last)
             order = order[np.append(known[order][1:] != known[order][:-1], True)]
