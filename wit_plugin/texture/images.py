@@ -35,7 +35,7 @@ def mip_chain(image: np.ndarray) -> list[np.ndarray]:
     work = np.result_type(image.dtype, np.float32)
     levels = [image]
     # bands first (rows, columns in the last two axes): halving the columns of interleaved bands ran numpy's loops
-    # over the 3 values of one texel at a time (the chain of a 1777² image: 48 -> 20 ms); the same values
+    # over the 3 values of one texel at a time; the same values
     planar = image.ndim == 3
     current = np.ascontiguousarray(np.moveaxis(image, -1, 0)) if planar else image
     rows = 1 if planar else 0
