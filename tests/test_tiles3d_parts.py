@@ -281,3 +281,26 @@ def test_each_images_mip_level_is_the_one_nearest_the_texel_size_asked_for():
     flat = TriangleRows(xyz[:4], np.zeros(4, dtype=np.int8), np.full(4, 7), np.zeros((4, 3, 2), dtype=np.float32),
                         np.zeros(4, dtype=np.int64))
     assert _mip_levels(flat, {7: (64, 64)}, 8.0) == {7: 0}
+
+
+def test_decimal_integers_are_what_numpy_parses():
+    """The texture table's triangle ids, parsed column by column: the values of ``astype(np.int64)`` for digits of any
+    length in a wider column (a building's id beside them), and numpy's own answer, or error, for anything else."""
+    from wit_plugin.infra.texcoords import decimal_integers
+
+    rng = np.random.default_rng(11)
+    ids = np.concatenate([[0, 7, 10, 999_999_999_999_999_999], rng.integers(0, 10 ** rng.integers(1, 18, 500))])
+    texts = np.array([str(v).encode() for v in ids] + [b"BLD_1168011500008130002000001"])[:-1]  # (a wide column)
+    assert texts.dtype.itemsize == 29
+    assert decimal_integers(texts).tolist() == ids.tolist()
+    assert decimal_integers(np.array([b"0012", b"3"])).tolist() == [12, 3]  # leading zeros
+    for odd in ([b"-5", b"12"], [b" 7", b"8"], [b"1234567890123456789", b"1"]):  # numpy's parse: the same values
+        assert decimal_integers(np.array(odd)).tolist() == np.array(odd).astype(np.int64).tolist()
+    for bad in ([b"12", b"1a"], [b"", b"3"], [b"12", b"3 4"]):
+        try:
+            decimal_integers(np.array(bad))
+        except ValueError:
+            pass
+        else:
+            raise AssertionError(f"{bad} was taken as numbers")
+    assert decimal_integers(np.array([5, 6])).tolist() == [5, 6]

@@ -85,6 +85,31 @@ def aligned_decimals(chars: np.ndarray) -> np.ndarray | None:
     return mantissa / float(10 ** (size - 1 - point))
 
 
+def decimal_integers(column: np.ndarray) -> np.ndarray:
+    """A column of decimal integer texts as int64, what ``astype(np.int64)`` gives: Arrow's fixed-width bytes of plain
+    digits (NUL-padded) parsed column by column (numpy's parse of each text took a sixth of the texture table's
+    staging); any other text through numpy's own parse, which raises ``ValueError`` on a non-number."""
+    values = np.asarray(column)
+    if values.dtype.kind != "S" or not len(values):
+        return values.astype(np.int64)
+    chars = np.frombuffer(values.tobytes(), dtype=np.uint8).reshape(len(values), -1)
+    number = np.zeros(len(values), dtype=np.int64)
+    ended = np.zeros(len(values), dtype=bool)  # past a row's digits: NULs only from there
+    for position in range(chars.shape[1]):
+        char = chars[:, position]
+        digit = char - np.uint8(48)  # anything but a digit wraps above 9
+        is_digit = digit <= 9
+        if (position == 0 and not is_digit.all()) or (is_digit & ended).any() or (~is_digit & (char != 0)).any():
+            return values.astype(np.int64)  # a sign, a blank, an empty text, a letter: numpy decides
+        ended |= ~is_digit
+        if ended.all():
+            return number
+        if position == 18:  # a 19th digit may not fit int64: numpy decides
+            return values.astype(np.int64)
+        number = np.where(is_digit, number * 10 + digit, number)
+    return number
+
+
 def unique_texts(column: np.ndarray) -> tuple[list[str], np.ndarray]:
     """The distinct texts of a column (decoded) and each row's index into them."""
     values = np.asarray(column)

@@ -46,7 +46,7 @@ from ..infra.feedback import Feedback
 from ..infra.io import bulk_read, jsontext
 from ..infra.io.vector_io import open_step_layer
 from ..infra.meshes import triangle_vertices
-from ..infra.texcoords import parse_texcoord_column, unique_texts
+from ..infra.texcoords import decimal_integers, parse_texcoord_column, unique_texts
 
 FACE_KINDS = {"roof": 0, "wall": 1}  # ground faces are never seen and are not exported
 SURFACES = {name: number for number, name in enumerate(step_layers.TIN_SURFACES)}
@@ -207,7 +207,7 @@ class Store:
                 for feature, face, i in zip(bulk_read.texts(features[face_rows]), faces, face_rows.tolist())])
             tri = np.flatnonzero(~is_face & (counts == 4))
             try:
-                ids = features[tri].astype(np.int64)
+                ids = decimal_integers(features[tri])
             except ValueError:
                 raise InputError(f"The texture table {path} names a TIN triangle by a non-numeric id: "
                                  "re-run wit:wittexture.") from None
