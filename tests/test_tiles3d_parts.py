@@ -304,3 +304,32 @@ def test_decimal_integers_are_what_numpy_parses():
         else:
             raise AssertionError(f"{bad} was taken as numbers")
     assert decimal_integers(np.array([5, 6])).tolist() == [5, 6]
+
+
+def test_a_triangles_texture_row_is_the_last_written_for_its_id(tmp_path):
+    """The texture blocks of several batches of the texture table, over two id buckets, an id written again by a later
+    batch: each triangle gets the row the table wrote last for it (what a search block by block gave), an id without
+    a row none, whatever the order the TIN gives its ids in."""
+    from wit_plugin.tiles3d.store import TEX_BUCKET, Store
+
+    store = Store(tmp_path / "stage.sqlite")
+    rng = np.random.default_rng(4)
+    written: dict[int, tuple[int, list[float]]] = {}
+    for batch in range(3):
+        ids = np.sort(rng.choice(np.arange(2 * TEX_BUCKET - 50, 2 * TEX_BUCKET + 50), 40, replace=False))
+        image = rng.integers(0, 9, len(ids))
+        uv = rng.random((len(ids), 3, 2)).astype(np.float32)
+        bucket = ids // TEX_BUCKET
+        for b in np.unique(bucket):
+            mine = bucket == b
+            store.db.execute("INSERT INTO tex_block VALUES (?, ?, ?, ?, ?)", (
+                int(ids[mine][0]), int(ids[mine][-1]), ids[mine].tobytes(), image[mine].tobytes(), uv[mine].tobytes()))
+        for k, i in enumerate(ids.tolist()):
+            written[i] = (int(image[k]), uv[k].ravel().tolist())
+    wanted = rng.permutation(np.arange(2 * TEX_BUCKET - 60, 2 * TEX_BUCKET + 60))
+    image, uv = store._triangle_textures(wanted)
+    for k, i in enumerate(wanted.tolist()):
+        expected = written.get(i, (-1, [0.0] * 6))
+        assert (int(image[k]), uv[k].ravel().tolist()) == expected, i
+    assert 0 < (image >= 0).sum() < len(wanted)
+    store.close()

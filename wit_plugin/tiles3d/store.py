@@ -364,6 +364,8 @@ class Store:
             buckets.setdefault(first // TEX_BUCKET, []).append(rowid)
         for bucket, rowids in buckets.items():
             rows = np.flatnonzero((ids >= bucket * TEX_BUCKET) & (ids < (bucket + 1) * TEX_BUCKET))
+            if not len(rows):  # (a bucket between the batch's ids)
+                continue
             marks = ",".join("?" * len(rowids))
             blocks = self.db.execute("SELECT ids, image, uv FROM tex_block "  # nosec B608  # '?' marks only go in
                                      f"WHERE rowid IN ({marks}) ORDER BY rowid", rowids).fetchall()
