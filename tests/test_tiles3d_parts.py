@@ -315,7 +315,7 @@ def test_a_triangles_texture_row_is_the_last_written_for_its_id(tmp_path):
     store = Store(tmp_path / "stage.sqlite")
     rng = np.random.default_rng(4)
     written: dict[int, tuple[int, list[float]]] = {}
-    for batch in range(3):
+    for _batch in range(3):
         ids = np.sort(rng.choice(np.arange(2 * TEX_BUCKET - 50, 2 * TEX_BUCKET + 50), 40, replace=False))
         image = rng.integers(0, 9, len(ids))
         uv = rng.random((len(ids), 3, 2)).astype(np.float32)
