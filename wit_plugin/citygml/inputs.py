@@ -27,7 +27,7 @@ from ..infra.errors import InputError
 from ..infra.io import bulk_read
 from ..infra.io.layersource import LayerSource
 from ..infra.io.sql import sql_name
-from ..infra.io.vector_io import open_step_layer
+from ..infra.io.vector_io import open_layer, open_step_layer
 from ..infra.numtext import ring_texts
 
 BULK = 4096  # features per bulk read (bulk_read): few Python calls, a few MB at a time
@@ -98,10 +98,7 @@ class InputLayer:
     def own_table(self) -> Iterator[ogr.Layer]:
         """The table through a handle of its own, read-only: GDAL streams a layer to one reader at a time, and the
         layer of this one may have a stream in progress (another reader's, or one a traceback's frame still holds)."""
-        ds = ogr.Open(self.path)
-        layer = ds.GetLayerByName(self.name) if ds is not None else None
-        if layer is None:
-            raise InputError(f"Cannot read layer '{self.name}' of {self.path}.")
+        ds, layer, _ = open_layer(self.path, self.name)
         try:
             yield layer
         finally:

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import pygltflib as gl
 
+from ..infra.arrays import repeated_in_order
 from ..infra.io import jsontext
 
 UNLIT = "KHR_materials_unlit"
@@ -61,7 +62,8 @@ def distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     raw = rows.view(np.uint8).reshape(n, -1)
     key = raw[:, :8].copy().view(">u8").ravel().astype(np.uint64)
     order = np.argsort(key, kind="stable")  # stable: the first of equal rows stays first
-    repeated = _repeated(rows, order)
+    words = rows.view(np.uint32).reshape(n, -1)
+    repeated = repeated_in_order(words, order)
     clash = ~repeated & (key[order][1:] == key[order][:-1])  # different rows, same first bytes
     if np.count_nonzero(clash) > n // 16:  # (walls: a corner's x, y at its foot and at its top)
         return np.unique(raw.view(np.dtype((np.void, raw.shape[1]))).ravel(), return_index=True,
@@ -71,21 +73,11 @@ def distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         tied = np.flatnonzero(np.isin(run, run[1:][clash]))
         rows_tied = np.ascontiguousarray(raw[order[tied]]).view(np.dtype((np.void, raw.shape[1]))).ravel()
         order[tied] = order[tied][np.argsort(rows_tied, kind="stable")]
-        repeated = _repeated(rows, order)
+        repeated = repeated_in_order(words, order)
     first = np.append(True, ~repeated)
     inverse = np.empty(n, dtype=np.int64)
     inverse[order] = np.cumsum(first) - 1
     return order[first], inverse
-
-
-def _repeated(rows: np.ndarray, order: np.ndarray) -> np.ndarray:
-    """Whether each row in ``order`` but the first is the same, bit for bit, as the one before it: compared as
-    4-byte words, column by column (a comparison of rows of 20 bytes ran numpy's loops row by row)."""
-    words = np.take(rows.view(np.uint32).reshape(len(rows), -1), order, axis=0)
-    repeated = words[1:, 0] == words[:-1, 0]
-    for column in range(1, words.shape[1]):
-        repeated &= words[1:, column] == words[:-1, column]
-    return repeated
 
 
 class GlbBuilder:
